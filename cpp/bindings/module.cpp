@@ -1,0 +1,214 @@
+// pybind11 glue for nightloc._core: checks every input (dtype, rank, contiguity, sizes) and
+// releases the GIL around the work. The friendly, documented API is python/nightloc; this module
+// is its private engine (see _core.pyi).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "nightloc/normalize.hpp"
+#include "nightloc/sad.hpp"
+#include "nightloc/simd.hpp"
+
+namespace py = pybind11;
+
+namespace {
+
+using U8Array = py::array_t<std::uint8_t, py::array::c_style>;
+
+std::string shape_text(const py::array& a) {
+    std::string s = "(";
+    for (py::ssize_t d = 0; d < a.ndim(); ++d) s += (d ? ", " : "") + std::to_string(a.shape(d));
+    return s + (a.ndim() == 1 ? ",)" : ")");
+}
+
+// A C-contiguous uint8 array of the given rank, or a TypeError/ValueError naming the problem.
+U8Array checked_u8(const py::array& a, int ndim, const char* name) {
+    if (!a.dtype().is(py::dtype::of<std::uint8_t>())) {
+        throw py::type_error(std::string(name) + " must have dtype uint8, got " + std::string(py::str(a.dtype())));
+    }
+    if (a.ndim() != ndim) {
+        throw py::value_error(std::string(name) + " must be " + std::to_string(ndim) + "-dimensional, got shape " +
+                              shape_text(a));
+    }
+    if (!(a.flags() & py::array::c_style)) {
+        throw py::value_error(std::string(name) + " must be C-contiguous (use numpy.ascontiguousarray)");
+    }
+    return py::reinterpret_borrow<U8Array>(a);
+}
+
+std::vector<std::int32_t> checked_shifts(const py::array& shifts) {
+    if (!shifts.dtype().is(py::dtype::of<std::int32_t>()) || shifts.ndim() != 1) {
+        throw py::type_error("shifts must be a 1-D int32 array");
+    }
+    auto view = py::reinterpret_borrow<py::array_t<std::int32_t>>(shifts).unchecked<1>();
+    std::vector<std::int32_t> out(static_cast<std::size_t>(view.shape(0)));
+    for (py::ssize_t i = 0; i < view.shape(0); ++i) out[static_cast<std::size_t>(i)] = view(i);
+    return out;
+}
+
+void require_same_image_size(const U8Array& a, py::ssize_t a_axis, const U8Array& b, const char* a_name) {
+    if (a.shape(a_axis) != b.shape(1) || a.shape(a_axis + 1) != b.shape(2)) {
+        throw py::value_error(std::string(a_name) + " images are " + std::to_string(a.shape(a_axis)) + " x " +
+                              std::to_string(a.shape(a_axis + 1)) + " pixels but refs are " +
+                              std::to_string(b.shape(1)) + " x " + std::to_string(b.shape(2)));
+    }
+}
+
+void require_nonempty(const U8Array& a, const char* name) {
+    if (a.shape(0) == 0) throw py::value_error(std::string(name) + " is empty (no images)");
+}
+
+nightloc::SimdBackend backend_from_name(const std::string& name) {
+    nightloc::SimdBackend backend;
+    if (!nightloc::parse_simd_backend(name, backend)) {
+        throw py::value_error("unknown SIMD path '" + name + "'; expected one of scalar, sse2, avx2, avx512bw");
+    }
+    return backend;
+}
+
+py::array patch_normalize(const py::array& images_in, int radius, bool wrap, double scale) {
+    const U8Array images = checked_u8(images_in, 3, "images");
+    U8Array out({images.shape(0), images.shape(1), images.shape(2)});
+    const auto n = static_cast<std::size_t>(images.shape(0));
+    const auto h = static_cast<std::size_t>(images.shape(1));
+    const auto w = static_cast<std::size_t>(images.shape(2));
+    const std::uint8_t* src = images.data();
+    std::uint8_t* dst = out.mutable_data();
+    {
+        py::gil_scoped_release release;
+        if (n > 0) nightloc::patch_normalize(src, dst, n, h, w, radius, wrap, scale);
+    }
+    return std::move(out);
+}
+
+py::array block_normalize(const py::array& images_in, int side) {
+    const U8Array images = checked_u8(images_in, 3, "images");
+    U8Array out({images.shape(0), images.shape(1), images.shape(2)});
+    const auto n = static_cast<std::size_t>(images.shape(0));
+    const auto h = static_cast<std::size_t>(images.shape(1));
+    const auto w = static_cast<std::size_t>(images.shape(2));
+    const std::uint8_t* src = images.data();
+    std::uint8_t* dst = out.mutable_data();
+    {
+        py::gil_scoped_release release;
+        if (n > 0) nightloc::block_normalize(src, dst, n, h, w, side);
+    }
+    return std::move(out);
+}
+
+py::array rotational_sad(const py::array& query_in, const py::array& refs_in, const py::array& shifts_in, int threads,
+                         double divisor) {
+    const U8Array query = checked_u8(query_in, 2, "query");
+    const U8Array refs = checked_u8(refs_in, 3, "refs");
+    require_nonempty(refs, "refs");
+    require_same_image_size(query, 0, refs, "query");
+    const std::vector<std::int32_t> shifts = checked_shifts(shifts_in);
+    py::array_t<float> out({refs.shape(0), static_cast<py::ssize_t>(shifts.size())});
+    const std::uint8_t* q = query.data();
+    const std::uint8_t* r = refs.data();
+    float* o = out.mutable_data();
+    {
+        py::gil_scoped_release release;
+        nightloc::rotational_sad(q, r, static_cast<std::size_t>(refs.shape(0)), static_cast<std::size_t>(refs.shape(1)),
+                                 static_cast<std::size_t>(refs.shape(2)), shifts.data(), shifts.size(), o, threads,
+                                 divisor);
+    }
+    return std::move(out);
+}
+
+py::tuple difference_matrix(const py::array& queries_in, const py::array& refs_in, const py::array& shifts_in,
+                            int threads, double divisor) {
+    const U8Array queries = checked_u8(queries_in, 3, "queries");
+    const U8Array refs = checked_u8(refs_in, 3, "refs");
+    require_nonempty(queries, "queries");
+    require_nonempty(refs, "refs");
+    require_same_image_size(queries, 1, refs, "query");
+    const std::vector<std::int32_t> shifts = checked_shifts(shifts_in);
+    py::array_t<float> scores({queries.shape(0), refs.shape(0)});
+    py::array_t<std::int32_t> best_shifts({queries.shape(0), refs.shape(0)});
+    const std::uint8_t* q = queries.data();
+    const std::uint8_t* r = refs.data();
+    float* s = scores.mutable_data();
+    std::int32_t* b = best_shifts.mutable_data();
+    {
+        py::gil_scoped_release release;
+        nightloc::difference_matrix(q, static_cast<std::size_t>(queries.shape(0)), r,
+                                    static_cast<std::size_t>(refs.shape(0)), static_cast<std::size_t>(refs.shape(1)),
+                                    static_cast<std::size_t>(refs.shape(2)), shifts.data(), shifts.size(), s, b,
+                                    threads, divisor);
+    }
+    return py::make_tuple(std::move(scores), std::move(best_shifts));
+}
+
+py::tuple difference_matrix_sums(const py::array& queries_in, const py::array& refs_in, const py::array& shifts_in,
+                                 int threads) {
+    const U8Array queries = checked_u8(queries_in, 3, "queries");
+    const U8Array refs = checked_u8(refs_in, 3, "refs");
+    require_nonempty(queries, "queries");
+    require_nonempty(refs, "refs");
+    require_same_image_size(queries, 1, refs, "query");
+    const std::vector<std::int32_t> shifts = checked_shifts(shifts_in);
+    py::array_t<std::uint32_t> sums({queries.shape(0), refs.shape(0)});
+    py::array_t<std::int32_t> best_shifts({queries.shape(0), refs.shape(0)});
+    const std::uint8_t* q = queries.data();
+    const std::uint8_t* r = refs.data();
+    std::uint32_t* s = sums.mutable_data();
+    std::int32_t* b = best_shifts.mutable_data();
+    {
+        py::gil_scoped_release release;
+        nightloc::difference_matrix_sums(q, static_cast<std::size_t>(queries.shape(0)), r,
+                                         static_cast<std::size_t>(refs.shape(0)),
+                                         static_cast<std::size_t>(refs.shape(1)),
+                                         static_cast<std::size_t>(refs.shape(2)), shifts.data(), shifts.size(), s, b,
+                                         threads);
+    }
+    return py::make_tuple(std::move(sums), std::move(best_shifts));
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_core, m) {
+    m.doc() = "nightloc's compiled core: patch normalization and rotation-invariant SAD (private; use nightloc)";
+    m.attr("__version__") = NIGHTLOC_VERSION_INFO;
+    m.attr("DEFAULT_PATCH_SCALE") = nightloc::kDefaultPatchScale;
+    m.attr("MAX_IMAGE_PIXELS") = nightloc::kMaxImagePixels;
+
+    m.def("simd_backend", [] { return std::string(nightloc::simd_backend_name(nightloc::active_simd_backend())); },
+          "Name of the SIMD path the kernels use now.");
+    m.def("best_simd_backend", [] { return std::string(nightloc::simd_backend_name(nightloc::best_simd_backend())); },
+          "Name of the fastest SIMD path this CPU supports.");
+    m.def(
+        "available_simd_backends",
+        [] {
+            std::vector<std::string> names;
+            for (auto b : nightloc::supported_simd_backends()) names.emplace_back(nightloc::simd_backend_name(b));
+            return names;
+        },
+        "SIMD paths this CPU supports, slowest first.");
+    m.def(
+        "set_simd_backend",
+        [](const std::string& name) {
+            const nightloc::SimdBackend backend = backend_from_name(name);
+            if (!nightloc::simd_backend_supported(backend)) {
+                throw py::value_error("SIMD path '" + name + "' is not supported on this CPU");
+            }
+            nightloc::set_simd_backend(backend);
+        },
+        py::arg("name"), "Forces a SIMD path for the whole process.");
+    m.def("reset_simd_backend", &nightloc::reset_simd_backend,
+          "Returns to the default SIMD path (NIGHTLOC_SIMD if valid, else the best).");
+
+    m.def("patch_normalize", &patch_normalize, py::arg("images"), py::arg("radius"), py::arg("wrap"),
+          py::arg("scale"));
+    m.def("block_normalize", &block_normalize, py::arg("images"), py::arg("side"));
+    m.def("rotational_sad", &rotational_sad, py::arg("query"), py::arg("refs"), py::arg("shifts"), py::arg("threads"),
+          py::arg("divisor") = 0.0);
+    m.def("difference_matrix", &difference_matrix, py::arg("queries"), py::arg("refs"), py::arg("shifts"),
+          py::arg("threads"), py::arg("divisor") = 0.0);
+    m.def("difference_matrix_sums", &difference_matrix_sums, py::arg("queries"), py::arg("refs"), py::arg("shifts"),
+          py::arg("threads"));
+}

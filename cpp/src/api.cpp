@@ -1,0 +1,118 @@
+// The Eigen-level C++ API (nightloc/nightloc.hpp) over the pointer-level core.
+#include "nightloc/nightloc.hpp"
+
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+namespace nightloc {
+namespace {
+
+void require_same_geometry(Index h, Index w, const ImageStack& refs) {
+    if (h != refs.height || w != refs.width) {
+        throw std::invalid_argument("query is " + std::to_string(h) + " x " + std::to_string(w) +
+                                    " pixels but the references are " + std::to_string(refs.height) + " x " +
+                                    std::to_string(refs.width));
+    }
+}
+
+void require_consistent(const ImageStack& stack) {
+    if (stack.pixels.cols() != stack.height * stack.width) {
+        throw std::invalid_argument("ImageStack: pixels has " + std::to_string(stack.pixels.cols()) +
+                                    " columns, expected height * width = " +
+                                    std::to_string(stack.height * stack.width));
+    }
+}
+
+std::vector<std::int32_t> resolve_shifts(const std::vector<std::int32_t>& shifts, Index width) {
+    return shifts.empty() ? all_shifts(width) : shifts;
+}
+
+// A contiguous row-major copy when the query view is strided.
+ImageU8 contiguous(const Eigen::Ref<const ImageU8>& image) { return ImageU8(image); }
+
+}  // namespace
+
+std::vector<std::int32_t> all_shifts(Index width) {
+    std::vector<std::int32_t> shifts(static_cast<std::size_t>(width));
+    std::iota(shifts.begin(), shifts.end(), 0);
+    return shifts;
+}
+
+ImageStack patch_normalize(const ImageStack& images, int radius, bool wrap, double scale) {
+    require_consistent(images);
+    ImageStack out(images.count(), images.height, images.width);
+    if (images.count() > 0) {
+        nightloc::patch_normalize(images.data(), out.pixels.data(), static_cast<std::size_t>(images.count()),
+                                  static_cast<std::size_t>(images.height), static_cast<std::size_t>(images.width),
+                                  radius, wrap, scale);
+    }
+    return out;
+}
+
+ImageStack block_normalize(const ImageStack& images, int side) {
+    require_consistent(images);
+    ImageStack out(images.count(), images.height, images.width);
+    if (images.count() > 0) {
+        nightloc::block_normalize(images.data(), out.pixels.data(), static_cast<std::size_t>(images.count()),
+                                  static_cast<std::size_t>(images.height), static_cast<std::size_t>(images.width),
+                                  side);
+    }
+    return out;
+}
+
+MatchResult match(const Eigen::Ref<const ImageU8>& query, const ImageStack& refs,
+                  const std::vector<std::int32_t>& shifts, int threads) {
+    require_consistent(refs);
+    require_same_geometry(query.rows(), query.cols(), refs);
+    if (refs.count() == 0) throw std::invalid_argument("the reference stack is empty");
+    const ImageU8 q = contiguous(query);
+    const std::vector<std::int32_t> shift_list = resolve_shifts(shifts, refs.width);
+    const auto n = static_cast<std::size_t>(refs.count());
+    std::vector<std::uint32_t> sums(n);
+    MatchResult result;
+    result.shifts.resize(refs.count());
+    difference_matrix_sums(q.data(), 1, refs.data(), n, static_cast<std::size_t>(refs.height),
+                           static_cast<std::size_t>(refs.width), shift_list.data(), shift_list.size(), sums.data(),
+                           result.shifts.data(), threads);
+    const auto pixels = static_cast<double>(refs.height * refs.width);
+    result.scores.resize(refs.count());
+    for (std::size_t i = 0; i < n; ++i) result.scores[static_cast<Index>(i)] = score_from_sum(sums[i], pixels);
+    // The first minimum of the integer sums: ties go to the lowest reference index.
+    std::size_t best = 0;
+    for (std::size_t i = 1; i < n; ++i)
+        if (sums[i] < sums[best]) best = i;
+    result.best = static_cast<Index>(best);
+    return result;
+}
+
+MatrixXfR rotational_sad(const Eigen::Ref<const ImageU8>& query, const ImageStack& refs,
+                         const std::vector<std::int32_t>& shifts, int threads) {
+    require_consistent(refs);
+    require_same_geometry(query.rows(), query.cols(), refs);
+    const ImageU8 q = contiguous(query);
+    const std::vector<std::int32_t> shift_list = resolve_shifts(shifts, refs.width);
+    MatrixXfR table(refs.count(), static_cast<Index>(shift_list.size()));
+    nightloc::rotational_sad(q.data(), refs.data(), static_cast<std::size_t>(refs.count()),
+                             static_cast<std::size_t>(refs.height), static_cast<std::size_t>(refs.width),
+                             shift_list.data(), shift_list.size(), table.data(), threads);
+    return table;
+}
+
+DifferenceMatrix difference_matrix(const ImageStack& queries, const ImageStack& refs,
+                                   const std::vector<std::int32_t>& shifts, int threads) {
+    require_consistent(queries);
+    require_consistent(refs);
+    require_same_geometry(queries.height, queries.width, refs);
+    const std::vector<std::int32_t> shift_list = resolve_shifts(shifts, refs.width);
+    DifferenceMatrix result;
+    result.scores.resize(queries.count(), refs.count());
+    result.shifts.resize(queries.count(), refs.count());
+    nightloc::difference_matrix(queries.data(), static_cast<std::size_t>(queries.count()), refs.data(),
+                                static_cast<std::size_t>(refs.count()), static_cast<std::size_t>(refs.height),
+                                static_cast<std::size_t>(refs.width), shift_list.data(), shift_list.size(),
+                                result.scores.data(), result.shifts.data(), threads);
+    return result;
+}
+
+}  // namespace nightloc

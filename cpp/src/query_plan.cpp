@@ -1,0 +1,176 @@
+// Query preparation for the SAD kernels: rolled copies and the all-shift interleaved layout.
+#include "query_plan.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "nightloc/sad.hpp"
+
+namespace nightloc::detail {
+namespace {
+
+// Upper bound on the bytes of one prepared query: it must stay in L2 next to a block of refs.
+constexpr std::size_t kPlanBudget = std::size_t{512} * 1024;
+
+// Writes the query rolled left by `shift` columns (row by row), then zeros up to `stride`.
+void write_rolled(const std::uint8_t* query, std::size_t height, std::size_t width, std::size_t shift,
+                  std::uint8_t* dst, std::size_t stride) {
+    for (std::size_t r = 0; r < height; ++r) {
+        const std::uint8_t* src_row = query + r * width;
+        std::uint8_t* dst_row = dst + r * width;
+        std::memcpy(dst_row, src_row + shift, width - shift);
+        std::memcpy(dst_row + (width - shift), src_row, shift);
+    }
+    std::memset(dst + height * width, 0, stride - height * width);
+}
+
+CopiesKernel copies_kernel_for(SimdBackend backend) {
+    switch (backend) {
+#if NIGHTLOC_X86_KERNELS
+        case SimdBackend::sse2: return sad_copies_sse2;
+        case SimdBackend::avx2: return sad_copies_avx2;
+        case SimdBackend::avx512bw: return sad_copies_avx512bw;
+#endif
+        default: return sad_copies_scalar;
+    }
+}
+
+}  // namespace
+
+void AlignedBytes::assign_zero(std::size_t size) {
+    if (size > capacity_) {
+        raw_.reset(new std::uint8_t[size + kChunk]);
+        auto address = reinterpret_cast<std::uintptr_t>(raw_.get());
+        ptr_ = raw_.get() + (kChunk - address % kChunk) % kChunk;
+        capacity_ = size;
+    }
+    std::memset(ptr_, 0, size);
+}
+
+SearchShape make_search_shape(std::size_t height, std::size_t width, const std::int32_t* shifts,
+                              std::size_t n_shifts) {
+    if (height == 0 || width == 0) throw std::invalid_argument("images must have at least one row and one column");
+    if (height > kMaxImagePixels / width) {
+        throw std::invalid_argument("images of " + std::to_string(height) + " x " + std::to_string(width) +
+                                    " pixels are too large (at most " + std::to_string(kMaxImagePixels) +
+                                    " pixels); downsample them first");
+    }
+    if (n_shifts == 0 || shifts == nullptr) throw std::invalid_argument("the shift list is empty");
+    std::vector<bool> seen(width, false);
+    for (std::size_t j = 0; j < n_shifts; ++j) {
+        const std::int32_t s = shifts[j];
+        if (s < 0 || static_cast<std::size_t>(s) >= width) {
+            throw std::invalid_argument("shift " + std::to_string(s) + " is outside [0, " + std::to_string(width) +
+                                        "), the image width");
+        }
+        if (seen[static_cast<std::size_t>(s)]) {
+            throw std::invalid_argument("shift " + std::to_string(s) + " appears more than once in the shift list");
+        }
+        seen[static_cast<std::size_t>(s)] = true;
+    }
+    return SearchShape{height, width, height * width, shifts, n_shifts};
+}
+
+namespace {
+
+bool use_all_shift_layout(SimdBackend backend, const SearchShape& shape) {
+#if NIGHTLOC_X86_KERNELS
+    const std::size_t interleaved_bytes = round_up(shape.pixels, kChunk) * (shape.width / 2);
+    return backend == SimdBackend::avx512bw && shape.width % 8 == 0 && shape.width <= kAllShiftMaxWidth &&
+           2 * shape.n_shifts > shape.width && interleaved_bytes <= kPlanBudget;
+#else
+    (void)backend, (void)shape;
+    return false;
+#endif
+}
+
+std::size_t copies_per_block(const SearchShape& shape) {
+    return std::clamp<std::size_t>(kPlanBudget / round_up(shape.pixels, kChunk), 1, shape.n_shifts);
+}
+
+}  // namespace
+
+std::size_t plan_bytes(SimdBackend backend, const SearchShape& shape) {
+    const std::size_t stride = round_up(shape.pixels, kChunk);
+    return use_all_shift_layout(backend, shape) ? stride * (shape.width / 2) : stride * copies_per_block(shape);
+}
+
+QueryPlan::QueryPlan(SimdBackend backend, const SearchShape& shape) : shape_(shape) {
+    stride_ = round_up(shape.pixels, kChunk);
+    all_shifts_ = use_all_shift_layout(backend, shape);
+    if (all_shifts_) {
+        slots_per_block_ = shape.n_shifts;
+        rolled_temp_.reset(new std::uint8_t[stride_]);
+        fused_min_ = std::is_sorted(shape.shifts, shape.shifts + shape.n_shifts);
+        selected_.assign(shape.width / 8, 0);
+        for (std::size_t j = 0; j < shape.n_shifts; ++j) {
+            const auto k = static_cast<std::size_t>(shape.shifts[j]);
+            const std::size_t lane = (k % 8) / 2, dword = k % 2;
+            selected_[k / 8] = static_cast<std::uint16_t>(selected_[k / 8] | (1u << (4 * lane + dword)));
+        }
+    } else {
+        copies_kernel_ = copies_kernel_for(backend);
+        slots_per_block_ = copies_per_block(shape);
+    }
+}
+
+void QueryPlan::prepare(const std::uint8_t* query, std::size_t slot_begin) {
+    slot_begin_ = slot_begin;
+    slot_count_ = std::min(slots_per_block_, shape_.n_shifts - slot_begin);
+    if (all_shifts_) {
+        const std::size_t n_chunks = stride_ / kChunk;
+        const std::size_t n_even = shape_.width / 2;
+        buffer_.assign_zero(n_chunks * n_even * kChunk);
+        std::uint8_t* rolled = rolled_temp_.get();
+        for (std::size_t m = 0; m < n_even; ++m) {
+            write_rolled(query, shape_.height, shape_.width, 2 * m, rolled, stride_);
+            for (std::size_t c = 0; c < n_chunks; ++c) {
+                std::memcpy(buffer_.data() + (c * n_even + m) * kChunk, rolled + c * kChunk, kChunk);
+            }
+        }
+    } else {
+        buffer_.assign_zero(slot_count_ * stride_);
+        for (std::size_t j = 0; j < slot_count_; ++j) {
+            const auto shift = static_cast<std::size_t>(shape_.shifts[slot_begin + j]);
+            write_rolled(query, shape_.height, shape_.width, shift, buffer_.data() + j * stride_, stride_);
+        }
+    }
+}
+
+void QueryPlan::evaluate(const std::uint8_t* refs, std::size_t n_refs, std::uint32_t* out, std::size_t out_stride,
+                         std::uint32_t* scratch) const {
+    if (n_refs == 0) return;
+#if NIGHTLOC_X86_KERNELS
+    if (all_shifts_) {
+        const std::size_t width = shape_.width;
+        sad_all_shifts_avx512bw(buffer_.data(), width, refs, n_refs, shape_.pixels, scratch, width, nullptr, nullptr,
+                                nullptr);
+        for (std::size_t i = 0; i < n_refs; ++i) {
+            const std::uint32_t* row = scratch + i * width;
+            std::uint32_t* dst = out + i * out_stride;
+            for (std::size_t j = 0; j < slot_count_; ++j) {
+                dst[j] = row[static_cast<std::size_t>(shape_.shifts[slot_begin_ + j])];
+            }
+        }
+        return;
+    }
+#endif
+    (void)scratch;
+    copies_kernel_(buffer_.data(), stride_, slot_count_, refs, n_refs, shape_.pixels, out, out_stride);
+}
+
+void QueryPlan::evaluate_min(const std::uint8_t* refs, std::size_t n_refs, std::uint32_t* best_sums,
+                             std::int32_t* best_shifts) const {
+    if (!fused_min_) throw std::logic_error("QueryPlan::evaluate_min needs the all-shift layout and sorted shifts");
+#if NIGHTLOC_X86_KERNELS
+    sad_all_shifts_avx512bw(buffer_.data(), shape_.width, refs, n_refs, shape_.pixels, nullptr, 0, selected_.data(),
+                            best_sums, best_shifts);
+#else
+    (void)refs, (void)n_refs, (void)best_sums, (void)best_shifts;
+#endif
+}
+
+}  // namespace nightloc::detail

@@ -1,0 +1,87 @@
+// Internal: a query prepared for the SAD kernels (rolled copies), and the choice of kernel.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "nightloc/simd.hpp"
+#include "sad_kernels.hpp"
+
+namespace nightloc::detail {
+
+/// A zero-initialized, 64-byte aligned byte buffer that keeps its capacity when reused.
+class AlignedBytes {
+public:
+    std::uint8_t* data() { return ptr_; }
+    const std::uint8_t* data() const { return ptr_; }
+    /// Makes room for `size` bytes, all zero.
+    void assign_zero(std::size_t size);
+
+private:
+    std::unique_ptr<std::uint8_t[]> raw_;
+    std::uint8_t* ptr_ = nullptr;
+    std::size_t capacity_ = 0;
+};
+
+/// Image geometry and the shift list a search covers.
+struct SearchShape {
+    std::size_t height = 0;
+    std::size_t width = 0;
+    std::size_t pixels = 0;
+    const std::int32_t* shifts = nullptr;
+    std::size_t n_shifts = 0;
+};
+
+/// Checks sizes and shifts; throws std::invalid_argument naming the problem.
+SearchShape make_search_shape(std::size_t height, std::size_t width, const std::int32_t* shifts,
+                              std::size_t n_shifts);
+
+/// Bytes one prepared query occupies (for sizing query blocks).
+std::size_t plan_bytes(SimdBackend backend, const SearchShape& shape);
+
+/// One query, prepared for one block of the shift list [slot_begin, slot_end):
+///  - all-shift layout (AVX-512BW, width % 8 == 0, many shifts): even-shift copies, interleaved;
+///  - otherwise one rolled copy per shift of the block.
+/// evaluate() is const and may run concurrently from several threads on one plan.
+class QueryPlan {
+public:
+    QueryPlan(SimdBackend backend, const SearchShape& shape);
+
+    /// Shift-list slots per block (the whole list for the all-shift layout).
+    std::size_t slots_per_block() const { return slots_per_block_; }
+
+    /// Prepares `query` (pixels bytes) for slots [slot_begin, slot_begin + slots_per_block()).
+    void prepare(const std::uint8_t* query, std::size_t slot_begin);
+    std::size_t slot_begin() const { return slot_begin_; }
+    std::size_t slot_count() const { return slot_count_; }
+
+    /// out[i * out_stride + j] = sum for slot slot_begin() + j and reference i, for i < n_refs,
+    /// j < slot_count(). `scratch` must hold scratch_size(n_refs) words.
+    void evaluate(const std::uint8_t* refs, std::size_t n_refs, std::uint32_t* out, std::size_t out_stride,
+                  std::uint32_t* scratch) const;
+    std::size_t scratch_size(std::size_t n_refs) const { return all_shifts_ ? n_refs * shape_.width : 0; }
+
+    /// True when evaluate_min() is available: the all-shift layout with a strictly increasing
+    /// shift list (so the earliest slot of a tie is also the lowest shift).
+    bool fused_min() const { return fused_min_; }
+    /// Minimum over all slots for each reference: best_sums[i], best_shifts[i] (shift values).
+    void evaluate_min(const std::uint8_t* refs, std::size_t n_refs, std::uint32_t* best_sums,
+                      std::int32_t* best_shifts) const;
+
+private:
+    SearchShape shape_;
+    bool all_shifts_ = false;
+    CopiesKernel copies_kernel_ = nullptr;
+    std::size_t stride_ = 0;            // bytes per copy (copies layout)
+    bool fused_min_ = false;
+    std::vector<std::uint16_t> selected_;  // all-shift layout: per 8 shifts, which are in the list
+    std::size_t slots_per_block_ = 0;
+    std::size_t slot_begin_ = 0;
+    std::size_t slot_count_ = 0;
+    AlignedBytes buffer_;
+    std::unique_ptr<std::uint8_t[]> rolled_temp_;
+};
+
+}  // namespace nightloc::detail

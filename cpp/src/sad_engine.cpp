@@ -1,0 +1,204 @@
+// Drivers of the SAD kernels: shift blocks, reference blocks, query blocks and threads.
+#include <algorithm>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+#include <vector>
+
+#include "nightloc/sad.hpp"
+#include "nightloc/simd.hpp"
+#include "parallel.hpp"
+#include "query_plan.hpp"
+
+namespace nightloc {
+namespace {
+
+using detail::QueryPlan;
+using detail::SearchShape;
+
+// A block of references should stay in L2 while every query of a query block scans it.
+constexpr std::size_t kRefBlockBytes = std::size_t{256} * 1024;
+// Prepared queries of one block, together.
+constexpr std::size_t kQueryBlockBytes = std::size_t{512} * 1024;
+constexpr std::size_t kMaxQueryBlock = 16;
+// References per task at most (bounds the per-task tile of results).
+constexpr std::size_t kMaxRefsPerTask = 1 << 15;
+// Below this many byte comparisons a second thread costs more than it saves (~50 us of work).
+constexpr double kMinComparisonsPerThread = 1e7;
+
+std::size_t ref_block_size(std::size_t pixels) {
+    std::size_t n = kRefBlockBytes / pixels;
+    n = n / 8 * 8;
+    return n < 8 ? 8 : n;
+}
+
+int useful_threads(int threads, double comparisons) {
+    if (threads <= 1) return 1;
+    const double by_work = comparisons / kMinComparisonsPerThread;
+    if (by_work < 2.0) return 1;
+    return by_work < threads ? static_cast<int>(by_work) : threads;
+}
+
+float scaled(std::uint32_t sum, double divisor) { return static_cast<float>(static_cast<double>(sum) / divisor); }
+
+// One task's results: rows = its queries, columns = its references.
+struct Tile {
+    std::size_t q_first, q_count, r_first, r_count;
+    const std::uint32_t* sums;    // q_count x r_count
+    const std::int32_t* shifts;  // q_count x r_count
+};
+
+// The difference matrix as a set of tiles computed in parallel; sink(tile) is called once per
+// tile, from the thread that computed it (tiles never overlap).
+template <class Sink>
+void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs,
+                              std::size_t n_refs, const SearchShape& shape, int threads, Sink&& sink) {
+    if (n_queries == 0 || n_refs == 0) return;
+    const SimdBackend backend = active_simd_backend();
+    const std::size_t pixels = shape.pixels;
+    const std::size_t n_shifts = shape.n_shifts;
+
+    // Query blocks: their prepared copies share L2 with one block of references.
+    const std::size_t q_block =
+        std::clamp<std::size_t>(kQueryBlockBytes / detail::plan_bytes(backend, shape), 1, kMaxQueryBlock);
+    const std::size_t n_q_blocks = (n_queries + q_block - 1) / q_block;
+    const int n_threads = useful_threads(threads, static_cast<double>(n_queries) * static_cast<double>(n_refs) *
+                                                      static_cast<double>(n_shifts) * static_cast<double>(pixels));
+
+    // Reference chunks: with few query blocks, split the references so every thread has work.
+    const std::size_t r_block = ref_block_size(pixels);
+    const std::size_t n_r_blocks = (n_refs + r_block - 1) / r_block;
+    std::size_t n_r_chunks = (n_refs + kMaxRefsPerTask - 1) / kMaxRefsPerTask;
+    if (n_threads > 1 && n_q_blocks < 4 * static_cast<std::size_t>(n_threads)) {
+        const std::size_t wanted = (4 * static_cast<std::size_t>(n_threads) + n_q_blocks - 1) / n_q_blocks;
+        n_r_chunks = std::max(n_r_chunks, wanted);
+    }
+    n_r_chunks = std::clamp<std::size_t>(n_r_chunks, 1, n_r_blocks);
+    const std::size_t r_blocks_per_chunk = (n_r_blocks + n_r_chunks - 1) / n_r_chunks;
+    n_r_chunks = (n_r_blocks + r_blocks_per_chunk - 1) / r_blocks_per_chunk;
+
+    detail::parallel_for(n_q_blocks * n_r_chunks, n_threads, [&](std::size_t task) {
+        Tile tile{};
+        tile.q_first = task / n_r_chunks * q_block;
+        tile.q_count = std::min(q_block, n_queries - tile.q_first);
+        tile.r_first = task % n_r_chunks * r_blocks_per_chunk * r_block;
+        tile.r_count = std::min(n_refs, tile.r_first + r_blocks_per_chunk * r_block) - tile.r_first;
+
+        std::vector<std::uint32_t> best(tile.q_count * tile.r_count, std::numeric_limits<std::uint32_t>::max());
+        std::vector<std::int32_t> best_shift(tile.q_count * tile.r_count, shape.shifts[0]);
+        std::vector<QueryPlan> plans;
+        plans.reserve(tile.q_count);
+        for (std::size_t k = 0; k < tile.q_count; ++k) plans.emplace_back(backend, shape);
+        const QueryPlan& first_plan = plans.front();
+        // Per-(reference, slot) sums are only materialised when the kernel cannot take the minimum.
+        std::vector<std::uint32_t> slot_sums, scratch;
+        if (!first_plan.fused_min()) {
+            const std::size_t r_max = std::min(r_block, tile.r_count);
+            slot_sums.resize(r_max * first_plan.slots_per_block());
+            scratch.resize(first_plan.scratch_size(r_max));
+        }
+
+        for (std::size_t slot = 0; slot < n_shifts; slot += first_plan.slots_per_block()) {
+            for (std::size_t k = 0; k < tile.q_count; ++k) plans[k].prepare(queries + (tile.q_first + k) * pixels, slot);
+            const std::size_t n_slots = first_plan.slot_count();
+            for (std::size_t r0 = 0; r0 < tile.r_count; r0 += r_block) {
+                const std::size_t r_count = std::min(r_block, tile.r_count - r0);
+                const std::uint8_t* block = refs + (tile.r_first + r0) * pixels;
+                for (std::size_t k = 0; k < tile.q_count; ++k) {
+                    std::uint32_t* row_best = best.data() + k * tile.r_count + r0;
+                    std::int32_t* row_shift = best_shift.data() + k * tile.r_count + r0;
+                    if (plans[k].fused_min()) {  // a single shift block: the kernel takes the minimum itself
+                        plans[k].evaluate_min(block, r_count, row_best, row_shift);
+                        continue;
+                    }
+                    plans[k].evaluate(block, r_count, slot_sums.data(), n_slots, scratch.data());
+                    for (std::size_t i = 0; i < r_count; ++i) {
+                        const std::uint32_t* s = slot_sums.data() + i * n_slots;
+                        for (std::size_t j = 0; j < n_slots; ++j) {
+                            if (s[j] < row_best[i]) {  // strict: the earliest slot wins ties
+                                row_best[i] = s[j];
+                                row_shift[i] = shape.shifts[slot + j];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        tile.sums = best.data();
+        tile.shifts = best_shift.data();
+        sink(tile);
+    });
+}
+
+void check_divisor(double divisor) {
+    if (!(divisor > 0.0) || divisor == std::numeric_limits<double>::infinity()) {
+        throw std::invalid_argument("the score divisor must be a positive finite number");
+    }
+}
+
+}  // namespace
+
+void rotational_sad_sums(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs,
+                         std::size_t height, std::size_t width, const std::int32_t* shifts, std::size_t n_shifts,
+                         std::uint32_t* sums, int threads) {
+    const SearchShape shape = detail::make_search_shape(height, width, shifts, n_shifts);
+    if (n_refs == 0) return;
+    QueryPlan plan(active_simd_backend(), shape);
+    const std::size_t block = ref_block_size(shape.pixels);
+    const std::size_t n_blocks = (n_refs + block - 1) / block;
+    const int n_threads = useful_threads(threads, static_cast<double>(n_refs) * static_cast<double>(n_shifts) *
+                                                      static_cast<double>(shape.pixels));
+    for (std::size_t slot = 0; slot < n_shifts; slot += plan.slots_per_block()) {
+        plan.prepare(query, slot);
+        detail::parallel_for(n_blocks, n_threads, [&](std::size_t b) {
+            const std::size_t first = b * block;
+            const std::size_t count = std::min(block, n_refs - first);
+            std::vector<std::uint32_t> scratch(plan.scratch_size(count));
+            plan.evaluate(refs + first * shape.pixels, count, sums + first * n_shifts + slot, n_shifts,
+                          scratch.data());
+        });
+    }
+}
+
+void rotational_sad(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
+                    std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, float* scores,
+                    int threads, double divisor) {
+    if (divisor == 0.0) divisor = static_cast<double>(height * width);
+    check_divisor(divisor);
+    std::vector<std::uint32_t> sums(n_refs * n_shifts);
+    rotational_sad_sums(query, refs, n_refs, height, width, shifts, n_shifts, sums.data(), threads);
+    for (std::size_t k = 0; k < sums.size(); ++k) scores[k] = scaled(sums[k], divisor);
+}
+
+void difference_matrix_sums(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs,
+                            std::size_t n_refs, std::size_t height, std::size_t width, const std::int32_t* shifts,
+                            std::size_t n_shifts, std::uint32_t* best_sums, std::int32_t* best_shifts,
+                            int threads) {
+    const SearchShape shape = detail::make_search_shape(height, width, shifts, n_shifts);
+    for_each_difference_tile(queries, n_queries, refs, n_refs, shape, threads, [&](const Tile& tile) {
+        for (std::size_t k = 0; k < tile.q_count; ++k) {
+            const std::size_t offset = (tile.q_first + k) * n_refs + tile.r_first;
+            std::memcpy(best_sums + offset, tile.sums + k * tile.r_count, tile.r_count * sizeof(std::uint32_t));
+            std::memcpy(best_shifts + offset, tile.shifts + k * tile.r_count, tile.r_count * sizeof(std::int32_t));
+        }
+    });
+}
+
+void difference_matrix(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs,
+                       std::size_t n_refs, std::size_t height, std::size_t width, const std::int32_t* shifts,
+                       std::size_t n_shifts, float* scores, std::int32_t* best_shifts, int threads, double divisor) {
+    const SearchShape shape = detail::make_search_shape(height, width, shifts, n_shifts);
+    if (divisor == 0.0) divisor = static_cast<double>(shape.pixels);
+    check_divisor(divisor);
+    for_each_difference_tile(queries, n_queries, refs, n_refs, shape, threads, [&](const Tile& tile) {
+        for (std::size_t k = 0; k < tile.q_count; ++k) {
+            const std::size_t offset = (tile.q_first + k) * n_refs + tile.r_first;
+            for (std::size_t i = 0; i < tile.r_count; ++i) {
+                scores[offset + i] = scaled(tile.sums[k * tile.r_count + i], divisor);
+            }
+            std::memcpy(best_shifts + offset, tile.shifts + k * tile.r_count, tile.r_count * sizeof(std::int32_t));
+        }
+    });
+}
+
+}  // namespace nightloc

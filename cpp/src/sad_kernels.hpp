@@ -1,0 +1,59 @@
+// Internal: the SAD kernels of each SIMD path and the query layouts they read.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#define NIGHTLOC_X86_KERNELS 1
+#else
+#define NIGHTLOC_X86_KERNELS 0
+#endif
+
+namespace nightloc::detail {
+
+/// Byte alignment and padding granule of the query copies (one zmm register).
+inline constexpr std::size_t kChunk = 64;
+
+inline std::size_t round_up(std::size_t value, std::size_t granule) { return (value + granule - 1) / granule * granule; }
+
+/// "Copies" kernels. `copies` holds n_copies rolled versions of one query, copy j at
+/// copies + j * stride (stride a multiple of 64, base 64-byte aligned), each `pixels` bytes
+/// followed by zero padding up to stride. For every reference i (refs + i * pixels, no padding):
+///     out[i * out_stride + j] = sum_{p < pixels} |copy_j[p] - ref_i[p]|.
+using CopiesKernel = void (*)(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
+                              const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels,
+                              std::uint32_t* out, std::size_t out_stride);
+
+void sad_copies_scalar(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
+                       const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                       std::size_t out_stride);
+
+#if NIGHTLOC_X86_KERNELS
+void sad_copies_sse2(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
+                     const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                     std::size_t out_stride);
+void sad_copies_avx2(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
+                     const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                     std::size_t out_stride);
+void sad_copies_avx512bw(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
+                         const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                         std::size_t out_stride);
+
+/// Widest panorama the all-shift kernel takes (its per-reference state lives on the stack).
+inline constexpr std::size_t kAllShiftMaxWidth = 384;
+
+/// All-shift kernel (AVX-512BW vdbpsadbw) for width % 8 == 0, width <= kAllShiftMaxWidth.
+/// `interleaved` holds the query rolled by the even shifts 0, 2, ..., width-2 (width/2 copies),
+/// chunk-major: bytes [(c * width/2 + m) * 64, +64) are chunk c of the copy rolled by 2m, zero
+/// beyond `pixels`. Sums for shift k of reference i are
+///  - table mode (out != nullptr): written to out[i * out_stride + k] for all k in [0, width);
+///  - min mode (out == nullptr): minimised over the shifts whose bit is set in `selected`
+///    (width/8 16-bit masks: bit 4l + d of mask g selects shift 8g + 2l + d, d < 2), lowest
+///    shift winning ties; written to best_sums[i] and best_shifts[i].
+void sad_all_shifts_avx512bw(const std::uint8_t* interleaved, std::size_t width, const std::uint8_t* refs,
+                             std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride,
+                             const std::uint16_t* selected, std::uint32_t* best_sums, std::int32_t* best_shifts);
+#endif
+
+}  // namespace nightloc::detail

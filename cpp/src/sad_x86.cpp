@@ -1,0 +1,297 @@
+// x86 SIMD kernels, each compiled for its instruction set with a target attribute and chosen at
+// run time (simd_dispatch.cpp): the rest of the library keeps the baseline ISA, so the same
+// binary runs on any x86-64 CPU. See sad_kernels.hpp for the data layouts.
+#include "sad_kernels.hpp"
+
+#if NIGHTLOC_X86_KERNELS
+
+// GCC 12's AVX-512 headers trip -Wmaybe-uninitialized on their own _mm512_undefined_*()
+// placeholders (GCC bug 105593, fixed in GCC 13); nothing in this file reads an undefined value.
+#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ == 12
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+
+#include <immintrin.h>
+
+#include <cstring>
+#include <memory>
+
+#define NL_TARGET_SSE2 __attribute__((target("sse2")))
+#define NL_TARGET_AVX2 __attribute__((target("avx2")))
+#define NL_TARGET_AVX512 __attribute__((target("avx512f,avx512bw")))
+#define NL_INLINE inline __attribute__((always_inline))
+
+namespace nightloc::detail {
+namespace {
+
+// References per pass of the copies kernels: each query chunk loaded is compared with this many
+// references before the next one is loaded.
+constexpr std::size_t kRefsPerPass = 8;
+
+// --------------------------------------------------------------------------------------------
+// SSE2: psadbw on 16-byte chunks.
+
+NL_TARGET_SSE2 NL_INLINE std::uint32_t hsum_sse2(__m128i v) {
+    __m128i hi = _mm_unpackhi_epi64(v, v);
+    return static_cast<std::uint32_t>(_mm_cvtsi128_si32(_mm_add_epi32(v, hi)));
+}
+
+// AVX2: vpsadbw on 32-byte chunks.
+NL_TARGET_AVX2 NL_INLINE std::uint32_t hsum_avx2(__m256i v) {
+    __m128i s = _mm_add_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+    s = _mm_add_epi32(s, _mm_unpackhi_epi64(s, s));
+    return static_cast<std::uint32_t>(_mm_cvtsi128_si32(s));
+}
+
+NL_TARGET_AVX512 NL_INLINE std::uint32_t hsum_avx512(__m512i v) {
+    __m256i s = _mm256_add_epi32(_mm512_castsi512_si256(v), _mm512_extracti64x4_epi64(v, 1));
+    __m128i t = _mm_add_epi32(_mm256_castsi256_si128(s), _mm256_extracti128_si256(s, 1));
+    t = _mm_add_epi32(t, _mm_unpackhi_epi64(t, t));
+    return static_cast<std::uint32_t>(_mm_cvtsi128_si32(t));
+}
+
+// The references of one pass of a copies kernel. A short last pass repeats its last reference
+// (the duplicate sums are computed and discarded). Full chunks are read from row[k], the last
+// partial chunk from tail[k], zero-padded, so that no load reads past a reference. When the pass
+// is reused for many shifts, the references are first copied into aligned, zero-padded rows:
+// unaligned vector loads that straddle cache lines cost up to a third of the speed.
+template <std::size_t V>
+class RefPass {
+public:
+    const std::uint8_t* row[kRefsPerPass];
+    const std::uint8_t* tail[kRefsPerPass];
+    std::size_t count = 0;
+
+    RefPass(std::size_t pixels, std::size_t n_copies)
+        : pixels_(pixels), padded_(round_up(pixels, V)),
+          staged_(n_copies >= kStageMinCopies && padded_ * kRefsPerPass <= kStageMaxBytes) {
+        const std::size_t bytes = staged_ ? padded_ * kRefsPerPass : V * kRefsPerPass;
+        storage_.reset(new std::uint8_t[bytes + 64]);
+        const auto address = reinterpret_cast<std::uintptr_t>(storage_.get());
+        base_ = storage_.get() + (64 - address % 64) % 64;
+        std::memset(base_, 0, bytes);
+    }
+
+    void load(const std::uint8_t* refs, std::size_t first, std::size_t n_refs) {
+        count = n_refs - first < kRefsPerPass ? n_refs - first : kRefsPerPass;
+        const std::size_t full = pixels_ / V * V;
+        for (std::size_t k = 0; k < kRefsPerPass; ++k) {
+            const std::uint8_t* src = refs + (first + (k < count ? k : count - 1)) * pixels_;
+            if (staged_) {
+                std::uint8_t* dst = base_ + k * padded_;
+                std::memcpy(dst, src, pixels_);
+                row[k] = dst;
+                tail[k] = dst + full;
+            } else {
+                std::uint8_t* dst = base_ + k * V;
+                std::memcpy(dst, src + full, pixels_ - full);
+                row[k] = src;
+                tail[k] = dst;
+            }
+        }
+    }
+
+private:
+    static constexpr std::size_t kStageMinCopies = 4;
+    static constexpr std::size_t kStageMaxBytes = std::size_t{256} * 1024;
+    std::size_t pixels_, padded_;
+    bool staged_;
+    std::unique_ptr<std::uint8_t[]> storage_;
+    std::uint8_t* base_ = nullptr;
+};
+
+}  // namespace
+
+// The copies kernel of one instruction set (see sad_kernels.hpp). For each pass of 8 references
+// and each copy: one aligned load of each query chunk, compared with the 8 references' chunks.
+// Written once as a macro because each instance must carry its own target attribute.
+#define NL_DEFINE_COPIES_KERNEL(NAME, TARGET, VEC, V, ZERO, LOAD, SAD, ADD, HSUM)                        \
+    TARGET void NAME(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,                \
+                     const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out, \
+                     std::size_t out_stride) {                                                           \
+        const std::size_t n_full = pixels / (V);                                                          \
+        const bool has_tail = pixels % (V) != 0;                                                          \
+        RefPass<(V)> pass(pixels, n_copies);                                                              \
+        for (std::size_t first = 0; first < n_refs; first += kRefsPerPass) {                              \
+            pass.load(refs, first, n_refs);                                                               \
+            for (std::size_t j = 0; j < n_copies; ++j) {                                                  \
+                const std::uint8_t* q = copies + j * stride;                                              \
+                VEC acc[kRefsPerPass];                                                                    \
+                _Pragma("GCC unroll 8") for (std::size_t k = 0; k < kRefsPerPass; ++k) acc[k] = ZERO();   \
+                for (std::size_t c = 0; c < n_full; ++c) {                                                \
+                    const VEC qv = LOAD(q + c * (V));                                                     \
+                    _Pragma("GCC unroll 8") for (std::size_t k = 0; k < kRefsPerPass; ++k) {              \
+                        acc[k] = ADD(acc[k], SAD(qv, LOAD##U(pass.row[k] + c * (V))));                    \
+                    }                                                                                     \
+                }                                                                                         \
+                if (has_tail) {                                                                           \
+                    const VEC qv = LOAD(q + n_full * (V));                                                \
+                    _Pragma("GCC unroll 8") for (std::size_t k = 0; k < kRefsPerPass; ++k) {              \
+                        acc[k] = ADD(acc[k], SAD(qv, LOAD##U(pass.tail[k])));                             \
+                    }                                                                                     \
+                }                                                                                         \
+                std::uint32_t sums[kRefsPerPass];                                                         \
+                _Pragma("GCC unroll 8") for (std::size_t k = 0; k < kRefsPerPass; ++k) sums[k] = HSUM(acc[k]); \
+                for (std::size_t k = 0; k < pass.count; ++k) out[(first + k) * out_stride + j] = sums[k];  \
+            }                                                                                             \
+        }                                                                                                 \
+    }
+
+namespace {
+NL_TARGET_SSE2 NL_INLINE __m128i load_sse2(const std::uint8_t* p) { return _mm_load_si128(reinterpret_cast<const __m128i*>(p)); }
+NL_TARGET_SSE2 NL_INLINE __m128i load_sse2U(const std::uint8_t* p) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); }
+NL_TARGET_AVX2 NL_INLINE __m256i load_avx2(const std::uint8_t* p) { return _mm256_load_si256(reinterpret_cast<const __m256i*>(p)); }
+NL_TARGET_AVX2 NL_INLINE __m256i load_avx2U(const std::uint8_t* p) { return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p)); }
+NL_TARGET_AVX512 NL_INLINE __m512i load_avx512(const std::uint8_t* p) { return _mm512_load_si512(p); }
+NL_TARGET_AVX512 NL_INLINE __m512i load_avx512U(const std::uint8_t* p) { return _mm512_loadu_si512(p); }
+}  // namespace
+
+NL_DEFINE_COPIES_KERNEL(sad_copies_sse2, NL_TARGET_SSE2, __m128i, 16, _mm_setzero_si128, load_sse2, _mm_sad_epu8,
+                        _mm_add_epi32, hsum_sse2)
+NL_DEFINE_COPIES_KERNEL(sad_copies_avx2, NL_TARGET_AVX2, __m256i, 32, _mm256_setzero_si256, load_avx2,
+                        _mm256_sad_epu8, _mm256_add_epi32, hsum_avx2)
+NL_DEFINE_COPIES_KERNEL(sad_copies_avx512bw, NL_TARGET_AVX512, __m512i, 64, _mm512_setzero_si512, load_avx512,
+                        _mm512_sad_epu8, _mm512_add_epi32, hsum_avx512)
+
+#undef NL_DEFINE_COPIES_KERNEL
+
+namespace {
+
+// --------------------------------------------------------------------------------------------
+// AVX-512BW all-shift kernel with vdbpsadbw.
+//
+// _mm512_dbsad_epu8(a, b, 0xE4) gives, for every 8-byte group of a (reference pixels c..c+7 of
+// one row, since width % 8 == 0) and the same bytes t of b (the query rolled by an even shift s):
+//   word 0: sum_{i<4} |a[i]   - t[i]|     -> shift s     on pixels c..c+3
+//   word 1: sum_{i<4} |a[i]   - t[i+1]|   -> shift s + 1 on pixels c..c+3
+//   word 2: sum_{i<4} |a[4+i] - t[2+i]|   -> shift s - 2 on pixels c+4..c+7
+//   word 3: sum_{i<4} |a[4+i] - t[3+i]|   -> shift s - 1 on pixels c+4..c+7
+// Accumulating copy m (s = 2m) over the image gives four partial sums P_m[0..3]; then
+//   sum(2m) = P_m[0] + P_{m+1}[2],  sum(2m+1) = P_m[1] + P_{m+1}[3]   (m + 1 modulo width/2).
+// Words hold at most 1020 per chunk; accumulators are flushed to 32 bits every 32 chunks so
+// that the 16-bit fold of their two halves cannot overflow (2 * 32 * 1020 < 65536).
+
+constexpr std::size_t kFlushChunks = 32;
+constexpr std::size_t kMaxGroup = 24;
+
+// Four 16-bit accumulators -> [P_a[0..3], P_b[0..3], P_c[0..3], P_d[0..3]] as 32-bit lanes.
+NL_TARGET_AVX512 NL_INLINE __m512i fold_words(__m512i acc) {
+    return _mm512_cvtepu16_epi32(_mm256_add_epi16(_mm512_castsi512_si256(acc), _mm512_extracti64x4_epi64(acc, 1)));
+}
+
+NL_TARGET_AVX512 NL_INLINE __m512i reduce4(__m512i a, __m512i b, __m512i c, __m512i d) {
+    const __m512i fa = fold_words(a), fb = fold_words(b), fc = fold_words(c), fd = fold_words(d);
+    const __m512i ab = _mm512_add_epi32(_mm512_shuffle_i32x4(fa, fb, _MM_SHUFFLE(1, 0, 1, 0)),
+                                        _mm512_shuffle_i32x4(fa, fb, _MM_SHUFFLE(3, 2, 3, 2)));
+    const __m512i cd = _mm512_add_epi32(_mm512_shuffle_i32x4(fc, fd, _MM_SHUFFLE(1, 0, 1, 0)),
+                                        _mm512_shuffle_i32x4(fc, fd, _MM_SHUFFLE(3, 2, 3, 2)));
+    return _mm512_add_epi32(_mm512_shuffle_i32x4(ab, cd, _MM_SHUFFLE(2, 0, 2, 0)),
+                            _mm512_shuffle_i32x4(ab, cd, _MM_SHUFFLE(3, 1, 3, 1)));
+}
+
+// Computes P_m[0..3] for copies m0 .. m0+G-1 of one reference into part[m * 4 + p].
+template <std::size_t G>
+NL_TARGET_AVX512 NL_INLINE void dbsad_group(const std::uint8_t* interleaved, std::size_t chunk_stride,
+                                            std::size_t m0, const std::uint8_t* ref, std::size_t pixels,
+                                            std::uint32_t* part) {
+    static_assert(G % 4 == 0 && G <= kMaxGroup, "group size");
+    const std::size_t n_full = pixels / kChunk;
+    const std::size_t tail = pixels % kChunk;
+    const std::size_t n_chunks = n_full + (tail ? 1 : 0);
+    const __mmask64 tail_mask = tail ? (~std::uint64_t{0} >> (64 - tail)) : ~std::uint64_t{0};
+    __m512i acc[G];
+    for (std::size_t c = 0; c < n_chunks;) {
+        const bool first_flush = c == 0;
+        const std::size_t stop = c + kFlushChunks < n_chunks ? c + kFlushChunks : n_chunks;
+#pragma GCC unroll 24
+        for (std::size_t g = 0; g < G; ++g) acc[g] = _mm512_setzero_si512();
+        for (; c < stop; ++c) {
+            const __m512i r = c < n_full ? _mm512_loadu_si512(ref + c * kChunk)
+                                         : _mm512_maskz_loadu_epi8(tail_mask, ref + c * kChunk);
+            // References stream from memory once per query: fetch two references ahead (a
+            // prefetch never faults, also past the end of the array).
+            _mm_prefetch(reinterpret_cast<const char*>(ref + 2 * pixels + c * kChunk), _MM_HINT_T0);
+            const std::uint8_t* base = interleaved + c * chunk_stride + m0 * kChunk;
+#pragma GCC unroll 24
+            for (std::size_t g = 0; g < G; ++g) {
+                acc[g] = _mm512_add_epi16(acc[g], _mm512_dbsad_epu8(r, _mm512_load_si512(base + g * kChunk), 0xE4));
+            }
+        }
+#pragma GCC unroll 6
+        for (std::size_t g = 0; g < G; g += 4) {
+            std::uint32_t* p = part + (m0 + g) * 4;
+            const __m512i sums = reduce4(acc[g], acc[g + 1], acc[g + 2], acc[g + 3]);
+            _mm512_storeu_si512(p, first_flush ? sums : _mm512_add_epi32(_mm512_loadu_si512(p), sums));
+        }
+    }
+}
+
+// Totals of group g (copies 4g..4g+3): lane l holds sum(8g + 2l) and sum(8g + 2l + 1) in its
+// dwords 0 and 1 (dwords 2, 3 are not meaningful). part must extend 4 words past the last copy
+// with a repeat of copy 0 (the wrap-around of m + 1).
+NL_TARGET_AVX512 NL_INLINE __m512i group_totals(const std::uint32_t* part, std::size_t g) {
+    const __m512i here = _mm512_loadu_si512(part + 16 * g);
+    const __m512i next = _mm512_loadu_si512(part + 16 * g + 4);
+    return _mm512_add_epi32(here, _mm512_shuffle_epi32(next, static_cast<_MM_PERM_ENUM>(0xEE)));
+}
+
+}  // namespace
+
+NL_TARGET_AVX512 void sad_all_shifts_avx512bw(const std::uint8_t* interleaved, std::size_t width,
+                                              const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels,
+                                              std::uint32_t* out, std::size_t out_stride,
+                                              const std::uint16_t* selected, std::uint32_t* best_sums,
+                                              std::int32_t* best_shifts) {
+    const std::size_t n_even = width / 2;      // copies, a multiple of 4 since width % 8 == 0
+    const std::size_t n_groups = width / 8;    // groups of 4 copies = 8 shifts
+    const std::size_t chunk_stride = n_even * kChunk;
+    alignas(64) std::uint32_t part[kAllShiftMaxWidth / 2 * 4 + 16];
+    // Gathers the two meaningful dwords of every lane: shifts 8g .. 8g+7 in order.
+    const __m512i pack = _mm512_setr_epi32(0, 1, 4, 5, 8, 9, 12, 13, 0, 1, 4, 5, 8, 9, 12, 13);
+    const __m512i none = _mm512_set1_epi32(-1);
+    for (std::size_t i = 0; i < n_refs; ++i) {
+        const std::uint8_t* ref = refs + i * pixels;
+        for (std::size_t m0 = 0; m0 < n_even;) {
+            const std::size_t left = n_even - m0;
+            switch (left >= kMaxGroup ? kMaxGroup : left) {
+                case 24: dbsad_group<24>(interleaved, chunk_stride, m0, ref, pixels, part); m0 += 24; break;
+                case 20: dbsad_group<20>(interleaved, chunk_stride, m0, ref, pixels, part); m0 += 20; break;
+                case 16: dbsad_group<16>(interleaved, chunk_stride, m0, ref, pixels, part); m0 += 16; break;
+                case 12: dbsad_group<12>(interleaved, chunk_stride, m0, ref, pixels, part); m0 += 12; break;
+                case 8: dbsad_group<8>(interleaved, chunk_stride, m0, ref, pixels, part); m0 += 8; break;
+                default: dbsad_group<4>(interleaved, chunk_stride, m0, ref, pixels, part); m0 += 4; break;
+            }
+        }
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(part + n_even * 4), _mm_loadu_si128(reinterpret_cast<const __m128i*>(part)));
+        if (out != nullptr) {
+            std::uint32_t* o = out + i * out_stride;
+            for (std::size_t g = 0; g < n_groups; ++g) {
+                const __m512i packed = _mm512_permutexvar_epi32(pack, group_totals(part, g));
+                _mm256_storeu_si256(reinterpret_cast<__m256i*>(o + 8 * g), _mm512_castsi512_si256(packed));
+            }
+            continue;
+        }
+        // Min mode: unselected and meaningless dwords become 0xffffffff, above any real sum.
+        __m512i lowest = none;
+        for (std::size_t g = 0; g < n_groups; ++g) {
+            lowest = _mm512_min_epu32(lowest, _mm512_mask_mov_epi32(none, selected[g], group_totals(part, g)));
+        }
+        const std::uint32_t best = _mm512_reduce_min_epu32(lowest);
+        const __m512i target = _mm512_set1_epi32(static_cast<int>(best));
+        std::int32_t shift = -1;
+        for (std::size_t g = 0; g < n_groups; ++g) {
+            const __mmask16 hit = _mm512_mask_cmpeq_epu32_mask(selected[g], group_totals(part, g), target);
+            if (hit) {
+                const auto bit = static_cast<std::uint32_t>(__builtin_ctz(hit));
+                shift = static_cast<std::int32_t>(8 * g + 2 * (bit / 4) + bit % 4);
+                break;
+            }
+        }
+        best_sums[i] = best;
+        best_shifts[i] = shift;
+    }
+}
+
+}  // namespace nightloc::detail
+
+#endif  // NIGHTLOC_X86_KERNELS

@@ -1,0 +1,103 @@
+// Run-time SIMD path selection (see nightloc/simd.hpp).
+#include "nightloc/simd.hpp"
+
+#include <atomic>
+#include <cstdlib>
+#include <stdexcept>
+
+#include "sad_kernels.hpp"
+
+namespace nightloc {
+namespace {
+
+constexpr int kUnset = -1;
+std::atomic<int> g_active{kUnset};
+
+bool cpu_supports(SimdBackend backend) noexcept {
+    switch (backend) {
+        case SimdBackend::scalar:
+            return true;
+#if NIGHTLOC_X86_KERNELS
+        case SimdBackend::sse2:
+            return __builtin_cpu_supports("sse2");
+        case SimdBackend::avx2:
+            return __builtin_cpu_supports("avx2");
+        case SimdBackend::avx512bw:
+            return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw");
+#else
+        default:
+            return false;
+#endif
+    }
+    return false;
+}
+
+SimdBackend default_backend() noexcept {
+    if (const char* env = std::getenv("NIGHTLOC_SIMD")) {
+        SimdBackend requested;
+        if (parse_simd_backend(env, requested) && cpu_supports(requested)) return requested;
+    }
+    return best_simd_backend();
+}
+
+}  // namespace
+
+const char* simd_backend_name(SimdBackend backend) noexcept {
+    switch (backend) {
+        case SimdBackend::scalar: return "scalar";
+        case SimdBackend::sse2: return "sse2";
+        case SimdBackend::avx2: return "avx2";
+        case SimdBackend::avx512bw: return "avx512bw";
+    }
+    return "unknown";
+}
+
+bool parse_simd_backend(const std::string& name, SimdBackend& backend) noexcept {
+    for (SimdBackend b : {SimdBackend::scalar, SimdBackend::sse2, SimdBackend::avx2, SimdBackend::avx512bw}) {
+        if (name == simd_backend_name(b)) {
+            backend = b;
+            return true;
+        }
+    }
+    return false;
+}
+
+bool simd_backend_supported(SimdBackend backend) noexcept { return cpu_supports(backend); }
+
+std::vector<SimdBackend> supported_simd_backends() {
+    std::vector<SimdBackend> out;
+    for (SimdBackend b : {SimdBackend::scalar, SimdBackend::sse2, SimdBackend::avx2, SimdBackend::avx512bw}) {
+        if (cpu_supports(b)) out.push_back(b);
+    }
+    return out;
+}
+
+SimdBackend best_simd_backend() noexcept {
+    for (SimdBackend b : {SimdBackend::avx512bw, SimdBackend::avx2, SimdBackend::sse2}) {
+        if (cpu_supports(b)) return b;
+    }
+    return SimdBackend::scalar;
+}
+
+SimdBackend active_simd_backend() noexcept {
+    int current = g_active.load(std::memory_order_acquire);
+    if (current == kUnset) {
+        int chosen = static_cast<int>(default_backend());
+        // Another thread may have raced us; either value is a valid default.
+        g_active.compare_exchange_strong(current, chosen, std::memory_order_acq_rel);
+        return static_cast<SimdBackend>(g_active.load(std::memory_order_acquire));
+    }
+    return static_cast<SimdBackend>(current);
+}
+
+void set_simd_backend(SimdBackend backend) {
+    if (!cpu_supports(backend)) {
+        throw std::invalid_argument(std::string("SIMD path '") + simd_backend_name(backend) +
+                                    "' is not supported on this CPU or not compiled into this build");
+    }
+    g_active.store(static_cast<int>(backend), std::memory_order_release);
+}
+
+void reset_simd_backend() noexcept { g_active.store(static_cast<int>(default_backend()), std::memory_order_release); }
+
+}  // namespace nightloc

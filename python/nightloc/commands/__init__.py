@@ -1,0 +1,1 @@
+"""Sub-commands of the ``nightloc`` command line (see :mod:`nightloc.cli`)."""

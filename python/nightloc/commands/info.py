@@ -1,0 +1,44 @@
+"""``nightloc info``: version, SIMD paths and the kernel's speed on this machine."""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from .. import __version__
+from ..matching import match
+from ..simd import available_simd_backends, simd_backend, use_simd_backend
+
+
+def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+    parser = subparsers.add_parser("info", help="version, SIMD paths and matching speed on this machine")
+    parser.add_argument("--refs", type=int, default=5000, help="references in the speed test (default 5000)")
+    parser.set_defaults(run=run)
+
+
+def kernel_speed(n_refs: int, threads: int = 1, repeats: int = 5) -> float:
+    """Best-of-``repeats`` byte comparisons per second of one 48x24 query against ``n_refs``."""
+    rng = np.random.default_rng(0)
+    refs = rng.integers(0, 256, size=(n_refs, 24, 48), dtype=np.uint8)
+    query = refs[n_refs // 2].copy()
+    best = float("inf")
+    for _ in range(repeats):
+        start = time.perf_counter()
+        match(query, refs, threads=threads)
+        best = min(best, time.perf_counter() - start)
+    return n_refs * 24 * 48 * 48 / best
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.refs < 1:
+        raise ValueError("--refs must be >= 1")
+    print(f"nightloc {__version__}")
+    print(f"SIMD path in use: {simd_backend()}  (supported: {', '.join(available_simd_backends())})")
+    print(f"rotation-invariant SAD, 48x24 images, 48 shifts, {args.refs} references, 1 thread:")
+    for backend in available_simd_backends():
+        with use_simd_backend(backend):
+            speed = kernel_speed(args.refs, repeats=1 if backend == "scalar" else 5)
+        print(f"  {backend:9s} {speed / 1e9:8.1f} G byte comparisons/s")
+    return 0

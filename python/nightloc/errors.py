@@ -1,0 +1,22 @@
+"""Exception types of nightloc.
+
+Every error nightloc raises on bad input is a ``TypeError`` (wrong type or dtype) or a
+``ValueError`` (wrong shape, value, file content); errors about data on disk and user datasets
+use :class:`NightlocError`, a ``ValueError`` that names the file and, where it applies, the line.
+"""
+
+from __future__ import annotations
+
+__all__ = ["NightlocError", "DatasetError", "MapFormatError"]
+
+
+class NightlocError(ValueError):
+    """Base class of nightloc's own errors; a ``ValueError``, so ``except ValueError`` catches it."""
+
+
+class DatasetError(NightlocError):
+    """A traverse on disk (images, video, poses CSV) is missing, unreadable or malformed."""
+
+
+class MapFormatError(NightlocError):
+    """A reference map file is corrupt, truncated, of another format version or other parameters."""

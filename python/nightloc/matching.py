@@ -1,0 +1,200 @@
+"""Whole-image matching: patch normalization and rotation-invariant SAD (paper eqs. 1-3).
+
+Conventions (see DESIGN.md):
+
+* Images are ``uint8``; one image is ``(height, width)``, a stack ``(n, height, width)``,
+  C-contiguous. Wrong dtype, rank or size raises TypeError/ValueError; nothing is cast.
+* **Shift** ``k`` (0 <= k < width) compares the query rolled *left* by ``k`` columns,
+  ``numpy.roll(query, -k, axis=1)``, with the reference. If the query is the reference rolled
+  right by ``d`` columns (``query = numpy.roll(ref, d, axis=1)``) the best shift is ``d``.
+* **Heading**: panorama column ``c`` looks along world azimuth ``heading - 2*pi*c/width``, so a
+  best shift ``k`` means the query's heading is the reference's heading **plus**
+  ``2*pi*k/width``, reported wrapped to (-pi, pi]. ``query_heading = ref_heading + headings[i]``.
+* Scores are mean absolute differences in grey levels, ``float32(double(sum) / (h*w))``:
+  lower is more similar. Difference matrices are ``(n_query, n_ref)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Tuple
+
+import numpy as np
+
+from . import _core
+from ._validate import ShiftSpec, image_or_stack, same_image_size, shift_list, thread_count, uint8_array
+
+__all__ = [
+    "DEFAULT_PATCH_SCALE",
+    "patch_normalize",
+    "block_normalize",
+    "rotational_sad",
+    "match",
+    "difference_matrix",
+    "MatchResult",
+    "shifts_to_headings",
+]
+
+#: Quantization gain of :func:`patch_normalize`: output = clip(floor(128 + scale*z + 0.5), 0, 255).
+DEFAULT_PATCH_SCALE: float = float(_core.DEFAULT_PATCH_SCALE)
+
+
+def patch_normalize(
+    images: np.ndarray, radius: int = 4, wrap: bool = True, scale: float = DEFAULT_PATCH_SCALE
+) -> np.ndarray:
+    """Patch normalization, the paper's eq. (1), quantized back to uint8.
+
+    Every pixel becomes ``z = (I - mu) / sigma`` with ``mu``, ``sigma`` the mean and population
+    standard deviation of the ``(2*radius+1)**2`` window around it, then
+    ``clip(floor(128 + scale*z + 0.5), 0, 255)``. A flat window gives 128 (never NaN).
+
+    Args:
+        images: ``(H, W)`` or ``(N, H, W)`` uint8.
+        radius: window radius in pixels (the paper's P = 4: a 9x9 window).
+        wrap: True for 360-degree panoramas: the window wraps around horizontally, so the result
+            commutes with circular column shifts; False clips the window at all borders
+            (forward-facing cameras). Rows are always clipped.
+        scale: grey levels per standard deviation of the output.
+
+    Returns:
+        uint8 array of the same shape.
+    """
+    array = image_or_stack(images, "images")
+    if isinstance(radius, bool) or not isinstance(radius, (int, np.integer)) or radius < 0:
+        raise ValueError(f"radius must be an int >= 0, got {radius!r}")
+    if not np.isfinite(scale) or scale <= 0:
+        raise ValueError(f"scale must be a positive finite number, got {scale!r}")
+    stack = array[np.newaxis] if array.ndim == 2 else array
+    out = _core.patch_normalize(stack, int(radius), bool(wrap), float(scale))
+    return out[0] if array.ndim == 2 else out
+
+
+def block_normalize(images: np.ndarray, side: int = 8) -> np.ndarray:
+    """OpenSeqSLAM's patch normalization (its mode 1), bit-exact with the Matlab original.
+
+    Each full, non-overlapping ``side x side`` block becomes ``127 + round(z)`` (z with the N-1
+    standard deviation, round half away from zero, saturated to 0..255); a flat block becomes 0
+    (Matlab's ``uint8(NaN)``); the incomplete blocks at the right and bottom borders keep their
+    input values.
+
+    Args:
+        images: ``(H, W)`` or ``(N, H, W)`` uint8.
+        side: block side in pixels (OpenSeqSLAM's default 8).
+    """
+    array = image_or_stack(images, "images")
+    if isinstance(side, bool) or not isinstance(side, (int, np.integer)) or side < 2:
+        raise ValueError(f"side must be an int >= 2, got {side!r}")
+    stack = array[np.newaxis] if array.ndim == 2 else array
+    out = _core.block_normalize(stack, int(side))
+    return out[0] if array.ndim == 2 else out
+
+
+def shifts_to_headings(shifts: np.ndarray, width: int) -> np.ndarray:
+    """Relative headings (radians, in (-pi, pi]) of column shifts of a ``width``-column panorama."""
+    angles = 2.0 * np.pi * np.asarray(shifts, dtype=np.float64) / float(width)
+    return np.where(angles > np.pi, angles - 2.0 * np.pi, angles)
+
+
+def rotational_sad(query: np.ndarray, refs: np.ndarray, shifts: ShiftSpec = None, threads: int = 1) -> np.ndarray:
+    """The full table of eq. (2): mean absolute difference at every shift.
+
+    Args:
+        query: ``(H, W)`` uint8 prepared image.
+        refs: ``(N, H, W)`` uint8 prepared images.
+        shifts: the column shifts to try (default all ``0..W-1``; ``[0]`` for forward cameras).
+        threads: worker threads (None: all cores).
+
+    Returns:
+        float32 ``(N, n_shifts)``: ``table[i, j]`` compares ``numpy.roll(query, -shifts[j], 1)``
+        with ``refs[i]``.
+    """
+    q = uint8_array(query, 2, "query")
+    r = uint8_array(refs, 3, "refs")
+    same_image_size(q, r, "query", "refs")
+    return _core.rotational_sad(q, r, shift_list(shifts, r.shape[2]), thread_count(threads))
+
+
+@dataclass(frozen=True)
+class MatchResult:
+    """One query matched against N references (eq. 3).
+
+    Attributes:
+        index: the best reference (lowest score; ties go to the lowest index).
+        scores: ``(N,)`` float32, minimum over shifts of the mean absolute difference.
+        shifts: ``(N,)`` int32, the column shift attaining it (ties: earliest in the shift list).
+        headings: ``(N,)`` float64 radians in (-pi, pi]: query heading minus reference heading.
+        width: image width in pixels (columns per 360 degrees).
+    """
+
+    index: int
+    scores: np.ndarray
+    shifts: np.ndarray
+    headings: np.ndarray
+    width: int
+
+    @property
+    def score(self) -> float:
+        """Score of the best reference."""
+        return float(self.scores[self.index])
+
+    @property
+    def shift(self) -> int:
+        """Column shift of the best reference."""
+        return int(self.shifts[self.index])
+
+    @property
+    def heading(self) -> float:
+        """Query heading relative to the best reference (radians, in (-pi, pi])."""
+        return float(self.headings[self.index])
+
+
+def match(query: np.ndarray, refs: np.ndarray, shifts: ShiftSpec = None, threads: Optional[int] = None) -> MatchResult:
+    """Rotation-invariant match of one prepared query against prepared references.
+
+    Args:
+        query: ``(H, W)`` uint8.
+        refs: ``(N, H, W)`` uint8.
+        shifts: column shifts to search (default all; ``[0]`` for a forward camera).
+        threads: worker threads (default all cores; small problems run on one).
+
+    Returns:
+        :class:`MatchResult`.
+    """
+    q = uint8_array(query, 2, "query")
+    r = uint8_array(refs, 3, "refs")
+    same_image_size(q, r, "query", "refs")
+    shift_values = shift_list(shifts, r.shape[2])
+    sums, best_shifts = _core.difference_matrix_sums(q[np.newaxis], r, shift_values, thread_count(threads))
+    sums, best_shifts = sums[0], best_shifts[0]
+    scores = (sums.astype(np.float64) / float(q.size)).astype(np.float32)
+    return MatchResult(
+        index=int(np.argmin(sums)),
+        scores=scores,
+        shifts=best_shifts,
+        headings=shifts_to_headings(best_shifts, r.shape[2]),
+        width=int(r.shape[2]),
+    )
+
+
+def difference_matrix(
+    queries: np.ndarray, refs: np.ndarray, shifts: ShiftSpec = None, threads: Optional[int] = None
+) -> Tuple[np.ndarray, np.ndarray]:
+    """Batch difference matrix: every query against every reference, minimum over shifts.
+
+    References stream through cache once per block of queries; memory beyond the two outputs is
+    a few hundred KB per thread.
+
+    Args:
+        queries: ``(M, H, W)`` uint8.
+        refs: ``(N, H, W)`` uint8.
+        shifts: column shifts to search (default all; ``[0]`` for a forward camera).
+        threads: worker threads (default all cores).
+
+    Returns:
+        ``(scores, shifts)``: float32 ``(M, N)`` mean absolute differences (lower = more similar)
+        and int32 ``(M, N)`` best shifts; rows are queries, columns references.
+    """
+    q = uint8_array(queries, 3, "queries")
+    r = uint8_array(refs, 3, "refs")
+    same_image_size(q, r, "queries", "refs")
+    return _core.difference_matrix(q, r, shift_list(shifts, r.shape[2]), thread_count(threads))

@@ -1,0 +1,37 @@
+"""Shared fixtures: every SIMD path, and the real data in ../shared/data when present."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+import nightloc
+
+sys.path.insert(0, str(Path(__file__).parent))  # tests/oracle.py
+
+_REPO = Path(__file__).resolve().parents[1]
+
+
+def shared_data_dir() -> Path:
+    """../shared/data beside the repository, or $NIGHTLOC_SHARED_DATA."""
+    return Path(os.environ.get("NIGHTLOC_SHARED_DATA", _REPO.parent / "shared" / "data"))
+
+
+@pytest.fixture
+def shared_data() -> Path:
+    root = shared_data_dir()
+    if not root.is_dir():
+        pytest.skip(f"real-image data not found at {root} (set NIGHTLOC_SHARED_DATA to its folder)")
+    return root
+
+
+@pytest.fixture(params=["scalar", "sse2", "avx2", "avx512bw"])
+def simd_path(request):
+    """Runs the test once on every SIMD path; paths this CPU lacks are skipped with the reason."""
+    if request.param not in nightloc.available_simd_backends():
+        pytest.skip(f"this CPU does not support the {request.param} path")
+    with nightloc.use_simd_backend(request.param):
+        yield request.param
