@@ -25,6 +25,7 @@ from .matching import (
     shifts_to_headings,
 )
 from .simd import available_simd_backends, set_simd_backend, simd_backend, use_simd_backend
+from .traverse import Traverse, load_traverse, save_traverse
 
 __all__ = [
     "__version__",
@@ -43,4 +44,7 @@ __all__ = [
     "shifts_to_headings",
     "simd_backend",
     "use_simd_backend",
+    "Traverse",
+    "load_traverse",
+    "save_traverse",
 ]
