@@ -171,6 +171,8 @@ py::tuple difference_matrix_sums(const py::array& queries_in, const py::array& r
 
 }  // namespace
 
+void register_route(py::module_& m);  // register_route.cpp
+
 PYBIND11_MODULE(_core, m) {
     m.doc() = "nightloc's compiled core: patch normalization and rotation-invariant SAD (private; use nightloc)";
     m.attr("__version__") = NIGHTLOC_VERSION_INFO;
@@ -211,4 +213,5 @@ PYBIND11_MODULE(_core, m) {
           py::arg("threads"), py::arg("divisor") = 0.0);
     m.def("difference_matrix_sums", &difference_matrix_sums, py::arg("queries"), py::arg("refs"), py::arg("shifts"),
           py::arg("threads"));
+    register_route(m);
 }

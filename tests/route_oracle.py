@@ -1,0 +1,132 @@
+"""Independent numpy references for route mode (SeqSLAM), written from OpenSeqSLAM's Matlab code
+(doContrastEnhancement.m, doFindMatches.m) and its documented Octave semantics, not from the C++.
+
+Orientation here is nightloc's: difference matrices are (n_query, n_ref), rows = queries. Every
+floating-point step is done in the same order and precision as Octave: float32 sequential sums,
+float32 mean, deviations, sum of squares, division and sqrt; double only for the final ratio.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+F32 = np.float32
+
+
+def enhance_zscores(d: np.ndarray, radius: int = 5) -> np.ndarray:
+    """Local contrast enhancement without the final offset: for every query row and reference i,
+    the z-score of d[:, i] over references i-radius..i+radius (clipped), N-1 std, all float32."""
+    n_query, n_ref = d.shape
+    out = np.empty_like(d, dtype=F32)
+    for i in range(n_ref):
+        lo, hi = max(0, i - radius), min(n_ref - 1, i + radius)
+        window = d[:, lo : hi + 1].astype(F32)
+        count = window.shape[1]
+        total = np.zeros(n_query, F32)
+        for j in range(count):
+            total = (total + window[:, j]).astype(F32)
+        mean = (total / F32(count)).astype(F32)
+        squares = np.zeros(n_query, F32)
+        for j in range(count):
+            dev = (window[:, j] - mean).astype(F32)
+            squares = (squares + (dev * dev).astype(F32)).astype(F32)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            sd = np.sqrt((squares / F32(count - 1)).astype(F32)).astype(F32)
+            out[:, i] = ((d[:, i] - mean).astype(F32) / sd).astype(F32)
+    return out
+
+
+def enhance_openseqslam(d: np.ndarray, radius: int = 5) -> np.ndarray:
+    """OpenSeqSLAM's enhancement: z-scores minus their global minimum (NaN ignored)."""
+    z = enhance_zscores(d, radius)
+    return (z - F32(np.nanmin(z))).astype(F32)
+
+
+def enhance_causal(d: np.ndarray, radius: int = 5) -> np.ndarray:
+    """Causal enhancement: z-scores plus the fixed bound (n-1)/sqrt(n), n = 2*radius+1."""
+    n = 2 * radius + 1
+    bound = F32((n - 1) / math.sqrt(n))
+    return (enhance_zscores(d, radius) + bound).astype(F32)
+
+
+def velocity_offsets(ds: int, vmin: float, vmax: float, steps: int) -> np.ndarray:
+    """(n_velocities, steps) int64 row offsets floor(k * move/ds), moves vmin*ds : vmax*ds by 1."""
+    moves = []
+    move = vmin * ds
+    while move <= vmax * ds + 1e-9:
+        moves.append(move)
+        move += 1.0
+    v = np.array(moves) / ds
+    return np.floor(np.arange(steps)[None, :] * v[:, None]).astype(np.int64)
+
+
+def _nanmin_first(values: np.ndarray) -> tuple:
+    """(min, first index) ignoring NaN; all NaN -> (nan, 0), like Octave's min."""
+    if np.all(np.isnan(values)):
+        return math.nan, 0
+    index = int(np.nanargmin(values))
+    return float(values[index]), index
+
+
+def _decide(anchor_scores: np.ndarray, window: int) -> tuple:
+    best, index = _nanmin_first(anchor_scores)
+    mask = np.ones(len(anchor_scores), bool)
+    mask[max(0, index - window) : index + window + 1] = False
+    rest = anchor_scores[mask]
+    second = math.nan if rest.size == 0 or np.all(np.isnan(rest)) else float(np.nanmin(rest))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = float(np.float64(best) / np.float64(second))
+    return index, ratio
+
+
+def find_matches_centred(dd: np.ndarray, ds: int = 10, vmin: float = 0.8, vmax: float = 1.2, rwindow: int = 10):
+    """OpenSeqSLAM doFindMatches on an (n_query, n_ref) matrix: (ref int64 with -1 where undefined,
+    score float64 with NaN where undefined). ds is rounded up to even as OpenSeqSLAM does."""
+    ds = ds + ds % 2
+    n_query, n_ref = dd.shape
+    padded = np.concatenate([dd.astype(F32), np.full((n_query, 1), np.inf, F32)], axis=1)
+    offsets = velocity_offsets(ds, vmin, vmax, ds + 1)
+    refs = np.full(n_query, -1, np.int64)
+    scores = np.full(n_query, np.nan)
+    starts = np.arange(n_ref + 1)
+    for q in range(ds // 2, n_query - ds // 2):
+        columns = q - ds // 2 + np.arange(ds + 1)
+        per_velocity = np.empty((len(offsets), n_ref + 1), F32)
+        for vi, off in enumerate(offsets):
+            total = np.zeros(n_ref + 1, F32)
+            for k in range(ds + 1):
+                rows = np.minimum(starts + off[k], n_ref)
+                total = (total + padded[columns[k], rows]).astype(F32)
+            per_velocity[vi] = total
+        anchor = np.array([_nanmin_first(per_velocity[:, s])[0] for s in starts], F32)
+        index, ratio = _decide(anchor, rwindow // 2)
+        refs[q] = min(index + ds // 2, n_ref - 1)
+        scores[q] = ratio
+    return refs, scores
+
+
+def find_matches_causal(dd: np.ndarray, ds: int = 10, vmin: float = 0.8, vmax: float = 1.2, rwindow: int = 10):
+    """Causal trajectories: ds columns ending at the query, ending at reference e; the row at
+    column q - j is e - floor(j * v); rows before 0 cost +inf. Sum in time order."""
+    n_query, n_ref = dd.shape
+    offsets = velocity_offsets(ds, vmin, vmax, ds)
+    refs = np.full(n_query, -1, np.int64)
+    scores = np.full(n_query, np.nan)
+    ends = np.arange(n_ref)
+    for q in range(ds - 1, n_query):
+        per_velocity = np.empty((len(offsets), n_ref), F32)
+        for vi, off in enumerate(offsets):
+            total = np.zeros(n_ref, F32)
+            for k in range(ds):
+                j = ds - 1 - k  # frames before the query
+                rows = ends - off[j]
+                values = np.where(rows >= 0, dd[q - j, np.maximum(rows, 0)], np.inf).astype(F32)
+                total = (total + values).astype(F32)
+            per_velocity[vi] = total
+        anchor = np.array([_nanmin_first(per_velocity[:, e])[0] for e in ends], F32)
+        index, ratio = _decide(anchor, rwindow // 2)
+        refs[q] = index
+        scores[q] = ratio
+    return refs, scores
