@@ -1,0 +1,55 @@
+"""Route mode: 1D SeqSLAM along long traverses, exact against OpenSeqSLAM and far faster.
+
+The paper's creek experiment (Mount & Milford 2016, section IV-D) localizes a night traverse
+against a day traverse of the same route with classic sequence matching. This subpackage builds
+that pipeline over the compiled core:
+
+* :func:`match_route` / :func:`match_prepared`: difference matrix (circular shifts for panoramas,
+  shift 0 for forward cameras), local contrast enhancement, straight-line trajectory search over
+  a range of speeds, uniqueness ratio; centred (OpenSeqSLAM) or causal trajectories;
+* :class:`RouteParams` and the presets ``"openseqslam"`` (bit-exact with OpenSeqSLAM under
+  Octave) and ``"nightloc"`` (the paper's image preparation);
+* :class:`RouteLocalizer`: causal, frame-by-frame matching for a robot;
+* :mod:`~nightloc.route.evaluation`: ground truth from frames or positions, precision-recall,
+  recall at 100 % precision, best F1; :mod:`~nightloc.route.figures`: the figures;
+* :mod:`~nightloc.route.dask_backend`: the difference matrix and enhancement blocked on a Dask
+  cluster (optional extra ``nightloc[dask]``).
+"""
+
+from __future__ import annotations
+
+from .evaluation import GroundTruth, PRCurve, RouteEvaluation, evaluate_matches, precision_recall
+from .localizer import RouteLocalizer, RouteUpdate
+from .params import PRESETS, RouteParams, default_preparation, resolve_params, route_preset
+from .pipeline import (
+    RouteResult,
+    enhance_contrast,
+    match_prepared,
+    match_route,
+    route_difference_matrix,
+    trajectory_search,
+)
+from .preparation import RoutePreparer, octave_rgb2gray
+
+__all__ = [
+    "GroundTruth",
+    "PRCurve",
+    "PRESETS",
+    "RouteEvaluation",
+    "RouteLocalizer",
+    "RouteParams",
+    "RoutePreparer",
+    "RouteResult",
+    "RouteUpdate",
+    "default_preparation",
+    "enhance_contrast",
+    "evaluate_matches",
+    "match_prepared",
+    "match_route",
+    "octave_rgb2gray",
+    "precision_recall",
+    "resolve_params",
+    "route_difference_matrix",
+    "route_preset",
+    "trajectory_search",
+]

@@ -1,0 +1,169 @@
+"""Online route localization: causal SeqSLAM, one camera frame at a time.
+
+:class:`RouteLocalizer` holds the prepared reference route and the enhanced difference rows of
+the last ``ds`` query frames. Each :meth:`RouteLocalizer.update` prepares the new frame, compares
+it with every reference (one row of the difference matrix, in the compiled core), enhances that
+row on its own (the causal offset needs no other frame), and searches the trajectories that *end*
+at this frame. Its results are bit-identical to the batch computation
+``match_prepared(refs, queries, mode="causal")`` on the same frames.
+
+Cost per frame: ``n_ref * H * W`` byte comparisons plus ``n_ref * n_speeds * ds`` additions;
+memory: ``ds`` rows of ``n_ref`` float32 beyond the reference images.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Optional, Union
+
+import numpy as np
+
+from .. import _core
+from .._validate import shift_list, thread_count, uint8_array
+from ..params import PreparationParams
+from .params import RouteParams, resolve_params
+from .pipeline import TraverseInput, _as_frames, _divisor
+from .preparation import RoutePreparer
+
+__all__ = ["RouteLocalizer", "RouteUpdate"]
+
+
+@dataclass(frozen=True)
+class RouteUpdate:
+    """The localizer's answer for one frame.
+
+    Attributes:
+        index: 0-based position of this frame in the query stream (since the last reset).
+        ref: the matched reference (0-based), or None until ``ds`` frames have been seen.
+        score: uniqueness ratio, lower = more confident (NaN while ``ref`` is None).
+    """
+
+    index: int
+    ref: Optional[int]
+    score: float
+
+    @property
+    def matched(self) -> bool:
+        """True when a match is reported."""
+        return self.ref is not None
+
+    def accepted(self, threshold: float) -> bool:
+        """True when matched with ``score <= threshold`` (a threshold from :mod:`evaluation`)."""
+        return self.ref is not None and not math.isnan(self.score) and self.score <= threshold
+
+
+class RouteLocalizer:
+    """Streaming route localizer (causal SeqSLAM).
+
+    Example::
+
+        localizer = nightloc.RouteLocalizer(nightloc.load_traverse("day_route"), preset="openseqslam")
+        for frame in camera:
+            update = localizer.update(frame)
+            if update.accepted(0.8):
+                print(update.index, "->", update.ref)
+
+    Args:
+        reference: the reference route: a :class:`~nightloc.Traverse`, a path, frames, or, with
+            ``prepared=True``, an ``(N, H, W)`` uint8 stack of prepared images.
+        params: :class:`RouteParams` or a preset name; ``mode`` is always ``"causal"`` here.
+        preset: a preset name (alternative to ``params``).
+        preparation: :class:`PreparationParams` for the ``"nightloc"`` preparation.
+        prepared: the reference is already prepared.
+        threads: worker threads for each frame (None: all cores).
+        channel_order: colour order of the frames given, ``"bgr"`` or ``"rgb"``.
+    """
+
+    def __init__(
+        self,
+        reference: TraverseInput,
+        params: Union[RouteParams, str, None] = None,
+        *,
+        preset: Optional[str] = None,
+        preparation: Optional[PreparationParams] = None,
+        prepared: bool = False,
+        threads: Optional[int] = None,
+        channel_order: str = "bgr",
+    ):
+        if params is not None and preset is not None:
+            raise TypeError("give params or preset, not both")
+        chosen = resolve_params(preset if preset is not None else params)
+        self._params = dataclasses.replace(chosen, mode="causal")
+        self._preparer = RoutePreparer(self._params, preparation, channel_order)
+        if prepared:
+            refs = uint8_array(reference, 3, "reference")
+        else:
+            refs = self._preparer(_as_frames(reference, "reference", 1))
+            if refs.ndim != 3:
+                raise ValueError("the reference route must hold several frames, not a single image")
+        n_refs = refs.shape[0]
+        needed = 2 * self._params.uniqueness_radius + 2
+        if n_refs < needed:
+            raise ValueError(
+                f"the reference route has {n_refs} frames; a uniqueness window of +-{self._params.uniqueness_radius} "
+                f"needs at least {needed}"
+            )
+        if n_refs < 2:
+            raise ValueError("the reference route needs at least 2 frames")
+        self._refs = np.ascontiguousarray(refs)
+        self._shifts = shift_list(self._params.shifts, refs.shape[2])
+        self._divisor = _divisor(self._params, self._refs)
+        self._threads = thread_count(threads)
+        self._window = np.zeros((self._params.ds, n_refs), dtype=np.float32)
+        self._row = np.empty((1, n_refs), dtype=np.float32)
+        self._seen = 0
+
+    @property
+    def params(self) -> RouteParams:
+        """The parameters in use (``mode="causal"``)."""
+        return self._params
+
+    @property
+    def references(self) -> np.ndarray:
+        """``(N, H, W)`` uint8 prepared reference images."""
+        return self._refs
+
+    @property
+    def frames_seen(self) -> int:
+        """Frames given to :meth:`update` since the last :meth:`reset`."""
+        return self._seen
+
+    def reset(self) -> None:
+        """Forgets the frames seen (e.g. after the robot was moved)."""
+        self._seen = 0
+        self._window.fill(0.0)
+
+    def prepare(self, frame: np.ndarray) -> np.ndarray:
+        """The prepared ``(H, W)`` uint8 image of one camera frame."""
+        return self._preparer(frame)
+
+    def update(self, frame: np.ndarray, prepared: bool = False) -> RouteUpdate:
+        """Adds one frame; returns the match of this frame once ``ds`` frames exist.
+
+        Args:
+            frame: a camera frame (grey ``(H, W)`` or BGR ``(H, W, 3)``), or with
+                ``prepared=True`` an ``(H, W)`` uint8 image prepared like the references.
+        """
+        image = uint8_array(frame, 2, "frame") if prepared else self.prepare(frame)
+        if image.shape != self._refs.shape[1:]:
+            raise ValueError(
+                f"the prepared frame is {image.shape[0]}x{image.shape[1]} but the references are "
+                f"{self._refs.shape[1]}x{self._refs.shape[2]} (height x width)"
+            )
+        p = self._params
+        _core.difference_matrix_into(
+            np.ascontiguousarray(image)[np.newaxis], self._refs, self._shifts, self._threads, self._divisor, self._row
+        )
+        # Oldest row first: shift the window up by one and enhance the new row into the last slot.
+        self._window[:-1] = self._window[1:]
+        _core.enhance_contrast(self._row, p.enhance_radius, "bound", 1, self._window[-1:])
+        index = self._seen
+        self._seen += 1
+        if self._seen < p.ds:
+            return RouteUpdate(index=index, ref=None, score=math.nan)
+        refs, scores = _core.trajectory_search(
+            self._window, p.ds, p.vmin, p.vmax, p.uniqueness_radius, True, p.ds - 1, p.ds, self._threads
+        )
+        return RouteUpdate(index=index, ref=int(refs[p.ds - 1]), score=float(scores[p.ds - 1]))
