@@ -25,6 +25,9 @@ from .matching import (
     shifts_to_headings,
 )
 from .simd import available_simd_backends, set_simd_backend, simd_backend, use_simd_backend
+from .params import PreparationParams, load_params, save_params
+from .preparation import Preparer, prepare
+from .reference_map import ReferenceMap
 from .traverse import Traverse, load_traverse, save_traverse
 
 __all__ = [
@@ -47,4 +50,10 @@ __all__ = [
     "Traverse",
     "load_traverse",
     "save_traverse",
+    "PreparationParams",
+    "load_params",
+    "save_params",
+    "Preparer",
+    "prepare",
+    "ReferenceMap",
 ]

@@ -19,6 +19,7 @@ from . import __version__
 COMMAND_MODULES = (
     "nightloc.commands.demo",
     "nightloc.commands.info",
+    "nightloc.commands.build_map",
 )
 
 

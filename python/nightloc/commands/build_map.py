@@ -1,0 +1,51 @@
+"""``nightloc build-map TRAVERSE OUT.map``: prepare a traverse into a reference map file."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from ..params import PreparationParams, load_params
+from ..reference_map import ReferenceMap
+from ..traverse import load_traverse
+
+
+def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+    parser = subparsers.add_parser(
+        "build-map",
+        help="prepare a traverse (folder or video + poses) into a reference map file",
+        description=(
+            "Reads TRAVERSE (a folder with images/ and poses.csv, or a video with --poses), prepares "
+            "every frame (crop, greyscale, equalization, 48x24 area downsample, patch normalization) "
+            "and writes one reference map file that nightloc.ReferenceMap.load reads on the robot."
+        ),
+    )
+    parser.add_argument("traverse", type=Path, help="traverse folder, or a video file")
+    parser.add_argument("output", type=Path, help="map file to write (e.g. garden.map)")
+    parser.add_argument("--params", type=Path, help="TOML file with a [preparation] table (default: paper values)")
+    parser.add_argument("--poses", type=Path, help="poses CSV (for a video: frame,x,y[,heading])")
+    parser.add_argument("--frame-step", type=int, default=1, help="keep every k-th frame (default 1)")
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    params = load_params(args.params, PreparationParams) if args.params is not None else PreparationParams()
+    traverse = load_traverse(args.traverse, frame_step=args.frame_step, poses=args.poses)
+    start = time.perf_counter()
+    reference_map = ReferenceMap.build(traverse, params)
+    elapsed = time.perf_counter() - start
+    written = reference_map.save(args.output)
+    kind = "360-degree panoramas" if params.wrap else "forward camera"
+    print(
+        f"{len(reference_map)} frames of {traverse.root} prepared to {params.width}x{params.height} "
+        f"({kind}, equalize={params.equalize}) in {elapsed:.2f} s ({len(reference_map) / max(elapsed, 1e-9):.0f} frames/s)"
+    )
+    extent_min = reference_map.positions.min(axis=0)
+    extent_max = reference_map.positions.max(axis=0)
+    print(
+        f"positions span x {extent_min[0]:.2f}..{extent_max[0]:.2f} m, y {extent_min[1]:.2f}..{extent_max[1]:.2f} m; "
+        f"headings {'yes' if reference_map.headings is not None else 'no'}"
+    )
+    print(f"wrote {written} ({written.stat().st_size / 1024:.1f} KiB)")
+    return 0

@@ -1,0 +1,292 @@
+"""Image preparation: camera frames to the small patch-normalized images the core matches.
+
+The steps (DESIGN.md, paper section III-A), each set by :class:`~nightloc.params.PreparationParams`:
+
+1. **crop** (pixels or fractions of the frame, e.g. to remove the robot or the lens mount);
+2. **greyscale** from BGR, RGB (``channel_order``), BGRA or grey; 8- or 16-bit;
+3. **histogram equalization** of the full-resolution grey image: ``cv2.equalizeHist``
+   (``"global"``), CLAHE (``"clahe"``) or none;
+4. **area downsample** to ``width x height`` (48x24): every output pixel is the exact mean of the
+   input area it covers, rounded to the nearest grey level (``cv2.INTER_AREA`` semantics;
+   non-integer factors go through an integral image, ~5x faster than ``cv2.resize`` there);
+5. **patch normalization**, eq. (1), by the compiled core (:func:`nightloc.patch_normalize`).
+
+16-bit frames: ``"global"`` equalization maps the 65 536 grey levels straight to 8 bits (the
+same formula as ``cv2.equalizeHist``); ``"clahe"`` first stretches the frame's own min..max range
+to 8 bits; ``"none"`` scales by 255/65535 after downsampling.
+
+Stacks are prepared one frame at a time, so preparing a traverse of thousands of full-size
+frames holds only a few of them in memory (:meth:`Traverse.frames` reads ahead a few frames).
+"""
+
+from __future__ import annotations
+
+from typing import Dict, Iterable, Iterator, Optional, Tuple, Union
+
+import cv2
+import numpy as np
+
+from .matching import patch_normalize
+from .params import PreparationParams
+from .traverse import Traverse
+
+__all__ = ["Preparer", "prepare", "area_downsample", "equalize_hist16"]
+
+ImageInput = Union[np.ndarray, Iterable[np.ndarray], Traverse]
+
+_GREY_CODES = {
+    ("bgr", 3): cv2.COLOR_BGR2GRAY,
+    ("rgb", 3): cv2.COLOR_RGB2GRAY,
+    ("bgr", 4): cv2.COLOR_BGRA2GRAY,
+    ("rgb", 4): cv2.COLOR_RGBA2GRAY,
+}
+
+
+# --------------------------------------------------------------------------------------------
+# building blocks
+
+
+def equalize_hist16(image: np.ndarray) -> np.ndarray:
+    """Histogram equalization of a uint16 grey image to uint8, with ``cv2.equalizeHist``'s formula.
+
+    ``lut[v] = round(255 * (cdf(v) - n_min) / (n - n_min))`` where ``n_min`` is the count of the
+    darkest grey level present (which maps to 0); a flat image keeps its level (saturated to 255).
+    """
+    histogram = np.bincount(image.reshape(-1), minlength=65536)
+    present = np.flatnonzero(histogram)
+    darkest = int(present[0])
+    total = image.size
+    if histogram[darkest] == total:
+        return np.full(image.shape, min(darkest, 255), dtype=np.uint8)
+    scale = np.float32(255.0 / (total - histogram[darkest]))
+    cumulative = np.cumsum(histogram) - histogram[darkest]
+    lut = np.rint(cumulative.astype(np.float32) * scale)
+    lut[:darkest] = 0
+    lut = np.clip(lut, 0, 255).astype(np.uint8)
+    return lut[image]
+
+
+class _AreaSampler:
+    """Where the output cell edges fall in the integral image of one input size.
+
+    The integral image of a piecewise-constant image is bilinear inside each pixel, so the exact
+    area sum over a cell with fractional edges is a bilinear interpolation of the integral image
+    at the cell's four corners.
+    """
+
+    __slots__ = ("rows", "columns", "fy", "fx", "n_y", "n_x", "factor")
+
+    def __init__(self, in_h: int, in_w: int, out_h: int, out_w: int):
+        ys = np.arange(out_h + 1, dtype=np.float64) * (in_h / out_h)
+        xs = np.arange(out_w + 1, dtype=np.float64) * (in_w / out_w)
+        y0 = np.minimum(np.floor(ys).astype(np.intp), in_h - 1)
+        x0 = np.minimum(np.floor(xs).astype(np.intp), in_w - 1)
+        self.fy = (ys - y0)[:, None]
+        self.fx = xs - x0
+        self.rows = np.concatenate([y0, y0 + 1])[:, None]
+        self.columns = np.concatenate([x0, x0 + 1])[None, :]
+        self.n_y, self.n_x = out_h + 1, out_w + 1
+        self.factor = (out_h * out_w) / (in_h * in_w)
+
+    def means(self, integral: np.ndarray) -> np.ndarray:
+        corners = integral[self.rows, self.columns].astype(np.float64)  # (2 n_y, 2 n_x)
+        rows = corners[: self.n_y] * (1.0 - self.fy) + corners[self.n_y :] * self.fy
+        edges = rows[:, : self.n_x] * (1.0 - self.fx) + rows[:, self.n_x :] * self.fx
+        box = edges[1:, 1:] - edges[:-1, 1:] - edges[1:, :-1] + edges[:-1, :-1]
+        return box * self.factor
+
+
+_SAMPLERS: Dict[Tuple[int, int, int, int], _AreaSampler] = {}
+#: Below this many input pixels cv2.resize is faster than the integral image (fixed numpy cost).
+_INTEGRAL_MIN_PIXELS = 65536
+
+
+def area_downsample(image: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Area-average a grey uint8/uint16 image to ``(height, width)``, same dtype.
+
+    Each output pixel is the mean of the input area it covers (fractional pixels weighted by
+    their covered fraction), rounded to nearest. Integer factors, upsampling and small inputs
+    use ``cv2.resize(..., INTER_AREA)``; other factors an integral image (exact sums), several
+    times faster than ``cv2.resize`` for camera-size frames.
+    """
+    in_h, in_w = image.shape
+    if (in_h, in_w) == (height, width):
+        return np.ascontiguousarray(image)
+    small = in_h * in_w < _INTEGRAL_MIN_PIXELS
+    if small or in_h < height or in_w < width or (in_h % height == 0 and in_w % width == 0):
+        return cv2.resize(image, (width, height), interpolation=cv2.INTER_AREA)
+    key = (in_h, in_w, height, width)
+    sampler = _SAMPLERS.get(key)
+    if sampler is None:
+        if len(_SAMPLERS) > 64:
+            _SAMPLERS.clear()
+        sampler = _SAMPLERS[key] = _AreaSampler(in_h, in_w, height, width)
+    exact_int32 = image.dtype == np.uint8 and in_h * in_w * 255 < 2**31
+    integral = cv2.integral(image, sdepth=cv2.CV_32S if exact_int32 else cv2.CV_64F)
+    means = sampler.means(integral)
+    top = 255 if image.dtype == np.uint8 else 65535
+    return np.clip(np.rint(means), 0, top).astype(image.dtype)
+
+
+def _crop_pixels(value: Union[int, float], size: int) -> int:
+    return int(round(value * size)) if isinstance(value, float) else int(value)
+
+
+def _checked_frame(image: object, name: str) -> np.ndarray:
+    if not isinstance(image, np.ndarray):
+        raise TypeError(f"{name} must be a numpy.ndarray (uint8 or uint16), got {type(image).__name__}")
+    if image.dtype not in (np.uint8, np.uint16):
+        raise TypeError(
+            f"{name} has dtype {image.dtype}; prepare takes uint8 or uint16 frames (floats in [0, 1]: "
+            f"numpy.rint(x * 255).astype(numpy.uint8))"
+        )
+    if image.ndim == 3 and image.shape[2] == 1:
+        image = image[:, :, 0]
+    if not (image.ndim == 2 or (image.ndim == 3 and image.shape[2] in (3, 4))):
+        raise ValueError(
+            f"{name} must be grey (H, W) or colour (H, W, 3|4), got shape {image.shape}; "
+            f"a stack is (N, H, W) or (N, H, W, 3)"
+        )
+    if 0 in image.shape:
+        raise ValueError(f"{name} is empty (shape {image.shape})")
+    return image
+
+
+# --------------------------------------------------------------------------------------------
+# the preparer
+
+
+class Preparer:
+    """Prepares frames with fixed :class:`PreparationParams`; callable like :func:`prepare`.
+
+    Example::
+
+        preparer = nightloc.Preparer(nightloc.PreparationParams(equalize="clahe"))
+        refs = preparer(traverse)          # (N, 24, 48) uint8
+        query = preparer(camera_frame)     # (24, 48) uint8
+    """
+
+    def __init__(self, params: Optional[PreparationParams] = None):
+        if params is None:
+            params = PreparationParams()
+        if not isinstance(params, PreparationParams):
+            raise TypeError(f"params must be a PreparationParams, got {type(params).__name__}")
+        self._params = params
+
+    @property
+    def params(self) -> PreparationParams:
+        """The parameters this preparer applies."""
+        return self._params
+
+    def __repr__(self) -> str:
+        return f"Preparer({self._params!r})"
+
+    # --- steps 1-4 on one frame
+
+    def crop(self, image: np.ndarray) -> np.ndarray:
+        """Step 1: the frame without its cropped borders (a view, no copy)."""
+        h, w = image.shape[:2]
+        top, bottom, left, right = self._params.crop
+        t, b = _crop_pixels(top, h), _crop_pixels(bottom, h)
+        l, r = _crop_pixels(left, w), _crop_pixels(right, w)
+        if t + b >= h or l + r >= w:
+            raise ValueError(
+                f"crop (top, bottom, left, right) = {self._params.crop} removes the whole {h}x{w} frame "
+                f"({t}+{b} rows, {l}+{r} columns)"
+            )
+        return image[t : h - b, l : w - r]
+
+    def grey(self, image: np.ndarray) -> np.ndarray:
+        """Step 2: grey (H, W) of the same dtype."""
+        if image.ndim == 2:
+            return image
+        return cv2.cvtColor(image, _GREY_CODES[(self._params.channel_order, image.shape[2])])
+
+    def equalize(self, grey: np.ndarray) -> np.ndarray:
+        """Step 3: histogram equalization (uint8 out), or the input unchanged for ``"none"``."""
+        mode = self._params.equalize
+        if mode == "none":
+            return grey
+        if grey.dtype == np.uint16:
+            if mode == "global":
+                return equalize_hist16(grey)
+            low, high = int(grey.min()), int(grey.max())
+            span = max(high - low, 1)
+            grey = cv2.convertScaleAbs(grey, alpha=255.0 / span, beta=-low * 255.0 / span)
+        if mode == "global":
+            return cv2.equalizeHist(grey)
+        clahe = cv2.createCLAHE(clipLimit=self._params.clahe_clip_limit, tileGridSize=self._params.clahe_tiles)
+        return clahe.apply(np.ascontiguousarray(grey))
+
+    def downsample(self, image: np.ndarray) -> np.ndarray:
+        """Steps 1-4 on one frame: the ``(height, width)`` uint8 grey image, not yet normalized."""
+        frame = _checked_frame(image, "image")
+        small = area_downsample(self.equalize(self.grey(self.crop(frame))), self._params.width, self._params.height)
+        if small.dtype == np.uint16:
+            small = np.rint(small * (255.0 / 65535.0)).astype(np.uint8)
+        return small
+
+    def normalize(self, small: np.ndarray) -> np.ndarray:
+        """Step 5 on ``(H, W)`` or ``(N, H, W)`` uint8: patch normalization, or a copy when off."""
+        p = self._params
+        if not p.patch_normalize:
+            return np.ascontiguousarray(small)
+        return patch_normalize(np.ascontiguousarray(small), radius=p.radius, wrap=p.wrap, scale=p.scale)
+
+    # --- whole inputs
+
+    def iter_downsampled(self, images: ImageInput) -> Iterator[np.ndarray]:
+        """Yields steps 1-4 of each frame of a stack, an iterable or a :class:`Traverse`."""
+        if isinstance(images, Traverse):
+            for _, frame in images.frames(batch_size=4, progress_desc=f"preparing {images.root.name}"):
+                yield self.downsample(frame)
+            return
+        if isinstance(images, np.ndarray):
+            if images.ndim not in (3, 4):
+                raise ValueError(f"a stack must be (N, H, W) or (N, H, W, 3), got shape {images.shape}")
+            source: Iterable[np.ndarray] = images
+        elif isinstance(images, (str, bytes)) or not isinstance(images, Iterable):
+            raise TypeError(
+                f"images must be a numpy array, an iterable of arrays or a Traverse, got {type(images).__name__} "
+                f"(load a folder with nightloc.load_traverse)"
+            )
+        else:
+            source = images
+        for index, frame in enumerate(source):
+            try:
+                yield self.downsample(frame)
+            except (TypeError, ValueError) as error:
+                raise type(error)(f"images[{index}]: {error}") from None
+
+    def prepare(self, images: ImageInput) -> np.ndarray:
+        """Prepares one frame or many.
+
+        Args:
+            images: one frame (grey ``(H, W)`` or colour ``(H, W, 3|4)``, uint8 or uint16), a stack
+                ``(N, H, W)`` / ``(N, H, W, 3|4)``, any iterable of frames (lists, generators; the
+                frames may differ in size), or a :class:`Traverse` (read lazily with a progress bar).
+
+        Returns:
+            ``(height, width)`` uint8 for one frame, ``(N, height, width)`` uint8 otherwise.
+        """
+        if isinstance(images, np.ndarray) and (images.ndim == 2 or (images.ndim == 3 and images.shape[2] in (3, 4))):
+            return self.normalize(self.downsample(images))
+        smalls = list(self.iter_downsampled(images))
+        if not smalls:
+            raise ValueError("images is empty: nothing to prepare")
+        return self.normalize(np.stack(smalls))
+
+    __call__ = prepare
+
+
+def prepare(images: ImageInput, params: Optional[PreparationParams] = None) -> np.ndarray:
+    """Prepares frames for matching with ``params`` (default: the paper's, Table II).
+
+    Crop, greyscale, histogram equalization, area downsample to 48x24, patch normalization; see
+    :class:`Preparer` and :mod:`nightloc.preparation`.
+
+    Returns:
+        ``(height, width)`` uint8 for one frame, ``(N, height, width)`` uint8 for a stack, an
+        iterable of frames or a :class:`Traverse`.
+    """
+    return Preparer(params).prepare(images)
