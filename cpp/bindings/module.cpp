@@ -169,6 +169,42 @@ py::tuple difference_matrix_sums(const py::array& queries_in, const py::array& r
     return py::make_tuple(std::move(sums), std::move(best_shifts));
 }
 
+// One query against all references: (best index, float32 scores, int32 shifts, float64 headings),
+// all computed here so that a per-frame call costs one crossing of the binding.
+py::tuple match(const py::array& query_in, const py::array& refs_in, const py::array& shifts_in, int threads) {
+    const U8Array query = checked_u8(query_in, 2, "query");
+    const U8Array refs = checked_u8(refs_in, 3, "refs");
+    require_nonempty(refs, "refs");
+    require_same_image_size(query, 0, refs, "query");
+    const std::vector<std::int32_t> shifts = checked_shifts(shifts_in);
+    const auto n = static_cast<std::size_t>(refs.shape(0));
+    const auto h = static_cast<std::size_t>(refs.shape(1));
+    const auto w = static_cast<std::size_t>(refs.shape(2));
+    py::array_t<float> scores(refs.shape(0));
+    py::array_t<std::int32_t> best_shifts(refs.shape(0));
+    py::array_t<double> headings(refs.shape(0));
+    const std::uint8_t* q = query.data();
+    const std::uint8_t* r = refs.data();
+    float* s = scores.mutable_data();
+    std::int32_t* b = best_shifts.mutable_data();
+    double* hd = headings.mutable_data();
+    std::size_t best = 0;
+    {
+        py::gil_scoped_release release;
+        std::vector<std::uint32_t> sums(n);
+        nightloc::difference_matrix_sums(q, 1, r, n, h, w, shifts.data(), shifts.size(), sums.data(), b, threads);
+        const double pixels = static_cast<double>(h * w);
+        const double two_pi = 6.283185307179586476925286766559;
+        for (std::size_t i = 0; i < n; ++i) {
+            s[i] = nightloc::score_from_sum(sums[i], pixels);
+            if (sums[i] < sums[best]) best = i;  // first minimum: ties go to the lowest index
+            const double angle = two_pi * static_cast<double>(b[i]) / static_cast<double>(w);
+            hd[i] = angle > 0.5 * two_pi ? angle - two_pi : angle;  // (-pi, pi]
+        }
+    }
+    return py::make_tuple(best, std::move(scores), std::move(best_shifts), std::move(headings));
+}
+
 }  // namespace
 
 void register_route(py::module_& m);  // register_route.cpp
@@ -211,6 +247,7 @@ PYBIND11_MODULE(_core, m) {
           py::arg("divisor") = 0.0);
     m.def("difference_matrix", &difference_matrix, py::arg("queries"), py::arg("refs"), py::arg("shifts"),
           py::arg("threads"), py::arg("divisor") = 0.0);
+    m.def("match", &match, py::arg("query"), py::arg("refs"), py::arg("shifts"), py::arg("threads"));
     m.def("difference_matrix_sums", &difference_matrix_sums, py::arg("queries"), py::arg("refs"), py::arg("shifts"),
           py::arg("threads"));
     register_route(m);

@@ -32,6 +32,12 @@ def difference_matrix(
     threads: int,
     divisor: float = 0.0,
 ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.int32]]: ...
+def match(
+    query: npt.NDArray[np.uint8],
+    refs: npt.NDArray[np.uint8],
+    shifts: npt.NDArray[np.int32],
+    threads: int,
+) -> Tuple[int, npt.NDArray[np.float32], npt.NDArray[np.int32], npt.NDArray[np.float64]]: ...
 def difference_matrix_sums(
     queries: npt.NDArray[np.uint8],
     refs: npt.NDArray[np.uint8],

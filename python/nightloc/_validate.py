@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 from typing import Optional, Sequence, Union
 
@@ -60,10 +61,17 @@ def same_image_size(a: np.ndarray, b: np.ndarray, a_name: str, b_name: str) -> N
         )
 
 
+@functools.lru_cache(maxsize=64)
+def _all_shifts(width: int) -> np.ndarray:
+    shifts = np.arange(width, dtype=np.int32)
+    shifts.setflags(write=False)
+    return shifts
+
+
 def shift_list(shifts: ShiftSpec, width: int) -> np.ndarray:
     """The int32 shift list for ``shifts`` (None: all 0..width-1), checked for range and repeats."""
     if shifts is None:
-        return np.arange(width, dtype=np.int32)
+        return _all_shifts(width)
     array = np.asarray(shifts)
     if array.ndim == 0:
         array = array.reshape(1)
@@ -78,13 +86,19 @@ def shift_list(shifts: ShiftSpec, width: int) -> np.ndarray:
     return np.ascontiguousarray(array, dtype=np.int32)
 
 
+@functools.lru_cache(maxsize=1)
+def _usable_cores() -> int:
+    """Cores this process may run on (looked up once: it is a system call)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
 def thread_count(threads: Optional[int]) -> int:
     """``threads`` checked, or every core this process may run on when None."""
     if threads is None:
-        try:
-            return max(1, len(os.sched_getaffinity(0)))
-        except AttributeError:  # not on Linux
-            return max(1, os.cpu_count() or 1)
+        return _usable_cores()
     if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)):
         raise TypeError(f"threads must be an int or None, got {type(threads).__name__}")
     if threads < 1:

@@ -163,17 +163,8 @@ def match(query: np.ndarray, refs: np.ndarray, shifts: ShiftSpec = None, threads
     q = uint8_array(query, 2, "query")
     r = uint8_array(refs, 3, "refs")
     same_image_size(q, r, "query", "refs")
-    shift_values = shift_list(shifts, r.shape[2])
-    sums, best_shifts = _core.difference_matrix_sums(q[np.newaxis], r, shift_values, thread_count(threads))
-    sums, best_shifts = sums[0], best_shifts[0]
-    scores = (sums.astype(np.float64) / float(q.size)).astype(np.float32)
-    return MatchResult(
-        index=int(np.argmin(sums)),
-        scores=scores,
-        shifts=best_shifts,
-        headings=shifts_to_headings(best_shifts, r.shape[2]),
-        width=int(r.shape[2]),
-    )
+    index, scores, best_shifts, headings = _core.match(q, r, shift_list(shifts, r.shape[2]), thread_count(threads))
+    return MatchResult(index=index, scores=scores, shifts=best_shifts, headings=headings, width=int(r.shape[2]))
 
 
 def difference_matrix(
