@@ -64,9 +64,10 @@ def velocity_offsets(ds: int, vmin: float, vmax: float, steps: int) -> np.ndarra
 
 def _nanmin_first(values: np.ndarray) -> tuple:
     """(min, first index) ignoring NaN; all NaN -> (nan, 0), like Octave's min."""
-    if np.all(np.isnan(values)):
+    present = np.flatnonzero(~np.isnan(values))
+    if present.size == 0:
         return math.nan, 0
-    index = int(np.nanargmin(values))
+    index = int(present[np.argmin(values[present])])  # (numpy's nanargmin would treat NaN as +inf)
     return float(values[index]), index
 
 
@@ -100,7 +101,7 @@ def find_matches_centred(dd: np.ndarray, ds: int = 10, vmin: float = 0.8, vmax: 
                 rows = np.minimum(starts + off[k], n_ref)
                 total = (total + padded[columns[k], rows]).astype(F32)
             per_velocity[vi] = total
-        anchor = np.array([_nanmin_first(per_velocity[:, s])[0] for s in starts], F32)
+        anchor = np.fmin.reduce(per_velocity, axis=0)  # min over speeds, NaN ignored
         index, ratio = _decide(anchor, rwindow // 2)
         refs[q] = min(index + ds // 2, n_ref - 1)
         scores[q] = ratio
@@ -125,8 +126,33 @@ def find_matches_causal(dd: np.ndarray, ds: int = 10, vmin: float = 0.8, vmax: f
                 values = np.where(rows >= 0, dd[q - j, np.maximum(rows, 0)], np.inf).astype(F32)
                 total = (total + values).astype(F32)
             per_velocity[vi] = total
-        anchor = np.array([_nanmin_first(per_velocity[:, e])[0] for e in ends], F32)
+        anchor = np.fmin.reduce(per_velocity, axis=0)  # min over speeds, NaN ignored
         index, ratio = _decide(anchor, rwindow // 2)
         refs[q] = index
         scores[q] = ratio
     return refs, scores
+
+
+def synthetic_route(n_ref: int, n_query: int, speed: float, seed: int, height: int = 16, width: int = 32,
+                    noise: float = 12.0):
+    """A 1D route for tests: reference frames of a smoothly changing world (one new random
+    texture every frame, blended with its neighbours), and a query traverse of the same route at
+    ``speed`` reference frames per query frame, darker, with sensor noise.
+
+    Returns (refs uint8 (n_ref, h, w), queries uint8 (n_query, h, w), truth int64 (n_query,):
+    the reference frame each query frame shows, -1 past the end of the route).
+    """
+    rng = np.random.default_rng(seed)
+    places = rng.uniform(0, 255, size=(n_ref + 2, height, width))
+    kernel = np.array([0.25, 0.5, 0.25])
+    world = kernel[0] * places[:-2] + kernel[1] * places[1:-1] + kernel[2] * places[2:]
+    refs = np.clip(world, 0, 255).astype(np.uint8)
+    position = np.arange(n_query) * speed
+    truth = np.rint(position).astype(np.int64)
+    truth[truth >= n_ref] = -1
+    queries = np.empty((n_query, height, width), np.uint8)
+    for q, ref in enumerate(truth):
+        source = world[ref] if ref >= 0 else rng.uniform(0, 255, size=(height, width))
+        darker = 0.6 * source + 20 + rng.normal(0, noise, size=source.shape)
+        queries[q] = np.clip(darker, 0, 255).astype(np.uint8)
+    return refs, queries, truth

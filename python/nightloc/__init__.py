@@ -29,6 +29,8 @@ from .params import PreparationParams, load_params, save_params
 from .preparation import Preparer, prepare
 from .reference_map import ReferenceMap
 from .traverse import Traverse, load_traverse, save_traverse
+from . import route
+from .route import RouteLocalizer, RouteParams
 
 __all__ = [
     "__version__",
@@ -56,4 +58,7 @@ __all__ = [
     "Preparer",
     "prepare",
     "ReferenceMap",
+    "route",
+    "RouteLocalizer",
+    "RouteParams",
 ]

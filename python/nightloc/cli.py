@@ -20,6 +20,7 @@ COMMAND_MODULES = (
     "nightloc.commands.demo",
     "nightloc.commands.info",
     "nightloc.commands.build_map",
+    "nightloc.commands.route",
 )
 
 

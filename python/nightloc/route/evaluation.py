@@ -235,6 +235,7 @@ class RouteEvaluation:
         recall_at_100: recall at 100 % precision.
         threshold_at_100: the largest score threshold with 100 % precision (-inf if none).
         best_f1, best_f1_precision, best_f1_recall, best_f1_threshold: the best F1 point.
+        true_refs: ``(n_query,)`` int64 true reference per query (:meth:`GroundTruth.true_refs`).
     """
 
     curve: PRCurve
@@ -246,6 +247,7 @@ class RouteEvaluation:
     best_f1_precision: float
     best_f1_recall: float
     best_f1_threshold: float
+    true_refs: np.ndarray
 
     def summary(self) -> str:
         """One line: recall at 100 % precision and best F1."""
@@ -274,4 +276,5 @@ def evaluate_matches(refs: np.ndarray, scores: np.ndarray, truth: GroundTruth) -
         best_f1_precision=precision,
         best_f1_recall=recall,
         best_f1_threshold=threshold,
+        true_refs=truth.true_refs(),
     )

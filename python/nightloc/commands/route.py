@@ -1,0 +1,277 @@
+"""``nightloc route``: 1D SeqSLAM between two traverses of the same route.
+
+    nightloc route REFERENCE QUERY --out OUT [--preset openseqslam] [--ds 10] [--vmin 0.8 --vmax 1.2]
+                   [--mode centred|causal] [--tolerance 2] [--ground-truth auto|names|frames|positions|none]
+
+REFERENCE and QUERY are traverse folders (``images/`` with an optional ``poses.csv``, or a
+folder of images; order = sorted file names) or videos (``--frame-step``). Writes, atomically:
+
+* ``OUT/matches.csv``: ``query,ref,score`` (0-based positions in the traverse order; ``ref`` and
+  ``score`` empty where undefined; lower score = more confident);
+* ``OUT/pr.csv``: ``threshold,precision,recall`` when ground truth is available;
+* ``OUT/summary.json``: parameters, sizes, timings, recall at 100 % precision, best F1;
+* figures ``difference_matrix.png`` and, with ground truth, ``pr_curve.png`` and
+  ``correspondence.png`` (the paper's Figure 23) unless ``--no-figures``.
+
+Ground truth (``--ground-truth auto``): positions when both traverses have poses (tolerance in
+metres, default 3 as in the paper's creek experiment); otherwise, when the two traverses name
+their frames alike (e.g. Nordland's ``images-NNNNN.png`` in both seasons), the reference with the
+query's file name (tolerance in frames, default 2); otherwise none. ``frames`` pairs query i with
+reference i.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import math
+import os
+import time
+import uuid
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from ..params import PreparationParams, load_params_file
+from ..route.evaluation import GroundTruth, RouteEvaluation, evaluate_matches
+from ..route.params import PRESETS, RouteParams, resolve_params
+from ..route.pipeline import RouteResult, match_prepared
+from ..route.preparation import RoutePreparer
+from ..traverse import Traverse, load_traverse
+
+#: Default tolerances: frames for frame correspondence, metres for positions.
+DEFAULT_FRAME_TOLERANCE = 2
+DEFAULT_METRE_TOLERANCE = 3.0
+
+
+def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+    parser = subparsers.add_parser(
+        "route",
+        help="1D SeqSLAM route matching between two traverses (OpenSeqSLAM-exact preset)",
+        description="Matches every frame of QUERY to a frame of REFERENCE with sequence matching "
+        "(difference matrix, contrast enhancement, trajectory search) and writes OUT/matches.csv, "
+        "OUT/pr.csv (with ground truth), OUT/summary.json and figures.",
+    )
+    parser.add_argument("reference", help="reference traverse: folder or video")
+    parser.add_argument("query", help="query traverse: folder or video")
+    parser.add_argument("--out", required=True, help="output folder (created if missing)")
+    parser.add_argument("--preset", choices=sorted(PRESETS), default=None,
+                        help="parameter preset (default nightloc; openseqslam reproduces OpenSeqSLAM exactly)")
+    parser.add_argument("--params", help="TOML file with [route] and/or [preparation] tables")
+    parser.add_argument("--ds", type=int, help="sequence length in frames (OpenSeqSLAM default 10)")
+    parser.add_argument("--vmin", type=float, help="slowest speed, reference frames per query frame (0.8)")
+    parser.add_argument("--vmax", type=float, help="fastest speed (1.2)")
+    parser.add_argument("--mode", choices=["centred", "causal"], help="centred (OpenSeqSLAM) or causal (online)")
+    parser.add_argument("--circular-shifts", action="store_true", default=None,
+                        help="360-degree panoramas: search every column shift")
+    parser.add_argument("--tolerance", type=float,
+                        help=f"ground-truth tolerance: frames (default {DEFAULT_FRAME_TOLERANCE}) or metres "
+                        f"with positions (default {DEFAULT_METRE_TOLERANCE:g})")
+    parser.add_argument("--ground-truth", choices=["auto", "names", "frames", "positions", "none"], default="auto",
+                        help="how correct matches are known (default auto)")
+    parser.add_argument("--frame-step", type=int, default=1, help="keep every k-th frame of a video (default 1)")
+    parser.add_argument("--threads", type=int, help="worker threads (default all cores)")
+    parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
+    parser.set_defaults(run=run)
+
+
+# --------------------------------------------------------------------------------------------
+# parameters
+
+
+def route_params_from_args(args: argparse.Namespace) -> tuple:
+    """(RouteParams, PreparationParams or None) from --params, --preset and the overrides."""
+    route_params: Optional[RouteParams] = None
+    preparation: Optional[PreparationParams] = None
+    if args.params:
+        tables = load_params_file(args.params)
+        route_params = tables.get("route")
+        preparation = tables.get("preparation")
+    if args.preset is not None:
+        if route_params is not None:
+            raise ValueError(f"give --preset or a [route] table in {args.params}, not both")
+        route_params = PRESETS[args.preset]
+    params = resolve_params(
+        route_params,
+        ds=args.ds,
+        vmin=args.vmin,
+        vmax=args.vmax,
+        mode=args.mode,
+        circular_shifts=args.circular_shifts,
+    )
+    return params, preparation
+
+
+# --------------------------------------------------------------------------------------------
+# ground truth
+
+
+def ground_truth_for(
+    kind: str, reference: Traverse, query: Traverse, tolerance: Optional[float]
+) -> tuple:
+    """(GroundTruth or None, the kind used) for the two traverses."""
+    same_names = _name_correspondence(reference, query)
+    if kind == "auto":
+        if reference.has_poses and query.has_poses:
+            kind = "positions"
+        elif same_names is not None and (same_names >= 0).any():
+            kind = "names"
+        else:
+            return None, "none"
+    if kind == "none":
+        return None, "none"
+    if kind == "positions":
+        if not (reference.has_poses and query.has_poses):
+            raise ValueError("--ground-truth positions needs poses in both traverses (poses.csv or a video's CSV)")
+        metres = DEFAULT_METRE_TOLERANCE if tolerance is None else float(tolerance)
+        return GroundTruth.from_positions(query.positions, reference.positions, metres), "positions"
+    frames = DEFAULT_FRAME_TOLERANCE if tolerance is None else tolerance
+    if float(frames) != int(frames) or frames < 0:
+        raise ValueError(f"--tolerance must be a whole number of frames >= 0 for frame ground truth, got {frames}")
+    if kind == "names":
+        if same_names is None or not (same_names >= 0).any():
+            raise ValueError("--ground-truth names: no query frame has the file name of a reference frame")
+        return GroundTruth.from_frames(len(query), len(reference), int(frames), same_names), "names"
+    return GroundTruth.from_frames(len(query), len(reference), int(frames)), "frames"
+
+
+def _name_correspondence(reference: Traverse, query: Traverse) -> Optional[np.ndarray]:
+    if reference.is_video or query.is_video:
+        return None
+    index = {Path(name).name: i for i, name in enumerate(reference.names)}
+    return np.array([index.get(Path(name).name, -1) for name in query.names], dtype=np.int64)
+
+
+# --------------------------------------------------------------------------------------------
+# atomic output
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Writes ``text`` to ``path`` through a temporary file in the same folder and os.replace."""
+    temporary = path.parent / f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
+    handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # umask applies, as for open()
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
+            stream.write(text)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(temporary, path)
+    except BaseException:
+        try:
+            os.unlink(temporary)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def _number(value: float) -> str:
+    return "" if math.isnan(value) else repr(float(value))
+
+
+def matches_csv(result: RouteResult) -> str:
+    """``query,ref,score`` rows; ``ref`` and ``score`` empty where undefined."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["query", "ref", "score"])
+    for q in range(result.n_queries):
+        ref = int(result.refs[q])
+        writer.writerow([q, "" if ref < 0 else ref, "" if ref < 0 else _number(result.scores[q])])
+    return buffer.getvalue()
+
+
+def pr_csv(evaluation: RouteEvaluation) -> str:
+    """``threshold,precision,recall`` rows, thresholds ascending."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["threshold", "precision", "recall"])
+    curve = evaluation.curve
+    for t, p, r in zip(curve.thresholds, curve.precision, curve.recall):
+        writer.writerow([repr(float(t)), repr(float(p)), repr(float(r))])
+    return buffer.getvalue()
+
+
+# --------------------------------------------------------------------------------------------
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.frame_step < 1:
+        raise ValueError(f"--frame-step must be >= 1, got {args.frame_step}")
+    params, preparation = route_params_from_args(args)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} exists and is not a folder")
+    reference = load_traverse(args.reference, frame_step=args.frame_step)
+    query = load_traverse(args.query, frame_step=args.frame_step)
+    truth, truth_kind = ground_truth_for(args.ground_truth, reference, query, args.tolerance)
+
+    preparer = RoutePreparer(params, preparation)
+    start = time.perf_counter()
+    refs = preparer(reference)
+    queries = preparer(query)
+    preparation_s = time.perf_counter() - start
+    result = match_prepared(refs, queries, params, threads=args.threads, keep_difference=False)
+    result.timings["preparation"] = preparation_s
+    evaluation = evaluate_matches(result.refs, result.scores, truth) if truth is not None else None
+
+    out.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(out / "matches.csv", matches_csv(result))
+    if evaluation is not None:
+        write_text_atomic(out / "pr.csv", pr_csv(evaluation))
+    figures = []
+    if not args.no_figures:
+        from ..route.figures import save_route_figures
+
+        figures = [Path(p).name for p in save_route_figures(result, evaluation, out)]
+    summary = {
+        "reference": str(reference.root),
+        "query": str(query.root),
+        "n_refs": result.n_refs,
+        "n_queries": result.n_queries,
+        "n_matched": int(result.defined.sum()),
+        "params": {field: getattr(params, field) for field in params.__dataclass_fields__},
+        "preparation": None if preparer.preparation is None else {
+            field: getattr(preparer.preparation, field) for field in preparer.preparation.__dataclass_fields__
+        },
+        "timings_s": {key: round(value, 4) for key, value in result.timings.items()},
+        "ground_truth": truth_kind,
+        "tolerance": None if truth is None else truth.tolerance,
+        "figures": figures,
+    }
+    if evaluation is not None:
+        summary.update(
+            recall_at_100_precision=evaluation.recall_at_100,
+            threshold_at_100_precision=_finite_or_none(evaluation.threshold_at_100),
+            best_f1=evaluation.best_f1,
+            best_f1_precision=evaluation.best_f1_precision,
+            best_f1_recall=evaluation.best_f1_recall,
+            best_f1_threshold=_finite_or_none(evaluation.best_f1_threshold),
+        )
+    write_text_atomic(out / "summary.json", json.dumps(summary, indent=1, default=_json_default) + "\n")
+
+    compute = sum(result.timings[k] for k in ("difference", "enhancement", "search"))
+    print(
+        f"{result.n_queries} query frames against {result.n_refs} reference frames: {int(result.defined.sum())} "
+        f"matched ({params.mode}, ds {params.effective_ds}); matching {compute:.2f} s, "
+        f"reading and preparing {preparation_s:.2f} s"
+    )
+    if evaluation is not None:
+        unit = "m" if truth.kind == "positions" else "frames"
+        print(f"ground truth from {truth_kind} (+-{truth.tolerance:g} {unit}): {evaluation.summary()}")
+    else:
+        print("no ground truth: pr.csv not written")
+    print(f"wrote {out}/matches.csv" + (", pr.csv" if evaluation is not None else "") + ", summary.json"
+          + ("".join(f", {name}" for name in figures)))
+    return 0
+
+
+def _finite_or_none(value: float) -> Optional[float]:
+    return float(value) if math.isfinite(value) else None
+
+
+def _json_default(value: object) -> object:
+    if isinstance(value, (np.integer, np.floating)):
+        return value.item()
+    return str(value)
