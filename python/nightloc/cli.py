@@ -21,6 +21,7 @@ COMMAND_MODULES = (
     "nightloc.commands.info",
     "nightloc.commands.build_map",
     "nightloc.commands.route",
+    "nightloc.commands.synth",
 )
 
 

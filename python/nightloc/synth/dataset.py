@@ -1,0 +1,238 @@
+"""Writing the synthetic traverses to disk, and the cached default dataset.
+
+``make_dataset("garden", out_dir)`` renders every traverse of the world (see
+:mod:`nightloc.synth.paths`) and writes each with :func:`nightloc.save_traverse` as
+``out_dir/<traverse>/images/000000.png ... + poses.csv`` (header ``image,x,y,heading``), plus
+``out_dir/dataset.json`` describing the world (mapped area, lighting, camera, generator version).
+
+Determinism: every frame's sensor noise comes from its own generator seeded with
+``(seed, world, traverse, frame)``, so the same seed gives byte-identical images whatever the
+number of threads.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Dict, Iterator, List, Optional, Union
+
+import numpy as np
+
+from .._validate import thread_count
+from ..progress import progress
+from ..traverse import save_traverse
+from .lighting import Lighting, make_lighting
+from .paths import TraversePlan, plan_traverses
+from .render import Camera, render_panorama, render_radiance
+from .sensor import Exposure, metered_exposure
+from .world import WORLD_NAMES, World, build_world
+
+__all__ = [
+    "GENERATOR_VERSION",
+    "DEFAULT_SEED",
+    "DEFAULT_DARKNESS",
+    "make_dataset",
+    "default_dataset",
+    "default_cache_dir",
+    "SynthScene",
+]
+
+#: Bumped whenever the generator's output changes; part of the cache folder's name.
+GENERATOR_VERSION = "1"
+DEFAULT_SEED = 0
+#: Night darkness of the default data (see :mod:`nightloc.synth.sensor`).
+DEFAULT_DARKNESS = 1.0
+NIGHT_GAMMA = 1.8  # the night camera's tone curve lifts the shadows a little more than day's 2.2
+DAY_GAMMA = 2.2
+
+
+class SynthScene:
+    """A world with its day and night lighting and metered exposures, ready to render frames.
+
+    Args:
+        world: ``"garden"`` or ``"living_room"``.
+        seed: textures, sun direction and sensor noise.
+        darkness: night darkness (0 = night lighting exposed like day; 1 = 100x fewer photons).
+        camera: panorama size and optics (default 192 x 96).
+    """
+
+    def __init__(self, world: str, seed: int = DEFAULT_SEED, darkness: float = DEFAULT_DARKNESS, camera: Optional[Camera] = None):
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ValueError(f"seed must be an int >= 0, got {seed!r}")
+        self.seed = int(seed)
+        self.darkness = float(darkness)
+        self.camera = camera or Camera()
+        self.world: World = build_world(world, self.seed)
+        self.lighting: Dict[str, Lighting] = {c: make_lighting(self.world, c, self.seed) for c in ("day", "night")}
+        self.exposure: Dict[str, Exposure] = {
+            "day": metered_exposure(self._meter("day"), 0.0, DAY_GAMMA),
+            "night": metered_exposure(self._meter("night"), self.darkness, NIGHT_GAMMA),
+        }
+
+    def _meter(self, condition: str) -> float:
+        """Highlight-clipped mean radiance seen from the middle of the mapped area (heading 0)."""
+        x0, y0, x1, y1 = self.world.mapped_area
+        radiance = render_radiance(self.world, self.lighting[condition], (x0 + x1) / 2, (y0 + y1) / 2, 0.0, self.camera)
+        return float(np.minimum(radiance, np.percentile(radiance, 98.0)).mean())
+
+    def frame(self, condition: str, x: float, y: float, heading: float, rng: Optional[np.random.Generator] = None) -> np.ndarray:
+        """One ``(height, width, 3)`` uint8 BGR panorama; ``rng`` None renders it noiseless."""
+        return render_panorama(self.world, self.lighting[condition], self.exposure[condition], x, y, heading, self.camera, rng)
+
+    def frame_rng(self, traverse: str, index: int) -> np.random.Generator:
+        """The noise generator of frame ``index`` of ``traverse`` (independent of render order)."""
+        world_id = WORLD_NAMES.index(self.world.name)
+        traverse_id = sum(ord(c) * (i + 1) for i, c in enumerate(traverse))
+        return np.random.default_rng([self.seed, 5, world_id, traverse_id, int(index)])
+
+    def render_plan(self, plan: TraversePlan, threads: Optional[int] = None) -> Iterator[np.ndarray]:
+        """Renders the frames of ``plan`` in order (``threads`` at a time; default all cores)."""
+        self.world.check_camera_positions(plan.positions)
+
+        def one(index: int) -> np.ndarray:
+            x, y = plan.positions[index]
+            return self.frame(plan.condition, float(x), float(y), float(plan.headings[index]), self.frame_rng(plan.name, index))
+
+        workers = thread_count(threads)
+        if workers == 1:
+            yield from (one(i) for i in range(len(plan.positions)))
+            return
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            yield from pool.map(one, range(len(plan.positions)))
+
+    def describe(self, plans: List[TraversePlan]) -> dict:
+        """The dataset.json content: generator, world, lighting, camera and traverses."""
+        day = self.lighting["day"]
+        return {
+            "generator": "nightloc.synth",
+            "generator_version": GENERATOR_VERSION,
+            "world": self.world.name,
+            "seed": self.seed,
+            "darkness": self.darkness,
+            "mapped_area": {"x0": self.world.mapped_area[0], "y0": self.world.mapped_area[1], "x1": self.world.mapped_area[2], "y1": self.world.mapped_area[3]},
+            "camera": {
+                "width": self.camera.width,
+                "height": self.camera.height,
+                "height_above_ground_m": self.world.camera_height,
+                "elevation_top_deg": self.camera.elevation_top_deg,
+                "elevation_bottom_deg": self.camera.elevation_bottom_deg,
+                "column_azimuth": "heading - 2*pi*column/width",
+            },
+            "sun_direction": [round(float(v), 6) for v in day.sun_direction],
+            "traverses": {p.name: {"condition": p.condition, "frames": int(len(p.positions))} for p in plans},
+        }
+
+
+def _write_json_atomic(path: Path, content: dict) -> None:
+    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8") as stream:
+            json.dump(content, stream, indent=2)
+            stream.write("\n")
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+def make_dataset(
+    world: str,
+    out_dir: Union[str, os.PathLike],
+    seed: int = DEFAULT_SEED,
+    darkness: float = DEFAULT_DARKNESS,
+    *,
+    camera: Optional[Camera] = None,
+    overwrite: bool = False,
+    threads: Optional[int] = None,
+) -> Dict[str, Path]:
+    """Renders every traverse of ``world`` into ``out_dir`` and returns their folders by name.
+
+    Args:
+        world: ``"garden"`` (day_reference, night_reference, night_query) or ``"living_room"``
+            (day_reference, night_query).
+        out_dir: folder to write into (created if missing); each traverse goes to
+            ``out_dir/<traverse>`` (``images/`` + ``poses.csv``), the description to
+            ``out_dir/dataset.json``.
+        seed: same seed -> byte-identical images.
+        darkness: night darkness in [0, 3] (default 1.0; see :mod:`nightloc.synth.sensor`).
+        camera: panorama size and optics (default 192 x 96, elevations +50..-30 degrees).
+        overwrite: replace traverse folders that already exist (else FileExistsError).
+        threads: render threads (default all cores; the images do not depend on it).
+
+    Each traverse is written atomically (temporary folder, then rename).
+    """
+    if world not in WORLD_NAMES:
+        raise ValueError(f"unknown world {world!r}; choose one of {', '.join(WORLD_NAMES)}")
+    out = Path(out_dir)
+    scene = SynthScene(world, seed, darkness, camera)
+    plans = plan_traverses(world, scene.seed)
+    if not overwrite:
+        for plan in plans:
+            if (out / plan.name).exists():
+                raise FileExistsError(f"{out / plan.name} exists; pass overwrite=True (--overwrite) to replace it")
+    out.mkdir(parents=True, exist_ok=True)
+    written: Dict[str, Path] = {}
+    for plan in plans:
+        frames = progress(scene.render_plan(plan, threads), total=len(plan.positions), desc=f"{world}/{plan.name}", unit="frame")
+        save_traverse(out / plan.name, frames, positions=plan.positions, headings=plan.headings, overwrite=overwrite)
+        written[plan.name] = out / plan.name
+    _write_json_atomic(out / "dataset.json", scene.describe(plans))
+    return written
+
+
+def default_cache_dir() -> Path:
+    """``$XDG_CACHE_HOME/nightloc`` or ``~/.cache/nightloc``."""
+    base = os.environ.get("XDG_CACHE_HOME")
+    return (Path(base) if base else Path.home() / ".cache") / "nightloc"
+
+
+def _complete(folder: Path) -> bool:
+    for world in WORLD_NAMES:
+        description = folder / world / "dataset.json"
+        if not description.is_file():
+            return False
+        try:
+            content = json.loads(description.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return False
+        for name, info in content.get("traverses", {}).items():
+            images = folder / world / name / "images"
+            if not (folder / world / name / "poses.csv").is_file() or not images.is_dir():
+                return False
+            if len(list(images.iterdir())) != info.get("frames"):
+                return False
+    return True
+
+
+def default_dataset(cache_dir: Optional[Union[str, os.PathLike]] = None) -> Dict[str, Dict[str, Path]]:
+    """The default synthetic dataset, generated once into the user cache; its traverse folders.
+
+    Returns ``{"garden": {"day_reference": Path, "night_reference": Path, "night_query": Path},
+    "living_room": {"day_reference": Path, "night_query": Path}}``, generated with
+    :data:`DEFAULT_SEED` and :data:`DEFAULT_DARKNESS` into
+    ``<cache_dir>/synth-v<GENERATOR_VERSION>-seed<DEFAULT_SEED>/<world>/`` (``cache_dir``
+    defaults to :func:`default_cache_dir`). The folder appears atomically: a half-generated
+    dataset (interrupted, or being generated by another process) is never returned.
+    """
+    root = Path(cache_dir) if cache_dir is not None else default_cache_dir()
+    folder = root / f"synth-v{GENERATOR_VERSION}-seed{DEFAULT_SEED}"
+    if not _complete(folder):
+        root.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".partial", dir=root))
+        try:
+            for world in WORLD_NAMES:
+                make_dataset(world, staging / world, DEFAULT_SEED, DEFAULT_DARKNESS)
+            if folder.exists() and not _complete(folder):
+                shutil.rmtree(folder)  # left by an older, interrupted layout
+            try:
+                os.replace(staging, folder)
+            except OSError:
+                if not _complete(folder):  # not someone else's finished copy: a real error
+                    raise
+        finally:
+            shutil.rmtree(staging, ignore_errors=True)
+    return {world: {p.name: folder / world / p.name for p in plan_traverses(world, DEFAULT_SEED)} for world in WORLD_NAMES}

@@ -1,0 +1,235 @@
+"""Day and night lighting: sun, sky, lamps with fall-off, cast shadows on the ground.
+
+Radiance is in arbitrary linear units in which a white surface facing the noon sun reads about
+3 and the day sky about 1-2. Surfaces are Lambertian: ``radiance = albedo * irradiance``, plus
+``glow * emissive`` for lamp shades, lit windows and the oven light while their light is on. Irradiance is
+
+* ``ambient * (1 - w + w * n_z)``: diffuse light of the sky (``w = 0.45``) or, indoors, light
+  bounced around the room (``w = 0.25``), brightest on surfaces facing up;
+* the sun, ``sun * max(0, n . s)`` for unit direction ``s`` towards the sun (day only). Outdoors
+  it lights every surface; indoors it only reaches the floor, through the window openings;
+* each lamp that is on: ``power * max(0, n . l) / d**2`` for the unit direction ``l`` and
+  distance ``d`` to the lamp (inverse-square fall-off).
+
+Cast shadows are exact on the ground: each prism's shadow from the sun (or a lamp) is the convex
+hull of its vertices projected along the light rays, rasterized into a ground light map once per
+lighting. Walls and furniture get no cast shadows (only the ``n . s`` term).
+
+Day and night differ as in the paper's datasets: by day the sun (its direction drawn from the
+seed) throws shadows and, indoors, sun patches through the windows, and the house lights are on;
+at night the sky is dark and only the lamps the world switches on for ``"night"`` light the scene,
+so shading, shadows and bright spots all move.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Dict, Optional, Tuple
+
+import cv2
+import numpy as np
+
+from .geometry import Cylinder, polygon_of
+from .textures import fbm, value_noise
+from .world import GroundMap, LightSource, World
+
+__all__ = ["Lighting", "SkyMap", "CONDITIONS", "make_lighting", "shade_objects"]
+
+CONDITIONS: Tuple[str, ...] = ("day", "night")
+
+
+@dataclass(frozen=True)
+class SkyMap:
+    """Radiance of the sky (and, indoors, of the view out of the windows) by direction.
+
+    ``values[row, col]``: row 0 at elevation +90 degrees down to ``-20`` degrees in the last row,
+    columns spanning azimuth 0..2*pi counter-clockwise from +x; ``(rows, cols, 3)`` float32.
+    """
+
+    values: np.ndarray
+    low_deg: float = -20.0
+
+    def sample(self, azimuth: np.ndarray, elevation: np.ndarray) -> np.ndarray:
+        rows, cols = self.values.shape[:2]
+        c = (np.mod(azimuth, 2 * np.pi) * (cols / (2 * np.pi))).astype(np.int64) % cols
+        span = np.radians(90.0 - self.low_deg)
+        r = np.clip(((np.radians(90.0) - elevation) * (rows / span)).astype(np.int64), 0, rows - 1)
+        return self.values[r, c]
+
+
+@dataclass(frozen=True)
+class Lighting:
+    """One lighting condition of one world.
+
+    Attributes:
+        condition: ``"day"`` or ``"night"``.
+        ambient: RGB diffuse irradiance on an upward-facing surface.
+        ambient_up_weight: how much more diffuse light faces up than sideways (0.45 outdoors,
+            0.25 indoors where light bounces off walls and ceiling).
+        sun_direction: unit vector ``(x, y, z)`` towards the sun, or None at night.
+        sun: RGB irradiance of direct sun on a surface facing it.
+        sun_on_surfaces: False indoors (sunlight reaches the floor only through the windows).
+        lamps: the lamps that are on.
+        glow: radiance gain of glowing objects by emission tag (their albedo times this).
+        sky: radiance of the sky / outside view.
+        ground: radiance of the ground plane (albedo times irradiance, shadows included).
+    """
+
+    condition: str
+    ambient: np.ndarray
+    ambient_up_weight: float
+    sun_direction: Optional[np.ndarray]
+    sun: np.ndarray
+    sun_on_surfaces: bool
+    lamps: Tuple[LightSource, ...]
+    glow: Dict[str, float]
+    sky: SkyMap
+    ground: GroundMap
+
+
+def _sky_map(rng: np.random.Generator, condition: str, indoor: bool, sun_direction: Optional[np.ndarray]) -> SkyMap:
+    rows, cols = 220, 720  # 0.5 degree cells from +90 to -20 degrees elevation
+    elevation = np.radians(90.0 - (np.arange(rows) + 0.5) * 110.0 / rows)[:, None]
+    azimuth = ((np.arange(cols) + 0.5) * 2 * np.pi / cols)[None, :]
+    up = np.clip(np.sin(elevation), 0.0, 1.0) ** 0.5
+    clouds = fbm(rng, rows, cols, 4, 12, octaves=5)
+    cover = np.clip((clouds - 0.5) * 3.0, 0.0, 1.0)[..., None]
+    if condition == "day":
+        horizon, zenith = np.array([1.6, 1.7, 1.8], np.float32), np.array([0.45, 0.75, 1.5], np.float32)
+        sky = horizon + (zenith - horizon) * up[..., None]
+        sky = sky * (1 - cover) + np.array([2.2, 2.2, 2.25], np.float32) * (0.75 + 0.25 * clouds[..., None]) * cover
+        if sun_direction is not None:
+            cos_angle = (
+                np.cos(elevation) * np.cos(azimuth) * sun_direction[0]
+                + np.cos(elevation) * np.sin(azimuth) * sun_direction[1]
+                + np.sin(elevation) * sun_direction[2]
+            )
+            sky = sky + (2.5 * np.exp((cos_angle - 1) / 0.01) + 40.0 * (cos_angle > np.cos(np.radians(0.8))))[..., None]
+        below = np.array([0.25, 0.35, 0.18], np.float32) * (0.6 + 0.8 * value_noise(rng, rows, cols, 22, 180))[..., None]
+    else:
+        horizon, zenith = np.array([0.010, 0.008, 0.006], np.float32), np.array([0.0015, 0.002, 0.004], np.float32)
+        glow = np.exp(-np.clip(elevation, 0, None) / np.radians(12.0))
+        sky = zenith + (horizon - zenith) * glow[..., None] + np.array([0.004, 0.003, 0.003], np.float32) * cover
+        stars = (rng.random((rows, cols)) < 0.0015) & (elevation > np.radians(8.0))
+        sky = sky + (stars * rng.uniform(0.01, 0.06, (rows, cols)))[..., None]
+        below = np.array([0.002, 0.002, 0.002], np.float32) * (0.5 + value_noise(rng, rows, cols, 22, 180))[..., None]
+        if indoor:  # street lights seen through the windows
+            spots = (rng.random((rows, cols)) < 0.002) & (np.abs(elevation) < np.radians(6.0))
+            sky = sky + (spots * 0.5)[..., None]
+    sky = np.where((elevation < 0)[..., None], below, sky)
+    return SkyMap(np.ascontiguousarray(sky, dtype=np.float32))
+
+
+def _rasterize_hull(mask: np.ndarray, ground: GroundMap, points: np.ndarray) -> None:
+    """Fills the convex hull of ground points ``(N, 2)`` metres into ``mask`` (uint8, ground grid)."""
+    shift = 4
+    pix = np.stack([(points[:, 0] - ground.x0) * ground.pixels_per_metre - 0.5, (points[:, 1] - ground.y0) * ground.pixels_per_metre - 0.5], axis=1)
+    limit = 4 * max(mask.shape)
+    pix = np.clip(pix, -limit, limit)
+    hull = cv2.convexHull(np.round(pix * (1 << shift)).astype(np.int32))
+    cv2.fillConvexPoly(mask, hull, 255, lineType=cv2.LINE_AA, shift=shift)
+
+
+def _shadow_mask(world: World, ground: GroundMap, light_point: Optional[np.ndarray], sun_direction: Optional[np.ndarray], skip_tag: Optional[str]) -> np.ndarray:
+    """Float32 ground-grid map of light reaching the ground (1 lit, 0 shadowed) for one light."""
+    mask = np.zeros(ground.values.shape[:2], np.uint8)
+    for obj in world.objects:
+        if skip_tag is not None and obj.emission == skip_tag:
+            continue
+        footprint = polygon_of(obj)
+        bottom, top = obj.bottom, obj.top
+        if sun_direction is not None:
+            offset = -sun_direction[:2] / sun_direction[2]
+            points = np.concatenate([footprint + bottom * offset, footprint + top * offset])
+        else:
+            lx, ly, lz = light_point
+            if isinstance(obj, Cylinder):
+                contains = (lx - obj.center[0]) ** 2 + (ly - obj.center[1]) ** 2 <= obj.radius**2
+            else:
+                rel = np.array([lx, ly]) - footprint
+                edges = np.roll(footprint, -1, axis=0) - footprint
+                contains = bool(np.all(edges[:, 0] * rel[:, 1] - edges[:, 1] * rel[:, 0] >= 0))
+            if contains or bottom >= lz - 0.01:
+                continue  # the lamp's own fixture, or an object above the lamp
+            top = min(top, lz - 0.01)
+            layers = []
+            for z in (bottom, top):
+                factor = min(lz / (lz - z), 60.0)
+                layers.append(np.array([lx, ly]) + (footprint - np.array([lx, ly])) * factor)
+            points = np.concatenate(layers)
+        _rasterize_hull(mask, ground, points)
+    lit = 1.0 - mask.astype(np.float32) / 255.0
+    return cv2.GaussianBlur(lit, (0, 0), 1.2)
+
+
+def _ground_radiance(world: World, ambient: np.ndarray, sun_direction, sun: np.ndarray, lamps) -> GroundMap:
+    albedo = world.ground
+    irradiance = np.empty_like(albedo.values)
+    irradiance[:] = ambient
+    if sun_direction is not None:
+        lit = _shadow_mask(world, albedo, None, sun_direction, None)
+        irradiance += (sun * sun_direction[2])[None, None, :] * lit[..., None]
+    xs, ys = albedo.cell_centres()
+    for name, lamp in lamps:
+        lx, ly, lz = lamp.position
+        d2 = (xs - lx) ** 2 + (ys - ly) ** 2 + lz * lz
+        cosine = lz / np.sqrt(d2)
+        lit = _shadow_mask(world, albedo, np.array(lamp.position), None, name)
+        irradiance += (np.asarray(lamp.power, np.float32)[None, None, :] * (cosine / d2 * lit)[..., None]).astype(np.float32)
+    return GroundMap(np.ascontiguousarray(albedo.values * irradiance, dtype=np.float32), albedo.x0, albedo.y0, albedo.pixels_per_metre)
+
+
+def make_lighting(world: World, condition: str, seed: int = 0) -> Lighting:
+    """The ``"day"`` or ``"night"`` lighting of ``world``; the sun's direction comes from ``seed``.
+
+    By day the sun stands 25-45 degrees high (indoors: in the south, so it shines through the
+    south windows) at an azimuth drawn from ``seed``.
+    """
+    if condition not in CONDITIONS:
+        raise ValueError(f"unknown lighting condition {condition!r}; choose one of {CONDITIONS}")
+    rng = np.random.default_rng([int(seed), 3, CONDITIONS.index(condition), len(world.name)])
+    lamps = tuple((name, lamp) for name, lamp in sorted(world.lights.items()) if condition in lamp.conditions)
+    glow = {name: lamp.glow for name, lamp in lamps}
+    if condition == "day":
+        if world.indoor:
+            azimuth = np.radians(rng.uniform(-125.0, -55.0))
+            elevation = np.radians(rng.uniform(25.0, 38.0))
+            ambient = np.array([0.45, 0.45, 0.44], np.float32)
+        else:
+            azimuth = rng.uniform(-np.pi, np.pi)
+            elevation = np.radians(rng.uniform(28.0, 45.0))
+            ambient = np.array([0.55, 0.62, 0.75], np.float32)
+        sun_direction = np.array([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)])
+        sun = np.array([3.0, 2.85, 2.6], np.float32)
+    else:
+        sun_direction = None
+        sun = np.zeros(3, np.float32)
+        ambient = np.array([0.0015, 0.0018, 0.0025] if not world.indoor else [0.003, 0.003, 0.0035], np.float32)
+    sky = _sky_map(rng, condition, world.indoor, sun_direction)
+    ground = _ground_radiance(world, ambient, sun_direction, sun, lamps)
+    return Lighting(condition, ambient, 0.25 if world.indoor else 0.45, sun_direction, sun, not world.indoor, tuple(l for _, l in lamps), glow, sky, ground)
+
+
+def shade_objects(lighting: Lighting, albedo: np.ndarray, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """Reflected radiance of object surface points, ``(N, 3)`` float32 (glow not included).
+
+    Args:
+        albedo: ``(N, 3)`` linear albedo in [0, 1].
+        points: ``(N, 3)`` world points, metres.
+        normals: ``(N, 3)`` unit outward normals.
+    """
+    albedo = np.asarray(albedo, np.float32)
+    points = np.asarray(points, np.float32)
+    normals = np.asarray(normals, np.float32)
+    nz = normals[:, 2:3]
+    up_weight = lighting.ambient_up_weight
+    irradiance = lighting.ambient[None, :] * np.clip(1.0 - up_weight + up_weight * nz, 0.1, 1.0)
+    if lighting.sun_direction is not None and lighting.sun_on_surfaces:
+        facing = np.clip(normals @ lighting.sun_direction.astype(np.float32), 0.0, None)[:, None]
+        irradiance = irradiance + lighting.sun[None, :] * facing
+    for lamp in lighting.lamps:
+        to_lamp = np.asarray(lamp.position, np.float32)[None, :] - points
+        d2 = np.maximum(np.einsum("ij,ij->i", to_lamp, to_lamp), np.float32(0.15**2))
+        cosine_over_d2 = np.clip(np.einsum("ij,ij->i", to_lamp, normals), 0.0, None) / (d2 * np.sqrt(d2))
+        irradiance = irradiance + np.asarray(lamp.power, np.float32)[None, :] * cosine_over_d2[:, None]
+    return albedo * irradiance

@@ -1,0 +1,123 @@
+"""The traverses of the paper's Table I, laid out in the synthetic worlds.
+
+=====================  ==========  ======  ==============================================
+traverse               lighting    frames  path
+=====================  ==========  ======  ==============================================
+garden/day_reference   day         24      lawn-mower path: 4 rows x 6 stops, 1.2 m apart
+garden/night_reference night       53      the same path, sampled evenly along its length
+garden/night_query     night       41      an alternative path, partly overlapping
+living_room/day_reference  day     52      grid points 0.5 m x 1 m (13 x 4), row by row
+living_room/night_query    night   32      random positions and headings
+=====================  ==========  ======  ==============================================
+
+Headings follow the direction of travel with a random wobble (std 8 degrees); the night
+traverses also wander sideways off the nominal path (std 5-8 cm), as a driven robot does. The
+seed draws the wobble, the sideways error and the living room's random query poses.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Dict, List, Tuple
+
+import numpy as np
+
+__all__ = ["TraversePlan", "plan_traverses", "TRAVERSE_NAMES"]
+
+TRAVERSE_NAMES: Dict[str, Tuple[str, ...]] = {
+    "garden": ("day_reference", "night_reference", "night_query"),
+    "living_room": ("day_reference", "night_query"),
+}
+
+HEADING_WOBBLE = np.radians(8.0)
+
+
+@dataclass(frozen=True)
+class TraversePlan:
+    """Where the frames of one traverse are taken.
+
+    Attributes:
+        name: traverse folder name, e.g. ``"night_query"``.
+        condition: ``"day"`` or ``"night"``.
+        positions: ``(N, 2)`` metres.
+        headings: ``(N,)`` radians in (-pi, pi].
+    """
+
+    name: str
+    condition: str
+    positions: np.ndarray
+    headings: np.ndarray
+
+
+def wrap_angle(angles: np.ndarray) -> np.ndarray:
+    """Angles wrapped to (-pi, pi]."""
+    wrapped = np.mod(np.asarray(angles, float) + np.pi, 2 * np.pi) - np.pi
+    return np.where(wrapped == -np.pi, np.pi, wrapped)
+
+
+def _polyline_samples(waypoints: np.ndarray, count: int) -> Tuple[np.ndarray, np.ndarray]:
+    """``count`` points evenly spaced along a polyline (ends included) and the travel direction there."""
+    segments = np.diff(waypoints, axis=0)
+    lengths = np.hypot(segments[:, 0], segments[:, 1])
+    cumulative = np.concatenate([[0.0], np.cumsum(lengths)])
+    s = np.linspace(0.0, cumulative[-1], count)
+    index = np.clip(np.searchsorted(cumulative, s, side="right") - 1, 0, len(segments) - 1)
+    t = (s - cumulative[index]) / lengths[index]
+    points = waypoints[index] + segments[index] * t[:, None]
+    direction = np.arctan2(segments[index, 1], segments[index, 0])
+    return points, direction
+
+
+def _lawnmower_rows(xs: np.ndarray, ys: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """Stops of a boustrophedon over the grid ``xs x ys`` and the direction of travel at each."""
+    points, directions = [], []
+    for row, y in enumerate(ys):
+        order = xs if row % 2 == 0 else xs[::-1]
+        for x in order:
+            points.append((x, y))
+            directions.append(0.0 if row % 2 == 0 else np.pi)
+    return np.array(points), np.array(directions)
+
+
+def _lawnmower_polyline(xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    corners = []
+    for row, y in enumerate(ys):
+        ends = (xs[0], xs[-1]) if row % 2 == 0 else (xs[-1], xs[0])
+        corners += [(ends[0], y), (ends[1], y)]
+    return np.array(corners)
+
+
+def _wobble(rng: np.random.Generator, directions: np.ndarray) -> np.ndarray:
+    return wrap_angle(directions + rng.normal(0.0, HEADING_WOBBLE, len(directions)))
+
+
+def _sideways(rng: np.random.Generator, points: np.ndarray, directions: np.ndarray, std: float) -> np.ndarray:
+    offset = rng.normal(0.0, std, len(points))
+    return points + offset[:, None] * np.stack([-np.sin(directions), np.cos(directions)], axis=1)
+
+
+GARDEN_ROW_X = np.linspace(0.5, 6.5, 6)
+GARDEN_ROW_Y = np.linspace(0.5, 4.5, 4)
+GARDEN_QUERY_WAYPOINTS = np.array([[0.5, 2.5], [6.5, 2.5], [6.5, 4.5], [3.5, 4.5], [0.5, 0.5]])
+ROOM_GRID_X = np.linspace(0.0, 6.0, 13)
+ROOM_GRID_Y = np.linspace(0.0, 3.0, 4)
+
+
+def plan_traverses(world: str, seed: int = 0) -> List[TraversePlan]:
+    """The traverses of ``world`` (``"garden"`` or ``"living_room"``), in Table I order."""
+    rng = np.random.default_rng([int(seed), 4, 0 if world == "garden" else 1])
+    if world == "garden":
+        stops, directions = _lawnmower_rows(GARDEN_ROW_X, GARDEN_ROW_Y)
+        day = TraversePlan("day_reference", "day", stops, _wobble(rng, directions))
+        points, directions = _polyline_samples(_lawnmower_polyline(GARDEN_ROW_X, GARDEN_ROW_Y), 53)
+        night_ref = TraversePlan("night_reference", "night", _sideways(rng, points, directions, 0.05), _wobble(rng, directions))
+        points, directions = _polyline_samples(GARDEN_QUERY_WAYPOINTS, 41)
+        query = TraversePlan("night_query", "night", _sideways(rng, points, directions, 0.08), _wobble(rng, directions))
+        return [day, night_ref, query]
+    if world == "living_room":
+        stops, directions = _lawnmower_rows(ROOM_GRID_X, ROOM_GRID_Y)
+        day = TraversePlan("day_reference", "day", stops, _wobble(rng, directions))
+        positions = np.stack([rng.uniform(0.1, 5.9, 32), rng.uniform(0.1, 2.9, 32)], axis=1)
+        query = TraversePlan("night_query", "night", positions, wrap_angle(rng.uniform(-np.pi, np.pi, 32)))
+        return [day, query]
+    raise ValueError(f"unknown world {world!r}; choose one of {', '.join(TRAVERSE_NAMES)}")
