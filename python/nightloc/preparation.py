@@ -262,14 +262,15 @@ class Preparer:
         """Prepares one frame or many.
 
         Args:
-            images: one frame (grey ``(H, W)`` or colour ``(H, W, 3|4)``, uint8 or uint16), a stack
-                ``(N, H, W)`` / ``(N, H, W, 3|4)``, any iterable of frames (lists, generators; the
+            images: one frame (grey ``(H, W)`` or ``(H, W, 1)``, colour ``(H, W, 3|4)``; uint8 or
+                uint16), a stack ``(N, H, W)`` / ``(N, H, W, 3|4)`` (a 3-D array whose last axis is
+                1, 3 or 4 long is one frame), any iterable of frames (lists, generators; the
                 frames may differ in size), or a :class:`Traverse` (read lazily with a progress bar).
 
         Returns:
             ``(height, width)`` uint8 for one frame, ``(N, height, width)`` uint8 otherwise.
         """
-        if isinstance(images, np.ndarray) and (images.ndim == 2 or (images.ndim == 3 and images.shape[2] in (3, 4))):
+        if isinstance(images, np.ndarray) and (images.ndim == 2 or (images.ndim == 3 and images.shape[2] in (1, 3, 4))):
             return self.normalize(self.downsample(images))
         smalls = list(self.iter_downsampled(images))
         if not smalls:

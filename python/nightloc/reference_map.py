@@ -293,9 +293,10 @@ class ReferenceMap:
         if file.is_dir():
             raise MapFormatError(f"{file} is a folder, not a reference map file (build one with nightloc build-map)")
         try:
-            with np.load(file, allow_pickle=False) as archive:
-                if not isinstance(archive, np.lib.npyio.NpzFile):
-                    raise MapFormatError(f"{file} is a single numpy array, not a nightloc reference map")
+            loaded = np.load(file, allow_pickle=False)
+            if not isinstance(loaded, np.lib.npyio.NpzFile):
+                raise MapFormatError(f"{file} is a single numpy array, not a nightloc reference map")
+            with loaded as archive:
                 members = set(archive.files)
                 if "header" not in members:
                     raise MapFormatError(f"{file} is an .npz archive but not a nightloc reference map (no header)")
