@@ -274,3 +274,21 @@ def test_gardens_point_map_round_trip(shared_data, tmp_path):
     night = nightloc.load_traverse(folder / "night")
     places = [loaded.match(image).index for _, image in night.frames()]
     assert sum(abs(p - i) <= 1 for i, p in enumerate(places)) >= 5  # see test_preparation
+
+
+def test_build_map_from_a_video_with_odometry(tmp_path, capsys):
+    import cv2
+
+    from test_traverse import write_video
+
+    video = tmp_path / "drive.avi"
+    write_video(video, 12)
+    if not cv2.VideoCapture(str(video)).isOpened():
+        pytest.skip("this OpenCV build cannot read MJPG AVI files")
+    (tmp_path / "odometry.csv").write_text("frame,x,y,heading\n" + "".join(f"{i},{0.1 * i},0,0\n" for i in range(12)))
+    out = tmp_path / "drive.map"
+    argv = ["build-map", str(video), str(out), "--poses", str(tmp_path / "odometry.csv"), "--frame-step", "4"]
+    assert main(argv) == 0
+    loaded = ReferenceMap.load(out, PreparationParams())
+    assert loaded.names == ("frame_000000", "frame_000004", "frame_000008")
+    np.testing.assert_allclose(loaded.positions[:, 0], [0.0, 0.4, 0.8])
