@@ -30,7 +30,9 @@ std::string shape_of(const py::array& a) {
 
 // A C-contiguous float32 matrix (rank 2), or TypeError/ValueError naming the problem.
 F32Array checked_matrix(const py::array& a, const char* name, bool writable) {
-    if (!a.dtype().is(py::dtype::of<float>())) {
+    // Equivalence, not identity: arrays rebuilt by pickle (e.g. on a Dask worker) may carry an
+    // equal dtype object that is not numpy's cached singleton.
+    if (!py::isinstance<py::array_t<float>>(a)) {
         throw py::type_error(std::string(name) + " must have dtype float32, got " + std::string(py::str(a.dtype())) +
                              " (convert with numpy.asarray(x, dtype=numpy.float32))");
     }
@@ -45,7 +47,7 @@ F32Array checked_matrix(const py::array& a, const char* name, bool writable) {
 }
 
 U8Array checked_stack(const py::array& a, const char* name) {
-    if (!a.dtype().is(py::dtype::of<std::uint8_t>())) {
+    if (!py::isinstance<py::array_t<std::uint8_t>>(a)) {
         throw py::type_error(std::string(name) + " must have dtype uint8, got " + std::string(py::str(a.dtype())));
     }
     if (a.ndim() != 3) throw py::value_error(std::string(name) + " must be 3-D, got shape " + shape_of(a));
@@ -153,7 +155,7 @@ void difference_matrix_into(const py::array& queries_in, const py::array& refs_i
                               std::to_string(queries.shape(2)) + " pixels but refs are " +
                               std::to_string(refs.shape(1)) + " x " + std::to_string(refs.shape(2)));
     }
-    if (!shifts_in.dtype().is(py::dtype::of<std::int32_t>()) || shifts_in.ndim() != 1 || shifts_in.size() == 0) {
+    if (!py::isinstance<py::array_t<std::int32_t>>(shifts_in) || shifts_in.ndim() != 1 || shifts_in.size() == 0) {
         throw py::type_error("shifts must be a non-empty 1-D int32 array");
     }
     const auto shifts_view = py::reinterpret_borrow<py::array_t<std::int32_t>>(shifts_in).unchecked<1>();

@@ -224,7 +224,10 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_figures:
         from ..route.figures import save_route_figures
 
-        figures = [Path(p).name for p in save_route_figures(result, evaluation, out)]
+        try:
+            figures = [Path(p).name for p in save_route_figures(result, evaluation, out)]
+        except ImportError as error:  # nightloc.plotting missing from a partial install
+            print(f"figures skipped: {error}")
     summary = {
         "reference": str(reference.root),
         "query": str(query.root),
