@@ -62,7 +62,7 @@ def test_route_command_writes_matches_pr_and_figures(synthetic_traverses, tmp_pa
     assert summary["ground_truth"] == "names" and summary["recall_at_100_precision"] > 0.8
     assert summary["params"]["divisor"] == "references"
     try:
-        import nightloc.plotting  # noqa: F401
+        from nightloc import plotting  # noqa: F401
     except ImportError:
         pass
     else:
