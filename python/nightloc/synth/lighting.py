@@ -24,7 +24,7 @@ so shading, shadows and bright spots all move.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Dict, Optional, Tuple
+from typing import Dict, Optional, Sequence, Tuple
 
 import cv2
 import numpy as np
@@ -33,7 +33,7 @@ from .geometry import Cylinder, polygon_of
 from .textures import fbm, value_noise
 from .world import GroundMap, LightSource, World
 
-__all__ = ["Lighting", "SkyMap", "CONDITIONS", "make_lighting", "shade_objects"]
+__all__ = ["Lighting", "SkyMap", "CONDITIONS", "make_lighting", "shade_objects", "ground_irradiance"]
 
 CONDITIONS: Tuple[str, ...] = ("day", "night")
 
@@ -162,21 +162,34 @@ def _shadow_mask(world: World, ground: GroundMap, light_point: Optional[np.ndarr
     return cv2.GaussianBlur(lit, (0, 0), 1.2)
 
 
-def _ground_radiance(world: World, ambient: np.ndarray, sun_direction, sun: np.ndarray, lamps) -> GroundMap:
-    albedo = world.ground
-    irradiance = np.empty_like(albedo.values)
-    irradiance[:] = ambient
+def ground_irradiance(
+    world: World,
+    ambient: np.ndarray,
+    sun_direction: Optional[np.ndarray] = None,
+    sun: Optional[np.ndarray] = None,
+    lamps: Sequence[Tuple[str, LightSource]] = (),
+) -> GroundMap:
+    """Irradiance of the ground plane on the grid of ``world.ground``, shadows included.
+
+    ``ambient + sun * s_z * lit_sun + sum(power * (h / d) / d**2 * lit_lamp)`` for a lamp at
+    height ``h`` and distance ``d``; ``lit_*`` is 1 outside the light's cast shadows and 0 inside
+    (slightly blurred at the edges). ``lamps`` are ``(name, lamp)`` pairs: objects whose
+    emission tag is the lamp's name (its own shade) cast no shadow of it.
+    """
+    grid = world.ground
+    irradiance = np.empty_like(grid.values)
+    irradiance[:] = np.asarray(ambient, np.float32)
     if sun_direction is not None:
-        lit = _shadow_mask(world, albedo, None, sun_direction, None)
-        irradiance += (sun * sun_direction[2])[None, None, :] * lit[..., None]
-    xs, ys = albedo.cell_centres()
+        lit = _shadow_mask(world, grid, None, np.asarray(sun_direction, float), None)
+        irradiance += (np.asarray(sun, np.float32) * np.float32(sun_direction[2]))[None, None, :] * lit[..., None]
+    xs, ys = grid.cell_centres()
     for name, lamp in lamps:
         lx, ly, lz = lamp.position
         d2 = (xs - lx) ** 2 + (ys - ly) ** 2 + lz * lz
         cosine = lz / np.sqrt(d2)
-        lit = _shadow_mask(world, albedo, np.array(lamp.position), None, name)
+        lit = _shadow_mask(world, grid, np.array(lamp.position, float), None, name)
         irradiance += (np.asarray(lamp.power, np.float32)[None, None, :] * (cosine / d2 * lit)[..., None]).astype(np.float32)
-    return GroundMap(np.ascontiguousarray(albedo.values * irradiance, dtype=np.float32), albedo.x0, albedo.y0, albedo.pixels_per_metre)
+    return GroundMap(np.ascontiguousarray(irradiance, dtype=np.float32), grid.x0, grid.y0, grid.pixels_per_metre)
 
 
 def make_lighting(world: World, condition: str, seed: int = 0) -> Lighting:
@@ -206,7 +219,8 @@ def make_lighting(world: World, condition: str, seed: int = 0) -> Lighting:
         sun = np.zeros(3, np.float32)
         ambient = np.array([0.0015, 0.0018, 0.0025] if not world.indoor else [0.003, 0.003, 0.0035], np.float32)
     sky = _sky_map(rng, condition, world.indoor, sun_direction)
-    ground = _ground_radiance(world, ambient, sun_direction, sun, lamps)
+    irradiance = ground_irradiance(world, ambient, sun_direction, sun, lamps)
+    ground = GroundMap(world.ground.values * irradiance.values, irradiance.x0, irradiance.y0, irradiance.pixels_per_metre)
     return Lighting(condition, ambient, 0.25 if world.indoor else 0.45, sun_direction, sun, not world.indoor, tuple(l for _, l in lamps), glow, sky, ground)
 
 
