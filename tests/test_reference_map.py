@@ -292,3 +292,14 @@ def test_build_map_from_a_video_with_odometry(tmp_path, capsys):
     loaded = ReferenceMap.load(out, PreparationParams())
     assert loaded.names == ("frame_000000", "frame_000004", "frame_000008")
     np.testing.assert_allclose(loaded.positions[:, 0], [0.0, 0.4, 0.8])
+
+
+def test_pickled_maps_and_traverses_stay_read_only(garden, garden_map):
+    import pickle
+
+    copy = pickle.loads(pickle.dumps(garden_map))
+    assert copy == garden_map and not copy.images.flags.writeable and not copy.positions.flags.writeable
+    traverse = nightloc.load_traverse(garden[0])
+    twin = pickle.loads(pickle.dumps(traverse))
+    assert twin.names == traverse.names and not twin.positions.flags.writeable
+    np.testing.assert_array_equal(twin.read(3), traverse.read(3))

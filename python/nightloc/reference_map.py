@@ -122,6 +122,16 @@ class ReferenceMap:
         self._params = params
         self._source = str(source)
 
+    def __getstate__(self) -> dict:
+        return {name: getattr(self, name) for name in self.__slots__}
+
+    def __setstate__(self, state: dict) -> None:
+        for name, value in state.items():
+            object.__setattr__(self, name, value)
+        for array in (self._images, self._positions, self._headings):
+            if array is not None:
+                _frozen(array)
+
     # --- attributes
 
     @property

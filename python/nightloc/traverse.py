@@ -307,6 +307,15 @@ class Traverse:
         self._poses_file = poses_file
         self._lines = None if lines is None else tuple(lines)
 
+    def __getstate__(self) -> dict:
+        return {name: getattr(self, name) for name in self.__slots__}
+
+    def __setstate__(self, state: dict) -> None:
+        for name, value in state.items():
+            object.__setattr__(self, name, value)
+        _frozen(self._positions)
+        _frozen(self._headings)
+
     # --- descriptive properties
 
     @property
