@@ -6,8 +6,10 @@ import argparse
 import math
 import time
 from pathlib import Path
+from typing import Tuple
 
 from ..synth.dataset import DEFAULT_DARKNESS, DEFAULT_SEED, make_dataset
+from ..synth.render import Camera
 from ..synth.world import WORLD_NAMES
 
 
@@ -30,9 +32,21 @@ def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") 
         default=DEFAULT_DARKNESS,
         help=f"night darkness in [0, 3]: 0 = night lights exposed like day, 1 = 100x fewer photons (default {DEFAULT_DARKNESS})",
     )
+    parser.add_argument("--size", default="192x96", help="panorama WIDTHxHEIGHT in pixels (default 192x96)")
     parser.add_argument("--overwrite", action="store_true", help="replace traverse folders that exist")
     parser.add_argument("--threads", type=int, default=None, help="render threads (default all cores)")
     parser.set_defaults(run=run)
+
+
+def parse_size(text: str) -> Tuple[int, int]:
+    """``"192x96"`` -> ``(192, 96)``; a clear ValueError for anything else."""
+    parts = text.lower().split("x")
+    if len(parts) != 2 or not all(p.strip().isdigit() for p in parts):
+        raise ValueError(f"--size must be WIDTHxHEIGHT in pixels, e.g. 192x96, got {text!r}")
+    width, height = (int(p) for p in parts)
+    if width < 8 or height < 4:
+        raise ValueError(f"--size must be at least 8x4 pixels, got {text!r}")
+    return width, height
 
 
 def run(args: argparse.Namespace) -> int:
@@ -40,11 +54,12 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--seed must be >= 0")
     if not (math.isfinite(args.darkness) and 0.0 <= args.darkness <= 3.0):
         raise ValueError(f"--darkness must be in [0, 3], got {args.darkness}")
+    camera = Camera(*parse_size(args.size))
     worlds = WORLD_NAMES if args.world == "all" else (args.world,)
     start = time.perf_counter()
     for world in worlds:
         out = args.out / world if args.world == "all" else args.out
-        folders = make_dataset(world, out, args.seed, args.darkness, overwrite=args.overwrite, threads=args.threads)
+        folders = make_dataset(world, out, args.seed, args.darkness, camera=camera, overwrite=args.overwrite, threads=args.threads)
         for name, folder in folders.items():
             frames = sum(1 for _ in (folder / "images").iterdir())
             print(f"{world}/{name}: {frames} frames -> {folder}")

@@ -196,10 +196,26 @@ def make_lighting(world: World, condition: str, seed: int = 0) -> Lighting:
     """The ``"day"`` or ``"night"`` lighting of ``world``; the sun's direction comes from ``seed``.
 
     By day the sun stands 25-45 degrees high (indoors: in the south, so it shines through the
-    south windows) at an azimuth drawn from ``seed``.
+    south windows) at an azimuth drawn from ``seed``. Results are cached per world object (the
+    last few are reused); treat them as read-only.
     """
     if condition not in CONDITIONS:
         raise ValueError(f"unknown lighting condition {condition!r}; choose one of {CONDITIONS}")
+    key = (id(world), condition, int(seed))
+    cached = _LIGHTING_CACHE.get(key)
+    if cached is not None and cached[0] is world:
+        return cached[1]
+    lighting = _make_lighting(world, condition, int(seed))
+    if len(_LIGHTING_CACHE) >= 8:
+        _LIGHTING_CACHE.pop(next(iter(_LIGHTING_CACHE)))
+    _LIGHTING_CACHE[key] = (world, lighting)
+    return lighting
+
+
+_LIGHTING_CACHE: Dict[tuple, tuple] = {}
+
+
+def _make_lighting(world: World, condition: str, seed: int) -> Lighting:
     rng = np.random.default_rng([int(seed), 3, CONDITIONS.index(condition), len(world.name)])
     lamps = tuple((name, lamp) for name, lamp in sorted(world.lights.items()) if condition in lamp.conditions)
     glow = {name: lamp.glow for name, lamp in lamps}

@@ -10,6 +10,7 @@ World frame: metres, x right (east), y up (north), z up; the mapped area starts 
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
@@ -367,7 +368,15 @@ _BUILDERS = {"garden": _garden, "living_room": _living_room}
 
 
 def build_world(name: str, seed: int = 0) -> World:
-    """The world ``name`` (one of :data:`WORLD_NAMES`) with textures drawn from ``seed``."""
+    """The world ``name`` (one of :data:`WORLD_NAMES`) with textures drawn from ``seed``.
+
+    Worlds are cached (the last few built are reused); treat them as read-only.
+    """
     if name not in _BUILDERS:
         raise ValueError(f"unknown world {name!r}; choose one of {', '.join(WORLD_NAMES)}")
-    return _BUILDERS[name](int(seed))
+    return _cached_world(name, int(seed))
+
+
+@functools.lru_cache(maxsize=4)
+def _cached_world(name: str, seed: int) -> World:
+    return _BUILDERS[name](seed)
