@@ -255,7 +255,12 @@ void trajectory_search(const float* dd, std::size_t n_queries, std::size_t n_ref
                     for (std::int64_t i = 0; i < count; ++i) dst[i] += src[i];
                     for (std::int64_t a = hi; a < anchors_signed; ++a) acc[a] += kInf;
                 }
-                for (std::size_t a = 0; a < n_anchors; ++a) best[a] = nan_ignoring_min(best[a], acc[a]);
+                for (std::size_t a = 0; a < n_anchors; ++a) {
+                    const float current = best[a];
+                    const float candidate = acc[a];
+                    // nan_ignoring_min, written with x != x so that the loop vectorizes
+                    best[a] = (current != current || candidate < current) ? candidate : current;
+                }
             }
             // Best anchor (first minimum, NaN ignored; all NaN -> anchor 0 with NaN, as Octave).
             std::size_t argmin = 0;

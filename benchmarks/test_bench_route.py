@@ -1,0 +1,108 @@
+"""Route mode (1D SeqSLAM) throughput: difference matrix + contrast enhancement + trajectory search.
+
+The Nordland subset (summer reference, winter query, 64x32, OpenSeqSLAM preset, shift 0), from
+``../shared/data/nordland`` when present (else synthetic frames of the same size), prepared once
+outside the timing (image decoding excluded, as in the issue's target). Groups by size N x N:
+
+* ``numpy`` (N = 500): the numpy oracle of ``tests/route_oracle.py`` (chunked integer SAD,
+  float32 enhancement, per-query vectorized search), bit-identical to the core;
+* ``core`` (1 and 2 threads): :func:`nightloc.route.match_prepared`.
+
+Target: N = 3576 in <= 3 s on 2 cores. OpenSeqSLAM under Octave (golden/README): 4.4 s for
+N = 500 (difference matrix 1.18 s, enhancement 0.13 s, matching 3.08 s).
+
+    python -m pytest benchmarks/test_bench_route.py --benchmark-only --benchmark-columns=min,median
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from nightloc import route
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+import oracle  # noqa: E402
+import route_oracle as ro  # noqa: E402
+from conftest import shared_data_dir  # noqa: E402
+
+SIZES = [500, 3576]
+_cache: dict = {}
+
+
+def nordland(n):
+    """(refs, queries, real) prepared with the OpenSeqSLAM preset: sorted positions 1000.. for
+    N = 500 (the golden subset A), the whole route for N = 3576."""
+    if n in _cache:
+        return _cache[n]
+    root = shared_data_dir() / "nordland"
+    preparer = route.RoutePreparer(route.route_preset("openseqslam"))
+    if (root / "summer").is_dir():
+        names = sorted(p.name for p in (root / "summer").iterdir() if p.suffix == ".png")
+        chosen = names[1000:1500] if n == 500 else names[:n]
+        load = lambda season: preparer([cv2.imread(str(root / season / name), cv2.IMREAD_COLOR) for name in chosen])
+        refs, queries, real = load("summer"), load("winter"), len(chosen) == n
+    else:
+        refs, queries, _ = ro.synthetic_route(n, n, speed=1.0, seed=n, height=32, width=64)
+        refs, queries, real = preparer(refs), preparer(queries), False
+    _cache.clear()
+    _cache[n] = (refs, queries, real)
+    return _cache[n]
+
+
+def numpy_difference(queries, refs, chunk=8):
+    """OpenSeqSLAM's D (n_query, n_ref): exact integer SAD in numpy, divided by n_ref."""
+    r = refs.reshape(len(refs), -1).astype(np.int16)
+    sums = np.empty((len(queries), len(refs)), dtype=np.int64)
+    for start in range(0, len(queries), chunk):
+        q = queries[start : start + chunk].reshape(-1, r.shape[1]).astype(np.int16)
+        sums[start : start + chunk] = np.abs(q[:, None, :] - r[None]).sum(axis=2, dtype=np.int64)
+    return oracle.scores_from_sums(sums, len(refs))
+
+
+def numpy_pipeline(refs, queries):
+    d = numpy_difference(queries, refs)
+    dd = ro.enhance_openseqslam(d)
+    return ro.find_matches_centred(dd)
+
+
+def record(benchmark, result, n):
+    benchmark.extra_info["cells"] = n * n
+    if result is not None:
+        benchmark.extra_info.update({f"{k}_s": round(v, 4) for k, v in result.timings.items()})
+
+
+def test_numpy_oracle(benchmark):
+    n = 500
+    refs, queries, _ = nordland(n)
+    benchmark.group = f"route pipeline, {n} x {n}"
+    matched, scores = benchmark.pedantic(numpy_pipeline, args=(refs, queries), rounds=1)
+    record(benchmark, None, n)
+    core = route.match_prepared(refs, queries, "openseqslam")
+    np.testing.assert_array_equal(matched, core.refs)
+    np.testing.assert_array_equal(scores, core.scores)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("n", SIZES)
+def test_core(benchmark, n, threads):
+    refs, queries, real = nordland(n)
+    benchmark.group = f"route pipeline, {n} x {n}"
+    result = benchmark.pedantic(
+        route.match_prepared, args=(refs, queries, "openseqslam"), kwargs={"threads": threads,
+                                                                         "keep_difference": False},
+        rounds=3 if n <= 500 else 2, warmup_rounds=0,
+    )
+    record(benchmark, result, n)
+    truth = route.GroundTruth.from_frames(n, n, 2)
+    evaluation = route.evaluate_matches(result.refs, result.scores, truth)
+    benchmark.extra_info["recall_at_100"] = round(evaluation.recall_at_100, 4)
+    if real:
+        # Golden subset A: 0.402 (OpenSeqSLAM's own figure); the full route: 0.355 (README).
+        assert round(evaluation.recall_at_100, 3) == (0.402 if n == 500 else 0.355)
+    else:
+        assert evaluation.recall_at_100 > 0.5
