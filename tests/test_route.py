@@ -306,3 +306,21 @@ def test_nan_and_inf_follow_octave_semantics():
     expected_refs, expected_scores = ro.find_matches_centred(dd, rwindow=6)
     np.testing.assert_array_equal(refs, expected_refs)
     np.testing.assert_array_equal(scores, expected_scores)
+
+
+def test_memory_is_at_most_two_matrices():
+    """Array memory allocated by the pipeline (numpy and the core's outputs, traced by
+    tracemalloc): the two (n_query, n_ref) float32 matrices, one with keep_difference=False."""
+    import tracemalloc
+
+    refs, queries, _ = ro.synthetic_route(1200, 1100, speed=1.0, seed=30)
+    matrix = 1100 * 1200 * 4
+    for keep, limit in ((True, 2.1), (False, 1.1)):
+        tracemalloc.start()
+        try:
+            result = route.match_prepared(refs, queries, "openseqslam", keep_difference=keep)
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        assert peak <= limit * matrix, (keep, peak / matrix)
+        del result

@@ -78,8 +78,7 @@ def _block_task(
     _core.difference_matrix_into(queries, refs, shifts, threads, divisor, difference)
     out = np.empty_like(difference) if keep_difference else difference
     _core.enhance_contrast(difference, radius, offset, threads, out)
-    valid = out[~np.isnan(out)]
-    minimum = float(valid.min()) if valid.size else math.nan
+    minimum = float(np.fmin.reduce(out, axis=None))  # NaN ignored (NaN only if all are)
     return (difference if keep_difference else None), out, minimum
 
 

@@ -195,10 +195,8 @@ def enhance_contrast(
         block_offset = "none" if chosen == "global_min" else chosen
         _, _ = _core.enhance_contrast(d[start:stop], p.enhance_radius, block_offset, n_threads, result[start:stop])
         if chosen == "global_min":
-            block = result[start:stop]
-            valid = block[~np.isnan(block)]
-            if valid.size:
-                block_min = float(valid.min())
+            block_min = float(np.fmin.reduce(result[start:stop], axis=None))  # NaN ignored, no copy
+            if not math.isnan(block_min):
                 minimum = block_min if math.isnan(minimum) else min(minimum, block_min)
     if chosen == "global_min":
         # Octave: DD - min(min(DD)) in float32 (an all-NaN matrix stays NaN).
