@@ -44,3 +44,29 @@ def difference_matrix_sums(
     shifts: npt.NDArray[np.int32],
     threads: int,
 ) -> Tuple[npt.NDArray[np.uint32], npt.NDArray[np.int32]]: ...
+
+# Route mode (cpp/bindings/register_route.cpp; use nightloc.route)
+def zscore_bound(radius: int) -> float: ...
+def enhance_contrast(
+    d: npt.NDArray[np.float32], radius: int, offset: str, threads: int, out: npt.NDArray[np.float32] | None = None
+) -> Tuple[npt.NDArray[np.float32], float]: ...
+def trajectory_search(
+    dd: npt.NDArray[np.float32],
+    ds: int,
+    vmin: float,
+    vmax: float,
+    uniqueness_radius: int,
+    causal: bool,
+    query_begin: int,
+    query_end: int,
+    threads: int,
+) -> Tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]: ...
+def trajectory_plan(ds: int, vmin: float, vmax: float, uniqueness_radius: int, causal: bool) -> dict: ...
+def difference_matrix_into(
+    queries: npt.NDArray[np.uint8],
+    refs: npt.NDArray[np.uint8],
+    shifts: npt.NDArray[np.int32],
+    threads: int,
+    divisor: float,
+    out: npt.NDArray[np.float32],
+) -> None: ...
