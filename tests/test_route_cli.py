@@ -142,3 +142,26 @@ def test_nordland_full_route(shared_data, tmp_path, capsys):
     assert round(summary["recall_at_100_precision"], 3) == 0.355  # measured; README
     rows = read_csv(out / "matches.csv")
     assert len(rows) == 3577
+
+
+def test_route_command_on_videos(tmp_path):
+    refs, queries, _ = ro.synthetic_route(90, 80, speed=1.0, seed=13)
+
+    def video(path, frames, repeat):
+        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (frames.shape[2], frames.shape[1]))
+        if not writer.isOpened():
+            pytest.skip("this OpenCV build cannot write MJPG videos")
+        for frame in frames:
+            for _ in range(repeat):  # every frame `repeat` times: --frame-step recovers the route
+                writer.write(cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR))
+        writer.release()
+        return path
+
+    day = video(tmp_path / "day.avi", refs, 2)
+    night = video(tmp_path / "night.avi", queries, 2)
+    out = tmp_path / "out"
+    assert main(["route", str(day), str(night), "--out", str(out), "--frame-step", "2", "--no-figures",
+                 "--ground-truth", "frames"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["n_refs"] == 90 and summary["n_queries"] == 80
+    assert summary["recall_at_100_precision"] > 0.7
