@@ -161,6 +161,7 @@ class PackedGeometry:
 
     @property
     def n_prisms(self) -> int:
+        """Number of prisms (they are objects ``0..n_prisms-1``)."""
         return len(self.vertices)
 
     def inside_footprint(self, x: float, y: float) -> np.ndarray:

@@ -50,6 +50,7 @@ class SkyMap:
     low_deg: float = -20.0
 
     def sample(self, azimuth: np.ndarray, elevation: np.ndarray) -> np.ndarray:
+        """Nearest-cell radiance ``(N, 3)`` in directions ``azimuth``, ``elevation`` (rad, ``(N,)``)."""
         rows, cols = self.values.shape[:2]
         c = (np.mod(azimuth, 2 * np.pi) * (cols / (2 * np.pi))).astype(np.int64) % cols
         span = np.radians(90.0 - self.low_deg)
