@@ -75,6 +75,8 @@ def test_route_command_writes_matches_pr_and_figures(synthetic_traverses, tmp_pa
 def test_route_command_options(synthetic_traverses, tmp_path):
     day, night, _, _ = synthetic_traverses
     out = tmp_path / "causal"
+    out.mkdir()
+    (out / "pr.csv").write_text("stale output of an earlier run\n")
     args = ["route", str(day), str(night), "--out", str(out), "--mode", "causal", "--ds", "6", "--vmin", "0.9",
             "--vmax", "1.1", "--ground-truth", "none", "--no-figures", "--threads", "1"]
     assert main(args) == 0

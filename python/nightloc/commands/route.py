@@ -253,6 +253,11 @@ def run(args: argparse.Namespace) -> int:
             best_f1_threshold=_finite_or_none(evaluation.best_f1_threshold),
         )
     write_text_atomic(out / "summary.json", json.dumps(summary, indent=1, default=_json_default) + "\n")
+    # Outputs of an earlier run into the same folder that this run did not produce would mislead.
+    produced = {"matches.csv", "summary.json", *figures} | ({"pr.csv"} if evaluation is not None else set())
+    for stale in ("pr.csv", "difference_matrix.png", "pr_curve.png", "correspondence.png"):
+        if stale not in produced and (out / stale).is_file():
+            (out / stale).unlink()
 
     compute = sum(result.timings[k] for k in ("difference", "enhancement", "search"))
     print(
