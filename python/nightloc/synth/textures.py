@@ -241,12 +241,9 @@ def _screen(rng, rows, cols, ppm):
 
 def _curtain(rng, rows, cols, ppm, colour=(0.55, 0.35, 0.25)):
     """Curtain folds: vertical sinusoidal shading with irregular spacing."""
-    x = np.arange(cols) / ppm
     phase = np.cumsum(rng.uniform(0.6, 1.4, cols)) / ppm
     folds = 0.7 + 0.3 * np.sin(2 * np.pi * phase / 0.09)
-    albedo = np.asarray(colour, np.float32) * folds[None, :, None] * np.ones((rows, 1, 1), np.float32)
-    del x
-    return albedo
+    return np.asarray(colour, np.float32) * folds[None, :, None] * np.ones((rows, 1, 1), np.float32)
 
 
 def _tiles(rng, rows, cols, ppm, colour=(0.30, 0.28, 0.27)):
