@@ -103,6 +103,7 @@ QueryPlan::QueryPlan(SimdBackend backend, const SearchShape& shape) : shape_(sha
     all_shifts_ = use_all_shift_layout(backend, shape);
     if (all_shifts_) {
         slots_per_block_ = shape.n_shifts;
+        interleaved_bytes_ = stride_ * (shape.width / 2);
         rolled_temp_.reset(new std::uint8_t[stride_]);
         fused_min_ = std::is_sorted(shape.shifts, shape.shifts + shape.n_shifts);
         selected_.assign(shape.width / 8, 0);
@@ -117,25 +118,32 @@ QueryPlan::QueryPlan(SimdBackend backend, const SearchShape& shape) : shape_(sha
     }
 }
 
-void QueryPlan::prepare(const std::uint8_t* query, std::size_t slot_begin) {
+void QueryPlan::prepare(const std::uint8_t* queries, std::size_t count, std::size_t slot_begin) {
+    query_count_ = count;
     slot_begin_ = slot_begin;
     slot_count_ = std::min(slots_per_block_, shape_.n_shifts - slot_begin);
     if (all_shifts_) {
         const std::size_t n_chunks = stride_ / kChunk;
         const std::size_t n_even = shape_.width / 2;
-        buffer_.assign_zero(n_chunks * n_even * kChunk);
+        buffer_.assign_zero(count * interleaved_bytes_);
         std::uint8_t* rolled = rolled_temp_.get();
-        for (std::size_t m = 0; m < n_even; ++m) {
-            write_rolled(query, shape_.height, shape_.width, 2 * m, rolled, stride_);
-            for (std::size_t c = 0; c < n_chunks; ++c) {
-                std::memcpy(buffer_.data() + (c * n_even + m) * kChunk, rolled + c * kChunk, kChunk);
+        for (std::size_t k = 0; k < count; ++k) {
+            std::uint8_t* interleaved = buffer_.data() + k * interleaved_bytes_;
+            for (std::size_t m = 0; m < n_even; ++m) {
+                write_rolled(queries + k * shape_.pixels, shape_.height, shape_.width, 2 * m, rolled, stride_);
+                for (std::size_t c = 0; c < n_chunks; ++c) {
+                    std::memcpy(interleaved + (c * n_even + m) * kChunk, rolled + c * kChunk, kChunk);
+                }
             }
         }
     } else {
-        buffer_.assign_zero(slot_count_ * stride_);
-        for (std::size_t j = 0; j < slot_count_; ++j) {
-            const auto shift = static_cast<std::size_t>(shape_.shifts[slot_begin + j]);
-            write_rolled(query, shape_.height, shape_.width, shift, buffer_.data() + j * stride_, stride_);
+        buffer_.assign_zero(count * slot_count_ * stride_);
+        for (std::size_t k = 0; k < count; ++k) {
+            for (std::size_t j = 0; j < slot_count_; ++j) {
+                const auto shift = static_cast<std::size_t>(shape_.shifts[slot_begin + j]);
+                write_rolled(queries + k * shape_.pixels, shape_.height, shape_.width, shift,
+                             buffer_.data() + (k * slot_count_ + j) * stride_, stride_);
+            }
         }
     }
 }
@@ -146,28 +154,32 @@ void QueryPlan::evaluate(const std::uint8_t* refs, std::size_t n_refs, std::uint
 #if NIGHTLOC_X86_KERNELS
     if (all_shifts_) {
         const std::size_t width = shape_.width;
-        sad_all_shifts_avx512bw(buffer_.data(), width, refs, n_refs, shape_.pixels, scratch, width, nullptr, nullptr,
-                                nullptr);
-        for (std::size_t i = 0; i < n_refs; ++i) {
-            const std::uint32_t* row = scratch + i * width;
-            std::uint32_t* dst = out + i * out_stride;
-            for (std::size_t j = 0; j < slot_count_; ++j) {
-                dst[j] = row[static_cast<std::size_t>(shape_.shifts[slot_begin_ + j])];
+        for (std::size_t k = 0; k < query_count_; ++k) {
+            sad_all_shifts_avx512bw(buffer_.data() + k * interleaved_bytes_, width, refs, n_refs, shape_.pixels,
+                                    scratch, width, nullptr, nullptr, nullptr);
+            for (std::size_t i = 0; i < n_refs; ++i) {
+                const std::uint32_t* row = scratch + i * width;
+                std::uint32_t* dst = out + i * out_stride + k * slot_count_;
+                for (std::size_t j = 0; j < slot_count_; ++j) {
+                    dst[j] = row[static_cast<std::size_t>(shape_.shifts[slot_begin_ + j])];
+                }
             }
         }
         return;
     }
 #endif
     (void)scratch;
-    copies_kernel_(buffer_.data(), stride_, slot_count_, refs, n_refs, shape_.pixels, out, out_stride);
+    copies_kernel_(buffer_.data(), stride_, query_count_ * slot_count_, refs, n_refs, shape_.pixels, out, out_stride);
 }
 
-void QueryPlan::evaluate_min(const std::uint8_t* refs, std::size_t n_refs, std::uint32_t* best_sums,
-                             std::int32_t* best_shifts) const {
-    if (!fused_min_) throw std::logic_error("QueryPlan::evaluate_min needs the all-shift layout and sorted shifts");
+void QueryPlan::evaluate_min(std::size_t query, const std::uint8_t* refs, std::size_t n_refs,
+                             std::uint32_t* best_sums, std::int32_t* best_shifts) const {
+    if (!fused_min_ || query >= query_count_) {
+        throw std::logic_error("QueryPlan::evaluate_min needs the all-shift layout, sorted shifts and a prepared query");
+    }
 #if NIGHTLOC_X86_KERNELS
-    sad_all_shifts_avx512bw(buffer_.data(), shape_.width, refs, n_refs, shape_.pixels, nullptr, 0, selected_.data(),
-                            best_sums, best_shifts);
+    sad_all_shifts_avx512bw(buffer_.data() + query * interleaved_bytes_, shape_.width, refs, n_refs, shape_.pixels,
+                            nullptr, 0, selected_.data(), best_sums, best_shifts);
 #else
     (void)refs, (void)n_refs, (void)best_sums, (void)best_shifts;
 #endif

@@ -41,10 +41,12 @@ SearchShape make_search_shape(std::size_t height, std::size_t width, const std::
 /// Bytes one prepared query occupies (for sizing query blocks).
 std::size_t plan_bytes(SimdBackend backend, const SearchShape& shape);
 
-/// One query, prepared for one block of the shift list [slot_begin, slot_end):
-///  - all-shift layout (AVX-512BW, width % 8 == 0, many shifts): even-shift copies, interleaved;
-///  - otherwise one rolled copy per shift of the block.
-/// evaluate() is const and may run concurrently from several threads on one plan.
+/// A block of queries, prepared for one block of the shift list [slot_begin, slot_end):
+///  - all-shift layout (AVX-512BW, width % 8 == 0, many shifts): per query, its even-shift copies,
+///    interleaved;
+///  - otherwise one rolled copy per query and shift of the block, all handed to one kernel call
+///    so that each reference chunk loaded serves every query of the block.
+/// evaluate() and evaluate_min() are const and may run concurrently on one plan.
 class QueryPlan {
 public:
     QueryPlan(SimdBackend backend, const SearchShape& shape);
@@ -52,13 +54,15 @@ public:
     /// Shift-list slots per block (the whole list for the all-shift layout).
     std::size_t slots_per_block() const { return slots_per_block_; }
 
-    /// Prepares `query` (pixels bytes) for slots [slot_begin, slot_begin + slots_per_block()).
-    void prepare(const std::uint8_t* query, std::size_t slot_begin);
+    /// Prepares `count` queries (contiguous, `pixels` bytes each) for slots
+    /// [slot_begin, slot_begin + slots_per_block()).
+    void prepare(const std::uint8_t* queries, std::size_t count, std::size_t slot_begin);
+    std::size_t query_count() const { return query_count_; }
     std::size_t slot_begin() const { return slot_begin_; }
     std::size_t slot_count() const { return slot_count_; }
 
-    /// out[i * out_stride + j] = sum for slot slot_begin() + j and reference i, for i < n_refs,
-    /// j < slot_count(). `scratch` must hold scratch_size(n_refs) words.
+    /// out[i * out_stride + k * slot_count() + j] = sum for reference i, query k and slot
+    /// slot_begin() + j. `scratch` must hold scratch_size(n_refs) words.
     void evaluate(const std::uint8_t* refs, std::size_t n_refs, std::uint32_t* out, std::size_t out_stride,
                   std::uint32_t* scratch) const;
     std::size_t scratch_size(std::size_t n_refs) const { return all_shifts_ ? n_refs * shape_.width : 0; }
@@ -66,18 +70,20 @@ public:
     /// True when evaluate_min() is available: the all-shift layout with a strictly increasing
     /// shift list (so the earliest slot of a tie is also the lowest shift).
     bool fused_min() const { return fused_min_; }
-    /// Minimum over all slots for each reference: best_sums[i], best_shifts[i] (shift values).
-    void evaluate_min(const std::uint8_t* refs, std::size_t n_refs, std::uint32_t* best_sums,
+    /// Minimum over all slots for query `query` and each reference: best_sums[i], best_shifts[i].
+    void evaluate_min(std::size_t query, const std::uint8_t* refs, std::size_t n_refs, std::uint32_t* best_sums,
                       std::int32_t* best_shifts) const;
 
 private:
     SearchShape shape_;
     bool all_shifts_ = false;
     CopiesKernel copies_kernel_ = nullptr;
-    std::size_t stride_ = 0;            // bytes per copy (copies layout)
+    std::size_t stride_ = 0;            // bytes per rolled copy
+    std::size_t interleaved_bytes_ = 0; // bytes per query in the all-shift layout
     bool fused_min_ = false;
     std::vector<std::uint16_t> selected_;  // all-shift layout: per 8 shifts, which are in the list
     std::size_t slots_per_block_ = 0;
+    std::size_t query_count_ = 0;
     std::size_t slot_begin_ = 0;
     std::size_t slot_count_ = 0;
     AlignedBytes buffer_;

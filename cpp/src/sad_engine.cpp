@@ -18,9 +18,9 @@ using detail::SearchShape;
 
 // A block of references should stay in L2 while every query of a query block scans it.
 constexpr std::size_t kRefBlockBytes = std::size_t{256} * 1024;
-// Prepared queries of one block, together.
+// Prepared queries of one block, together: each reference block read from memory serves them all.
 constexpr std::size_t kQueryBlockBytes = std::size_t{512} * 1024;
-constexpr std::size_t kMaxQueryBlock = 16;
+constexpr std::size_t kMaxQueryBlock = 64;
 // References per task at most (bounds the per-task tile of results).
 constexpr std::size_t kMaxRefsPerTask = 1 << 15;
 // Below this many byte comparisons a second thread costs more than it saves (~50 us of work).
@@ -86,34 +86,36 @@ void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries
 
         std::vector<std::uint32_t> best(tile.q_count * tile.r_count, std::numeric_limits<std::uint32_t>::max());
         std::vector<std::int32_t> best_shift(tile.q_count * tile.r_count, shape.shifts[0]);
-        std::vector<QueryPlan> plans;
-        plans.reserve(tile.q_count);
-        for (std::size_t k = 0; k < tile.q_count; ++k) plans.emplace_back(backend, shape);
-        const QueryPlan& first_plan = plans.front();
-        // Per-(reference, slot) sums are only materialised when the kernel cannot take the minimum.
+        QueryPlan plan(backend, shape);
+        // Per-(reference, query, slot) sums are only materialised when the kernel cannot take
+        // the minimum itself.
         std::vector<std::uint32_t> slot_sums, scratch;
-        if (!first_plan.fused_min()) {
+        if (!plan.fused_min()) {
             const std::size_t r_max = std::min(r_block, tile.r_count);
-            slot_sums.resize(r_max * first_plan.slots_per_block());
-            scratch.resize(first_plan.scratch_size(r_max));
+            slot_sums.resize(r_max * tile.q_count * plan.slots_per_block());
+            scratch.resize(plan.scratch_size(r_max));
         }
 
-        for (std::size_t slot = 0; slot < n_shifts; slot += first_plan.slots_per_block()) {
-            for (std::size_t k = 0; k < tile.q_count; ++k) plans[k].prepare(queries + (tile.q_first + k) * pixels, slot);
-            const std::size_t n_slots = first_plan.slot_count();
+        for (std::size_t slot = 0; slot < n_shifts; slot += plan.slots_per_block()) {
+            plan.prepare(queries + tile.q_first * pixels, tile.q_count, slot);
+            const std::size_t n_slots = plan.slot_count();
+            const std::size_t row_width = tile.q_count * n_slots;
             for (std::size_t r0 = 0; r0 < tile.r_count; r0 += r_block) {
                 const std::size_t r_count = std::min(r_block, tile.r_count - r0);
                 const std::uint8_t* block = refs + (tile.r_first + r0) * pixels;
+                if (plan.fused_min()) {  // a single shift block: the kernel takes the minimum itself
+                    for (std::size_t k = 0; k < tile.q_count; ++k) {
+                        plan.evaluate_min(k, block, r_count, best.data() + k * tile.r_count + r0,
+                                          best_shift.data() + k * tile.r_count + r0);
+                    }
+                    continue;
+                }
+                plan.evaluate(block, r_count, slot_sums.data(), row_width, scratch.data());
                 for (std::size_t k = 0; k < tile.q_count; ++k) {
                     std::uint32_t* row_best = best.data() + k * tile.r_count + r0;
                     std::int32_t* row_shift = best_shift.data() + k * tile.r_count + r0;
-                    if (plans[k].fused_min()) {  // a single shift block: the kernel takes the minimum itself
-                        plans[k].evaluate_min(block, r_count, row_best, row_shift);
-                        continue;
-                    }
-                    plans[k].evaluate(block, r_count, slot_sums.data(), n_slots, scratch.data());
                     for (std::size_t i = 0; i < r_count; ++i) {
-                        const std::uint32_t* s = slot_sums.data() + i * n_slots;
+                        const std::uint32_t* s = slot_sums.data() + i * row_width + k * n_slots;
                         for (std::size_t j = 0; j < n_slots; ++j) {
                             if (s[j] < row_best[i]) {  // strict: the earliest slot wins ties
                                 row_best[i] = s[j];
@@ -149,7 +151,7 @@ void rotational_sad_sums(const std::uint8_t* query, const std::uint8_t* refs, st
     const int n_threads = useful_threads(threads, static_cast<double>(n_refs) * static_cast<double>(n_shifts) *
                                                       static_cast<double>(shape.pixels));
     for (std::size_t slot = 0; slot < n_shifts; slot += plan.slots_per_block()) {
-        plan.prepare(query, slot);
+        plan.prepare(query, 1, slot);
         detail::parallel_for(n_blocks, n_threads, [&](std::size_t b) {
             const std::size_t first = b * block;
             const std::size_t count = std::min(block, n_refs - first);

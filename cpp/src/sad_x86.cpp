@@ -112,10 +112,18 @@ private:
         const std::size_t n_full = pixels / (V);                                                          \
         const bool has_tail = pixels % (V) != 0;                                                          \
         RefPass<(V)> pass(pixels, n_copies);                                                              \
+        /* While a pass computes, the next pass's references are prefetched, spread over its copies. */   \
+        const std::size_t pass_lines = kRefsPerPass * pixels / 64 + 1;                                    \
+        const std::size_t lines_per_copy = (pass_lines + n_copies - 1) / n_copies;                         \
         for (std::size_t first = 0; first < n_refs; first += kRefsPerPass) {                              \
             pass.load(refs, first, n_refs);                                                               \
+            const char* next = reinterpret_cast<const char*>(refs + (first + kRefsPerPass) * pixels);      \
             for (std::size_t j = 0; j < n_copies; ++j) {                                                  \
                 const std::uint8_t* q = copies + j * stride;                                              \
+                if (first + kRefsPerPass < n_refs) {                                                      \
+                    for (std::size_t l = j * lines_per_copy; l < (j + 1) * lines_per_copy && l < pass_lines; ++l) \
+                        _mm_prefetch(next + 64 * l, _MM_HINT_T0);                                         \
+                }                                                                                         \
                 VEC acc[kRefsPerPass];                                                                    \
                 _Pragma("GCC unroll 8") for (std::size_t k = 0; k < kRefsPerPass; ++k) acc[k] = ZERO();   \
                 for (std::size_t c = 0; c < n_full; ++c) {                                                \
