@@ -34,7 +34,6 @@ import functools
 import math
 import os
 import re
-import tempfile
 import tomllib
 import types
 import typing
@@ -43,6 +42,7 @@ from typing import Any, Callable, Dict, Iterable, Literal, Mapping, Optional, Tu
 
 import numpy as np
 
+from ._atomic import write_text
 from .errors import NightlocError
 from .matching import DEFAULT_PATCH_SCALE
 
@@ -311,23 +311,6 @@ def dumps_toml(document: Mapping[str, Any], header: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
-def _write_text_atomic(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8", newline="\n") as stream:
-            stream.write(text)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temporary, path)
-    except BaseException:
-        try:
-            os.unlink(temporary)
-        except OSError:
-            pass
-        raise
-
-
 # --------------------------------------------------------------------------------------------
 # files
 
@@ -391,7 +374,7 @@ def save_params(path: Union[str, "os.PathLike[str]"], params: Union[Any, Iterabl
         if section in document:
             raise ValueError(f"two instances for table [{section}]")
         document[section] = params_to_dict(item)
-    _write_text_atomic(Path(path), dumps_toml(document, header="nightloc parameters"))
+    write_text(Path(path), dumps_toml(document, header="nightloc parameters"))
 
 
 # --------------------------------------------------------------------------------------------

@@ -17,7 +17,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 import zipfile
 import zlib
 from pathlib import Path
@@ -25,6 +24,7 @@ from typing import Any, Dict, Optional, Sequence, Union
 
 import numpy as np
 
+from ._atomic import atomic_file
 from ._core import __version__
 from ._validate import uint8_array
 from .errors import DatasetError, MapFormatError
@@ -268,19 +268,8 @@ class ReferenceMap:
         arrays = {"header": header, "images": self._images, "positions": self._positions}
         if self._headings is not None:
             arrays["headings"] = self._headings
-        handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".partial", dir=target.parent)
-        try:
-            with os.fdopen(handle, "wb") as stream:
-                np.savez(stream, **arrays)
-                stream.flush()
-                os.fsync(stream.fileno())
-            os.replace(temporary, target)
-        except BaseException:
-            try:
-                os.unlink(temporary)
-            except OSError:
-                pass
-            raise
+        with atomic_file(target, "wb") as stream:
+            np.savez(stream, **arrays)
         return target
 
     @classmethod

@@ -26,7 +26,6 @@ import math
 import os
 import re
 import shutil
-import tempfile
 from collections import deque
 from pathlib import Path
 from typing import Iterable, Iterator, Optional, Sequence, Tuple, Union
@@ -34,6 +33,7 @@ from typing import Iterable, Iterator, Optional, Sequence, Tuple, Union
 import cv2
 import numpy as np
 
+from ._atomic import replace_folder, staging_folder
 from ._validate import thread_count
 from .errors import DatasetError
 from .progress import progress
@@ -799,7 +799,7 @@ def save_traverse(
                 f"{target} exists and is not a traverse folder (only images/ and poses.csv); refusing to replace it"
             )
     target.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".partial", dir=target.parent))
+    staging = staging_folder(target)
     try:
         image_dir = staging / _IMAGE_DIR
         image_dir.mkdir()
@@ -826,24 +826,9 @@ def save_traverse(
                     if head is not None:
                         row.append(repr(float(head[i])))
                     writer.writerow(row)
-        _replace_folder(staging, target)
+        replace_folder(staging, target)
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise
     return load_traverse(target)
 
-
-def _replace_folder(staging: Path, target: Path) -> None:
-    """Renames ``staging`` to ``target``, moving an existing ``target`` aside first."""
-    if not target.exists():
-        os.rename(staging, target)
-        return
-    trash = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
-    os.rmdir(trash)
-    os.rename(target, trash)
-    try:
-        os.rename(staging, target)
-    except BaseException:
-        os.rename(trash, target)
-        raise
-    shutil.rmtree(trash, ignore_errors=True)

@@ -27,14 +27,13 @@ import csv
 import io
 import json
 import math
-import os
 import time
-import uuid
 from pathlib import Path
 from typing import Optional
 
 import numpy as np
 
+from .._atomic import write_text
 from ..params import PreparationParams, load_params_file
 from ..route.evaluation import GroundTruth, RouteEvaluation, evaluate_matches
 from ..route.params import PRESETS, RouteParams, resolve_params
@@ -151,20 +150,7 @@ def _name_correspondence(reference: Traverse, query: Traverse) -> Optional[np.nd
 
 def write_text_atomic(path: Path, text: str) -> None:
     """Writes ``text`` to ``path`` through a temporary file in the same folder and os.replace."""
-    temporary = path.parent / f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
-    handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # umask applies, as for open()
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
-            stream.write(text)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temporary, path)
-    except BaseException:
-        try:
-            os.unlink(temporary)
-        except FileNotFoundError:
-            pass
-        raise
+    write_text(path, text, newline="")
 
 
 def _number(value: float) -> str:

@@ -15,13 +15,13 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Dict, Iterator, List, Optional, Union
 
 import numpy as np
 
+from .._atomic import staging_folder, write_text
 from .._validate import thread_count
 from ..progress import progress
 from ..traverse import save_traverse
@@ -128,16 +128,7 @@ class SynthScene:
 
 
 def _write_json_atomic(path: Path, content: dict) -> None:
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8") as stream:
-            json.dump(content, stream, indent=2)
-            stream.write("\n")
-        os.chmod(temporary, 0o644)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    write_text(path, json.dumps(content, indent=2) + "\n")
 
 
 def make_dataset(
@@ -223,7 +214,7 @@ def default_dataset(cache_dir: Optional[Union[str, os.PathLike]] = None) -> Dict
     folder = root / f"synth-v{GENERATOR_VERSION}-seed{DEFAULT_SEED}"
     if not _complete(folder):
         root.mkdir(parents=True, exist_ok=True)
-        staging = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".partial", dir=root))
+        staging = staging_folder(folder)
         try:
             for world in WORLD_NAMES:
                 make_dataset(world, staging / world, DEFAULT_SEED, DEFAULT_DARKNESS)

@@ -10,15 +10,14 @@ Figures 4b and 5b).
 
 from __future__ import annotations
 
-import os
 import sys
-import tempfile
 from pathlib import Path
 from typing import List, Optional, Sequence, Tuple
 
 import cv2
 import numpy as np
 
+from .._atomic import write_bytes
 from ..preparation import prepare
 from .dataset import DEFAULT_DARKNESS, DEFAULT_SEED, SynthScene
 from .geometry import polygon_of
@@ -103,15 +102,7 @@ def _save_png(path: Path, image: np.ndarray) -> None:
     ok, encoded = cv2.imencode(".png", image, [cv2.IMWRITE_PNG_COMPRESSION, 9])
     if not ok:
         raise ValueError(f"could not encode {path}")
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            stream.write(encoded.tobytes())
-        os.chmod(temporary, 0o644)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    write_bytes(path, encoded.tobytes())
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

@@ -1,0 +1,115 @@
+"""Atomic outputs: a file or a folder appears complete, or not at all.
+
+Everything is first written under a hidden temporary name in the destination's own folder (same
+file system), flushed to disk, then renamed into place with ``os.replace``/``os.rename``. An
+interrupted write (exception, kill, power loss) leaves the previous version intact and at most a
+hidden ``.<name>.<random>.partial`` entry behind. New files and folders get the usual permissions
+(0666/0777 less the umask), unlike ``tempfile``'s private 0600/0700.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import uuid
+from pathlib import Path
+from typing import IO, Iterator, Optional, Union
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+__all__ = ["atomic_file", "write_bytes", "write_text", "staging_folder", "atomic_folder", "replace_folder"]
+
+
+def _temporary_name(target: Path) -> Path:
+    return target.parent / f".{target.name}.{uuid.uuid4().hex[:12]}.partial"
+
+
+@contextlib.contextmanager
+def atomic_file(path: PathLike, mode: str = "wb", encoding: Optional[str] = None, newline: Optional[str] = None) -> Iterator[IO]:
+    """Context manager yielding a file object whose content replaces ``path`` on success.
+
+    ``mode`` is ``"wb"`` or ``"w"`` (text, ``encoding`` defaults to UTF-8). On an exception the
+    temporary file is removed and ``path`` is left as it was.
+    """
+    if mode not in ("wb", "w"):
+        raise ValueError(f"mode must be 'wb' or 'w', got {mode!r}")
+    target = Path(path)
+    if target.is_dir():
+        raise IsADirectoryError(f"{target} is a folder, not a file name")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    temporary = _temporary_name(target)
+    handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # the umask applies
+    try:
+        if mode == "w":
+            stream = os.fdopen(handle, "w", encoding=encoding or "utf-8", newline=newline)
+        else:
+            stream = os.fdopen(handle, "wb")
+    except BaseException:
+        os.close(handle)
+        temporary.unlink(missing_ok=True)
+        raise
+    try:
+        with stream:
+            yield stream
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(temporary, target)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+
+
+def write_bytes(path: PathLike, data: bytes) -> Path:
+    """Writes ``data`` to ``path`` atomically; returns the path."""
+    with atomic_file(path, "wb") as stream:
+        stream.write(data)
+    return Path(path)
+
+
+def write_text(path: PathLike, text: str, newline: Optional[str] = "\n") -> Path:
+    """Writes ``text`` (UTF-8) to ``path`` atomically; returns the path."""
+    with atomic_file(path, "w", newline=newline) as stream:
+        stream.write(text)
+    return Path(path)
+
+
+def staging_folder(target: PathLike) -> Path:
+    """Creates and returns an empty hidden folder beside ``target`` to build it in."""
+    target = Path(target)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    staging = _temporary_name(target)
+    os.mkdir(staging, 0o777)  # the umask applies
+    return staging
+
+
+def replace_folder(staging: PathLike, target: PathLike) -> None:
+    """Renames ``staging`` to ``target``; an existing ``target`` is moved aside first and removed
+    only once the new folder is in place (restored if the rename fails)."""
+    staging, target = Path(staging), Path(target)
+    if not target.exists():
+        os.rename(staging, target)
+        return
+    trash = _temporary_name(target).with_suffix(".old")
+    os.rename(target, trash)
+    try:
+        os.rename(staging, target)
+    except BaseException:
+        os.rename(trash, target)
+        raise
+    shutil.rmtree(trash, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def atomic_folder(target: PathLike) -> Iterator[Path]:
+    """Context manager yielding a staging folder that replaces ``target`` on success.
+
+    On an exception the staging folder is removed and ``target`` is left as it was.
+    """
+    staging = staging_folder(target)
+    try:
+        yield staging
+        replace_folder(staging, target)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
