@@ -77,3 +77,15 @@ def test_unsupported_simd_path_is_refused():
         pytest.skip("this CPU supports every SIMD path")
     with pytest.raises(ValueError, match="not supported"):
         nightloc.set_simd_backend(missing[0])
+
+
+def test_pickled_arrays_are_accepted():
+    """Arrays rebuilt by pickle (as on Dask or multiprocessing workers) have an equal, not identical, dtype."""
+    import pickle
+
+    refs = np.random.default_rng(1).integers(0, 256, (6, 24, 48), dtype=np.uint8)
+    again = pickle.loads(pickle.dumps(refs))
+    shifts = pickle.loads(pickle.dumps(np.arange(48, dtype=np.int32)))
+    scores, best = _core.difference_matrix(again, again, shifts, 1)
+    assert np.all(np.diag(scores) == 0) and np.all(np.diag(best) == 0)
+    assert nightloc.match(again[2], again).index == 2

@@ -27,7 +27,9 @@ std::string shape_text(const py::array& a) {
 
 // A C-contiguous uint8 array of the given rank, or a TypeError/ValueError naming the problem.
 U8Array checked_u8(const py::array& a, int ndim, const char* name) {
-    if (!a.dtype().is(py::dtype::of<std::uint8_t>())) {
+    // Equivalence, not identity: arrays rebuilt by pickle (e.g. on Dask workers) carry an equal
+    // but distinct dtype object.
+    if (!py::isinstance<py::array_t<std::uint8_t>>(a)) {
         throw py::type_error(std::string(name) + " must have dtype uint8, got " + std::string(py::str(a.dtype())));
     }
     if (a.ndim() != ndim) {
@@ -41,7 +43,7 @@ U8Array checked_u8(const py::array& a, int ndim, const char* name) {
 }
 
 std::vector<std::int32_t> checked_shifts(const py::array& shifts) {
-    if (!shifts.dtype().is(py::dtype::of<std::int32_t>()) || shifts.ndim() != 1) {
+    if (!py::isinstance<py::array_t<std::int32_t>>(shifts) || shifts.ndim() != 1) {
         throw py::type_error("shifts must be a 1-D int32 array");
     }
     auto view = py::reinterpret_borrow<py::array_t<std::int32_t>>(shifts).unchecked<1>();
