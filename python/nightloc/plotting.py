@@ -30,13 +30,14 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import cv2
 import numpy as np
+
+from ._atomic import write_bytes
 
 __all__ = [
     "NAMED_COLORS",
@@ -925,8 +926,9 @@ def save_png(path: Union[str, os.PathLike], image: np.ndarray) -> Path:
     """Writes ``image`` (``(H, W)`` grey or ``(H, W, 3)`` BGR uint8) as a PNG, atomically.
 
     The PNG is encoded in memory, written to a temporary file in the destination folder and
-    moved into place with ``os.replace``: readers never see a half-written file, and a failure
-    leaves any previous file untouched. The folder must exist.
+    moved into place with ``os.replace`` (:mod:`nightloc._atomic`): readers never see a
+    half-written file, and a failure leaves any previous file untouched. Missing folders are
+    created.
     """
     target = Path(path)
     array = np.asarray(image)
@@ -934,20 +936,7 @@ def save_png(path: Union[str, os.PathLike], image: np.ndarray) -> Path:
         raise ValueError(f"image must be (H, W) or (H, W, 3|4) uint8, got shape {array.shape}, dtype {array.dtype}")
     if 0 in array.shape:
         raise ValueError(f"image is empty (shape {array.shape})")
-    if not target.parent.is_dir():
-        raise FileNotFoundError(f"cannot write {target}: folder {target.parent} does not exist")
     ok, encoded = cv2.imencode(".png", array)
     if not ok:  # pragma: no cover - OpenCV failure
         raise OSError(f"OpenCV could not encode a PNG for {target}")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(encoded.tobytes())
-        os.replace(tmp, target)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    return target
+    return write_bytes(target, encoded.tobytes())
