@@ -216,6 +216,7 @@ PYBIND11_MODULE(_core, m) {
     m.attr("__version__") = NIGHTLOC_VERSION_INFO;
     m.attr("DEFAULT_PATCH_SCALE") = nightloc::kDefaultPatchScale;
     m.attr("MAX_IMAGE_PIXELS") = nightloc::kMaxImagePixels;
+    m.attr("MAX_PATCH_RADIUS") = nightloc::kMaxPatchRadius;
 
     m.def("simd_backend", [] { return std::string(nightloc::simd_backend_name(nightloc::active_simd_backend())); },
           "Name of the SIMD path the kernels use now.");

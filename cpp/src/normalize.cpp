@@ -141,7 +141,10 @@ double round_half_away(double v) { return v < 0.0 ? -std::floor(-v + 0.5) : std:
 void patch_normalize(const std::uint8_t* src, std::uint8_t* dst, std::size_t count, std::size_t height,
                      std::size_t width, int radius, bool wrap, double scale) {
     check_stack(count, height, width);
-    if (radius < 0) throw std::invalid_argument("radius must be >= 0, got " + std::to_string(radius));
+    if (radius < 0 || radius > kMaxPatchRadius) {
+        throw std::invalid_argument("radius must be in [0, " + std::to_string(kMaxPatchRadius) + "], got " +
+                                    std::to_string(radius));
+    }
     if (!(scale > 0.0) || !std::isfinite(scale)) {
         throw std::invalid_argument("scale must be a positive finite number");
     }

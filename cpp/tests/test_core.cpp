@@ -160,6 +160,18 @@ void test_errors() {
         threw = true;
     }
     CHECK(threw);
+    // A radius past the bound would overflow the 64-bit window sums (and loop 2r+1 times per row).
+    threw = false;
+    try {
+        nightloc::patch_normalize(q.data(), r.data(), 1, 2, 3, nightloc::kMaxPatchRadius + 1, true);
+    } catch (const std::invalid_argument&) {
+        threw = true;
+    }
+    CHECK(threw);
+    Bytes ramp(2 * 3), wide(2 * 3);
+    for (std::size_t i = 0; i < ramp.size(); ++i) ramp[i] = static_cast<std::uint8_t>(40 * i);
+    nightloc::patch_normalize(ramp.data(), wide.data(), 1, 2, 3, nightloc::kMaxPatchRadius, true);
+    nightloc::patch_normalize(ramp.data(), r.data(), 1, 2, 3, nightloc::kMaxPatchRadius, false);
 }
 
 void test_patch_normalize() {

@@ -18,7 +18,26 @@ from typing import IO, Iterator, Optional, Union
 
 PathLike = Union[str, "os.PathLike[str]"]
 
-__all__ = ["atomic_file", "write_bytes", "write_text", "staging_folder", "atomic_folder", "replace_folder"]
+__all__ = [
+    "atomic_file", "write_bytes", "write_text", "staging_folder", "atomic_folder", "replace_folder", "make_folder",
+]
+
+
+def make_folder(folder: PathLike) -> Path:
+    """Creates ``folder`` and its parents when missing; returns it.
+
+    Raises NotADirectoryError naming the culprit when ``folder`` or one of its parents is a file
+    (``mkdir`` alone reports a bare "File exists").
+    """
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        blocking = next((p for p in (folder, *folder.parents) if p.exists() and not p.is_dir()), folder)
+        raise NotADirectoryError(
+            f"cannot create the folder {folder}: {blocking} is a file, not a folder; choose another output path"
+        ) from None
+    return folder
 
 
 def _temporary_name(target: Path) -> Path:
@@ -37,7 +56,7 @@ def atomic_file(path: PathLike, mode: str = "wb", encoding: Optional[str] = None
     target = Path(path)
     if target.is_dir():
         raise IsADirectoryError(f"{target} is a folder, not a file name")
-    target.parent.mkdir(parents=True, exist_ok=True)
+    make_folder(target.parent)
     temporary = _temporary_name(target)
     handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # the umask applies
     try:
@@ -77,7 +96,7 @@ def write_text(path: PathLike, text: str, newline: Optional[str] = "\n") -> Path
 def staging_folder(target: PathLike) -> Path:
     """Creates and returns an empty hidden folder beside ``target`` to build it in."""
     target = Path(target)
-    target.parent.mkdir(parents=True, exist_ok=True)
+    make_folder(target.parent)
     staging = _temporary_name(target)
     os.mkdir(staging, 0o777)  # the umask applies
     return staging

@@ -8,6 +8,7 @@ import numpy.typing as npt
 __version__: str
 DEFAULT_PATCH_SCALE: float
 MAX_IMAGE_PIXELS: int
+MAX_PATCH_RADIUS: int
 
 def simd_backend() -> str: ...
 def best_simd_backend() -> str: ...

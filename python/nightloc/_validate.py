@@ -95,12 +95,16 @@ def _usable_cores() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+#: Most worker threads a call may ask for (the core starts at most one per task anyway).
+MAX_THREADS = 1024
+
+
 def thread_count(threads: Optional[int]) -> int:
-    """``threads`` checked, or every core this process may run on when None."""
+    """``threads`` checked (1 .. :data:`MAX_THREADS`), or every core this process may run on when None."""
     if threads is None:
         return _usable_cores()
     if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)):
         raise TypeError(f"threads must be an int or None, got {type(threads).__name__}")
-    if threads < 1:
-        raise ValueError(f"threads must be >= 1, got {threads}")
+    if not 1 <= threads <= MAX_THREADS:
+        raise ValueError(f"threads must be in [1, {MAX_THREADS}], got {threads}")
     return int(threads)

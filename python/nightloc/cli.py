@@ -1,7 +1,9 @@
 """The ``nightloc`` command line: one sub-command per module in :mod:`nightloc.commands`.
 
 Errors in the user's input (bad files, bad values) end the command with a one-line message on
-stderr and exit status 2, never a traceback; set ``NIGHTLOC_DEBUG=1`` to see the traceback.
+stderr and exit status 2, never a traceback; any other exception (a bug) ends it with a one-line
+"internal error" and exit status 1. Set ``NIGHTLOC_DEBUG=1`` to see the traceback (and OpenCV's
+own log messages, which are otherwise limited to errors).
 """
 
 from __future__ import annotations
@@ -38,10 +40,46 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def error_message(error: BaseException) -> str:
+    """One line describing ``error`` for the user.
+
+    Operating-system errors read "<reason>: <path>" (not "[Errno 2] ..."), memory errors say so,
+    and line breaks inside a message are folded so the output stays one line.
+    """
+    if isinstance(error, OSError) and error.strerror and error.filename is not None:
+        message = f"{error.strerror}: {error.filename}"
+        if error.filename2 is not None:
+            message += f" -> {error.filename2}"
+    elif isinstance(error, MemoryError):
+        message = f"out of memory ({error})" if str(error) else "out of memory"
+    else:
+        message = str(error) or type(error).__name__
+    return " ".join(message.split())
+
+
+def _quiet_opencv() -> None:
+    """Limits OpenCV's and FFmpeg's stderr logging to errors (decoder warnings would break the
+    one-line error output); ``NIGHTLOC_DEBUG=1`` keeps them."""
+    if os.environ.get("NIGHTLOC_DEBUG"):
+        return
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET; read when FFmpeg starts
+    try:
+        import cv2
+
+        cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+    except (ImportError, AttributeError):  # pragma: no cover - an OpenCV without the logging API
+        pass
+
+
 def main(argv: Optional[List[str]] = None) -> int:
-    """Entry point of the ``nightloc`` script; returns the exit status."""
+    """Entry point of the ``nightloc`` script; returns the exit status.
+
+    0: success; 2: bad input (usage, values, files; one line on stderr); 1: internal error;
+    130: interrupted.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
+    _quiet_opencv()
     try:
         return int(args.run(args) or 0)
     except KeyboardInterrupt:
@@ -50,9 +88,17 @@ def main(argv: Optional[List[str]] = None) -> int:
     except (ValueError, TypeError, OSError, MemoryError) as error:
         if os.environ.get("NIGHTLOC_DEBUG"):
             raise
-        message = str(error) or type(error).__name__
-        print(f"nightloc {args.command}: error: {message}", file=sys.stderr)
+        print(f"nightloc {args.command}: error: {error_message(error)}", file=sys.stderr)
         return 2
+    except Exception as error:  # a bug: still one line, the traceback on request
+        if os.environ.get("NIGHTLOC_DEBUG"):
+            raise
+        print(
+            f"nightloc {args.command}: internal error: {type(error).__name__}: {error_message(error)} "
+            f"(run with NIGHTLOC_DEBUG=1 for the traceback, and please report it)",
+            file=sys.stderr,
+        )
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

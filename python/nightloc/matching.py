@@ -37,6 +37,8 @@ __all__ = [
 
 #: Quantization gain of :func:`patch_normalize`: output = clip(floor(128 + scale*z + 0.5), 0, 255).
 DEFAULT_PATCH_SCALE: float = float(_core.DEFAULT_PATCH_SCALE)
+#: Largest patch-normalization radius (the window sums stay exact in 64-bit integers).
+MAX_PATCH_RADIUS: int = int(_core.MAX_PATCH_RADIUS)
 
 
 def patch_normalize(
@@ -50,7 +52,8 @@ def patch_normalize(
 
     Args:
         images: ``(H, W)`` or ``(N, H, W)`` uint8.
-        radius: window radius in pixels (the paper's P = 4: a 9x9 window).
+        radius: window radius in pixels (the paper's P = 4: a 9x9 window), at most
+            :data:`MAX_PATCH_RADIUS`.
         wrap: True for 360-degree panoramas: the window wraps around horizontally, so the result
             commutes with circular column shifts; False clips the window at all borders
             (forward-facing cameras). Rows are always clipped.
@@ -60,8 +63,10 @@ def patch_normalize(
         uint8 array of the same shape.
     """
     array = image_or_stack(images, "images")
-    if isinstance(radius, bool) or not isinstance(radius, (int, np.integer)) or radius < 0:
-        raise ValueError(f"radius must be an int >= 0, got {radius!r}")
+    if isinstance(radius, bool) or not isinstance(radius, (int, np.integer)) or not 0 <= radius <= MAX_PATCH_RADIUS:
+        raise ValueError(f"radius must be an int in [0, {MAX_PATCH_RADIUS}], got {radius!r}")
+    if isinstance(scale, bool) or not isinstance(scale, (int, float, np.integer, np.floating)):
+        raise TypeError(f"scale must be a number (grey levels per standard deviation), got {type(scale).__name__}")
     if not np.isfinite(scale) or scale <= 0:
         raise ValueError(f"scale must be a positive finite number, got {scale!r}")
     stack = array[np.newaxis] if array.ndim == 2 else array
@@ -82,8 +87,8 @@ def block_normalize(images: np.ndarray, side: int = 8) -> np.ndarray:
         side: block side in pixels (OpenSeqSLAM's default 8).
     """
     array = image_or_stack(images, "images")
-    if isinstance(side, bool) or not isinstance(side, (int, np.integer)) or side < 2:
-        raise ValueError(f"side must be an int >= 2, got {side!r}")
+    if isinstance(side, bool) or not isinstance(side, (int, np.integer)) or not 2 <= side < 2**31:
+        raise ValueError(f"side must be an int >= 2 (pixels), got {side!r}")
     stack = array[np.newaxis] if array.ndim == 2 else array
     out = _core.block_normalize(stack, int(side))
     return out[0] if array.ndim == 2 else out
@@ -91,6 +96,8 @@ def block_normalize(images: np.ndarray, side: int = 8) -> np.ndarray:
 
 def shifts_to_headings(shifts: np.ndarray, width: int) -> np.ndarray:
     """Relative headings (radians, in (-pi, pi]) of column shifts of a ``width``-column panorama."""
+    if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < 1:
+        raise ValueError(f"width must be an int >= 1 (columns per 360 degrees), got {width!r}")
     angles = 2.0 * np.pi * np.asarray(shifts, dtype=np.float64) / float(width)
     return np.where(angles > np.pi, angles - 2.0 * np.pi, angles)
 

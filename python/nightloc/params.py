@@ -42,9 +42,10 @@ from typing import Any, Callable, Dict, Iterable, Literal, Mapping, Optional, Tu
 
 import numpy as np
 
+from . import _core
 from ._atomic import write_text
 from .errors import NightlocError
-from .matching import DEFAULT_PATCH_SCALE
+from .matching import DEFAULT_PATCH_SCALE, MAX_PATCH_RADIUS
 
 __all__ = [
     "PreparationParams",
@@ -327,7 +328,7 @@ def load_params_file(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Any]:
     except OSError as error:
         raise NightlocError(f"parameter file {file} cannot be read: {error.strerror or error}") from error
     try:
-        document = tomllib.loads(data.decode("utf-8"))
+        document = tomllib.loads(data.decode("utf-8-sig"))  # a byte-order mark (Windows editors) is fine
     except UnicodeDecodeError as error:
         raise NightlocError(f"parameter file {file} is not UTF-8 text (byte {error.start})") from None
     except tomllib.TOMLDecodeError as error:
@@ -424,8 +425,13 @@ class PreparationParams:
         for name in ("width", "height"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be >= 1 pixel, got {getattr(self, name)}")
-        if self.radius < 0:
-            raise ValueError(f"radius must be >= 0, got {self.radius}")
+        if self.width * self.height > _core.MAX_IMAGE_PIXELS:
+            raise ValueError(
+                f"width x height = {self.width}x{self.height} is too large: prepared images hold at most "
+                f"{_core.MAX_IMAGE_PIXELS} pixels (the paper uses 48x24)"
+            )
+        if not 0 <= self.radius <= MAX_PATCH_RADIUS:
+            raise ValueError(f"radius must be in [0, {MAX_PATCH_RADIUS}], got {self.radius}")
         if not (math.isfinite(self.clahe_clip_limit) and self.clahe_clip_limit > 0):
             raise ValueError(f"clahe_clip_limit must be a positive number, got {self.clahe_clip_limit}")
         if min(self.clahe_tiles) < 1:

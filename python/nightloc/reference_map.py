@@ -92,14 +92,20 @@ class ReferenceMap:
                 f"{params.width}x{params.height}: prepare them with these params"
             )
         n = stack.shape[0]
-        pos = np.array(positions, dtype=np.float64)
+        try:
+            pos = np.array(positions, dtype=np.float64)
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"positions must be ({n}, 2) numbers (metres): {error}") from None
         if pos.shape != (n, 2):
             raise ValueError(f"positions must be ({n}, 2) metres for {n} images, got shape {pos.shape}")
         if not np.isfinite(pos).all():
             raise ValueError(f"positions[{int(np.argwhere(~np.isfinite(pos))[0, 0])}] is not finite")
         head = None
         if headings is not None:
-            head = np.array(headings, dtype=np.float64)
+            try:
+                head = np.array(headings, dtype=np.float64)
+            except (TypeError, ValueError) as error:
+                raise ValueError(f"headings must be ({n},) numbers (radians): {error}") from None
             if head.shape != (n,):
                 raise ValueError(f"headings must be ({n},) radians, got shape {head.shape}")
             if not np.isfinite(head).all():
@@ -263,7 +269,6 @@ class ReferenceMap:
         target = Path(path)
         if target.is_dir():
             raise IsADirectoryError(f"{target} is a folder; give a file name such as {target / 'reference.map'}")
-        target.parent.mkdir(parents=True, exist_ok=True)
         header = np.frombuffer(json.dumps(self._header(), ensure_ascii=False).encode("utf-8"), dtype=np.uint8)
         arrays = {"header": header, "images": self._images, "positions": self._positions}
         if self._headings is not None:
@@ -283,6 +288,7 @@ class ReferenceMap:
 
         Raises:
             FileNotFoundError: no such file.
+            PermissionError: the file cannot be read.
             MapFormatError: not a nightloc map, truncated or corrupt, a newer format version,
                 checksum mismatch, or other parameters than ``params``.
         """
@@ -291,6 +297,13 @@ class ReferenceMap:
             raise FileNotFoundError(f"reference map {file} does not exist")
         if file.is_dir():
             raise MapFormatError(f"{file} is a folder, not a reference map file (build one with nightloc build-map)")
+        with open(file, "rb") as stream:  # an unreadable file raises its own OSError (e.g. PermissionError)
+            magic = stream.read(6)
+        if magic.startswith(b"\x93NUMPY"):
+            raise MapFormatError(f"{file} is a single numpy array, not a nightloc reference map")
+        if not magic.startswith(b"PK\x03\x04"):
+            what = "an empty file" if not magic else f"not an .npz (zip) archive; it starts with {magic!r}"
+            raise MapFormatError(f"{file} is not a nightloc reference map ({what})")
         try:
             loaded = np.load(file, allow_pickle=False)
             if not isinstance(loaded, np.lib.npyio.NpzFile):
@@ -334,10 +347,17 @@ class ReferenceMap:
             raise MapFormatError(f"{file}: map header lacks {error}") from None
         except ValueError as error:
             raise MapFormatError(f"{file}: map parameters are invalid: {error}") from None
-        for name in ("images", "positions") + (("headings",) if "headings" in checksums else ()):
+        if not isinstance(checksums, dict):
+            raise MapFormatError(f"{file}: the header's checksums are not a table (corrupt file)")
+        if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+            raise MapFormatError(f"{file}: the header's image count {count!r} is not a positive integer")
+        optional = ("headings",) if "headings" in checksums or "headings" in arrays else ()
+        for name in ("images", "positions") + optional:
             if name not in arrays:
                 raise MapFormatError(f"{file}: the map lacks its '{name}' array (corrupt file)")
-            if _sha256(arrays[name]) != checksums.get(name):
+            if name not in checksums:
+                raise MapFormatError(f"{file}: the header has no checksum for '{name}' (corrupt file)")
+            if _sha256(arrays[name]) != checksums[name]:
                 raise MapFormatError(f"{file}: checksum of '{name}' does not match (the file is corrupt)")
         images = arrays["images"]
         expected = (count, map_params.height, map_params.width)

@@ -578,7 +578,8 @@ def _load_folder(root: Path, frame_step: int, poses: Optional[Path]) -> Traverse
         names = names[::frame_step]
         return Traverse(root=root, names=names, image_dir=image_dir)
     if not pose_file.is_file():
-        raise DatasetError(f"poses file {pose_file} does not exist")
+        what = "is a folder, not a CSV file" if pose_file.is_dir() else "does not exist"
+        raise DatasetError(f"poses file {pose_file} {what}")
     rows, has_heading = read_pose_csv(pose_file, "image")
     missing = []
     for row in rows:
@@ -614,7 +615,8 @@ def _load_video(file: Path, frame_step: int, poses: Optional[Path]) -> Traverse:
         frames = list(range(0, count, frame_step))
         return Traverse(root=file, names=[label.format(f) for f in frames], video=file, frame_indices=frames)
     if not poses.is_file():
-        raise DatasetError(f"poses file {poses} does not exist")
+        what = "is a folder, not a CSV file" if poses.is_dir() else "does not exist"
+        raise DatasetError(f"poses file {poses} {what}")
     rows, has_heading = read_pose_csv(poses, "frame")
     for row in rows:
         if row.key >= count:
@@ -798,8 +800,7 @@ def save_traverse(
             raise FileExistsError(
                 f"{target} exists and is not a traverse folder (only images/ and poses.csv); refusing to replace it"
             )
-    target.parent.mkdir(parents=True, exist_ok=True)
-    staging = staging_folder(target)
+    staging = staging_folder(target)  # creates the parent folders
     try:
         image_dir = staging / _IMAGE_DIR
         image_dir.mkdir()

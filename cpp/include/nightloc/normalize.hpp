@@ -14,6 +14,11 @@ namespace nightloc {
 /// z-images (see README, "Patch normalization").
 inline constexpr double kDefaultPatchScale = 24.0;
 
+/// Largest patch-normalization radius accepted (a 2049 x 2049 window). It bounds the exact
+/// 64-bit window sums (n * sum of squares < 2^63 for any image size) and the per-row work of the
+/// wrap-around window; the paper uses 4.
+inline constexpr int kMaxPatchRadius = 1024;
+
 /// Patch normalization, Mount & Milford eq. (1): every pixel becomes z = (I - mu) / sigma with
 /// mu, sigma the mean and population standard deviation of the (2*radius+1)^2 window around it.
 ///  - wrap = true: the window wraps around horizontally (360-degree panoramas), so normalization
@@ -21,7 +26,8 @@ inline constexpr double kDefaultPatchScale = 24.0;
 ///  - wrap = false: the window is clipped at all borders (forward cameras).
 /// Quantization: dst = clip(floor(128 + scale * z + 0.5), 0, 255). A flat window (sigma = 0)
 /// gives z = 0, i.e. 128, never NaN. Computation is exact integer window sums, then double.
-/// Throws std::invalid_argument for zero sizes, radius < 0 or a non-finite/non-positive scale.
+/// Throws std::invalid_argument for zero sizes, radius outside [0, kMaxPatchRadius] or a
+/// non-finite/non-positive scale.
 void patch_normalize(const std::uint8_t* src, std::uint8_t* dst, std::size_t count, std::size_t height,
                      std::size_t width, int radius, bool wrap, double scale = kDefaultPatchScale);
 
