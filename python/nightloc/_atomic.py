@@ -20,7 +20,26 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 __all__ = [
     "atomic_file", "write_bytes", "write_text", "staging_folder", "atomic_folder", "replace_folder", "make_folder",
+    "check_output_path",
 ]
+
+
+def check_output_path(path: PathLike, folder: bool = False) -> Path:
+    """Fails early, before any work, when ``path`` cannot become an output file (or ``folder``).
+
+    Raises IsADirectoryError when a file is wanted and ``path`` is a folder, NotADirectoryError
+    when a folder is wanted and ``path`` is a file, or when an existing parent is a file.
+    Creates nothing.
+    """
+    target = Path(path)
+    if not folder and target.is_dir():
+        raise IsADirectoryError(f"{target} is a folder; give a file name")
+    if folder and target.exists() and not target.is_dir():
+        raise NotADirectoryError(f"{target} exists and is a file, not a folder")
+    blocking = next((p for p in target.parents if p.exists()), None)
+    if blocking is not None and not blocking.is_dir():
+        raise NotADirectoryError(f"cannot write {target}: {blocking} is a file, not a folder")
+    return target
 
 
 def make_folder(folder: PathLike) -> Path:

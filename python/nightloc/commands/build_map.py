@@ -6,6 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
+from .._atomic import check_output_path
 from ..params import PreparationParams, load_params
 from ..reference_map import ReferenceMap
 from ..traverse import load_traverse
@@ -30,6 +31,7 @@ def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") 
 
 
 def run(args: argparse.Namespace) -> int:
+    check_output_path(args.output)  # fail before preparing every frame
     params = load_params(args.params, PreparationParams) if args.params is not None else PreparationParams()
     traverse = load_traverse(args.traverse, frame_step=args.frame_step, poses=args.poses)
     start = time.perf_counter()

@@ -33,7 +33,7 @@ from typing import Optional
 
 import numpy as np
 
-from .._atomic import write_text
+from .._atomic import check_output_path, write_text
 from ..params import PreparationParams, load_params_file
 from ..route.evaluation import GroundTruth, RouteEvaluation, evaluate_matches
 from ..route.params import PRESETS, RouteParams, resolve_params
@@ -189,6 +189,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} exists and is not a folder")
+    check_output_path(out, folder=True)  # a file in the way fails now, not after the matching
     reference = load_traverse(args.reference, frame_step=args.frame_step)
     query = load_traverse(args.query, frame_step=args.frame_step)
     truth, truth_kind = ground_truth_for(args.ground_truth, reference, query, args.tolerance)

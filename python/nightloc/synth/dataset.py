@@ -21,7 +21,7 @@ from typing import Dict, Iterator, List, Optional, Union
 
 import numpy as np
 
-from .._atomic import staging_folder, write_text
+from .._atomic import make_folder, staging_folder, write_text
 from .._validate import thread_count
 from ..progress import progress
 from ..traverse import save_traverse
@@ -166,7 +166,7 @@ def make_dataset(
         for plan in plans:
             if (out / plan.name).exists():
                 raise FileExistsError(f"{out / plan.name} exists; pass overwrite=True (--overwrite) to replace it")
-    out.mkdir(parents=True, exist_ok=True)
+    make_folder(out)  # names a file in the way
     written: Dict[str, Path] = {}
     for plan in plans:
         frames = progress(scene.render_plan(plan, threads), total=len(plan.positions), desc=f"{world}/{plan.name}", unit="frame")
