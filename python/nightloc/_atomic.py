@@ -5,13 +5,21 @@ file system), flushed to disk, then renamed into place with ``os.replace``/``os.
 interrupted write (exception, kill, power loss) leaves the previous version intact and at most a
 hidden ``.<name>.<random>.partial`` entry behind. New files and folders get the usual permissions
 (0666/0777 less the umask), unlike ``tempfile``'s private 0600/0700.
+
+Replacing an existing folder swaps the two folders in one step where the system can (Linux
+``renameat2(RENAME_EXCHANGE)``), so even a kill at that moment leaves the old or the new folder
+at the target; elsewhere the old folder is moved aside first (a kill between the two renames
+leaves it under its hidden ``.old`` name).
 """
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import errno
 import os
 import shutil
+import sys
 import uuid
 from pathlib import Path
 from typing import IO, Iterator, Optional, Union
@@ -121,12 +129,42 @@ def staging_folder(target: PathLike) -> Path:
     return staging
 
 
+_RENAME_EXCHANGE = 2  # linux/fs.h
+_AT_FDCWD = -100
+
+
+def _exchange(first: Path, second: Path) -> bool:
+    """Swaps two existing paths atomically (Linux ``renameat2`` with ``RENAME_EXCHANGE``).
+
+    Returns False where the C library, the kernel or the file system cannot, so the caller falls
+    back to two renames; raises OSError for other failures.
+    """
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        renameat2 = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):  # a C library without the wrapper (glibc < 2.28, musl)
+        return False
+    renameat2.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    renameat2.restype = ctypes.c_int
+    if renameat2(_AT_FDCWD, os.fsencode(first), _AT_FDCWD, os.fsencode(second), _RENAME_EXCHANGE) == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP, errno.EOPNOTSUPP):
+        return False
+    raise OSError(code, os.strerror(code), str(first), None, str(second))
+
+
 def replace_folder(staging: PathLike, target: PathLike) -> None:
-    """Renames ``staging`` to ``target``; an existing ``target`` is moved aside first and removed
+    """Renames ``staging`` to ``target``. An existing ``target`` is swapped with ``staging`` in
+    one atomic step where possible (then removed); otherwise it is moved aside first and removed
     only once the new folder is in place (restored if the rename fails)."""
     staging, target = Path(staging), Path(target)
     if not target.exists():
         os.rename(staging, target)
+        return
+    if target.is_dir() and _exchange(staging, target):
+        shutil.rmtree(staging, ignore_errors=True)  # now holds the previous folder
         return
     trash = _temporary_name(target).with_suffix(".old")
     os.rename(target, trash)

@@ -320,6 +320,13 @@ class ReferenceMap:
             raise MapFormatError(
                 f"{file} is not a readable nightloc reference map (truncated or corrupt?): {error}"
             ) from None
+        except Exception as error:
+            # Damaged bytes reach numpy's and zipfile's parsers, which raise many other types: a
+            # SyntaxError from an array header (ast.literal_eval), NotImplementedError for zip
+            # flag bits, MemoryError for an absurd shape, ...
+            raise MapFormatError(
+                f"{file} is not a readable nightloc reference map (damaged: {type(error).__name__}: {error})"
+            ) from None
         return cls._from_parts(file, header, arrays, params)
 
     @classmethod
