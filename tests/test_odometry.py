@@ -98,7 +98,8 @@ def test_robot_odometry_noise_statistics():
     true_length = np.hypot(*true_vectors.T)
     unit = true_vectors / true_length[:, None]
     # the translation keeps its direction in the robot frame; its signed length gets the noise
-    np.testing.assert_allclose(np.cross(unit, noisy_vectors), 0.0, atol=1e-9)
+    cross = unit[:, 0] * noisy_vectors[:, 1] - unit[:, 1] * noisy_vectors[:, 0]
+    np.testing.assert_allclose(cross, 0.0, atol=1e-9)
     length_error = (noisy_vectors * unit).sum(axis=1) - true_length
     turn_error = np.array([m.turn for m in noisy]) - np.array([m.turn for m in truth])
     assert length_error.std() == pytest.approx(0.25, rel=0.03)
