@@ -48,14 +48,18 @@ def _sha256(array: np.ndarray) -> str:
 
 
 def _frozen(array: np.ndarray) -> np.ndarray:
-    array.setflags(write=False)
-    return array
+    """A read-only C-contiguous copy of ``array`` backed by an immutable ``bytes`` object, so that
+    not even ``setflags(write=True)`` can make it writable: a map shared between threads (or
+    handed to callers) cannot be changed under them."""
+    contiguous = np.ascontiguousarray(array)
+    return np.frombuffer(contiguous.tobytes(), dtype=contiguous.dtype).reshape(contiguous.shape)
 
 
 class ReferenceMap:
     """Prepared reference images with their positions, headings and preparation parameters.
 
-    Immutable; the arrays are read-only.
+    Immutable and safe to share between threads: the arrays are read-only copies that not even
+    ``setflags(write=True)`` can make writable.
 
     Attributes:
         images: ``(N, Ry, Rx)`` uint8 prepared images (C-contiguous).
@@ -121,7 +125,7 @@ class ReferenceMap:
                 raise ValueError(f"names must be {n} strings, got {len(name_tuple)} items")
             if len(set(name_tuple)) != n:
                 raise ValueError("names must not repeat")
-        self._images = _frozen(np.array(stack, dtype=np.uint8, order="C"))
+        self._images = _frozen(stack)
         self._positions = _frozen(pos)
         self._headings = None if head is None else _frozen(head)
         self._names = name_tuple
@@ -133,10 +137,9 @@ class ReferenceMap:
 
     def __setstate__(self, state: dict) -> None:
         for name, value in state.items():
+            if isinstance(value, np.ndarray):
+                value = _frozen(value)
             object.__setattr__(self, name, value)
-        for array in (self._images, self._positions, self._headings):
-            if array is not None:
-                _frozen(array)
 
     # --- attributes
 
