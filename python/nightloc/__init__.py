@@ -31,6 +31,8 @@ from .reference_map import ReferenceMap
 from .traverse import Traverse, load_traverse, save_traverse
 from . import route
 from .route import RouteLocalizer, RouteParams
+from .localizer import Estimate, LocalizationParams, Localizer
+from .odometry import MapDisplacement, RobotMotion
 
 __all__ = [
     "__version__",
@@ -61,4 +63,9 @@ __all__ = [
     "route",
     "RouteLocalizer",
     "RouteParams",
+    "Localizer",
+    "LocalizationParams",
+    "Estimate",
+    "MapDisplacement",
+    "RobotMotion",
 ]
