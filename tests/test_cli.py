@@ -8,10 +8,22 @@ import sys
 from nightloc.cli import main
 
 
-def test_demo_runs(capsys):
-    assert main(["demo"]) == 0
+def test_demo_runs_the_method_on_the_embedded_data(capsys, tmp_path):
+    from synth_support import default_synth_data
+
+    cache = default_synth_data()["garden"]["day_reference"].parents[2]  # generated once per test run
+    out_dir = tmp_path / "demo"
+    assert main(["demo", "--out", str(out_dir), "--cache", str(cache)]) == 0
     out = capsys.readouterr().out
-    assert "50/50" in out
+    for world in ("garden", "living_room"):
+        assert f"{world}: " in out
+        summary = (out_dir / world / "summary.csv").read_text().splitlines()
+        assert summary[0] == "seq_len,noise_model,interpolation,n,median_m,mean_m,p90_m"
+        assert len(summary) == 1 + 10 * 4 * 2  # n = 1..10, noise 0-3, interpolation on/off
+        for name in ("errors.csv", "error_vs_seq_len.png", "error_vs_noise.png", "error_vs_interpolation.png"):
+            assert (out_dir / world / name).is_file()
+        assert list((out_dir / world).glob("heatmap_frame*.png"))
+    assert out.count("|") > 40  # the median-error tables
 
 
 def test_info_reports_paths(capsys):

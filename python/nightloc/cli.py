@@ -24,6 +24,7 @@ COMMAND_MODULES = (
     "nightloc.commands.build_map",
     "nightloc.commands.route",
     "nightloc.commands.synth",
+    "nightloc.commands.evaluate",
 )
 
 

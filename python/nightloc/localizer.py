@@ -166,6 +166,21 @@ class Localizer:
         self._sum = self._layout.zeros()
         self.reset()
 
+    def with_seq_len(self, seq_len: int) -> "Localizer":
+        """A new localizer for the same map and parameters but another sequence length.
+
+        It shares this one's grid and interpolation weights (no recomputation) and starts with
+        an empty sequence; useful to evaluate several sequence lengths.
+        """
+        params = dataclasses.replace(self.params, seq_len=seq_len)
+        clone = object.__new__(Localizer)
+        clone.__dict__.update(self.__dict__)
+        clone.params = params
+        clone._scratch = self._layout.scratch()
+        clone._sum = self._layout.zeros()
+        clone.reset()
+        return clone
+
     @property
     def grid(self):
         """The heat-map :class:`~nightloc.heatmap.HeatGrid`."""
@@ -244,7 +259,7 @@ class Localizer:
         fused = np.ascontiguousarray(self._layout.view(total))
         heatmap = fused + fill_sum if return_heatmap else None
         frame_heatmap = self._layout.view(excess) + fill if return_heatmap else None
-        found = self.mapper.estimate(fused, result.scores, overwrite=True)
+        found = self.mapper.estimate(fused, result.scores)
         if headings is not None:
             self._heading = float(wrap_angle(headings[found.ref_index] + result.headings[found.ref_index]))
         return Estimate(

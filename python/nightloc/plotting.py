@@ -284,6 +284,7 @@ def _marker(canvas, x: float, y: float, kind: str, size: float, color, filled: b
 
 
 _MARKERS = ("o", "s", "x", "+")
+_LEGEND_LOCATIONS = ("upper right", "upper left", "lower right", "lower left", "below")
 
 
 @dataclass
@@ -467,9 +468,13 @@ class Axes:
         return self
 
     def legend(self, loc: str = "upper right") -> "Axes":
-        """Draws a legend of the labelled artists at ``loc`` ("upper/lower left/right")."""
-        if loc not in ("upper right", "upper left", "lower right", "lower left"):
-            raise ValueError(f"legend loc must be 'upper right', 'upper left', 'lower right' or 'lower left', got {loc!r}")
+        """Draws a legend of the labelled artists at ``loc``.
+
+        ``"upper right"``, ``"upper left"``, ``"lower right"``, ``"lower left"``: a box inside
+        the plot area; ``"below"``: one row under the x-axis label (the panel makes room).
+        """
+        if loc not in _LEGEND_LOCATIONS:
+            raise ValueError(f"legend loc must be one of {', '.join(repr(v) for v in _LEGEND_LOCATIONS)}, got {loc!r}")
         self._legend_loc = loc
         return self
 
@@ -686,6 +691,8 @@ class Axes:
         text_h = _text_size("0", scale)[1]
         left = int(10 + 6 * text_h) + (int(2 * text_h) if self._ylabel else 0)
         bottom = int(8 + 2.2 * text_h) + (int(2 * text_h) if self._xlabel else 0)
+        if self._legend_loc == "below":
+            bottom += int(2.4 * text_h) + 6
         top = int(8 + (2.2 * text_h if self._title else text_h))
         right = int(12 + (24 + 6 * text_h + (2 * text_h if self._colorbar and self._colorbar.label else 0) if self._colorbar else 0))
         box = [px0 + left, py0 + top, px1 - right, py1 - bottom]
@@ -783,6 +790,15 @@ class Axes:
             return
         bx0, by0, bx1, by1 = self.plot_box
         text_h = _text_size("Ag", scale)[1]
+        if self._legend_loc == "below":
+            widths = [32 + _text_size(a.label, scale)[0] + 14 for a in entries]
+            x = max(self._rect[0] + 4, (bx0 + bx1) // 2 - sum(widths) // 2)
+            y = self._rect[3] - int(1.2 * text_h) - 4
+            for artist, width in zip(entries, widths):
+                artist.legend_swatch(canvas, x, y)
+                _put_text(canvas, artist.label, x + 26, y, scale, (0, 0, 0), "left", "middle")
+                x += width
+            return
         row = int(text_h * 1.8) + 2
         width = 36 + max(_text_size(a.label, scale)[0] for a in entries) + 8
         height = row * len(entries) + 6

@@ -1,0 +1,159 @@
+"""``nightloc evaluate``: the paper's 2D localization experiments on any pair of traverses.
+
+    nightloc evaluate REFERENCE QUERY --out OUT [--seq-lengths 1-10] [--noise-models 0,1,2,3]
+                      [--interpolation on,off] [--repeats 1] [--seed 0] [--odometry map|robot]
+                      [--params FILE.toml] [--heatmap-frames 12,30] [--no-figures]
+
+REFERENCE is a traverse folder with poses (``images/`` + ``poses.csv``) or a map file written
+by ``nightloc build-map``; QUERY is a traverse folder with poses (the ground truth). Writes,
+atomically:
+
+* ``OUT/errors.csv``: one row per query frame and configuration, columns
+  ``query,image,seq_len,noise_model,interpolation,repeat,x_est,y_est,x_true,y_true,error_m,ref_index``;
+* ``OUT/summary.csv``: ``seq_len,noise_model,interpolation,n,median_m,mean_m,p90_m``;
+* figures (unless ``--no-figures``): ``error_vs_seq_len.png``, ``error_vs_noise.png``,
+  ``error_vs_interpolation.png`` (the paper's Figures 10-12) and ``heatmap_frame<i>.png``
+  (Figure 9).
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import time
+from pathlib import Path
+from typing import List, Optional, Tuple
+
+from .._atomic import check_output_path, make_folder
+from ..evaluation import EvaluationSettings, evaluate, match_traverse
+from ..localizer import MAX_SEQ_LEN, LocalizationParams
+from ..params import PreparationParams, load_params_file
+from ..reference_map import ReferenceMap
+from ..traverse import load_traverse
+
+#: Figure files this command may write (removed when a later run into the same folder does not).
+FIGURE_NAMES = ("error_vs_seq_len.png", "error_vs_noise.png", "error_vs_interpolation.png")
+
+
+def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+    parser = subparsers.add_parser(
+        "evaluate",
+        help="2D localization errors of a query traverse against a reference (the paper's experiments)",
+        description="Localizes every frame of QUERY against REFERENCE for each sequence length, odometry "
+        "noise model and interpolation setting, and writes OUT/errors.csv, OUT/summary.csv and figures.",
+    )
+    parser.add_argument("reference", type=Path, help="reference traverse folder (with poses) or map file")
+    parser.add_argument("query", type=Path, help="query traverse folder with poses (ground truth)")
+    parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
+    parser.add_argument("--seq-lengths", default="1-10", help="sequence lengths, e.g. 1-10 or 1,3,7 (default 1-10)")
+    parser.add_argument("--noise-models", default="0,1,2,3", help="Table III noise models (default 0,1,2,3)")
+    parser.add_argument("--interpolation", default="on,off", help="on, off or on,off (default on,off)")
+    parser.add_argument("--repeats", type=int, default=1, help="noise draws per noise model (default 1)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the noise draws (default 0)")
+    parser.add_argument("--odometry", choices=["map", "robot"], default="map",
+                        help="simulated map-frame displacements (the paper, default) or robot-frame wheel odometry")
+    parser.add_argument("--params", type=Path, help="TOML file with [localization] and/or [preparation] tables")
+    parser.add_argument("--heatmap-frames", help="query frames (0-based) for heat-map figures (default: one, chosen)")
+    parser.add_argument("--threads", type=int, help="matching threads (default all cores)")
+    parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
+    parser.set_defaults(run=run)
+
+
+def parse_int_list(text: str, option: str) -> Tuple[int, ...]:
+    """``"1-3,7"`` -> ``(1, 2, 3, 7)``; raises ValueError naming ``option``."""
+    values: List[int] = []
+    for part in str(text).split(","):
+        part = part.strip()
+        if not part:
+            raise ValueError(f"{option}: empty item in {text!r}; write e.g. 1-10 or 1,3,7")
+        span = re.fullmatch(r"(\d+)\s*-\s*(\d+)", part)
+        if span:
+            lo, hi = int(span.group(1)), int(span.group(2))
+            if hi < lo:
+                raise ValueError(f"{option}: range {part!r} runs backwards; write e.g. 1-10")
+            if hi - lo > 10_000:
+                raise ValueError(f"{option}: range {part!r} is too long")
+            values.extend(range(lo, hi + 1))
+            continue
+        try:
+            values.append(int(part))
+        except ValueError:
+            raise ValueError(f"{option}: {part!r} is not an integer or a range like 1-10") from None
+    return tuple(dict.fromkeys(values))
+
+
+def parse_interpolation(text: str) -> Tuple[bool, ...]:
+    """``"on,off"`` -> ``(True, False)``."""
+    out = []
+    for part in str(text).split(","):
+        word = part.strip().lower()
+        if word not in ("on", "off"):
+            raise ValueError(f"--interpolation: {part!r} must be on or off (e.g. on,off)")
+        out.append(word == "on")
+    return tuple(dict.fromkeys(out))
+
+
+def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
+    """The :class:`EvaluationSettings` of the command-line options (checked)."""
+    if args.seed < 0:
+        raise ValueError(f"--seed must be non-negative, got {args.seed}")
+    if args.repeats < 1:
+        raise ValueError(f"--repeats must be >= 1, got {args.repeats}")
+    seq_lengths = parse_int_list(args.seq_lengths, "--seq-lengths")
+    if min(seq_lengths) < 1 or max(seq_lengths) > MAX_SEQ_LEN:
+        raise ValueError(f"--seq-lengths must be in 1..{MAX_SEQ_LEN}, got {min(seq_lengths)}..{max(seq_lengths)}")
+    noise_models = parse_int_list(args.noise_models, "--noise-models")
+    bad = [m for m in noise_models if m not in (0, 1, 2, 3)]
+    if bad:
+        raise ValueError(f"--noise-models must be among 0,1,2,3 (the paper's Table III), got {bad[0]}")
+    return EvaluationSettings(seq_lengths, noise_models, parse_interpolation(args.interpolation), args.repeats,
+                              args.seed, args.odometry)
+
+
+def _load_reference(path: Path, preparation: Optional[PreparationParams]) -> ReferenceMap:
+    if path.is_file():
+        return ReferenceMap.load(path, preparation) if preparation is not None else ReferenceMap.load(path)
+    return ReferenceMap.build(load_traverse(path), preparation)
+
+
+def run(args: argparse.Namespace) -> int:
+    settings = settings_from_args(args)
+    if args.threads is not None and args.threads < 1:
+        raise ValueError(f"--threads must be >= 1, got {args.threads}")
+    heatmap_frames = None if args.heatmap_frames is None else list(parse_int_list(args.heatmap_frames, "--heatmap-frames"))
+    sections = load_params_file(args.params) if args.params is not None else {}
+    localization = sections.get("localization", LocalizationParams())
+    preparation = sections.get("preparation")
+    out = check_output_path(args.out, folder=True)  # fail before the work
+    query = load_traverse(args.query)
+    if query.positions is None:
+        raise ValueError(f"query {args.query} has no poses: evaluation needs poses.csv with columns image,x,y[,heading]")
+    if heatmap_frames is not None and (min(heatmap_frames) < 0 or max(heatmap_frames) >= len(query)):
+        raise ValueError(f"--heatmap-frames must be in 0..{len(query) - 1} for {len(query)} query frames")
+
+    start = time.perf_counter()
+    ref_map = _load_reference(args.reference, preparation)
+    matches = match_traverse(ref_map, query, threads=args.threads)
+    matching_s = time.perf_counter() - start
+    evaluation = evaluate(ref_map, matches, settings, localization)
+    total_s = time.perf_counter() - start
+
+    make_folder(out)
+    written = [evaluation.write_errors_csv(out / "errors.csv").name, evaluation.write_summary_csv(out / "summary.csv").name]
+    if not args.no_figures:
+        from ..evaluation_figures import save_evaluation_figures
+
+        written += [p.name for p in save_evaluation_figures(evaluation, ref_map, out, params=localization,
+                                                             heatmap_frames=heatmap_frames)]
+    for stale in [*FIGURE_NAMES, *(p.name for p in out.glob("heatmap_frame*.png"))]:
+        if stale not in written and (out / stale).is_file():
+            (out / stale).unlink()
+
+    configs = len(evaluation) // max(len(matches.results), 1)
+    print(f"{len(matches.results)} query frames of {query.root} against {len(ref_map)} references: "
+          f"{configs} configurations in {total_s:.1f} s (matching and preparation {matching_s:.1f} s)")
+    for interp in settings.interpolation:
+        print(f"median distance error (m), interpolation {'on' if interp else 'off'}:")
+        print(evaluation.table(interpolation=interp))
+    print(f"wrote {out}/" + ", ".join(written))
+    return 0
