@@ -25,6 +25,8 @@ def ws(tmp_path_factory):
     (workspace.root / "bad.toml").write_text("[preparation]\nwidht = 3\n")
     (workspace.root / "junk.mp4").write_bytes(b"this is not a video")
     (workspace.root / "out").mkdir()
+    (workspace.root / "truncated.map").write_bytes(workspace.map_file.read_bytes()[:500])
+    workspace.no_poses = workspace.traverse_variant(remove=["poses.csv"])
     return workspace
 
 
@@ -38,6 +40,8 @@ def _paths(ws) -> dict:
         "junk_video": ws.root / "junk.mp4",
         "out": ws.root / "out",
         "new": ws.root / "never_written",
+        "no_poses": ws.no_poses,
+        "truncated_map": ws.root / "truncated.map",
     }
 
 
@@ -67,6 +71,24 @@ CASES = [
     ("route threads 0", "route {trav} {trav} --out {new} --threads 0", "threads"),
     ("route frame step 0", "route {trav} {trav} --out {new} --frame-step 0", "frame-step"),
     ("route too few frames", "route {trav} {trav} --out {new} --ds 4", "uniqueness window"),
+    ("evaluate missing reference", "evaluate {root}/nope {trav} --out {new}", "does not exist"),
+    ("evaluate reference without poses", "evaluate {no_poses} {trav} --out {new}", "no poses"),
+    ("evaluate query without poses", "evaluate {trav} {no_poses} --out {new}", "no poses"),
+    ("evaluate truncated map", "evaluate {truncated_map} {trav} --out {new}", "truncated"),
+    ("evaluate text file as map", "evaluate {text} {trav} --out {new}", "not a nightloc reference map"),
+    ("evaluate seq length 0", "evaluate {trav} {trav} --out {new} --seq-lengths 0", "--seq-lengths"),
+    ("evaluate seq lengths text", "evaluate {trav} {trav} --out {new} --seq-lengths x", "--seq-lengths"),
+    ("evaluate seq lengths backwards", "evaluate {trav} {trav} --out {new} --seq-lengths 10-1", "backwards"),
+    ("evaluate seq lengths huge", "evaluate {trav} {trav} --out {new} --seq-lengths 1-100000", "too long"),
+    ("evaluate noise model 7", "evaluate {trav} {trav} --out {new} --noise-models 7", "--noise-models"),
+    ("evaluate interpolation maybe", "evaluate {trav} {trav} --out {new} --interpolation maybe", "--interpolation"),
+    ("evaluate repeats 0", "evaluate {trav} {trav} --out {new} --repeats 0", "--repeats"),
+    ("evaluate out is a file", "evaluate {trav} {trav} --out {text}", "is a file"),
+    ("evaluate out under a file", "evaluate {trav} {trav} --out {text}/o", "is a file"),
+    ("evaluate bad params", "evaluate {trav} {trav} --out {new} --params {bad_toml}", "widht"),
+    ("evaluate heat-map frame past the end", "evaluate {trav} {trav} --out {new} --heatmap-frames 999", "heatmap-frames"),
+    ("evaluate threads 0", "evaluate {trav} {trav} --out {new} --threads 0", "threads"),
+    ("demo out is a file", "demo --out {text}", "is a file"),
     ("synth out is a file", "synth --out {text}", "is a file"),
     ("synth darkness 9", "synth --out {new} --darkness 9", "--darkness"),
     ("synth negative seed", "synth --out {new} --seed -1", "--seed"),
@@ -160,6 +182,7 @@ SUBPROCESS_CASES = [
     ("route {trav} {root}/nope --out {new}", 2, "does not exist"),
     ("synth --out {new} --darkness 9", 2, "--darkness"),
     ("info --refs 0", 2, "--refs"),
+    ("evaluate {truncated_map} {trav} --out {new}", 2, "truncated"),
 ]
 
 
