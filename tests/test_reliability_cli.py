@@ -86,7 +86,11 @@ CASES = [
     ("evaluate out is a file", "evaluate {trav} {trav} --out {text}", "is a file"),
     ("evaluate out under a file", "evaluate {trav} {trav} --out {text}/o", "is a file"),
     ("evaluate bad params", "evaluate {trav} {trav} --out {new} --params {bad_toml}", "widht"),
-    ("evaluate heat-map frame past the end", "evaluate {trav} {trav} --out {new} --heatmap-frames 999", "heatmap-frames"),
+    (
+        "evaluate heat-map frame past the end",
+        "evaluate {trav} {trav} --out {new} --heatmap-frames 999",
+        "heatmap-frames",
+    ),
     ("evaluate threads 0", "evaluate {trav} {trav} --out {new} --threads 0", "threads"),
     ("demo out is a file", "demo --out {text}", "is a file"),
     ("synth out is a file", "synth --out {text}", "is a file"),

@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 
 import nightloc
-from nightloc import DatasetError, MapFormatError, NightlocError, route, synth
+from nightloc import DatasetError, MapFormatError, NightlocError, evaluation, route, synth
 from reliability_support import Workspace
 
 IMG = np.zeros((24, 48), np.uint8)
@@ -828,7 +828,112 @@ SYNTH = [
     ("make_dataset unknown world", lambda ws: synth.make_dataset("moon", ws.fresh()), ValueError, "unknown world"),
 ]
 
-REJECTED = CORE + PREPARATION + PARAMS_FILES + TRAVERSES + MAPS + ROUTE + SYNTH
+
+def _localizer(ws, **params):
+    localizer = nightloc.Localizer(ws.map, **params)
+    localizer.update(ws.frames[0])
+    return localizer
+
+
+LOCALIZER = [
+    ("Localizer map path", lambda ws: nightloc.Localizer(str(ws.map_file)), TypeError, "ReferenceMap"),
+    ("Localizer params dict", lambda ws: nightloc.Localizer(ws.map, {"seq_len": 3}), TypeError, "LocalizationParams"),
+    ("Localizer unknown parameter", lambda ws: nightloc.Localizer(ws.map, seqlen=3), TypeError, "seqlen"),
+    ("Localizer seq_len 0", lambda ws: nightloc.Localizer(ws.map, seq_len=0), ValueError, "seq_len"),
+    ("Localizer seq_len 10**9", lambda ws: nightloc.Localizer(ws.map, seq_len=10**9), ValueError, "seq_len"),
+    (
+        "Localizer huge grid",
+        lambda ws: nightloc.Localizer(ws.map, grid_width=10**5, grid_height=10**5),
+        ValueError,
+        "too large",
+    ),
+    ("Localizer grid 1 cell", lambda ws: nightloc.Localizer(ws.map, grid_width=1), ValueError, "grid_width"),
+    ("Localizer margin NaN", lambda ws: nightloc.Localizer(ws.map, margin=float("nan")), ValueError, "margin"),
+    (
+        "Localizer threads 0",
+        lambda ws: nightloc.Localizer(ws.map, threads=0).update(ws.frames[0]),
+        ValueError,
+        "threads",
+    ),
+    ("Localizer.update float frame", lambda ws: _localizer(ws).update(FRAME.astype(float)), TypeError, "uint8"),
+    ("Localizer.update a stack", lambda ws: _localizer(ws).update(STACK), ValueError, "one frame"),
+    ("Localizer.update None", lambda ws: _localizer(ws).update(None), TypeError, "numpy array"),
+    ("Localizer.update empty frame", lambda ws: _localizer(ws).update(np.zeros((0, 0), np.uint8)), ValueError, "empty"),
+    (
+        "Localizer.update prepared wrong size",
+        lambda ws: _localizer(ws).update(IMG[:, :40].copy(), prepared=True),
+        ValueError,
+        "24x40",
+    ),
+    (
+        "Localizer odometry NaN",
+        lambda ws: _localizer(ws).update(ws.frames[1], (float("nan"), 0.0)),
+        ValueError,
+        "finite",
+    ),
+    (
+        "Localizer odometry inf",
+        lambda ws: _localizer(ws).update(ws.frames[1], (0.0, float("inf"))),
+        ValueError,
+        "finite",
+    ),
+    (
+        "Localizer odometry triple",
+        lambda ws: _localizer(ws).update(ws.frames[1], (1.0, 0.0, 0.1)),
+        ValueError,
+        "RobotMotion",
+    ),
+    ("Localizer odometry text", lambda ws: _localizer(ws).update(ws.frames[1], "north"), TypeError, "odometry"),
+    (
+        "Localizer robot motion NaN",
+        lambda ws: _localizer(ws).update(ws.frames[1], nightloc.RobotMotion(float("nan"), 0, 0)),
+        ValueError,
+        "finite",
+    ),
+    ("Localizer.update_match text", lambda ws: _localizer(ws).update_match("match"), TypeError, "MatchResult"),
+    (
+        "Localizer.update_match other map",
+        lambda ws: _localizer(ws).update_match(nightloc.match(IMG, STACK)),
+        ValueError,
+        "references",
+    ),
+    (
+        "LocalizationParams file seq_len 0",
+        lambda ws: nightloc.load_params(
+            ws.write("l.toml", "[localization]\nseq_len = 0\n"), nightloc.LocalizationParams
+        ),
+        NightlocError,
+        "seq_len",
+    ),
+    (
+        "evaluate query without poses",
+        lambda ws: evaluation.evaluate(ws.map, ws.traverse_variant(remove=["poses.csv"])),
+        DatasetError,
+        "no poses",
+    ),
+    (
+        "evaluate map path",
+        lambda ws: evaluation.evaluate(str(ws.map_file), ws.traverse.root),
+        TypeError,
+        "ReferenceMap",
+    ),
+    (
+        "EvaluationSettings seq length 0",
+        lambda ws: evaluation.EvaluationSettings(seq_lengths=(0,)),
+        ValueError,
+        "seq_lengths",
+    ),
+    ("EvaluationSettings noise model 9", lambda ws: evaluation.EvaluationSettings(noise_models=(9,)), ValueError, "9"),
+    ("EvaluationSettings repeats 0", lambda ws: evaluation.EvaluationSettings(repeats=0), ValueError, "repeats"),
+    (
+        "EvaluationSettings no interpolation",
+        lambda ws: evaluation.EvaluationSettings(interpolation=()),
+        ValueError,
+        "interpolation",
+    ),
+]
+
+REJECTED = CORE + PREPARATION + PARAMS_FILES + TRAVERSES + MAPS + ROUTE + SYNTH + LOCALIZER
 
 
 @pytest.mark.parametrize("case", REJECTED, ids=[case[0] for case in REJECTED])
