@@ -86,6 +86,41 @@ def test_shared_reference_map_matches_from_eight_threads(shared_map):
         np.testing.assert_array_equal(array, saved)
 
 
+def _localizer_stream(seed: int, n_frames: int = 40):
+    """A robot driving past the shared map's places with noisy map-frame odometry."""
+    rng = np.random.default_rng(100 + seed)
+    order = rng.permutation(150)[:n_frames]
+    odometry = [None] + [tuple(rng.normal(0, 0.3, 2)) for _ in range(n_frames - 1)]
+    return order, odometry
+
+
+def _run_localizer(base, frames, stream, seq_len=5):
+    order, odometry = stream
+    localizer = base.with_seq_len(seq_len)  # shares the base's grid and interpolation weights
+    out = []
+    for index, motion in zip(order, odometry):
+        estimate = localizer.update(frames[index], motion, return_heatmap=True)
+        out.append((estimate.x, estimate.y, estimate.heading, estimate.ref_index, estimate.confidence,
+                    estimate.heatmap))
+    return out
+
+
+def test_independent_localizers_in_eight_threads_equal_serial(shared_map):
+    """Eight Localizers over one shared map (sharing one grid and its interpolation weights),
+    each with its own stream: bit-identical estimates and heat maps to running them one after
+    the other."""
+    ref_map, frames = shared_map
+    base = nightloc.Localizer(ref_map)
+    streams = [_localizer_stream(seed) for seed in range(THREADS)]
+    serial = [_run_localizer(base, frames, stream) for stream in streams]
+    with ThreadPoolExecutor(max_workers=THREADS) as pool:
+        parallel = list(pool.map(lambda stream: _run_localizer(base, frames, stream), streams))
+    for got, expected in zip(parallel, serial):
+        for a, b in zip(got, expected):
+            assert a[:5] == b[:5]
+            np.testing.assert_array_equal(a[5], b[5])
+
+
 def test_reference_map_is_read_only(shared_map):
     ref_map, _ = shared_map
     for array in (ref_map.images, ref_map.positions, ref_map.headings):
