@@ -359,13 +359,12 @@ class HeatMapper:
             return int(members[0])
         return int(members[np.argmin(np.asarray(scores)[members])])
 
-    def estimate(self, heat: np.ndarray, scores: Optional[np.ndarray] = None, overwrite: bool = False) -> HeatEstimate:
+    def estimate(self, heat: np.ndarray, scores: Optional[np.ndarray] = None) -> HeatEstimate:
         """The hottest cell of ``heat`` (eq. 4; the first in row-major order on ties).
 
         Args:
             heat: ``(height, width)`` heat map (one frame's or a sequence sum).
             scores: the current frame's scores, to choose among references sharing a place.
-            overwrite: allow ``heat`` (C-contiguous float) to be modified (saves a copy).
         """
         h = np.asarray(heat)
         if h.shape != self.grid.shape:
@@ -380,31 +379,43 @@ class HeatMapper:
             x, y = self.grid.position(cell)
         else:
             x, y = (float(v) for v in self.positions[ref])
-        return HeatEstimate(float(x), float(y), ref, cell, peak, self._confidence(h, cell, peak, overwrite))
+        return HeatEstimate(float(x), float(y), ref, cell, peak, self._confidence(h, cell, peak))
 
-    def _confidence(self, heat: np.ndarray, cell: int, peak: float, overwrite: bool) -> float:
+    def _confidence(self, heat: np.ndarray, cell: int, peak: float) -> float:
         floor = float(heat.min())
         if peak <= floor:
             return 0.0
-        j, i = divmod(cell, self.grid.width)
-        masked = heat if overwrite and heat.flags.c_contiguous and heat.flags.writeable else heat.copy()
-        dj, di = self._disk
-        rows, cols = j + dj, i + di
-        ok = (rows >= 0) & (rows < self.grid.height) & (cols >= 0) & (cols < self.grid.width)
-        masked[rows[ok], cols[ok]] = -np.inf
-        second = float(masked.max())
-        if second == -np.inf:
+        height, width = self.grid.shape
+        j, i = divmod(cell, width)
+        rj, ri, disk = self._disk
+        j0, j1 = max(j - rj, 0), min(j + rj + 1, height)
+        i0, i1 = max(i - ri, 0), min(i + ri + 1, width)
+        # the highest value beyond the radius: the map outside the disk's bounding box, and the
+        # box's cells outside the disk (no copy of the map)
+        parts = []
+        if j0 > 0:
+            parts.append(heat[:j0].max())
+        if j1 < height:
+            parts.append(heat[j1:].max())
+        if i0 > 0:
+            parts.append(heat[j0:j1, :i0].max())
+        if i1 < width:
+            parts.append(heat[j0:j1, i1:].max())
+        ring = heat[j0:j1, i0:i1][~disk[j0 - j + rj : j1 - j + rj, i0 - i + ri : i1 - i + ri]]
+        if ring.size:
+            parts.append(ring.max())
+        if not parts:
             return 1.0
+        second = float(max(parts))
         return float(np.clip((peak - second) / (peak - floor), 0.0, 1.0))
 
 
-def _disk_offsets(grid: HeatGrid, radius: float) -> Tuple[np.ndarray, np.ndarray]:
-    """Cell offsets (rows, cols) within ``radius`` metres of a cell (an ellipse in cells)."""
+def _disk_offsets(grid: HeatGrid, radius: float) -> Tuple[int, int, np.ndarray]:
+    """Half-sizes (rows, cols) of the box around ``radius`` metres and the disk mask inside it."""
     rj = int(math.floor(radius / grid.dy))
     ri = int(math.floor(radius / grid.dx))
     dj, di = np.mgrid[-rj : rj + 1, -ri : ri + 1]
-    keep = (dj * grid.dy) ** 2 + (di * grid.dx) ** 2 <= radius**2 + 1e-12
-    return dj[keep].ravel(), di[keep].ravel()
+    return rj, ri, (dj * grid.dy) ** 2 + (di * grid.dx) ** 2 <= radius**2 + 1e-12
 
 
 def _interpolation_weights(places: np.ndarray, cells: np.ndarray, grid: HeatGrid) -> Tuple[scipy.sparse.csr_matrix, np.ndarray]:

@@ -42,6 +42,8 @@ __all__ = [
 
 def wrap_angle(angle: Union[float, np.ndarray]) -> Union[float, np.ndarray]:
     """Angles wrapped to (-pi, pi]."""
+    if isinstance(angle, float):  # the per-frame fast path
+        return math.pi - (math.pi - angle) % (2 * math.pi)
     wrapped = np.pi - np.mod(np.pi - np.asarray(angle, dtype=np.float64), 2 * np.pi)
     return float(wrapped) if np.ndim(wrapped) == 0 else wrapped
 
@@ -101,6 +103,8 @@ def as_motion(odometry: object) -> Optional[Motion]:
     """
     if odometry is None or isinstance(odometry, (MapDisplacement, RobotMotion)):
         return odometry
+    if isinstance(odometry, tuple) and len(odometry) == 2:  # the common case, without numpy
+        return MapDisplacement(*odometry)
     if isinstance(odometry, (str, bytes, dict)):
         raise TypeError(f"odometry must be MapDisplacement, RobotMotion or a (dx, dy) pair, got {type(odometry).__name__}")
     try:
@@ -274,6 +278,8 @@ def robot_steps_to_map(motions: Sequence[Motion], heading_now: Optional[float]) 
         ``(len(motions), 2)`` metres in the map frame.
     """
     n = len(motions)
+    if all(type(m) is MapDisplacement for m in motions):
+        return np.array([(m.dx, m.dy) for m in motions], dtype=np.float64).reshape(n, 2)
     out = np.zeros((n, 2))
     needs_heading = any(isinstance(m, RobotMotion) for m in motions)
     if needs_heading:

@@ -16,7 +16,7 @@ the value of unmapped cells), so every cell of ``S`` sums exactly ``n`` terms.
 Speed: a map is stored as its *excess* over its fill value, ``G = H - fill`` (zero outside the
 hull and beyond the grid), in a row-major buffer whose rows are padded with as many zero
 columns as the grid is wide. A translation is then a few shifted, weighted adds of contiguous
-1-D slices (:func:`add_translated`, separable), rows never wrap into each other, and
+1-D slices (:func:`add_translated`, separable, three passes), rows never wrap into each other, and
 ``S = sum(fill) + sum(translated G)``.
 """
 
@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from typing import Optional, Sequence, Tuple
 
+import cv2
 import numpy as np
 
 __all__ = ["PaddedLayout", "translate", "add_translated", "fuse", "cumulative_offsets"]
@@ -78,9 +79,9 @@ def add_translated(
     buffers of ``layout``, ``scratch`` a work buffer from :meth:`PaddedLayout.scratch`. Padding
     cells of ``out`` receive garbage; read results through :meth:`PaddedLayout.view`.
 
-    Separable: one pass interpolates along x at the sub-cell offset (the padding column after
-    each row picks up the fade to zero), then the two rows of the y interpolation are added at
-    their integer offsets; seven contiguous array passes in all.
+    Separable, three passes over the buffer: one interpolates along x at the sub-cell offset
+    (the zero padding column after each row gives the fade to zero), two add the rows of the y
+    interpolation at their integer offsets (OpenCV's one-pass ``addWeighted`` and ``scaleAdd``).
     """
     w, h = layout.width, layout.height
     ix, iy = math.floor(shift_x), math.floor(shift_y)
@@ -88,25 +89,22 @@ def add_translated(
     if ix >= w or ix < -w or iy >= h or iy + 1 <= -h:
         return  # everything lands beyond the grid
     size, stride = layout.size, layout.stride
-    kind = out.dtype.type
-    across, part = scratch[:size], scratch[size:]
+    # (1, n) views: OpenCV would take short 1-D arrays for scalars
+    src, dst, across = source.reshape(1, -1), out.reshape(1, -1), scratch[:size].reshape(1, -1)
     # across[k] = (1 - fx) * source[k] + fx * source[k - 1]: E at column (c - fx)
-    np.multiply(source, kind(1.0 - fx), out=across)
-    if fx:
-        np.multiply(source[:-1], kind(fx), out=part[1:])
-        across[1:] += part[1:]
+    cv2.addWeighted(src[:, 1:], 1.0 - fx, src[:, :-1], fx, 0.0, dst=across[:, 1:])
+    across[0, 0] = src[0, 0] * (1.0 - fx)
     for dy, wy in ((iy, 1.0 - fy), (iy + 1, fy)):
         if wy == 0.0 or dy >= h or dy <= -h:
             continue
         offset = dy * stride + ix
         n = size - abs(offset)
-        chunk = part[:n]
         if offset >= 0:
-            np.multiply(across[:n], kind(wy), out=chunk)
-            out[offset:] += chunk
+            target = dst[:, offset:]
+            cv2.scaleAdd(across[:, :n], wy, target, dst=target)
         else:
-            np.multiply(across[-offset:], kind(wy), out=chunk)
-            out[:n] += chunk
+            target = dst[:, :n]
+            cv2.scaleAdd(across[:, -offset:], wy, target, dst=target)
 
 
 def translate(heat: np.ndarray, shift: Tuple[float, float], fill: float = 0.0) -> np.ndarray:

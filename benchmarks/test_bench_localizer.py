@@ -1,0 +1,93 @@
+"""Per-frame cost of the streaming 2D localizer (target: <= 1 ms on one core).
+
+The issue's case: a 50-image map, the 100 x 100 grid, 10-frame sequences, one 640 x 320 BGR
+camera frame per update (preparation included), map-frame odometry. The group also times the
+update from a prepared image and from a match result, and a plain scipy formulation of the
+same heat-map work (``griddata`` per frame, ``map_coordinates`` per earlier frame) that
+rebuilds the triangulation every frame; its fused map is asserted equal to the localizer's.
+
+    python -m pytest benchmarks/test_bench_localizer.py --benchmark-only --benchmark-columns=min,median
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.interpolate import griddata
+from scipy.ndimage import map_coordinates
+
+import nightloc
+from nightloc.heatmap import invert_scores
+from nightloc.sequence import cumulative_offsets
+
+N_REFS, SEQ_LEN, STEP = 50, 10, (0.12, 0.05)
+GROUP = f"localizer update: {N_REFS} refs, 100x100 grid, n={SEQ_LEN}"
+
+
+@pytest.fixture(scope="module")
+def setup():
+    rng = np.random.default_rng(0)
+    raw = rng.integers(0, 256, (N_REFS, 96, 192), dtype=np.uint8)
+    ref_map = nightloc.ReferenceMap(nightloc.prepare(raw), rng.uniform([0, 0], [7, 5], (N_REFS, 2)),
+                                    rng.uniform(-np.pi, np.pi, N_REFS))
+    frame = rng.integers(0, 256, (320, 640, 3), dtype=np.uint8)
+    return ref_map, frame
+
+
+def _warm(ref_map, frame, prepared=False):
+    loc = nightloc.Localizer(ref_map, seq_len=SEQ_LEN, threads=1)
+    query = ref_map.preparer.prepare(frame) if prepared else frame
+    for _ in range(SEQ_LEN):
+        loc.update(query, STEP)
+    return loc, query
+
+
+def test_update_camera_frame(benchmark, setup):
+    ref_map, frame = setup
+    loc, _ = _warm(ref_map, frame)
+    benchmark.group = GROUP
+    est = benchmark(loc.update, frame, STEP)
+    assert est.frames == SEQ_LEN
+
+
+def test_update_prepared_image(benchmark, setup):
+    ref_map, frame = setup
+    loc, query = _warm(ref_map, frame, prepared=True)
+    benchmark.group = GROUP
+    est = benchmark(loc.update, query, STEP)
+    assert est.frames == SEQ_LEN
+
+
+def test_update_from_match_result(benchmark, setup):
+    ref_map, frame = setup
+    loc, query = _warm(ref_map, frame, prepared=True)
+    result = nightloc.match(query, ref_map.images, threads=1)
+    benchmark.group = GROUP
+    est = benchmark(loc.update_match, result, STEP)
+    assert est.frames == SEQ_LEN
+
+
+def scipy_fused_heat_map(positions, scores_per_frame, steps, grid_x, grid_y):
+    """Plain scipy: interpolate every frame (new triangulation each time), shift, sum."""
+    gx, gy = np.meshgrid(grid_x, grid_y)
+    dx, dy = grid_x[1] - grid_x[0], grid_y[1] - grid_y[0]
+    offsets = np.vstack([cumulative_offsets(np.asarray(steps[1:])), [0.0, 0.0]])
+    jj, ii = np.mgrid[0 : len(grid_y), 0 : len(grid_x)]
+    total = np.zeros(gx.shape)
+    for scores, (ox, oy) in zip(scores_per_frame, offsets):
+        inverted = invert_scores(scores)
+        heat = griddata(positions, inverted, (gx, gy), method="linear", fill_value=inverted.min())
+        total += map_coordinates(heat, [jj - oy / dy, ii - ox / dx], order=1, mode="grid-constant", cval=inverted.min())
+    return total
+
+
+def test_scipy_formulation(benchmark, setup):
+    ref_map, frame = setup
+    loc, query = _warm(ref_map, frame, prepared=True)
+    result = nightloc.match(query, ref_map.images, threads=1)
+    scores = [np.asarray(result.scores, dtype=np.float64)] * SEQ_LEN
+    steps = [STEP] * SEQ_LEN
+    benchmark.group = GROUP
+    fused = benchmark(scipy_fused_heat_map, ref_map.positions, scores, steps, loc.grid.xs, loc.grid.ys)
+    est = loc.update_match(result, STEP, return_heatmap=True)
+    np.testing.assert_allclose(est.heatmap, fused, atol=1e-4)
