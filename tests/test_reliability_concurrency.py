@@ -100,8 +100,9 @@ def _run_localizer(base, frames, stream, seq_len=5):
     out = []
     for index, motion in zip(order, odometry):
         estimate = localizer.update(frames[index], motion, return_heatmap=True)
-        out.append((estimate.x, estimate.y, estimate.heading, estimate.ref_index, estimate.confidence,
-                    estimate.heatmap))
+        out.append(
+            (estimate.x, estimate.y, estimate.heading, estimate.ref_index, estimate.confidence, estimate.heatmap)
+        )
     return out
 
 
