@@ -134,3 +134,79 @@ def test_route_mode_on_flat_frames_never_accepts_a_nan_score():
                 assert not update.accepted(1e9)
         batch = route.match_prepared(reference, queries[:15])
         assert ((batch.refs >= -1) & (batch.refs < 30)).all()
+
+
+# --------------------------------------------------------------------------------------------
+# 2D localization on awkward reference layouts: the interpolation must still answer
+
+
+def _layout_map(positions) -> nightloc.ReferenceMap:
+    positions = np.asarray(positions, dtype=float)
+    images = nightloc.patch_normalize(
+        np.random.default_rng(8).integers(0, 256, (len(positions), 24, 48), dtype=np.uint8)
+    )
+    return nightloc.ReferenceMap(images, positions, np.zeros(len(positions)))
+
+
+_SCATTER = np.random.default_rng(2).uniform(0, 5, (30, 2))
+_LINE = np.column_stack([np.arange(8) * 0.5, np.full(8, 3.0)])
+LAYOUTS = {
+    "one reference": [[1.0, 2.0]],
+    "two references": [[0.0, 0.0], [2.0, 1.0]],
+    "collinear along x": _LINE,
+    "collinear along y": _LINE[:, ::-1],
+    "collinear diagonal": np.column_stack([np.arange(8) * 0.5, np.arange(8) * 0.5 + 1.0]),
+    "nearly collinear (GPS jitter)": _LINE
+    + np.column_stack([np.zeros(8), np.random.default_rng(3).normal(0, 1e-4, 8)]),
+    "coincident pairs": [[0.0, 0.0], [0.0, 0.0], [1.0, 1.0], [1.0, 1.0], [2.0, 0.0]],
+    "all at one place": [[2.0, 2.0]] * 4,
+    "within a micrometre": [[0.0, 0.0], [1e-6, 0.0], [0.0, 1e-6], [1e-6, 1e-6]],
+}
+#: The same scattered map moved far from the origin (UTM eastings and northings are ~5e5, ~5e6 m)
+FAR_AWAY = {"UTM coordinates": (500000.0, 5000000.0), "far from the origin": (5e6, 1e7)}
+
+
+@pytest.mark.parametrize("interpolation", [True, False], ids=["interpolation", "nearest"])
+@pytest.mark.parametrize("layout", list(LAYOUTS))
+def test_localizer_answers_on_awkward_layouts(layout, interpolation):
+    """A night frame equal to reference i must be placed at reference i (within one grid cell)
+    on every layout: flat heat maps (one place), lines, slivers thinner than a cell."""
+    ref_map = _layout_map(LAYOUTS[layout])
+    localizer = nightloc.Localizer(ref_map, seq_len=1, interpolation=interpolation)
+    cell = float(np.hypot(localizer.grid.dx, localizer.grid.dy))
+    for i, image in enumerate(ref_map.images):
+        estimate = localizer.update(image, prepared=True)
+        assert np.isfinite([estimate.x, estimate.y]).all()
+        error = float(np.hypot(*(estimate.position - ref_map.positions[i])))
+        assert error <= 1.01 * cell, f"reference {i}: {error:.3g} m off (a cell is {cell:.3g} m)"
+        # the reference reported stands at reference i's place (or closer to it than a cell)
+        assert np.hypot(*(ref_map.positions[estimate.ref_index] - ref_map.positions[i])) <= cell
+
+
+@pytest.mark.parametrize("interpolation", [True, False], ids=["interpolation", "nearest"])
+@pytest.mark.parametrize("offset", list(FAR_AWAY.values()), ids=list(FAR_AWAY))
+def test_localizer_far_from_the_origin_equals_the_map_at_the_origin(offset, interpolation):
+    """Moving the whole map (and so the truth) by an offset moves every estimate by exactly that
+    offset, to well under a millimetre: no precision is lost to large coordinates."""
+    near = nightloc.Localizer(_layout_map(_SCATTER), seq_len=3, interpolation=interpolation)
+    far = nightloc.Localizer(_layout_map(_SCATTER + offset), seq_len=3, interpolation=interpolation)
+    images = near.ref_map.images
+    for i in (0, 8, 17, 29, 3, 12):
+        odometry = None if i == 0 else (0.1, -0.2)
+        a = near.update(images[i], odometry, prepared=True)
+        b = far.update(images[i], odometry, prepared=True)
+        np.testing.assert_allclose(b.position - offset, a.position, atol=1e-4)
+        assert a.ref_index == b.ref_index and a.frames == b.frames
+
+
+@pytest.mark.parametrize("layout", ["collinear along x", "two references", "nearly collinear (GPS jitter)"])
+def test_localizer_sequences_on_awkward_layouts(layout):
+    """Sequences along the references, with exact odometry, end at the last reference."""
+    ref_map = _layout_map(LAYOUTS[layout])
+    localizer = nightloc.Localizer(ref_map, seq_len=5)
+    positions = ref_map.positions
+    for i, image in enumerate(ref_map.images):
+        odometry = None if i == 0 else tuple(positions[i] - positions[i - 1])
+        estimate = localizer.update(image, odometry, prepared=True)
+    cell = float(np.hypot(localizer.grid.dx, localizer.grid.dy))
+    assert np.hypot(*(estimate.position - positions[-1])) <= 1.01 * cell

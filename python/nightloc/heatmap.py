@@ -251,10 +251,14 @@ class HeatMapper:
         self.inversion = inversion
         self.confidence_radius = float(confidence_radius)
         self._group_places(pos)
-        cells = self.grid.centres()
-        self._nearest_place = cKDTree(self._places).query(cells)[1].astype(np.intp)
+        # Triangulation, weights and nearest places in coordinates local to the map: map frames
+        # far from 0 (UTM: 5e6 m) would otherwise lose Delaunay's precision to metres of error.
+        origin = self._places.mean(axis=0)
+        local_places = self._places - origin
+        cells = self.grid.centres() - origin
+        self._nearest_place = cKDTree(local_places).query(cells)[1].astype(np.intp)
         if self.interpolation:
-            weights, inside = _interpolation_weights(self._places, cells, self.grid)
+            weights, inside = _interpolation_weights(local_places, cells, self.grid)
             if outside == "nearest":
                 outside_cells = np.flatnonzero(~inside)
                 extra = scipy.sparse.csr_matrix(
@@ -360,7 +364,8 @@ class HeatMapper:
         return int(members[np.argmin(np.asarray(scores)[members])])
 
     def estimate(self, heat: np.ndarray, scores: Optional[np.ndarray] = None) -> HeatEstimate:
-        """The hottest cell of ``heat`` (eq. 4; the first in row-major order on ties).
+        """The hottest cell of ``heat`` (eq. 4; the first in row-major order on ties). A flat
+        map (a single place, or every score equal) gives the best-scoring reference's position.
 
         Args:
             heat: ``(height, width)`` heat map (one frame's or a sequence sum).
@@ -374,12 +379,25 @@ class HeatMapper:
         peak = float(flat[cell])
         if not math.isfinite(peak):
             raise ValueError("heat map contains NaN or infinity")
+        if peak <= float(flat.min()):
+            # A flat map (one place, or every score equal) has no peak: the answer is the best
+            # reference (the lowest index on ties, as in matching), not the grid's first cell.
+            ref = int(np.argmin(scores)) if scores is not None else 0
+            x, y = (float(v) for v in self.positions[ref])
+            return HeatEstimate(x, y, ref, self._cell_of(x, y), peak, 0.0)
         ref = self.closest_ref(cell, scores)
         if self.interpolation:
             x, y = self.grid.position(cell)
         else:
             x, y = (float(v) for v in self.positions[ref])
         return HeatEstimate(float(x), float(y), ref, cell, peak, self._confidence(h, cell, peak))
+
+    def _cell_of(self, x: float, y: float) -> int:
+        """The flat index of the grid cell nearest to ``(x, y)``."""
+        g = self.grid
+        i = min(max(int(round((x - g.x0) / g.dx)), 0), g.width - 1)
+        j = min(max(int(round((y - g.y0) / g.dy)), 0), g.height - 1)
+        return j * g.width + i
 
     def _confidence(self, heat: np.ndarray, cell: int, peak: float) -> float:
         floor = float(heat.min())
@@ -422,12 +440,12 @@ def _interpolation_weights(places: np.ndarray, cells: np.ndarray, grid: HeatGrid
     """Sparse linear-interpolation weights ``(n_cells, n_places)`` and the inside-hull mask."""
     n_cells, n_places = cells.shape[0], places.shape[0]
     triangulation = None
-    if n_places >= 3:
+    if n_places >= 3 and _hull_width(places) > 0.5 * math.hypot(grid.dx, grid.dy):
         try:
             triangulation = Delaunay(places)
         except QhullError:  # all on one line
             triangulation = None
-    if triangulation is None:
+    if triangulation is None:  # a point, a line, or a sliver thinner than a cell: along the line
         return _line_weights(places, cells, grid)
     simplex = triangulation.find_simplex(cells)
     inside = simplex >= 0
@@ -441,6 +459,14 @@ def _interpolation_weights(places: np.ndarray, cells: np.ndarray, grid: HeatGrid
     )
     weights.eliminate_zeros()
     return weights, inside
+
+
+def _hull_width(places: np.ndarray) -> float:
+    """Extent of the places across their principal direction (0 for collinear places)."""
+    centred = places - places.mean(axis=0)
+    _, _, vt = np.linalg.svd(centred, full_matrices=False)
+    across = centred @ vt[-1]
+    return float(across.max() - across.min())
 
 
 def _line_weights(places: np.ndarray, cells: np.ndarray, grid: HeatGrid) -> Tuple[scipy.sparse.csr_matrix, np.ndarray]:
@@ -465,8 +491,8 @@ def _line_weights(places: np.ndarray, cells: np.ndarray, grid: HeatGrid) -> Tupl
         return weights, inside
     upper = np.clip(np.searchsorted(t_sorted, foot[rows], side="right"), 1, n_places - 1)
     lower = upper - 1
-    span = t_sorted[upper] - t_sorted[lower]
-    frac = np.clip((foot[rows] - t_sorted[lower]) / span, 0.0, 1.0)
+    span = t_sorted[upper] - t_sorted[lower]  # 0 where two places project to one point of the line
+    frac = np.clip(np.divide(foot[rows] - t_sorted[lower], span, out=np.zeros(rows.size), where=span > 0), 0.0, 1.0)
     data = np.concatenate([1.0 - frac, frac])
     cols = np.concatenate([order[lower], order[upper]])
     weights = scipy.sparse.csr_matrix((data, (np.concatenate([rows, rows]), cols)), shape=(n_cells, n_places))
