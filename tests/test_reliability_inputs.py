@@ -851,7 +851,7 @@ LOCALIZER = [
     ("Localizer margin NaN", lambda ws: nightloc.Localizer(ws.map, margin=float("nan")), ValueError, "margin"),
     (
         "Localizer threads 0",
-        lambda ws: nightloc.Localizer(ws.map, threads=0).update(ws.frames[0]),
+        lambda ws: nightloc.Localizer(ws.map, threads=0),
         ValueError,
         "threads",
     ),

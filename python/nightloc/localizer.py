@@ -35,6 +35,7 @@ from typing import Any, Deque, List, Literal, Optional, Tuple
 
 import numpy as np
 
+from ._validate import thread_count
 from .heatmap import HeatMapper
 from .matching import MatchResult, match
 from .odometry import Motion, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
@@ -148,7 +149,7 @@ class Localizer:
             params = dataclasses.replace(params, **overrides)
         self.ref_map = ref_map
         self.params = params
-        self.threads = threads
+        self.threads = thread_count(threads)  # checked here, not at the first frame
         self.mapper = HeatMapper(
             ref_map.positions,
             grid_width=params.grid_width,
