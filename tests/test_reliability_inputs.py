@@ -759,6 +759,18 @@ ROUTE = [
         "2-D",
     ),
     ("RouteLocalizer.update a string", lambda ws: _route_localizer().update("frame.png"), TypeError, "load_traverse"),
+    (
+        "RouteLocalizer.update a raw stack",
+        lambda ws: _route_localizer().update(np.zeros((3, 40, 80, 3), np.uint8)),
+        ValueError,
+        "one frame",
+    ),
+    (
+        "evaluate_matches lengths differ",
+        lambda ws: route.evaluate_matches(np.zeros(3, np.int64), np.zeros(4), route.GroundTruth.from_frames(3, 3, 1)),
+        ValueError,
+        "one entry per query",
+    ),
     ("RouteParams ds 1", lambda ws: route.RouteParams(ds=1), ValueError, "ds"),
     ("RouteParams vmin NaN", lambda ws: route.RouteParams(vmin=float("nan")), ValueError, "vmin"),
     ("RouteParams vmin > vmax", lambda ws: route.RouteParams(vmin=2.0, vmax=1.0), ValueError, "must not exceed"),

@@ -260,6 +260,10 @@ class RouteEvaluation:
 
 def evaluate_matches(refs: np.ndarray, scores: np.ndarray, truth: GroundTruth) -> RouteEvaluation:
     """Evaluates matches (``refs`` with -1 undefined, ``scores`` lower = better) against ``truth``."""
+    if np.shape(refs) != np.shape(scores):
+        raise ValueError(
+            f"refs and scores must have one entry per query, got shapes {np.shape(refs)} and {np.shape(scores)}"
+        )
     correct = truth.correct(refs)
     positives = truth.positives()
     score = np.asarray(scores, dtype=np.float64)

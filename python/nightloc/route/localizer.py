@@ -147,6 +147,8 @@ class RouteLocalizer:
                 ``prepared=True`` an ``(H, W)`` uint8 image prepared like the references.
         """
         image = uint8_array(frame, 2, "frame") if prepared else self.prepare(frame)
+        if image.ndim != 2:
+            raise ValueError(f"update takes one frame, got a stack of {image.shape[0]} frames; loop over them")
         if image.shape != self._refs.shape[1:]:
             raise ValueError(
                 f"the prepared frame is {image.shape[0]}x{image.shape[1]} but the references are "
