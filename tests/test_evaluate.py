@@ -184,3 +184,23 @@ def test_cli_query_without_poses_and_output_file_in_the_way(tmp_path, capsys):
     assert main(["evaluate", str(folders["day_reference"]), str(folders["night_query"]), "--out", str(blocker)]) == 2
     assert "not a folder" in capsys.readouterr().err
     assert blocker.read_text() == "x"
+
+
+def test_heatmap_figure_marks_truth_and_estimate_where_they_are():
+    from nightloc.evaluation_figures import heatmap_figure, pick_heatmap_frame
+
+    ev = _evaluation("garden")
+    _, ref_map, matches = _world("garden")
+    frame = pick_heatmap_frame(ev, seq_len=7)
+    assert frame >= 6  # a whole 7-frame sequence behind it
+    single = ev.errors(seq_len=1, noise_model=0, interpolation=True)
+    seven = ev.errors(seq_len=7, noise_model=0, interpolation=True)
+    assert single[frame] - seven[frame] == pytest.approx(np.max((single - seven)[6:]))
+    fig = heatmap_figure(ref_map, matches, frame, 7)
+    image = fig.render()
+    for col in (0, 1):
+        ax = fig.axes(0, col)
+        px, py = ax.to_pixel(*matches.positions[frame])
+        patch = image[int(py) - 2 : int(py) + 3, int(px) - 2 : int(px) + 3].astype(int)
+        # the red truth cross (214, 39, 40 RGB) is drawn over the heat map there
+        assert (np.abs(patch - [40, 39, 214]).sum(axis=2) < 90).any()

@@ -19,7 +19,7 @@ from typing import List, Optional, Union
 import numpy as np
 
 from .evaluation import Evaluation, QueryMatches, replay
-from .heatmap import invert_scores
+from .heatmap import HeatGrid, invert_scores
 from .localizer import Estimate, LocalizationParams
 from .plotting import Figure
 from .reference_map import ReferenceMap
@@ -167,12 +167,10 @@ def heatmap_figure(
     inverted = invert_scores(result.scores)  # 1 = best match, 0 = worst
     radii = 2.0 + 10.0 * inverted
     best = ref_map.positions[result.index]
-    from .heatmap import HeatGrid
-
     grid = HeatGrid.spanning(ref_map.positions, *(estimates[0].heatmap.shape[::-1]),
                              margin=(params or LocalizationParams()).margin)
     fig = Figure(1100, 500, cols=2, title=f"Heat maps of query frame {frame} ({matches.images[frame]}) of {matches.name}")
-    for col, (est, label) in enumerate(zip(estimates, ["single frame", f"{est_frames(estimates[1])}-frame sequence"])):
+    for col, (est, label) in enumerate(zip(estimates, ["single frame", f"{int(estimates[1].frames)}-frame sequence"])):
         ax = fig.axes(0, col)
         ax.image(est.heatmap, grid.extent, cmap="jet", colorbar=True, colorbar_label="heat (inverted score)")
         ax.scatter(ref_map.positions[:, 0], ref_map.positions[:, 1], size=radii, color="lime", filled=False,
@@ -189,11 +187,6 @@ def heatmap_figure(
     if path is not None:
         fig.save(path)
     return fig
-
-
-def est_frames(estimate: Estimate) -> int:
-    """Frames fused into an estimate."""
-    return int(estimate.frames)
 
 
 def save_evaluation_figures(

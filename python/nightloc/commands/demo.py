@@ -33,6 +33,7 @@ PAPER_RESULTS = {
 
 
 def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+    """Adds the sub-command's parser to ``subparsers``."""
     parser = subparsers.add_parser(
         "demo",
         help="run the method on the embedded default data (synthetic garden and living room at night)",
@@ -50,6 +51,7 @@ def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") 
 
 
 def run(args: argparse.Namespace) -> int:
+    """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
     if args.seed < 0:
         raise ValueError(f"--seed must be non-negative, got {args.seed}")
     if args.repeats < 1:

@@ -36,6 +36,7 @@ FIGURE_NAMES = ("error_vs_seq_len.png", "error_vs_noise.png", "error_vs_interpol
 
 
 def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+    """Adds the sub-command's parser to ``subparsers``."""
     parser = subparsers.add_parser(
         "evaluate",
         help="2D localization errors of a query traverse against a reference (the paper's experiments)",
@@ -117,6 +118,7 @@ def _load_reference(path: Path, preparation: Optional[PreparationParams]) -> Ref
 
 
 def run(args: argparse.Namespace) -> int:
+    """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
     settings = settings_from_args(args)
     if args.threads is not None and args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
