@@ -70,10 +70,11 @@ class SoakReport:
         return last / first
 
     def summary(self, name: str) -> str:
+        deciles = [f"{1e6 * float(np.median(part)):.0f}" for part in np.array_split(self.window_times, 10)]
         return (
             f"{name}: {self.frames} frames, {1e6 * float(np.median(self.window_times)):.1f} us CPU/frame (median window), "
             f"last/first windows {self.slowdown:.2f}, heap growth {self.heap_growth / 1024:.1f} KiB, "
-            f"RSS growth {self.rss_growth / 2**20:.2f} MiB"
+            f"RSS growth {self.rss_growth / 2**20:.2f} MiB; us/frame by tenth of the run: {' '.join(deciles)}"
         )
 
 
