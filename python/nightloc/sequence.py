@@ -14,9 +14,10 @@ wrap-around**: what moves in from beyond the grid takes the frame's fill value (
 the value of unmapped cells), so every cell of ``S`` sums exactly ``n`` terms.
 
 Speed: a map is stored as its *excess* over its fill value, ``G = H - fill`` (zero outside the
-hull and beyond the grid), in a row-major buffer whose rows are padded with as many zero
-columns as the grid is wide. A translation is then a few shifted, weighted adds of contiguous
-1-D slices (:func:`add_translated`, separable, three passes), rows never wrap into each other, and
+hull and beyond the grid), in a row-major buffer whose rows end with one zero column. A
+translation is then three passes of shifted, weighted adds of contiguous 1-D slices
+(:func:`add_translated`, separable); the few columns of the work copy that would wrap into the
+neighbouring row are zeroed first, so rows never leak into each other, and
 ``S = sum(fill) + sum(translated G)``.
 """
 
@@ -32,7 +33,7 @@ __all__ = ["PaddedLayout", "translate", "add_translated", "fuse", "cumulative_of
 
 
 class PaddedLayout:
-    """Flat buffers for ``(height, width)`` maps with ``width`` zero columns after each row.
+    """Flat buffers for ``(height, width)`` maps with one zero column after each row.
 
     Args:
         height, width: the map's shape (grid cells).
@@ -44,7 +45,7 @@ class PaddedLayout:
             raise ValueError(f"map shape must be positive, got ({height}, {width})")
         self.height = int(height)
         self.width = int(width)
-        self.stride = 2 * self.width
+        self.stride = self.width + 1
         self.size = self.height * self.stride
         self.dtype = np.dtype(dtype)
 
@@ -80,8 +81,10 @@ def add_translated(
     cells of ``out`` receive garbage; read results through :meth:`PaddedLayout.view`.
 
     Separable, three passes over the buffer: one interpolates along x at the sub-cell offset
-    (the zero padding column after each row gives the fade to zero), two add the rows of the y
-    interpolation at their integer offsets (OpenCV's one-pass ``addWeighted`` and ``scaleAdd``).
+    into the work copy (the zero column after each row gives the fade to zero), two add the rows
+    of the y interpolation at their integer offsets (OpenCV's one-pass ``addWeighted`` and
+    ``scaleAdd``). Before those, the work copy's columns that would land beyond the row (and so
+    wrap into the next or previous one) are zeroed: they have no place in the grid anyway.
     """
     w, h = layout.width, layout.height
     ix, iy = math.floor(shift_x), math.floor(shift_y)
@@ -91,9 +94,14 @@ def add_translated(
     size, stride = layout.size, layout.stride
     # (1, n) views: OpenCV would take short 1-D arrays for scalars
     src, dst, across = source.reshape(1, -1), out.reshape(1, -1), scratch[:size].reshape(1, -1)
-    # across[k] = (1 - fx) * source[k] + fx * source[k - 1]: E at column (c - fx)
+    # across[k] = (1 - fx) * source[k] + fx * source[k - 1]: E at column (c - fx), c = 0..w
     cv2.addWeighted(src[:, 1:], 1.0 - fx, src[:, :-1], fx, 0.0, dst=across[:, 1:])
     across[0, 0] = src[0, 0] * (1.0 - fx)
+    rows = across.reshape(h, stride)
+    if ix > 0:
+        rows[:, stride - ix :] = 0.0  # would land at columns >= w + 1
+    elif ix < -1:
+        rows[:, : -ix - 1] = 0.0  # would land at columns < -1 ... and wrap to the previous row
     for dy, wy in ((iy, 1.0 - fy), (iy + 1, fy)):
         if wy == 0.0 or dy >= h or dy <= -h:
             continue
