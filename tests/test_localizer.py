@@ -127,6 +127,11 @@ def test_robot_motion_without_map_headings_is_a_clear_error():
     assert math.isnan(est.heading)
     with pytest.raises(ValueError, match="heading"):
         loc.update_match(r, RobotMotion(0.3, 0.0, 0.1))
+    # the failed update changed nothing: the next one continues the same sequence
+    assert loc.update_match(r, (0.3, 0.0)).frames == 2
+    with pytest.raises(ValueError, match="NaN"):
+        loc.update_match(_result(np.full(len(ref_map), np.nan), np.zeros(len(ref_map))), (0.1, 0.0))
+    assert loc.update_match(r, (0.3, 0.0)).frames == 3
 
 
 def test_raw_frames_are_prepared_with_the_map_parameters():

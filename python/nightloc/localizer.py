@@ -233,11 +233,16 @@ class Localizer:
         if result.scores.shape != (len(self.ref_map),):
             raise ValueError(f"result has {result.scores.shape[0]} scores but the map has {len(self.ref_map)} references")
         motion = as_motion(odometry)
+        headings = self.ref_map.headings
+        if isinstance(motion, RobotMotion) and headings is None and self._maps:
+            raise ValueError(
+                "robot-frame odometry (RobotMotion) needs a heading estimate, and there is none: the reference "
+                "map has no headings; pass map-frame displacements (MapDisplacement or (dx, dy)) instead"
+            )
+        excess, fill = self.mapper.excess(result.scores)  # checks the scores before any state changes
         if self._maps and motion is None:
             self._maps.clear()
             self._motions.clear()
-        excess, fill = self.mapper.excess(result.scores)
-        headings = self.ref_map.headings
         if isinstance(motion, RobotMotion) and math.isfinite(self._heading):
             predicted = self._heading + motion.turn
         elif headings is not None:
