@@ -69,6 +69,7 @@ CASES = [
     ("route negative tolerance", "route {trav} {trav} --out {new} --tolerance -1", "tolerance"),
     ("route bad params", "route {trav} {trav} --out {new} --params {bad_toml}", "widht"),
     ("route threads 0", "route {trav} {trav} --out {new} --threads 0", "threads"),
+    ("route search too large", "route {trav} {trav} --out {new} --ds 100000 --vmax 1000", "too large a search"),
     ("route frame step 0", "route {trav} {trav} --out {new} --frame-step 0", "frame-step"),
     ("route too few frames", "route {trav} {trav} --out {new} --ds 4", "uniqueness window"),
     ("evaluate missing reference", "evaluate {root}/nope {trav} --out {new}", "does not exist"),

@@ -771,6 +771,12 @@ ROUTE = [
         ValueError,
         "one entry per query",
     ),
+    (
+        "RouteParams search too large",
+        lambda ws: route.RouteParams(ds=100000, vmin=0.001, vmax=1000.0),
+        ValueError,
+        "too large a search",
+    ),
     ("RouteParams ds 1", lambda ws: route.RouteParams(ds=1), ValueError, "ds"),
     ("RouteParams vmin NaN", lambda ws: route.RouteParams(vmin=float("nan")), ValueError, "vmin"),
     ("RouteParams vmin > vmax", lambda ws: route.RouteParams(vmin=2.0, vmax=1.0), ValueError, "must not exceed"),

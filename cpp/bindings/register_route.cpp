@@ -185,6 +185,7 @@ void difference_matrix_into(const py::array& queries_in, const py::array& refs_i
 }  // namespace
 
 void register_route(py::module_& m) {
+    m.attr("MAX_TRAJECTORY_PLAN_ENTRIES") = nightloc::kMaxTrajectoryPlanEntries;
     m.def("zscore_bound", &nightloc::zscore_bound, py::arg("radius"),
           "(n-1)/sqrt(n) for n = 2*radius+1, as float32: the largest |z| of a window.");
     m.def("enhance_contrast", &enhance_contrast, py::arg("d"), py::arg("radius"), py::arg("offset"),

@@ -182,6 +182,12 @@ TrajectoryPlan make_trajectory_plan(const TrajectoryParams& params) {
     plan.ds = centred ? params.ds + params.ds % 2 : params.ds;  // OpenSeqSLAM: ds forced even
     plan.frames = centred ? static_cast<std::size_t>(plan.ds) + 1 : static_cast<std::size_t>(plan.ds);
     const double ds = static_cast<double>(plan.ds);
+    const double n_speeds = std::floor(params.vmax * ds - params.vmin * ds) + 1.0;
+    if (n_speeds * static_cast<double>(plan.frames) > kMaxTrajectoryPlanEntries) {
+        throw std::invalid_argument("trajectory search: " + std::to_string(static_cast<long long>(n_speeds)) +
+                                    " speeds x " + std::to_string(plan.frames) +
+                                    " frames is too large a search; narrow vmin..vmax or shorten ds");
+    }
     for (double move : octave_unit_range(params.vmin * ds, params.vmax * ds)) plan.speeds.push_back(move / ds);
     if (plan.speeds.empty()) {
         throw std::invalid_argument(

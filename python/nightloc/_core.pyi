@@ -9,6 +9,7 @@ __version__: str
 DEFAULT_PATCH_SCALE: float
 MAX_IMAGE_PIXELS: int
 MAX_PATCH_RADIUS: int
+MAX_TRAJECTORY_PLAN_ENTRIES: float
 
 def simd_backend() -> str: ...
 def best_simd_backend() -> str: ...

@@ -52,6 +52,11 @@ enum class TrajectoryMode {
     kCausal,
 };
 
+/// Most row offsets (speeds x frames) a trajectory plan may hold: 4 M (32 MB). OpenSeqSLAM's
+/// defaults need 55; the bound turns a typo such as vmax = 1000 with a long ds into an error
+/// instead of gigabytes of allocation.
+inline constexpr double kMaxTrajectoryPlanEntries = 4194304.0;
+
 /// Parameters of the trajectory search (OpenSeqSLAM's names in brackets).
 struct TrajectoryParams {
     int ds = 10;             ///< sequence length [ds]; centred mode rounds it up to even

@@ -18,6 +18,7 @@ import dataclasses
 import math
 from typing import Literal, Optional, Union
 
+from .. import _core
 from ..params import PreparationParams, params_section
 
 __all__ = ["RouteParams", "PRESETS", "route_preset", "resolve_params", "default_preparation"]
@@ -74,6 +75,14 @@ class RouteParams:
                 raise ValueError(f"{name} must be a speed in (0, 1000] references per frame, got {value}")
         if self.vmin > self.vmax:
             raise ValueError(f"vmin ({self.vmin}) must not exceed vmax ({self.vmax})")
+        ds = self.effective_ds
+        speeds = math.floor(self.vmax * ds - self.vmin * ds) + 1
+        frames = ds + 1 if self.mode == "centred" else ds
+        if speeds * frames > _core.MAX_TRAJECTORY_PLAN_ENTRIES:
+            raise ValueError(
+                f"{speeds} speeds (vmin {self.vmin} .. vmax {self.vmax} at ds {self.ds}) x {frames} frames is too "
+                f"large a search (at most {_core.MAX_TRAJECTORY_PLAN_ENTRIES:.0f}); narrow vmin..vmax or shorten ds"
+            )
         if self.uniqueness_radius < 0:
             raise ValueError(f"uniqueness_radius must be >= 0, got {self.uniqueness_radius}")
 
