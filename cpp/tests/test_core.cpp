@@ -133,6 +133,14 @@ void test_errors() {
     std::int32_t dup[2] = {1, 1};
     CHECK_THROWS(nightloc::rotational_sad_sums(q.data(), r.data(), 1, 2, 3, dup, 2, out, 1), std::invalid_argument);
     CHECK_THROWS(nightloc::patch_normalize(q.data(), r.data(), 1, 2, 3, -1, true), std::invalid_argument);
+    // A radius past the bound would overflow the 64-bit window sums (and loop 2r+1 times per row).
+    CHECK_THROWS(nightloc::patch_normalize(q.data(), r.data(), 1, 2, 3, nightloc::kMaxPatchRadius + 1, true),
+                 std::invalid_argument);
+    Bytes ramp(2 * 3), wide(2 * 3);
+    for (std::size_t i = 0; i < ramp.size(); ++i) ramp[i] = static_cast<std::uint8_t>(40 * i);
+    nightloc::patch_normalize(ramp.data(), wide.data(), 1, 2, 3, nightloc::kMaxPatchRadius, true);
+    nightloc::patch_normalize(ramp.data(), wide.data(), 1, 2, 3, nightloc::kMaxPatchRadius, false);
+    CHECK(wide[0] < wide[5]);  // still a z-score: the darkest pixel below the brightest
 }
 
 void test_patch_normalize() {
