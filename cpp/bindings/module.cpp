@@ -210,6 +210,7 @@ py::tuple match(const py::array& query_in, const py::array& refs_in, const py::a
 }  // namespace
 
 void register_route(py::module_& m);  // register_route.cpp
+void register_localization(py::module_& m);  // register_localization.cpp
 
 PYBIND11_MODULE(_core, m) {
     m.doc() = "nightloc's compiled core: patch normalization and rotation-invariant SAD (private; use nightloc)";
@@ -254,4 +255,5 @@ PYBIND11_MODULE(_core, m) {
     m.def("difference_matrix_sums", &difference_matrix_sums, py::arg("queries"), py::arg("refs"), py::arg("shifts"),
           py::arg("threads"));
     register_route(m);
+    register_localization(m);
 }

@@ -1,0 +1,32 @@
+// Internal: the row kernels of frame preparation (prepare.cpp), one table per SIMD path.
+// Every path computes the same bytes; they differ only in speed.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "nightloc/prepare.hpp"
+#include "nightloc/simd.hpp"
+
+namespace nightloc::detail {
+
+/// Sub-histograms of histogram_row (4 x 256 counters, summed at the end).
+inline constexpr std::size_t kHistogramCopies = 4;
+
+struct PrepareKernels {
+    /// dst[x] = grey value of pixel x of a packed row of n pixels in `order` (not grey).
+    void (*grey_row)(const std::uint8_t* src, std::size_t n, PixelOrder order, std::uint8_t* dst);
+    /// counts[c * 256 + v] += number of pixels of value v (spread over kHistogramCopies copies c).
+    void (*histogram_row)(const std::uint8_t* src, std::size_t n, std::uint32_t* counts);
+    /// band[x] += src[x] (16-bit wrap-around: the caller flushes before 257 rows).
+    void (*accumulate_row)(const std::uint8_t* src, std::size_t n, std::uint16_t* band);
+    /// band[x] += lut[src[x]].
+    void (*accumulate_lut_row)(const std::uint8_t* src, std::size_t n, const std::uint8_t* lut, std::uint16_t* band);
+    /// Name of the instruction set the kernels were compiled for (for reports).
+    const char* name;
+};
+
+/// The kernels of a path (a supported one: the caller checks).
+const PrepareKernels& prepare_kernels(SimdBackend backend) noexcept;
+
+}  // namespace nightloc::detail
