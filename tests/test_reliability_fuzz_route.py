@@ -80,7 +80,8 @@ def test_enhance_contrast_boundary(d, radius, offset, threads):
     assert _valid_matrix(d, 2, 0) and radius >= 1
     assert out.shape == d.shape and out.dtype == np.float32
     if radius <= 50 and np.isfinite(d).all():
-        expected = route_oracle.enhance_zscores(d, radius)
+        with np.errstate(over="ignore", invalid="ignore"):  # float32's extremes overflow, as in the core
+            expected = route_oracle.enhance_zscores(d, radius)
         if offset == "bound":
             expected = (expected + np.float32(_core.zscore_bound(radius))).astype(np.float32)
         if offset in ("none", "bound"):
