@@ -24,7 +24,8 @@ struct PrepareWorkspace::Buffers {
     std::vector<std::uint8_t> grey;        // cropped grey frame (pass 1 -> pass 2)
     std::vector<std::uint8_t> row;         // one grey / equalized row
     std::vector<std::uint16_t> band;       // column sums of the rows since the last fold
-    std::vector<std::int64_t> segments;    // exact column-segment sums of all folded rows
+    std::vector<std::uint32_t> prefix;     // column prefix sums of the band
+    std::vector<std::int64_t> segments;    // integral of all folded rows at each cut column
     std::vector<std::int64_t> corners;     // integral image at (cut row, cut column)
     std::vector<std::size_t> cut_columns;  // ascending, starting at 0
     std::vector<std::ptrdiff_t> row_slot;  // input row -> its row in `corners`, or -1
@@ -34,7 +35,7 @@ struct PrepareWorkspace::Buffers {
     std::size_t bytes() const noexcept {
         return grey.capacity() + row.capacity() + band.capacity() * 2 + segments.capacity() * 8 +
                corners.capacity() * 8 + cut_columns.capacity() * sizeof(std::size_t) +
-               row_slot.capacity() * sizeof(std::ptrdiff_t) + (row_weights.capacity() + sums.capacity()) * 4 +
+               row_slot.capacity() * sizeof(std::ptrdiff_t) + prefix.capacity() * 4 + (row_weights.capacity() + sums.capacity()) * 4 +
                small.capacity();
     }
 };
@@ -71,8 +72,6 @@ namespace {
 
 /// Inputs below this many pixels take cv2.resize's paths in the Python pipeline.
 constexpr std::size_t kIntegralMinPixels = 65536;
-/// Rows a 16-bit band may hold before it is folded (257 * 255 = 65 535).
-constexpr std::size_t kBandRows = 256;
 
 // Round half to even (the default rounding mode), as numpy.rint and OpenCV's cvRound.
 inline double round_even(double v) { return std::nearbyint(v); }
@@ -141,23 +140,27 @@ std::vector<AreaTap> area_taps(std::size_t n_in, std::size_t n_out) {
 // --------------------------------------------------------------------------------------------
 // pass 2 consumers: each takes the grey rows in order and writes the small image
 
-// Integral and blocks methods: integral image at the cut rows x cut columns, from band sums.
+// Integral and blocks methods: the integral image at the cut rows x cut columns, from band sums.
+// Only rows and columns with a non-zero weight are cut (numpy multiplies the others by 0.0: any
+// finite value gives the same result).
 class CutSums {
 public:
     CutSums(PrepareWorkspace::Buffers& b, const detail::PrepareKernels& k, DownsampleMethod method,
             std::size_t in_h, std::size_t in_w, std::size_t out_h, std::size_t out_w)
         : b_(b), k_(k), method_(method), in_h_(in_h), in_w_(in_w), out_h_(out_h), out_w_(out_w) {
-        std::vector<std::size_t> rows, cols;
+        std::vector<std::size_t> rows, cols{0};
         if (method == DownsampleMethod::integral) {
             row_edges_ = integral_edges(in_h, out_h);
             col_edges_ = integral_edges(in_w, out_w);
-            for (const Edge& e : row_edges_) rows.insert(rows.end(), {e.lo, e.lo + 1});
+            for (const Edge& e : row_edges_) {
+                if (1.0 - e.frac != 0.0) rows.push_back(e.lo);
+                if (e.frac != 0.0) rows.push_back(e.lo + 1);
+            }
             for (const Edge& e : col_edges_) cols.insert(cols.end(), {e.lo, e.lo + 1});
         } else {
-            for (std::size_t k2 = 0; k2 <= out_h; ++k2) rows.push_back(k2 * (in_h / out_h));
-            for (std::size_t k2 = 0; k2 <= out_w; ++k2) cols.push_back(k2 * (in_w / out_w));
+            for (std::size_t i = 0; i <= out_h; ++i) rows.push_back(i * (in_h / out_h));
+            for (std::size_t i = 0; i <= out_w; ++i) cols.push_back(i * (in_w / out_w));
         }
-        cols.push_back(0);
         std::sort(rows.begin(), rows.end());
         rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
         std::sort(cols.begin(), cols.end());
@@ -169,6 +172,10 @@ public:
         b_.corners.assign(rows.size() * n_cols_, 0);
         b_.segments.assign(n_cols_, 0);
         b_.band.assign(in_w, 0);
+        b_.prefix.resize(in_w + 1);
+        // a band's column prefix sums stay below 2^32: at most 256 rows (16-bit band), fewer for
+        // frames wider than 65 793 columns
+        band_limit_ = std::max<std::size_t>(1, std::min<std::size_t>(256, 0xffffffffull / (255 * in_w)));
         if (b_.row_slot[0] >= 0) record(0);
     }
 
@@ -183,7 +190,7 @@ public:
         if (b_.row_slot[y + 1] >= 0) {
             fold();
             record(y + 1);
-        } else if (band_rows_ == kBandRows) {
+        } else if (band_rows_ == band_limit_) {
             fold();
         }
     }
@@ -197,26 +204,20 @@ public:
     }
 
 private:
-    // Band -> exact sums per column segment [cut_k, cut_k+1); the band restarts at zero.
+    // The band's column prefix sums at every cut column join the running integral (`segments`
+    // holds, per cut column c, the sum of all folded rows over columns < c); the band restarts.
     void fold() {
-        const std::uint16_t* band = b_.band.data();
-        for (std::size_t k = 0; k + 1 < n_cols_; ++k) {
-            std::uint32_t s = 0;
-            for (std::size_t x = b_.cut_columns[k]; x < b_.cut_columns[k + 1]; ++x) s += band[x];
-            b_.segments[k] += s;
-        }
+        std::uint32_t* prefix = b_.prefix.data();
+        k_.prefix_row(b_.band.data(), in_w_, prefix);
+        for (std::size_t k = 0; k < n_cols_; ++k) b_.segments[k] += prefix[b_.cut_columns[k]];
         std::fill(b_.band.begin(), b_.band.end(), std::uint16_t{0});
         band_rows_ = 0;
     }
 
     // The integral image at row r (sum of rows < r) and every cut column.
     void record(std::size_t r) {
-        std::int64_t* out = b_.corners.data() + static_cast<std::size_t>(b_.row_slot[r]) * n_cols_;
-        std::int64_t running = 0;
-        for (std::size_t k = 0; k < n_cols_; ++k) {
-            out[k] = running;
-            if (k + 1 < n_cols_) running += b_.segments[k];
-        }
+        std::copy(b_.segments.begin(), b_.segments.end(),
+                  b_.corners.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(b_.row_slot[r]) * n_cols_));
     }
 
     std::size_t column_slot(std::size_t c) const {
@@ -224,8 +225,10 @@ private:
                                         b_.cut_columns.begin());
     }
 
+    // A corner of the integral image; 0 for a row that was not cut (its weight is zero).
     double corner(std::size_t r, std::size_t col_slot) const {
-        return static_cast<double>(b_.corners[static_cast<std::size_t>(b_.row_slot[r]) * n_cols_ + col_slot]);
+        const std::ptrdiff_t slot = b_.row_slot[r];
+        return slot < 0 ? 0.0 : static_cast<double>(b_.corners[static_cast<std::size_t>(slot) * n_cols_ + col_slot]);
     }
 
     // preparation.py's _AreaSampler.means, in numpy's order of operations:
@@ -289,6 +292,7 @@ private:
     std::size_t in_h_, in_w_, out_h_, out_w_;
     std::size_t n_cols_ = 0;
     std::size_t band_rows_ = 0;
+    std::size_t band_limit_ = 256;
     std::vector<Edge> row_edges_, col_edges_;
 };
 
@@ -382,6 +386,9 @@ void check_settings(const FrameView& frame, const PrepareSettings& s) {
                                     std::to_string(frame.height) + " x " + std::to_string(frame.width) + " frame");
     }
     const std::size_t h = frame.height - s.crop_top - s.crop_bottom, w = frame.width - s.crop_left - s.crop_right;
+    if (w > kMaxFrameWidth) {
+        throw std::invalid_argument("frame of " + std::to_string(w) + " columns is too wide (at most 2^24)");
+    }
     if (h > kMaxFramePixels / w) {
         throw std::invalid_argument("frame of " + std::to_string(h) + " x " + std::to_string(w) +
                                     " pixels is too large (at most 2^31 pixels)");

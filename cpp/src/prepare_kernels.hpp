@@ -22,6 +22,9 @@ struct PrepareKernels {
     void (*accumulate_row)(const std::uint8_t* src, std::size_t n, std::uint16_t* band);
     /// band[x] += lut[src[x]].
     void (*accumulate_lut_row)(const std::uint8_t* src, std::size_t n, const std::uint8_t* lut, std::uint16_t* band);
+    /// prefix[0] = 0, prefix[x + 1] = band[0] + ... + band[x] for x < n (the caller keeps the sums
+    /// below 2^32).
+    void (*prefix_row)(const std::uint16_t* band, std::size_t n, std::uint32_t* prefix);
     /// Name of the instruction set the kernels were compiled for (for reports).
     const char* name;
 };

@@ -17,6 +17,12 @@ to 8 bits; ``"none"`` scales by 255/65535 after downsampling.
 
 Stacks are prepared one frame at a time, so preparing a traverse of thousands of full-size
 frames holds only a few of them in memory (:meth:`Traverse.frames` reads ahead a few frames).
+
+**Engines.** 8-bit frames with ``equalize`` ``"global"`` or ``"none"`` that are at least
+``width x height`` after cropping are prepared by the compiled core in one call
+(``nightloc::prepare_frame``: two passes over the frame, SIMD, the GIL released), bit for bit
+the same as the OpenCV formulation of steps 1-4 (:meth:`Preparer.downsample_opencv`), which
+prepares everything else: CLAHE, 16-bit frames and frames smaller than the output.
 """
 
 from __future__ import annotations
@@ -26,11 +32,12 @@ from typing import Dict, Iterable, Iterator, Optional, Tuple, Union
 import cv2
 import numpy as np
 
+from . import _core
 from .matching import patch_normalize
 from .params import PreparationParams
 from .traverse import Traverse
 
-__all__ = ["Preparer", "prepare", "area_downsample", "equalize_hist16"]
+__all__ = ["Preparer", "prepare", "area_downsample", "area_downsample_opencv", "equalize_hist16"]
 
 ImageInput = Union[np.ndarray, Iterable[np.ndarray], Traverse]
 
@@ -106,8 +113,23 @@ def area_downsample(image: np.ndarray, width: int, height: int) -> np.ndarray:
 
     Each output pixel is the mean of the input area it covers (fractional pixels weighted by
     their covered fraction), rounded to nearest. Integer factors, upsampling and small inputs
-    use ``cv2.resize(..., INTER_AREA)``; other factors an integral image (exact sums), several
-    times faster than ``cv2.resize`` for camera-size frames.
+    use ``cv2.resize(..., INTER_AREA)``'s arithmetic; other factors an integral image (exact
+    sums), several times faster than ``cv2.resize`` for camera-size frames. uint8 images that
+    are not upsampled are computed by the compiled core (the same bytes as
+    :func:`area_downsample_opencv`).
+    """
+    in_h, in_w = image.shape
+    if image.dtype == np.uint8 and in_h >= height and in_w >= width and _packed(image):
+        return _core.prepare_frame(image, "grey", (0, 0, 0, 0), "none", width, height, False, 0, True, 1.0)
+    return area_downsample_opencv(image, width, height)
+
+
+def area_downsample_opencv(image: np.ndarray, width: int, height: int) -> np.ndarray:
+    """:func:`area_downsample` with OpenCV and numpy only (the reference for the core's).
+
+    ``cv2.resize(..., INTER_AREA)`` for integer factors, upsampling and inputs below 65 536
+    pixels; an integral image (``cv2.integral``) and float64 means rounded by ``numpy.rint``
+    otherwise.
     """
     in_h, in_w = image.shape
     if (in_h, in_w) == (height, width):
@@ -126,6 +148,18 @@ def area_downsample(image: np.ndarray, width: int, height: int) -> np.ndarray:
     means = sampler.means(integral)
     top = 255 if image.dtype == np.uint8 else 65535
     return np.clip(np.rint(means), 0, top).astype(image.dtype)
+
+
+def _packed(frame: np.ndarray) -> bool:
+    """Whether a uint8 (H, W) or (H, W, C) array has packed pixels and rows going forward (the core's layout)."""
+    strides = frame.strides
+    pixel = 1 if frame.ndim == 2 else frame.shape[2]
+    if strides[1] != pixel or (frame.ndim == 3 and strides[2] != 1):
+        return False
+    return frame.shape[0] == 1 or strides[0] >= frame.shape[1] * pixel
+
+
+_CORE_ORDERS = {(2, "bgr"): "grey", (2, "rgb"): "grey", (3, "bgr"): "bgr", (3, "rgb"): "rgb", (4, "bgr"): "bgra", (4, "rgb"): "rgba"}
 
 
 def _crop_pixels(value: Union[int, float], size: int) -> int:
@@ -183,17 +217,25 @@ class Preparer:
 
     # --- steps 1-4 on one frame
 
+    def crop_pixels(self, height: int, width: int) -> Tuple[int, int, int, int]:
+        """Step 1's ``(top, bottom, left, right)`` in pixels for a ``height x width`` frame.
+
+        Raises ValueError when the crop removes the whole frame.
+        """
+        top, bottom, left, right = self._params.crop
+        t, b = _crop_pixels(top, height), _crop_pixels(bottom, height)
+        l, r = _crop_pixels(left, width), _crop_pixels(right, width)
+        if t + b >= height or l + r >= width:
+            raise ValueError(
+                f"crop (top, bottom, left, right) = {self._params.crop} removes the whole {height}x{width} frame "
+                f"({t}+{b} rows, {l}+{r} columns)"
+            )
+        return t, b, l, r
+
     def crop(self, image: np.ndarray) -> np.ndarray:
         """Step 1: the frame without its cropped borders (a view, no copy)."""
         h, w = image.shape[:2]
-        top, bottom, left, right = self._params.crop
-        t, b = _crop_pixels(top, h), _crop_pixels(bottom, h)
-        l, r = _crop_pixels(left, w), _crop_pixels(right, w)
-        if t + b >= h or l + r >= w:
-            raise ValueError(
-                f"crop (top, bottom, left, right) = {self._params.crop} removes the whole {h}x{w} frame "
-                f"({t}+{b} rows, {l}+{r} columns)"
-            )
+        t, b, l, r = self.crop_pixels(h, w)
         return image[t : h - b, l : w - r]
 
     def grey(self, image: np.ndarray) -> np.ndarray:
@@ -219,12 +261,43 @@ class Preparer:
         return clahe.apply(np.ascontiguousarray(grey))
 
     def downsample(self, image: np.ndarray) -> np.ndarray:
-        """Steps 1-4 on one frame: the ``(height, width)`` uint8 grey image, not yet normalized."""
+        """Steps 1-4 on one frame: the ``(height, width)`` uint8 grey image, not yet normalized.
+
+        8-bit frames with ``"global"`` or ``"none"`` equalization go through the compiled core,
+        the others through :meth:`downsample_opencv` (the same bytes where both apply).
+        """
         frame = _checked_frame(image, "image")
-        small = area_downsample(self.equalize(self.grey(self.crop(frame))), self._params.width, self._params.height)
+        small = self._core_prepare(frame, normalize=False)
+        return self._downsample_opencv(frame) if small is None else small
+
+    def downsample_opencv(self, image: np.ndarray) -> np.ndarray:
+        """:meth:`downsample` with OpenCV and numpy only: ``cv2.cvtColor``, ``cv2.equalizeHist``
+        / CLAHE / :func:`equalize_hist16`, :func:`area_downsample_opencv` (the reference the
+        core is tested against)."""
+        return self._downsample_opencv(_checked_frame(image, "image"))
+
+    def _downsample_opencv(self, frame: np.ndarray) -> np.ndarray:
+        grey = self.equalize(self.grey(self.crop(frame)))
+        small = area_downsample_opencv(grey, self._params.width, self._params.height)
         if small.dtype == np.uint16:
             small = np.rint(small * (255.0 / 65535.0)).astype(np.uint8)
         return small
+
+    def _core_prepare(self, frame: np.ndarray, normalize: bool) -> Optional[np.ndarray]:
+        """Steps 1-4 (and 5 when ``normalize``) in the core, or None where it does not apply."""
+        p = self._params
+        if frame.dtype != np.uint8 or p.equalize not in ("global", "none"):
+            return None
+        h, w = frame.shape[:2]
+        crop = self.crop_pixels(h, w)
+        if h - crop[0] - crop[1] < p.height or w - crop[2] - crop[3] < p.width:
+            return None  # upsampling: OpenCV's INTER_AREA
+        if not _packed(frame):
+            frame = np.ascontiguousarray(frame[crop[0] : h - crop[1], crop[2] : w - crop[3]])
+            crop = (0, 0, 0, 0)
+        order = _CORE_ORDERS[(2 if frame.ndim == 2 else frame.shape[2], p.channel_order)]
+        return _core.prepare_frame(frame, order, crop, p.equalize, p.width, p.height, normalize and p.patch_normalize,
+                                   p.radius, p.wrap, p.scale)
 
     def normalize(self, small: np.ndarray) -> np.ndarray:
         """Step 5 on ``(H, W)`` or ``(N, H, W)`` uint8: patch normalization, or a copy when off."""
@@ -271,7 +344,11 @@ class Preparer:
             ``(height, width)`` uint8 for one frame, ``(N, height, width)`` uint8 otherwise.
         """
         if isinstance(images, np.ndarray) and (images.ndim == 2 or (images.ndim == 3 and images.shape[2] in (1, 3, 4))):
-            return self.normalize(self.downsample(images))
+            frame = _checked_frame(images, "image")
+            prepared = self._core_prepare(frame, normalize=True)
+            if prepared is not None:
+                return prepared
+            return self.normalize(self._downsample_opencv(frame))
         smalls = list(self.iter_downsampled(images))
         if not smalls:
             raise ValueError("images is empty: nothing to prepare")

@@ -57,6 +57,8 @@ struct PrepareSettings {
 
 /// Largest frame prepare_frame accepts, in pixels after cropping (2^31).
 inline constexpr std::size_t kMaxFramePixels = std::size_t{1} << 31;
+/// Widest frame prepare_frame accepts, in columns after cropping (2^24).
+inline constexpr std::size_t kMaxFrameWidth = std::size_t{1} << 24;
 
 /// How the area downsample of an in_height x in_width grey image to out_height x out_width is
 /// computed (the same choice as nightloc.preparation.area_downsample):
@@ -110,7 +112,7 @@ private:
 ///  5. patch normalization (nightloc::patch_normalize) when settings.normalize.
 /// Uses the SIMD path of active_simd_backend() (every path gives the same bytes).
 /// Throws std::invalid_argument for a null or empty frame, a row stride shorter than a row, a
-/// crop that removes the whole frame, more than kMaxFramePixels pixels, a zero output size, an
+/// crop that removes the whole frame, more than kMaxFramePixels pixels or kMaxFrameWidth columns, a zero output size, an
 /// output larger than the cropped frame (upsampling), or invalid patch settings.
 void prepare_frame(const FrameView& frame, const PrepareSettings& settings, std::uint8_t* out,
                    PrepareWorkspace& workspace);
