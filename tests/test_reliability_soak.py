@@ -70,7 +70,8 @@ class SoakReport:
         return last / first
 
     def summary(self, name: str) -> str:
-        deciles = [f"{1e6 * float(np.median(part)):.0f}" for part in np.array_split(self.window_times, 10)]
+        parts = np.array_split(self.window_times, min(10, len(self.window_times)))  # tenths of the run
+        deciles = [f"{1e6 * float(np.median(part)):.0f}" for part in parts]
         return (
             f"{name}: {self.frames} frames, {1e6 * float(np.median(self.window_times)):.1f} us CPU/frame (median window), "
             f"last/first windows {self.slowdown:.2f}, heap growth {self.heap_growth / 1024:.1f} KiB, "
