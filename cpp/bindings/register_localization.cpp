@@ -6,11 +6,15 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cmath>
 #include <cstdint>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <tuple>
+#include <vector>
 
+#include "nightloc/heatmap.hpp"
 #include "nightloc/prepare.hpp"
 
 namespace py = pybind11;
@@ -96,9 +100,189 @@ py::array prepare_frame(const py::array& frame, const std::string& order_name, c
     return std::move(out);
 }
 
+// ---------------------------------------------------------------------------------------------
+// heat maps
+
+template <class T>
+py::array_t<T, py::array::c_style> checked_vector(const py::array& a, const char* name, const char* dtype) {
+    if (!py::isinstance<py::array_t<T>>(a)) {
+        throw py::type_error(std::string(name) + " must have dtype " + dtype + ", got " + std::string(py::str(a.dtype())));
+    }
+    if (a.ndim() != 1) throw py::value_error(std::string(name) + " must be 1-D, got shape " + shape_string(a));
+    if (!(a.flags() & py::array::c_style)) throw py::value_error(std::string(name) + " must be C-contiguous");
+    return py::reinterpret_borrow<py::array_t<T, py::array::c_style>>(a);
+}
+
+template <class T>
+std::vector<T> vector_of(const py::array& a, const char* name, const char* dtype) {
+    const auto v = checked_vector<T>(a, name, dtype);
+    return std::vector<T>(v.data(), v.data() + v.size());
+}
+
+// out += source translated, on flat buffers of `height` rows `stride` elements apart.
+template <class T>
+void add_translated_typed(const py::array& out_in, const py::array& source_in, std::size_t height, std::size_t width,
+                          std::size_t stride, double shift_x, double shift_y) {
+    const char* dtype = sizeof(T) == 4 ? "float32" : "float64";
+    const auto source = checked_vector<T>(source_in, "source", dtype);
+    const auto out = checked_vector<T>(out_in, "out", dtype);
+    if (!out_in.writeable()) throw py::value_error("out must be writable");
+    if (height == 0 || width == 0 || stride < width) throw py::value_error("invalid map layout");
+    const std::size_t needed = (height - 1) * stride + width;
+    if (static_cast<std::size_t>(source.size()) < needed || static_cast<std::size_t>(out.size()) < needed) {
+        throw py::value_error("buffers hold fewer than height x stride elements");
+    }
+    const T* src = source.data();
+    py::array writable = out_in;  // a second handle: mutable_data() is non-const
+    T* dst = static_cast<T*>(writable.mutable_data());
+    py::gil_scoped_release release;
+    nightloc::add_translated(src, stride, dst, stride, height, width, shift_x, shift_y);
+}
+
+void add_translated(const py::array& out, const py::array& source, std::size_t height, std::size_t width,
+                    std::size_t stride, double shift_x, double shift_y) {
+    if (py::isinstance<py::array_t<float>>(out)) {
+        add_translated_typed<float>(out, source, height, width, stride, shift_x, shift_y);
+    } else if (py::isinstance<py::array_t<double>>(out)) {
+        add_translated_typed<double>(out, source, height, width, stride, shift_x, shift_y);
+    } else {
+        throw py::type_error("out must have dtype float32 or float64, got " + std::string(py::str(out.dtype())));
+    }
+}
+
+using Weights = std::shared_ptr<nightloc::HeatWeights>;  // pybind11 holders are non-const
+
+Weights make_weights(std::size_t height, std::size_t width, std::size_t n_places, const py::array& indptr,
+                     const py::array& indices, const py::array& data) {
+    return std::make_shared<nightloc::HeatWeights>(height, width, n_places,
+                                                         vector_of<std::int32_t>(indptr, "indptr", "int32"),
+                                                         vector_of<std::int32_t>(indices, "indices", "int32"),
+                                                         vector_of<float>(data, "data", "float32"));
+}
+
+py::array map_copy(const float* values, std::size_t height, std::size_t width) {
+    py::array_t<float> out({static_cast<py::ssize_t>(height), static_cast<py::ssize_t>(width)});
+    std::copy(values, values + height * width, out.mutable_data());
+    return std::move(out);
+}
+
+// A HeatSequence with the peak exclusion of its localizer.
+class Sequence {
+public:
+    Sequence(Weights weights, std::size_t capacity, std::size_t rows, std::size_t cols, const py::array& mask)
+        : sequence_(std::move(weights), capacity) {
+        exclusion_.rows = rows;
+        exclusion_.cols = cols;
+        exclusion_.mask = vector_of<std::uint8_t>(mask, "mask", "uint8");
+        if (exclusion_.mask.size() != (2 * rows + 1) * (2 * cols + 1)) {
+            throw py::value_error("mask must hold (2 rows + 1) x (2 cols + 1) flags");
+        }
+    }
+
+    void push(const py::array& values_in, double fill) {
+        const auto values = checked_vector<float>(values_in, "place values", "float32");
+        if (static_cast<std::size_t>(values.size()) != sequence_.weights().places()) {
+            throw py::value_error("place values must have " + std::to_string(sequence_.weights().places()) +
+                                  " entries, got " + std::to_string(values.size()));
+        }
+        const float* v = values.data();
+        py::gil_scoped_release release;
+        sequence_.push(v, fill);
+    }
+
+    // (fill sum, cell, peak, floor, second or None) of the fused map.
+    py::tuple fuse_peak(const py::array& offsets_in) {
+        if (sequence_.size() == 0) throw py::value_error("the sequence is empty");
+        if (!py::isinstance<py::array_t<double>>(offsets_in) || offsets_in.ndim() != 2 || offsets_in.shape(1) != 2 ||
+            !(offsets_in.flags() & py::array::c_style)) {
+            throw py::type_error("offsets must be a C-contiguous float64 (k, 2) array");
+        }
+        if (static_cast<std::size_t>(offsets_in.shape(0)) != sequence_.size() - 1) {
+            throw py::value_error("offsets must have one row per earlier frame (" +
+                                  std::to_string(sequence_.size() - 1) + "), got " + std::to_string(offsets_in.shape(0)));
+        }
+        const auto* offsets = static_cast<const double*>(offsets_in.data());
+        for (py::ssize_t i = 0; i < 2 * offsets_in.shape(0); ++i) {
+            if (!std::isfinite(offsets[i])) throw py::value_error("offsets must be finite");
+        }
+        double fill_sum;
+        nightloc::HeatPeak peak;
+        {
+            py::gil_scoped_release release;
+            fill_sum = sequence_.fuse(offsets);
+            const auto& w = sequence_.weights();
+            peak = nightloc::find_peak(sequence_.fused(), w.height(), w.width(), exclusion_);
+        }
+        if (!peak.finite) throw py::value_error("heat map contains NaN or infinity");
+        return py::make_tuple(fill_sum, peak.cell, peak.peak, peak.floor,
+                              peak.has_second ? py::object(py::float_(peak.second)) : py::object(py::none()));
+    }
+
+    py::array fused() const {
+        return map_copy(sequence_.fused(), sequence_.weights().height(), sequence_.weights().width());
+    }
+    py::array frame(std::ptrdiff_t k) const {
+        return map_copy(sequence_.frame(index(k)), sequence_.weights().height(), sequence_.weights().width());
+    }
+    double fill(std::ptrdiff_t k) const { return sequence_.fill(index(k)); }
+    void clear() { sequence_.clear(); }
+    std::size_t size() const { return sequence_.size(); }
+    std::size_t capacity() const { return sequence_.capacity(); }
+
+private:
+    std::size_t index(std::ptrdiff_t k) const {  // Python-style: -1 = newest
+        const auto n = static_cast<std::ptrdiff_t>(sequence_.size());
+        if (k < -n || k >= n) throw py::index_error("frame index out of range");
+        return static_cast<std::size_t>(k < 0 ? k + n : k);
+    }
+
+    nightloc::HeatSequence sequence_;
+    nightloc::PeakExclusion exclusion_;
+};
+
 }  // namespace
 
 void register_localization(py::module_& m) {
+    m.def("add_translated", &add_translated, py::arg("out"), py::arg("source"), py::arg("height"), py::arg("width"),
+          py::arg("stride"), py::arg("shift_x"), py::arg("shift_y"),
+          "out += source translated by (shift_x, shift_y) cells, bilinear, zero beyond the grid "
+          "(flat float32/float64 buffers, rows `stride` apart; nightloc/heatmap.hpp).");
+    py::class_<nightloc::HeatWeights, Weights>(m, "HeatWeights",
+                                               "Sparse interpolation weights of a heat-map grid (CSR, float32).")
+        .def(py::init(&make_weights), py::arg("height"), py::arg("width"), py::arg("n_places"), py::arg("indptr"),
+             py::arg("indices"), py::arg("data"))
+        .def_property_readonly("height", &nightloc::HeatWeights::height)
+        .def_property_readonly("width", &nightloc::HeatWeights::width)
+        .def_property_readonly("places", &nightloc::HeatWeights::places)
+        .def(
+            "interpolate",
+            [](const nightloc::HeatWeights& w, const py::array& values_in) {
+                const auto values = checked_vector<float>(values_in, "place values", "float32");
+                if (static_cast<std::size_t>(values.size()) != w.places()) {
+                    throw py::value_error("place values must have " + std::to_string(w.places()) + " entries");
+                }
+                py::array_t<float> out({static_cast<py::ssize_t>(w.height()), static_cast<py::ssize_t>(w.width())});
+                float* o = out.mutable_data();
+                const float* v = values.data();
+                {
+                    py::gil_scoped_release release;
+                    w.interpolate(v, o);
+                }
+                return out;
+            },
+            py::arg("values"), "The (height, width) float32 map of per-place values.");
+    py::class_<Sequence>(m, "HeatSequence", "The excess heat maps of the last frames and their translated sum.")
+        .def(py::init<Weights, std::size_t, std::size_t, std::size_t, const py::array&>(), py::arg("weights"),
+             py::arg("capacity"), py::arg("exclusion_rows"), py::arg("exclusion_cols"), py::arg("exclusion_mask"))
+        .def("push", &Sequence::push, py::arg("place_values"), py::arg("fill"))
+        .def("fuse_peak", &Sequence::fuse_peak, py::arg("offsets"))
+        .def("fused", &Sequence::fused)
+        .def("frame", &Sequence::frame, py::arg("k"))
+        .def("fill", &Sequence::fill, py::arg("k"))
+        .def("clear", &Sequence::clear)
+        .def_property_readonly("size", &Sequence::size)
+        .def_property_readonly("capacity", &Sequence::capacity);
+
     m.def("prepare_frame", &prepare_frame, py::arg("frame"), py::arg("order"), py::arg("crop"), py::arg("equalize"),
           py::arg("width"), py::arg("height"), py::arg("normalize"), py::arg("radius"), py::arg("wrap"),
           py::arg("scale"),
