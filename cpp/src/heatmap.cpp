@@ -1,7 +1,6 @@
-// Heat maps and 2D sequence matching (see nightloc/heatmap.hpp). The translation works row by
-// row: R(r, .), the x-interpolated source row, is computed once per source row and kept for the
-// next output row, which needs it with the other y weight. The row loops are compiled for each
-// SIMD path (heatmap_kernels.cpp); every path does the same IEEE operations in the same order.
+// Heat maps and 2D sequence matching (see nightloc/heatmap.hpp): checks and bookkeeping; the
+// loops (interpolation, translation, peak search) are compiled for each SIMD path in
+// heatmap_kernels.cpp, and every path does the same IEEE operations in the same order.
 #include "nightloc/heatmap.hpp"
 
 #include <algorithm>
@@ -42,17 +41,29 @@ HeatWeights::HeatWeights(std::size_t height, std::size_t width, std::size_t n_pl
         }
         if (!std::isfinite(data_[k])) throw std::invalid_argument("weights must be finite");
     }
+    // ELL copy: slot k of every cell in one array (k * cells + c), unused slots weigh 0 (adding
+    // 0 * value leaves a float32 sum unchanged), so the product vectorizes over cells.
+    const std::size_t n = cells();
+    for (std::size_t c = 0; c < n; ++c) {
+        slots_ = std::max(slots_, static_cast<std::size_t>(indptr_[c + 1] - indptr_[c]));
+    }
+    ell_data_.assign(slots_ * n, 0.f);
+    ell_index_.assign(slots_ * n, 0);
+    for (std::size_t c = 0; c < n; ++c) {
+        for (auto k = static_cast<std::size_t>(indptr_[c]); k < static_cast<std::size_t>(indptr_[c + 1]); ++k) {
+            const std::size_t slot = k - static_cast<std::size_t>(indptr_[c]);
+            ell_data_[slot * n + c] = data_[k];
+            ell_index_[slot * n + c] = indices_[k];
+        }
+    }
 }
 
 void HeatWeights::interpolate(const float* place_values, float* heat) const {
-    const std::size_t n = cells();
-    for (std::size_t c = 0; c < n; ++c) {
-        float sum = 0.f;
-        for (auto k = static_cast<std::size_t>(indptr_[c]); k < static_cast<std::size_t>(indptr_[c + 1]); ++k) {
-            sum += data_[k] * place_values[static_cast<std::size_t>(indices_[k])];
-        }
-        heat[c] = sum;
+    for (std::size_t p = 0; p < places_; ++p) {
+        if (!std::isfinite(place_values[p])) throw std::invalid_argument("place values must be finite");
     }
+    detail::heat_kernels(active_simd_backend())
+        .interpolate(ell_data_.data(), ell_index_.data(), slots_, cells(), place_values, heat);
 }
 
 // --------------------------------------------------------------------------------------------
@@ -60,45 +71,30 @@ void HeatWeights::interpolate(const float* place_values, float* heat) const {
 
 namespace {
 
+// Checks, resolves the shifts and runs the kernel; `scratch` holds 3 * (width + 1) elements.
 template <class T>
-void add_translated_impl(const T* src, std::size_t src_stride, T* out, std::size_t out_stride, std::size_t height,
-                         std::size_t width, double shift_x, double shift_y) {
+void translate_into(const T* src, std::size_t src_stride, T* out, std::size_t out_stride, std::size_t height,
+                    std::size_t width, double shift_x, double shift_y, T* scratch) {
     if (height == 0 || width == 0) throw std::invalid_argument("heat maps must have at least one cell");
     if (src_stride < width || out_stride < width) throw std::invalid_argument("row stride shorter than a row");
     if (!std::isfinite(shift_x) || !std::isfinite(shift_y)) throw std::invalid_argument("shifts must be finite");
     const auto w = static_cast<double>(width), h = static_cast<double>(height);
     // beyond these, everything lands outside the grid (and the integer parts could overflow)
     if (shift_x >= w || shift_x < -w - 1.0 || shift_y >= h || shift_y < -h - 1.0) return;
-    const double fx_floor = std::floor(shift_x), fy_floor = std::floor(shift_y);
-    const auto ix = static_cast<std::ptrdiff_t>(fx_floor), iy = static_cast<std::ptrdiff_t>(fy_floor);
-    const double fx = shift_x - fx_floor, fy = shift_y - fy_floor;
-    const T a = static_cast<T>(1.0 - fx), b = static_cast<T>(fx);
-    const T wy0 = static_cast<T>(1.0 - fy), wy1 = static_cast<T>(fy);
-    const auto W = static_cast<std::ptrdiff_t>(width), H = static_cast<std::ptrdiff_t>(height);
-    // output columns i whose source column c = i - ix lies in [0, width]
-    const std::ptrdiff_t i_lo = std::max<std::ptrdiff_t>(0, ix), i_hi = std::min<std::ptrdiff_t>(W, W + ix + 1);
-    // output rows j with a source row j - iy or j - iy - 1 in [0, height)
-    const std::ptrdiff_t j_lo = std::max<std::ptrdiff_t>(0, iy), j_hi = std::min<std::ptrdiff_t>(H, H + iy + 1);
-    if (i_lo >= i_hi || j_lo >= j_hi) return;
-    const auto& k = detail::heat_kernels(active_simd_backend());
-    const std::size_t c0 = static_cast<std::size_t>(i_lo - ix), n = static_cast<std::size_t>(i_hi - i_lo);
-    std::vector<T> rows(3 * (width + 1), T(0));  // R of the current and the previous source row, zeros
-    T* current = rows.data();
-    T* previous = current + width + 1;
-    const T* zeros = previous + width + 1;
-    auto across = [&](std::ptrdiff_t r, T* row) {  // R(r, .) into row; false beyond the grid
-        if (r < 0 || r >= H) return false;
-        k.across(src + static_cast<std::size_t>(r) * src_stride, width, a, b, row);
-        return true;
-    };
-    bool previous_valid = across(j_lo - iy - 1, previous);
-    for (std::ptrdiff_t j = j_lo; j < j_hi; ++j) {
-        const bool current_valid = across(j - iy, current);  // weight wy0; the previous row has wy1
-        k.combine(out + static_cast<std::size_t>(j) * out_stride + static_cast<std::size_t>(i_lo),
-                  (current_valid ? current : zeros) + c0, (previous_valid ? previous : zeros) + c0, n, wy0, wy1);
-        std::swap(current, previous);
-        previous_valid = current_valid;
-    }
+    const double floor_x = std::floor(shift_x), floor_y = std::floor(shift_y);
+    const double fx = shift_x - floor_x, fy = shift_y - floor_y;
+    const detail::Translation<T> t{static_cast<std::ptrdiff_t>(floor_x), static_cast<std::ptrdiff_t>(floor_y),
+                                   static_cast<T>(1.0 - fx),              static_cast<T>(fx),
+                                   static_cast<T>(1.0 - fy),              static_cast<T>(fy)};
+    detail::heat_kernels(active_simd_backend()).translate<T>().add(src, src_stride, out, out_stride, height, width, t,
+                                                                   scratch);
+}
+
+template <class T>
+void add_translated_impl(const T* src, std::size_t src_stride, T* out, std::size_t out_stride, std::size_t height,
+                         std::size_t width, double shift_x, double shift_y) {
+    std::vector<T> scratch(3 * (width + 1));
+    translate_into(src, src_stride, out, out_stride, height, width, shift_x, shift_y, scratch.data());
 }
 
 }  // namespace
@@ -129,8 +125,7 @@ HeatPeak find_peak(const float* heat, std::size_t height, std::size_t width, con
         return result;
     }
     k.max_min(heat, n, result.peak, result.floor);
-    std::size_t cell = 0;
-    while (heat[cell] != result.peak) ++cell;  // the first maximum (numpy.argmax)
+    const std::size_t cell = k.find_first(heat, n, result.peak);  // the first maximum (numpy.argmax)
     result.cell = cell;
     result.peak = heat[cell];
     const std::size_t pj = cell / width, pi = cell % width;
@@ -156,7 +151,10 @@ HeatPeak find_peak(const float* heat, std::size_t height, std::size_t width, con
         take(row + i1, width - i1);                   // right of the box
         const std::uint8_t* mask = exclusion.mask.data() + (j + exclusion.rows - pj) * mask_width;
         for (std::size_t i = i0; i < i1; ++i) {       // the box outside the disk
-            if (!mask[i + exclusion.cols - pi]) take(row + i, 1);
+            if (!mask[i + exclusion.cols - pi]) {
+                second = any ? std::max(second, row[i]) : row[i];
+                any = true;
+            }
         }
     }
     result.second = second;
@@ -177,18 +175,17 @@ HeatSequence::HeatSequence(std::shared_ptr<const HeatWeights> weights, std::size
 
 void HeatSequence::push(const float* place_values, double fill) {
     if (place_values == nullptr) throw std::invalid_argument("place values are null");
-    std::size_t target;
-    if (count_ < capacity_) {
-        target = slot(count_);
-        ++count_;
-    } else {  // full: overwrite the oldest
-        target = first_;
-        first_ = (first_ + 1) % capacity_;
-    }
+    if (!std::isfinite(fill)) throw std::invalid_argument("fill value must be finite");
+    const std::size_t target = count_ < capacity_ ? slot(count_) : first_;  // full: overwrite the oldest
     if (maps_.size() <= target) maps_.resize(target + 1);
     maps_[target].resize(weights_->cells());
-    weights_->interpolate(place_values, maps_[target].data());
+    weights_->interpolate(place_values, maps_[target].data());  // checks the values first
     fills_[target] = fill;
+    if (count_ < capacity_) {
+        ++count_;
+    } else {
+        first_ = (first_ + 1) % capacity_;
+    }
 }
 
 void HeatSequence::clear() noexcept {
@@ -212,8 +209,10 @@ double HeatSequence::fuse(const double* offsets) {
     const std::vector<float>& newest = maps_[slot(count_ - 1)];
     std::copy(newest.begin(), newest.end(), fused_.begin());
     double fill_sum = fills_[slot(count_ - 1)];
+    scratch_.resize(3 * (w + 1));
     for (std::size_t k = 0; k + 1 < count_; ++k) {
-        add_translated(maps_[slot(k)].data(), w, fused_.data(), w, h, w, offsets[2 * k], offsets[2 * k + 1]);
+        translate_into(maps_[slot(k)].data(), w, fused_.data(), w, h, w, offsets[2 * k], offsets[2 * k + 1],
+                       scratch_.data());
         fill_sum += fills_[slot(k)];
     }
     return fill_sum;

@@ -9,6 +9,8 @@ reported too.
 Everything that depends only on the map is computed once, in :class:`HeatMapper`: the grid, the
 Delaunay triangulation of the reference positions and each cell's barycentric weights, stored as
 a ``scipy.sparse`` CSR matrix ``(n_cells, n_places)``; a frame then costs one sparse product.
+The streaming localizer runs that product, the sequence sum and the peak search in the compiled
+core (:meth:`HeatMapper.sequence`, ``nightloc/heatmap.hpp``) with the same float32 weights.
 
 Conventions:
 
@@ -41,6 +43,7 @@ import numpy as np
 import scipy.sparse
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
+from . import _core
 from .sequence import PaddedLayout
 
 __all__ = [
@@ -286,6 +289,11 @@ class HeatMapper:
         self.inside = inside.reshape(self.grid.shape)
         self.inside.setflags(write=False)
         self._disk = _disk_offsets(self.grid, self.confidence_radius)
+        # the float32 weights of the compiled sequences (shared by all of them, read-only)
+        self._core_weights = _core.HeatWeights(
+            self.grid.height, self.grid.width, weights.shape[1], weights.indptr.astype(np.int32),
+            weights.indices.astype(np.int32), weights.data.astype(np.float32),
+        )
 
     def _group_places(self, pos: np.ndarray) -> None:
         """Distinct positions ("places") and, per place, the references standing there."""
@@ -341,12 +349,12 @@ class HeatMapper:
         fill = float(inverted.min())
         return self.interpolate(inverted, fill), fill
 
-    def excess(self, scores: np.ndarray) -> Tuple[np.ndarray, float]:
-        """One frame's heat map minus its fill value, in a flat padded float32 buffer (the fast path).
+    def place_excess(self, scores: np.ndarray) -> Tuple[np.ndarray, float]:
+        """One frame's inverted scores minus its fill value, per place, and the fill value.
 
-        Returns ``(buffer, fill)``: ``self.layout.view(buffer) + fill`` equals
-        :meth:`heat_map`; the buffer is zero outside the hull and in the padding. Interpolation
-        weights sum to one, so this is one sparse product of the inverted scores minus ``fill``.
+        Returns ``(values, fill)``: ``values`` float32 ``(n_places,)``, the input of the sparse
+        product (:meth:`excess`, :meth:`sequence`); ``fill`` as in :meth:`heat_map`. Raises
+        ValueError for a wrong shape, NaN or infinity.
         """
         s = np.asarray(scores)
         if s.shape != (self.n_refs,):
@@ -354,7 +362,32 @@ class HeatMapper:
         inverted = invert_scores(s, self.inversion)
         fill = float(inverted.min())
         inverted -= fill
-        return self._padded_weights @ self.place_values(inverted).astype(np.float32), fill
+        return self.place_values(inverted).astype(np.float32), fill
+
+    def excess(self, scores: np.ndarray) -> Tuple[np.ndarray, float]:
+        """One frame's heat map minus its fill value, in a flat padded float32 buffer.
+
+        Returns ``(buffer, fill)``: ``self.layout.view(buffer) + fill`` equals
+        :meth:`heat_map`; the buffer is zero outside the hull and in the padding. Interpolation
+        weights sum to one, so this is one sparse product of the inverted scores minus ``fill``.
+        """
+        values, fill = self.place_excess(scores)
+        return self._padded_weights @ values, fill
+
+    def sequence(self, capacity: int) -> "_core.HeatSequence":
+        """A compiled sequence of up to ``capacity`` frames over this grid (the localizer's engine).
+
+        ``push(values, fill)`` adds a frame from :meth:`place_excess` (its excess map is the
+        sparse product with :attr:`weights` in float32, summed in scipy's order);
+        ``fuse_peak(offsets)`` sums the newest excess map and the earlier ones translated by
+        ``offsets`` (``(size - 1, 2)`` cells, oldest first, see
+        :func:`nightloc.sequence.add_translated` for the rounding) and returns
+        ``(fill_sum, cell, peak, floor, second)`` for :meth:`estimate_from_peak`; ``fused()``,
+        ``frame(k)`` and ``fill(k)`` give the maps (float32 copies); ``clear()``; ``size``.
+        The weights are shared by every sequence of this mapper.
+        """
+        rj, ri, disk = self._disk
+        return _core.HeatSequence(self._core_weights, int(capacity), rj, ri, disk.astype(np.uint8).ravel())
 
     def closest_ref(self, cell: int, scores: Optional[np.ndarray] = None) -> int:
         """The reference nearest to cell ``cell`` (the best-scoring one where several share a place)."""
@@ -379,18 +412,36 @@ class HeatMapper:
         peak = float(flat[cell])
         if not math.isfinite(peak):
             raise ValueError("heat map contains NaN or infinity")
-        if peak <= float(flat.min()):
-            # A flat map (one place, or every score equal) has no peak: the answer is the best
-            # reference (the lowest index on ties, as in matching), not the grid's first cell.
-            ref = int(np.argmin(scores)) if scores is not None else 0
-            x, y = (float(v) for v in self.positions[ref])
-            return HeatEstimate(x, y, ref, self._cell_of(x, y), peak, 0.0)
+        floor = float(flat.min())
+        if peak <= floor:
+            return self._flat_estimate(peak, scores)
+        return self._peak_estimate(cell, peak, scores, self._confidence(h, cell, peak))
+
+    def estimate_from_peak(
+        self, cell: int, peak: float, floor: float, second: Optional[float], scores: Optional[np.ndarray] = None
+    ) -> HeatEstimate:
+        """:meth:`estimate` from a peak found elsewhere (``HeatSequence.fuse_peak``): the hottest
+        cell, the map's maximum and minimum, and the highest value farther than the confidence
+        radius from the peak (None when no cell is that far)."""
+        if peak <= floor:
+            return self._flat_estimate(peak, scores)
+        confidence = 1.0 if second is None else float(np.clip((peak - second) / (peak - floor), 0.0, 1.0))
+        return self._peak_estimate(int(cell), float(peak), scores, confidence)
+
+    def _flat_estimate(self, peak: float, scores: Optional[np.ndarray]) -> HeatEstimate:
+        # A flat map (one place, or every score equal) has no peak: the answer is the best
+        # reference (the lowest index on ties, as in matching), not the grid's first cell.
+        ref = int(np.argmin(scores)) if scores is not None else 0
+        x, y = (float(v) for v in self.positions[ref])
+        return HeatEstimate(x, y, ref, self._cell_of(x, y), peak, 0.0)
+
+    def _peak_estimate(self, cell: int, peak: float, scores: Optional[np.ndarray], confidence: float) -> HeatEstimate:
         ref = self.closest_ref(cell, scores)
         if self.interpolation:
             x, y = self.grid.position(cell)
         else:
             x, y = (float(v) for v in self.positions[ref])
-        return HeatEstimate(float(x), float(y), ref, cell, peak, self._confidence(h, cell, peak))
+        return HeatEstimate(float(x), float(y), ref, cell, peak, confidence)
 
     def _cell_of(self, x: float, y: float) -> int:
         """The flat index of the grid cell nearest to ``(x, y)``."""

@@ -31,7 +31,7 @@ import dataclasses
 import math
 from collections import deque
 from dataclasses import dataclass
-from typing import Any, Deque, List, Literal, Optional, Tuple
+from typing import Any, Deque, Literal, Optional
 
 import numpy as np
 
@@ -41,11 +41,13 @@ from .matching import MatchResult, match
 from .odometry import Motion, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
 from .params import params_section
 from .reference_map import ReferenceMap
-from .sequence import add_translated, cumulative_offsets
+from .sequence import cumulative_offsets
 
 __all__ = ["LocalizationParams", "Localizer", "Estimate"]
 
-#: Longest sequence accepted (memory: one 100x100 map of 160 KB per frame).
+_NO_OFFSETS = np.zeros((0, 2))
+
+#: Longest sequence accepted (memory: one float32 map per frame, 40 KB for 100 x 100 cells).
 MAX_SEQ_LEN = 1000
 
 
@@ -160,11 +162,9 @@ class Localizer:
             inversion=params.inversion,
             confidence_radius=params.confidence_radius,
         )
-        self._layout = self.mapper.layout
         self._shifts = ref_map.params.shifts
         self._prepared_shape = (ref_map.params.height, ref_map.params.width)
-        self._scratch = self._layout.scratch()
-        self._sum = self._layout.zeros()
+        self._sequence = self.mapper.sequence(params.seq_len)
         self.reset()
 
     def with_seq_len(self, seq_len: int) -> "Localizer":
@@ -177,8 +177,7 @@ class Localizer:
         clone = object.__new__(Localizer)
         clone.__dict__.update(self.__dict__)
         clone.params = params
-        clone._scratch = self._layout.scratch()
-        clone._sum = self._layout.zeros()
+        clone._sequence = self.mapper.sequence(params.seq_len)
         clone.reset()
         return clone
 
@@ -194,7 +193,7 @@ class Localizer:
 
     def reset(self) -> None:
         """Forgets the sequence and the heading (e.g. after the robot was carried elsewhere)."""
-        self._maps: Deque[Tuple[np.ndarray, float]] = deque(maxlen=self.params.seq_len)
+        self._sequence.clear()  # the frames' excess heat maps and fill values (in the core)
         self._motions: Deque[Motion] = deque(maxlen=max(self.params.seq_len - 1, 1))
         self._heading = math.nan
 
@@ -234,38 +233,39 @@ class Localizer:
             raise ValueError(f"result has {result.scores.shape[0]} scores but the map has {len(self.ref_map)} references")
         motion = as_motion(odometry)
         headings = self.ref_map.headings
-        if isinstance(motion, RobotMotion) and headings is None and self._maps:
+        stored = self._sequence.size
+        if isinstance(motion, RobotMotion) and headings is None and stored:
             raise ValueError(
                 "robot-frame odometry (RobotMotion) needs a heading estimate, and there is none: the reference "
                 "map has no headings; pass map-frame displacements (MapDisplacement or (dx, dy)) instead"
             )
-        excess, fill = self.mapper.excess(result.scores)  # checks the scores before any state changes
-        if self._maps and motion is None:
-            self._maps.clear()
-            self._motions.clear()
+        values, fill = self.mapper.place_excess(result.scores)  # checks the scores before any state changes
         if isinstance(motion, RobotMotion) and math.isfinite(self._heading):
             predicted = self._heading + motion.turn
         elif headings is not None:
             predicted = float(headings[result.index] + result.headings[result.index])
         else:
             predicted = math.nan
-        if self._maps:
+        restart = bool(stored) and motion is None
+        earlier = 0 if restart else min(stored, self.params.seq_len - 1)  # frames fused with this one
+        if earlier:
+            motions = (list(self._motions) + [motion])[-earlier:]
+            offsets = np.ascontiguousarray(self.grid.to_cells(cumulative_offsets(robot_steps_to_map(motions, predicted))))
+            if not np.isfinite(offsets).all():
+                raise ValueError(f"odometry gives non-finite displacements: {offsets.tolist()}")
+        else:
+            offsets = _NO_OFFSETS
+        # the update is valid: change the state
+        if restart:
+            self._sequence.clear()
+            self._motions.clear()
+        elif stored:
             self._motions.append(motion)
-        self._maps.append((excess, fill))
-        history: List[Tuple[np.ndarray, float]] = list(self._maps)
-        total = self._sum
-        np.copyto(total, excess)
-        fill_sum = fill
-        if len(history) > 1:
-            motions = list(self._motions)[-(len(history) - 1) :]
-            offsets = self.grid.to_cells(cumulative_offsets(robot_steps_to_map(motions, predicted)))
-            for (old, old_fill), (sx, sy) in zip(history[:-1], offsets):
-                add_translated(self._layout, total, old, float(sx), float(sy), self._scratch)
-                fill_sum += old_fill
-        fused = np.ascontiguousarray(self._layout.view(total))
-        heatmap = fused + fill_sum if return_heatmap else None
-        frame_heatmap = self._layout.view(excess) + fill if return_heatmap else None
-        found = self.mapper.estimate(fused, result.scores)
+        self._sequence.push(values, fill)
+        fill_sum, cell, peak, floor, second = self._sequence.fuse_peak(offsets)
+        heatmap = self._sequence.fused() + fill_sum if return_heatmap else None
+        frame_heatmap = self._sequence.frame(-1) + fill if return_heatmap else None
+        found = self.mapper.estimate_from_peak(cell, peak, floor, second, result.scores)
         if headings is not None:
             self._heading = float(wrap_angle(headings[found.ref_index] + result.headings[found.ref_index]))
         return Estimate(
@@ -274,7 +274,7 @@ class Localizer:
             heading=self._heading,
             ref_index=found.ref_index,
             confidence=found.confidence,
-            frames=len(history),
+            frames=earlier + 1,
             best_ref=int(result.index),
             score=float(result.score),
             heatmap=heatmap,

@@ -14,11 +14,13 @@ wrap-around**: what moves in from beyond the grid takes the frame's fill value (
 the value of unmapped cells), so every cell of ``S`` sums exactly ``n`` terms.
 
 Speed: a map is stored as its *excess* over its fill value, ``G = H - fill`` (zero outside the
-hull and beyond the grid), in a row-major buffer whose rows end with one zero column. A
-translation is then three passes of shifted, weighted adds of contiguous 1-D slices
-(:func:`add_translated`, separable); the few columns of the work copy that would wrap into the
-neighbouring row are zeroed first, so rows never leak into each other, and
-``S = sum(fill) + sum(translated G)``.
+hull and beyond the grid), so that ``S = sum(fill) + sum(translated G)`` and what moves in from
+beyond the grid is zero. :func:`add_translated` runs the compiled kernel
+(``nightloc::add_translated``: one pass, each source row interpolated along x once, SIMD, the
+GIL released) on row-major buffers whose rows end with one zero column
+(:class:`PaddedLayout`); :func:`add_translated_opencv` is the same translation in three OpenCV
+passes (the reference, within a float rounding). The streaming :class:`~nightloc.Localizer`
+keeps its sequence in the core (``nightloc::HeatSequence``) and crosses into it once per frame.
 """
 
 from __future__ import annotations
@@ -29,7 +31,9 @@ from typing import Optional, Sequence, Tuple
 import cv2
 import numpy as np
 
-__all__ = ["PaddedLayout", "translate", "add_translated", "fuse", "cumulative_offsets"]
+from . import _core
+
+__all__ = ["PaddedLayout", "translate", "add_translated", "add_translated_opencv", "fuse", "cumulative_offsets"]
 
 
 class PaddedLayout:
@@ -62,7 +66,7 @@ class PaddedLayout:
         return buffer
 
     def scratch(self) -> np.ndarray:
-        """A work buffer for :func:`add_translated` (two buffers' worth)."""
+        """A work buffer for :func:`add_translated_opencv` (two buffers' worth)."""
         return np.zeros(2 * self.size, dtype=self.dtype)
 
     def view(self, buffer: np.ndarray) -> np.ndarray:
@@ -71,16 +75,32 @@ class PaddedLayout:
 
 
 def add_translated(
-    layout: PaddedLayout, out: np.ndarray, source: np.ndarray, shift_x: float, shift_y: float, scratch: np.ndarray
+    layout: PaddedLayout, out: np.ndarray, source: np.ndarray, shift_x: float, shift_y: float,
+    scratch: Optional[np.ndarray] = None,
 ) -> None:
     """``out += source`` translated by ``(shift_x, shift_y)`` cells, bilinear, zero from outside.
 
     ``out[j, i] += E(j - shift_y, i - shift_x)`` where E is ``source``'s cells extended with
     zeros beyond the grid and interpolated bilinearly. ``out`` and ``source`` are flat padded
-    buffers of ``layout``, ``scratch`` a work buffer from :meth:`PaddedLayout.scratch`. Padding
-    cells of ``out`` receive garbage; read results through :meth:`PaddedLayout.view`.
+    buffers of ``layout`` (float32 or float64); read results through :meth:`PaddedLayout.view`
+    (padding cells are not written). The compiled kernel needs no ``scratch`` (accepted for
+    :func:`add_translated_opencv`'s signature); its rounding: with ``ix = floor(shift_x)``,
+    ``fx = shift_x - ix`` (likewise y) and the weights rounded to the buffers' type,
+    ``R(r, c) = (1 - fx) * G[r, c] + fx * G[r, c - 1]`` and
+    ``out[j, i] = (out[j, i] + (1 - fy) * R(j - iy, i - ix)) + fy * R(j - iy - 1, i - ix)``.
+    """
+    if not (math.isfinite(shift_x) and math.isfinite(shift_y)):
+        raise ValueError(f"shifts must be finite, got ({shift_x}, {shift_y})")
+    _core.add_translated(out, source, layout.height, layout.width, layout.stride, float(shift_x), float(shift_y))
 
-    Separable, three passes over the buffer: one interpolates along x at the sub-cell offset
+
+def add_translated_opencv(
+    layout: PaddedLayout, out: np.ndarray, source: np.ndarray, shift_x: float, shift_y: float, scratch: np.ndarray
+) -> None:
+    """:func:`add_translated` in three OpenCV passes (the reference for the compiled kernel).
+
+    ``scratch`` is a work buffer from :meth:`PaddedLayout.scratch`; padding cells of ``out``
+    receive garbage. Separable, three passes over the buffer: one interpolates along x at the sub-cell offset
     into the work copy (the zero column after each row gives the fade to zero), two add the rows
     of the y interpolation at their integer offsets (OpenCV's one-pass ``addWeighted`` and
     ``scaleAdd``). Before those, the work copy's columns that would land beyond the row (and so
@@ -135,7 +155,7 @@ def translate(heat: np.ndarray, shift: Tuple[float, float], fill: float = 0.0) -
         raise ValueError(f"shift and fill must be finite, got shift {shift}, fill {fill}")
     layout = PaddedLayout(*array.shape)
     out = layout.zeros()
-    add_translated(layout, out, layout.pad(array - fill), sx, sy, layout.scratch())
+    add_translated(layout, out, layout.pad(array - fill), sx, sy)
     return layout.view(out) + fill
 
 
@@ -179,8 +199,8 @@ def fuse(heats: Sequence[np.ndarray], offsets: np.ndarray, fills: Optional[Seque
     if fill_values.shape != (len(maps),) or not np.isfinite(fill_values).all():
         raise ValueError(f"fills must be {len(maps)} finite values")
     layout = PaddedLayout(*shape)
-    out, buffer, scratch = layout.zeros(), layout.zeros(), layout.scratch()
+    out, buffer = layout.zeros(), layout.zeros()
     for heat, (sx, sy), fill in zip(maps, shifts, fill_values):
         layout.pad(heat - fill, buffer)
-        add_translated(layout, out, buffer, float(sx), float(sy), scratch)
+        add_translated(layout, out, buffer, float(sx), float(sy))
     return layout.view(out) + float(fill_values.sum())

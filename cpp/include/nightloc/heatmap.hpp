@@ -39,13 +39,16 @@ public:
     std::size_t cells() const noexcept { return height_ * width_; }
     std::size_t places() const noexcept { return places_; }
 
-    /// heat (height * width) from place_values (places()).
+    /// heat (height * width) from place_values (places(), finite: std::invalid_argument otherwise).
     void interpolate(const float* place_values, float* heat) const;
 
 private:
     std::size_t height_, width_, places_;
     std::vector<std::int32_t> indptr_, indices_;
     std::vector<float> data_;
+    std::size_t slots_ = 0;  // the most weights of one cell
+    std::vector<float> ell_data_;
+    std::vector<std::int32_t> ell_index_;
 };
 
 /// out[j, i] += E(j - shift_y, i - shift_x): `src` (height x width, rows `src_stride` elements
@@ -92,6 +95,7 @@ public:
 
     /// Adds a frame: its excess map weights->interpolate(place_values) and its fill value (the
     /// frame's heat = excess + fill). The oldest frame is dropped when the sequence is full.
+    /// Throws std::invalid_argument (the sequence unchanged) for non-finite values or fill.
     void push(const float* place_values, double fill);
     /// Forgets every frame.
     void clear() noexcept;
@@ -119,6 +123,7 @@ private:
     std::vector<double> fills_;
     std::size_t first_ = 0, count_ = 0;
     std::vector<float> fused_;
+    std::vector<float> scratch_;  // rows of the translation
 };
 
 }  // namespace nightloc
