@@ -425,7 +425,7 @@ class HeatMapper:
         radius from the peak (None when no cell is that far)."""
         if peak <= floor:
             return self._flat_estimate(peak, scores)
-        confidence = 1.0 if second is None else float(np.clip((peak - second) / (peak - floor), 0.0, 1.0))
+        confidence = 1.0 if second is None else min(max((peak - second) / (peak - floor), 0.0), 1.0)
         return self._peak_estimate(int(cell), float(peak), scores, confidence)
 
     def _flat_estimate(self, peak: float, scores: Optional[np.ndarray]) -> HeatEstimate:
