@@ -1,6 +1,6 @@
 """Type stubs of nightloc's compiled core (private: use the functions in ``nightloc``)."""
 
-from typing import List, Tuple
+from typing import List, Optional, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -72,3 +72,66 @@ def difference_matrix_into(
     divisor: float,
     out: npt.NDArray[np.float32],
 ) -> None: ...
+
+# Frame preparation and heat maps (cpp/bindings/register_localization.cpp; use
+# nightloc.prepare, nightloc.sequence and nightloc.Localizer)
+def prepare_frame(
+    frame: npt.NDArray[np.uint8],
+    order: str,
+    crop: Tuple[int, int, int, int],
+    equalize: str,
+    width: int,
+    height: int,
+    normalize: bool,
+    radius: int,
+    wrap: bool,
+    scale: float,
+) -> npt.NDArray[np.uint8]: ...
+def downsample_method(in_height: int, in_width: int, out_height: int, out_width: int) -> str: ...
+def add_translated(
+    out: npt.NDArray[np.floating],
+    source: npt.NDArray[np.floating],
+    height: int,
+    width: int,
+    stride: int,
+    shift_x: float,
+    shift_y: float,
+) -> None: ...
+
+class HeatWeights:
+    def __init__(
+        self,
+        height: int,
+        width: int,
+        n_places: int,
+        indptr: npt.NDArray[np.int32],
+        indices: npt.NDArray[np.int32],
+        data: npt.NDArray[np.float32],
+    ) -> None: ...
+    @property
+    def height(self) -> int: ...
+    @property
+    def width(self) -> int: ...
+    @property
+    def places(self) -> int: ...
+    def interpolate(self, values: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]: ...
+
+class HeatSequence:
+    def __init__(
+        self,
+        weights: HeatWeights,
+        capacity: int,
+        exclusion_rows: int,
+        exclusion_cols: int,
+        exclusion_mask: npt.NDArray[np.uint8],
+    ) -> None: ...
+    def push(self, place_values: npt.NDArray[np.float32], fill: float) -> None: ...
+    def fuse_peak(self, offsets: npt.NDArray[np.float64]) -> Tuple[float, int, float, float, Optional[float]]: ...
+    def fused(self) -> npt.NDArray[np.float32]: ...
+    def frame(self, k: int) -> npt.NDArray[np.float32]: ...
+    def fill(self, k: int) -> float: ...
+    def clear(self) -> None: ...
+    @property
+    def size(self) -> int: ...
+    @property
+    def capacity(self) -> int: ...
