@@ -10,7 +10,6 @@ Nothing in the child is faked except that it pauses at the chosen point: the kil
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys
