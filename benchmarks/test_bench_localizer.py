@@ -6,6 +6,11 @@ update from a prepared image and from a match result, and a plain scipy formulat
 same heat-map work (``griddata`` per frame, ``map_coordinates`` per earlier frame) that
 rebuilds the triangulation every frame; its fused map is asserted equal to the localizer's.
 
+A second group times the sequence sum alone (9 earlier 100 x 100 maps translated and added to
+the current one): the OpenCV three-pass formulation (:func:`add_translated_opencv`), the
+compiled kernel called per map (:func:`add_translated`) and the localizer's compiled sequence
+(``HeatSequence.fuse_peak``: the sum, the peak and the runner-up in one call).
+
     python -m pytest benchmarks/test_bench_localizer.py --benchmark-only --benchmark-columns=min,median
 """
 
@@ -18,7 +23,7 @@ from scipy.ndimage import map_coordinates
 
 import nightloc
 from nightloc.heatmap import invert_scores
-from nightloc.sequence import cumulative_offsets
+from nightloc.sequence import add_translated, add_translated_opencv, cumulative_offsets
 
 N_REFS, SEQ_LEN, STEP = 50, 10, (0.12, 0.05)
 GROUP = f"localizer update: {N_REFS} refs, 100x100 grid, n={SEQ_LEN}"
@@ -91,3 +96,50 @@ def test_scipy_formulation(benchmark, setup):
     fused = benchmark(scipy_fused_heat_map, ref_map.positions, scores, steps, loc.grid.xs, loc.grid.ys)
     est = loc.update_match(result, STEP, return_heatmap=True)
     np.testing.assert_allclose(est.heatmap, fused, atol=1e-4)
+
+
+SUM_GROUP = f"sum of {SEQ_LEN} translated 100x100 heat maps (float32)"
+
+
+@pytest.fixture(scope="module")
+def sequence_maps(setup):
+    """The localizer's grid, its sequence after SEQ_LEN frames, and the same maps as padded buffers."""
+    ref_map, _ = setup
+    loc = nightloc.Localizer(ref_map, seq_len=SEQ_LEN, threads=1)
+    rng = np.random.default_rng(5)
+    mapper = loc.mapper
+    sequence = mapper.sequence(SEQ_LEN)
+    layout = mapper.layout
+    padded = []
+    for _ in range(SEQ_LEN):
+        values, fill = mapper.place_excess(rng.uniform(5, 40, N_REFS))
+        sequence.push(values, fill)
+        padded.append(layout.pad(sequence.frame(-1)))
+    steps = np.tile(STEP, (SEQ_LEN - 1, 1))
+    offsets = np.ascontiguousarray(loc.grid.to_cells(cumulative_offsets(steps)))
+    return layout, sequence, padded, offsets
+
+
+def _sum_with(translate, layout, padded, offsets):
+    total = padded[-1].copy()
+    scratch = layout.scratch()
+    for source, (sx, sy) in zip(padded[:-1], offsets):
+        translate(layout, total, source, float(sx), float(sy), scratch)
+    return layout.view(total)
+
+
+@pytest.mark.parametrize("method", ["opencv passes", "core per map"])
+def test_sequence_sum_per_map(benchmark, sequence_maps, method):
+    layout, sequence, padded, offsets = sequence_maps
+    translate = add_translated_opencv if method == "opencv passes" else add_translated
+    benchmark.group = SUM_GROUP
+    got = benchmark(_sum_with, translate, layout, padded, offsets)
+    sequence.fuse_peak(offsets)
+    np.testing.assert_allclose(got, sequence.fused(), atol=1e-5)
+
+
+def test_sequence_sum_core_sequence(benchmark, sequence_maps):
+    layout, sequence, padded, offsets = sequence_maps
+    benchmark.group = SUM_GROUP
+    benchmark(sequence.fuse_peak, offsets)
+    np.testing.assert_allclose(sequence.fused(), _sum_with(add_translated_opencv, layout, padded, offsets), atol=1e-5)

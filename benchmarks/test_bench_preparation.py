@@ -1,10 +1,12 @@
 """Preparation throughput (frames/s) against the cost of matching one frame against 500 images.
 
-Per frame size, one group holds: a plain numpy reference of the pipeline, ``nightloc.prepare``
-(OpenCV + integral-image area sums + the core's patch normalization), and, for comparison, the
-core matching one prepared query against a 500-image map (48 shifts, 1 thread). A second group
-per size compares the area downsample alone with ``cv2.resize(INTER_AREA)``.
-``extra_info["frames_per_s"]`` is computed from the minimum time.
+Per frame size, one group holds: a plain numpy reference of the pipeline, the OpenCV
+formulation (``cv2.cvtColor``, ``cv2.equalizeHist``, integral-image area sums, the core's patch
+normalization: :meth:`Preparer.downsample_opencv`), ``nightloc.prepare`` on BGR and on grey
+frames (the compiled core, ``nightloc::prepare_frame``), and, for comparison, the core matching
+one prepared query against a 500-image map (48 shifts, 1 thread). A second group per size
+compares the area downsample alone: ``cv2.resize(INTER_AREA)``, the OpenCV/numpy integral image
+and the core. ``extra_info["frames_per_s"]`` is computed from the minimum time.
 
     python -m pytest benchmarks/test_bench_preparation.py --benchmark-only --benchmark-columns=min,median
 """
@@ -19,13 +21,13 @@ import numpy as np
 import pytest
 
 import nightloc
-from nightloc.preparation import area_downsample
+from nightloc.preparation import area_downsample, area_downsample_opencv
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import oracle  # noqa: E402
 from test_preparation import area_weights, equalize_oracle, panorama  # noqa: E402
 
-SIZES = [(480, 640), (960, 1920)]
+SIZES = [(480, 640), (320, 640), (960, 1920)]
 MAP_SIZE = 500
 _cache: dict = {}
 
@@ -73,6 +75,16 @@ def test_numpy_reference(benchmark, size):
 
 
 @pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[1]}x{s[0]}")
+def test_prepare_opencv(benchmark, size):
+    image = frame(size)
+    preparer = nightloc.Preparer()
+    benchmark.group = f"prepare one {size[1]}x{size[0]} BGR frame vs match against {MAP_SIZE}"
+    got = benchmark(lambda: preparer.normalize(preparer.downsample_opencv(image)))
+    record(benchmark)
+    np.testing.assert_array_equal(got, preparer(image))
+
+
+@pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[1]}x{s[0]}")
 def test_prepare(benchmark, size):
     image = frame(size)
     preparer = nightloc.Preparer()
@@ -80,6 +92,16 @@ def test_prepare(benchmark, size):
     got = benchmark(preparer, image)
     record(benchmark)
     assert got.shape == (24, 48) and got.dtype == np.uint8
+
+
+@pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[1]}x{s[0]}")
+def test_prepare_grey(benchmark, size):
+    grey = cv2.cvtColor(frame(size), cv2.COLOR_BGR2GRAY)
+    preparer = nightloc.Preparer()
+    benchmark.group = f"prepare one {size[1]}x{size[0]} BGR frame vs match against {MAP_SIZE}"
+    got = benchmark(preparer, grey)
+    record(benchmark)
+    np.testing.assert_array_equal(got, preparer.normalize(preparer.downsample_opencv(grey)))
 
 
 @pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[1]}x{s[0]}")
@@ -93,14 +115,17 @@ def test_match_one_frame(benchmark, size):
 
 
 @pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[1]}x{s[0]}")
-@pytest.mark.parametrize("method", ["cv2.resize", "nightloc"])
+@pytest.mark.parametrize("method", ["cv2.resize", "integral image (numpy)", "nightloc"])
 def test_area_downsample(benchmark, size, method):
     grey = cv2.cvtColor(frame(size), cv2.COLOR_BGR2GRAY)
     benchmark.group = f"area downsample {size[1]}x{size[0]} grey to 48x24"
     if method == "cv2.resize":
         got = benchmark(cv2.resize, grey, (48, 24), interpolation=cv2.INTER_AREA)
-    else:
+    elif method == "nightloc":
         got = benchmark(area_downsample, grey, 48, 24)
+        np.testing.assert_array_equal(got, area_downsample_opencv(grey, 48, 24))
+    else:
+        got = benchmark(area_downsample_opencv, grey, 48, 24)
     record(benchmark)
     exact = area_weights(size[0], 24) @ grey.astype(np.float64) @ area_weights(size[1], 48).T
     assert np.abs(got - exact).max() < 0.52
