@@ -82,27 +82,25 @@ NL_INLINE void prefix_body(const std::uint16_t* band, std::size_t n, std::uint32
     }
 }
 
-// Four interleaved sub-histograms, eight pixels per 64-bit load: consecutive equal pixels land in
-// different counters, so the increments do not wait on each other.
+// Eight sub-histograms, one per byte of a 64-bit load: equal neighbouring pixels (smooth
+// images) land in different counters, so the increments do not wait on each other through
+// memory (4 sub-histograms are ~25 % slower on camera-like frames, as fast on noise).
 void histogram_row(const std::uint8_t* src, std::size_t n, std::uint32_t* counts) {
-    std::uint32_t* c0 = counts;
-    std::uint32_t* c1 = counts + 256;
-    std::uint32_t* c2 = counts + 512;
-    std::uint32_t* c3 = counts + 768;
+    static_assert(kHistogramCopies == 8, "one sub-histogram per byte of a 64-bit word");
     std::size_t x = 0;
     for (; x + 8 <= n; x += 8) {
         std::uint64_t v;
         std::memcpy(&v, src + x, 8);
-        ++c0[v & 0xff];
-        ++c1[(v >> 8) & 0xff];
-        ++c2[(v >> 16) & 0xff];
-        ++c3[(v >> 24) & 0xff];
-        ++c0[(v >> 32) & 0xff];
-        ++c1[(v >> 40) & 0xff];
-        ++c2[(v >> 48) & 0xff];
-        ++c3[v >> 56];
+        ++counts[v & 0xff];
+        ++counts[256 + ((v >> 8) & 0xff)];
+        ++counts[512 + ((v >> 16) & 0xff)];
+        ++counts[768 + ((v >> 24) & 0xff)];
+        ++counts[1024 + ((v >> 32) & 0xff)];
+        ++counts[1280 + ((v >> 40) & 0xff)];
+        ++counts[1536 + ((v >> 48) & 0xff)];
+        ++counts[1792 + (v >> 56)];
     }
-    for (; x < n; ++x) ++c0[src[x]];
+    for (; x < n; ++x) ++counts[src[x]];
 }
 
 #define NL_DEFINE_ROW_KERNELS(suffix, attributes)                                                              \

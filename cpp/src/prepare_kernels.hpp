@@ -10,8 +10,8 @@
 
 namespace nightloc::detail {
 
-/// Sub-histograms of histogram_row (4 x 256 counters, summed at the end).
-inline constexpr std::size_t kHistogramCopies = 4;
+/// Sub-histograms of histogram_row (8 x 256 counters, summed at the end).
+inline constexpr std::size_t kHistogramCopies = 8;
 
 struct PrepareKernels {
     /// dst[x] = grey value of pixel x of a packed row of n pixels in `order` (not grey).
