@@ -45,13 +45,16 @@ def _frame(rng: np.random.Generator, h: int, w: int, channels: int, kind: int) -
 
 
 SIZES = [(480, 640), (320, 640), (960, 1920), (540, 960), (333, 1001), (257, 515), (100, 97), (30, 50),
-         (24, 48), (48, 96), (25, 49), (720, 1280)]
+         (24, 48), (48, 96), (25, 49)]
 
 
 @pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[1]}x{s[0]}")
 def test_core_equals_opencv_on_common_sizes(size, simd_path):
     rng = np.random.default_rng(size[0] * 7 + size[1])
-    for channels, order in [(2, "bgr"), (3, "bgr"), (3, "rgb"), (4, "bgr"), (4, "rgb")]:
+    layouts = [(2, "bgr"), (3, "bgr"), (3, "rgb"), (4, "bgr"), (4, "rgb")]
+    if size[0] * size[1] > 500_000:  # large frames: grey and BGR (the kernels are the same per row)
+        layouts = layouts[:2]
+    for channels, order in layouts:
         for equalize in ("global", "none"):
             frame = _frame(rng, size[0], size[1], channels, kind=int(rng.integers(4)))
             params = PreparationParams(equalize=equalize, channel_order=order)
