@@ -188,3 +188,29 @@ def test_localizer_estimates_equal_the_numpy_estimate_of_its_fused_map():
             expected = loc.mapper.estimate(fused, result.scores)
             assert (est.x, est.y, est.ref_index) == (expected.x, expected.y, expected.ref_index)
             assert est.confidence == pytest.approx(expected.confidence, abs=1e-6)
+
+
+def test_localizers_pickle_and_copy_mid_sequence():
+    """A localizer's compiled sequence is saved with it (pickle, copy.deepcopy): the copies give
+    the same estimates and heat maps as the original from there on."""
+    import copy
+    import pickle
+
+    rng = np.random.default_rng(45)
+    positions = rng.uniform([0, 0], [7, 5], (20, 2))
+    images = nightloc.prepare(rng.integers(0, 256, (20, 48, 96), dtype=np.uint8))
+    ref_map = nightloc.ReferenceMap(images, positions, rng.uniform(-3, 3, 20))
+    loc = Localizer(ref_map, seq_len=4)
+    frames = [rng.integers(0, 256, (120, 240, 3), dtype=np.uint8) for _ in range(8)]
+    for frame in frames[:5]:
+        loc.update(frame, (0.1, 0.05))
+    copies = [pickle.loads(pickle.dumps(loc)), copy.deepcopy(loc)]
+    for frame in frames[5:]:
+        est = loc.update(frame, (0.1, 0.05), return_heatmap=True)
+        for other in copies:
+            got = other.update(frame, (0.1, 0.05), return_heatmap=True)
+            assert (got.x, got.y, got.confidence, got.frames) == (est.x, est.y, est.confidence, est.frames)
+            np.testing.assert_array_equal(got.heatmap, est.heatmap)
+    weights = pickle.loads(pickle.dumps(loc.mapper._core_weights))
+    values = rng.random(weights.places).astype(np.float32)
+    np.testing.assert_array_equal(weights.interpolate(values), loc.mapper._core_weights.interpolate(values))

@@ -170,7 +170,7 @@ py::array map_copy(const float* values, std::size_t height, std::size_t width) {
 class Sequence {
 public:
     Sequence(Weights weights, std::size_t capacity, std::size_t rows, std::size_t cols, const py::array& mask)
-        : sequence_(std::move(weights), capacity) {
+        : weights_(weights), sequence_(std::move(weights), capacity) {
         exclusion_.rows = rows;
         exclusion_.cols = cols;
         exclusion_.mask = vector_of<std::uint8_t>(mask, "mask", "uint8");
@@ -218,6 +218,33 @@ public:
                               peak.has_second ? py::object(py::float_(peak.second)) : py::object(py::none()));
     }
 
+    // Pickling: (weights, capacity, exclusion, frames (k, h, w) float32, fills)
+    py::tuple state(const Weights& weights) const {
+        const auto& w = sequence_.weights();
+        py::array_t<float> frames({static_cast<py::ssize_t>(sequence_.size()), static_cast<py::ssize_t>(w.height()),
+                                   static_cast<py::ssize_t>(w.width())});
+        std::vector<double> fills;
+        for (std::size_t k = 0; k < sequence_.size(); ++k) {
+            std::copy(sequence_.frame(k), sequence_.frame(k) + w.cells(), frames.mutable_data() + k * w.cells());
+            fills.push_back(sequence_.fill(k));
+        }
+        py::array_t<std::uint8_t> mask(static_cast<py::ssize_t>(exclusion_.mask.size()));
+        std::copy(exclusion_.mask.begin(), exclusion_.mask.end(), mask.mutable_data());
+        return py::make_tuple(weights, sequence_.capacity(), exclusion_.rows, exclusion_.cols, mask, frames, fills);
+    }
+
+    void restore(const py::array& frames_in, const std::vector<double>& fills) {
+        const auto& w = sequence_.weights();
+        if (!py::isinstance<py::array_t<float>>(frames_in) || frames_in.ndim() != 3 ||
+            static_cast<std::size_t>(frames_in.shape(0)) != fills.size() ||
+            static_cast<std::size_t>(frames_in.shape(1)) != w.height() ||
+            static_cast<std::size_t>(frames_in.shape(2)) != w.width()) {
+            throw py::value_error("saved frames do not fit this sequence's grid");
+        }
+        const auto frames = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(frames_in);
+        for (std::size_t k = 0; k < fills.size(); ++k) sequence_.push_map(frames.data() + k * w.cells(), fills[k]);
+    }
+
     py::array fused() const {
         return map_copy(sequence_.fused(), sequence_.weights().height(), sequence_.weights().width());
     }
@@ -236,6 +263,11 @@ private:
         return static_cast<std::size_t>(k < 0 ? k + n : k);
     }
 
+public:
+    const Weights& weights() const { return weights_; }
+
+private:
+    Weights weights_;
     nightloc::HeatSequence sequence_;
     nightloc::PeakExclusion exclusion_;
 };
@@ -254,6 +286,20 @@ void register_localization(py::module_& m) {
         .def_property_readonly("height", &nightloc::HeatWeights::height)
         .def_property_readonly("width", &nightloc::HeatWeights::width)
         .def_property_readonly("places", &nightloc::HeatWeights::places)
+        .def(py::pickle(
+            [](const nightloc::HeatWeights& w) {
+                const auto& c = w.csr();
+                return py::make_tuple(
+                    w.height(), w.width(), w.places(),
+                    py::array_t<std::int32_t>(static_cast<py::ssize_t>(c.indptr.size()), c.indptr.data()),
+                    py::array_t<std::int32_t>(static_cast<py::ssize_t>(c.indices.size()), c.indices.data()),
+                    py::array_t<float>(static_cast<py::ssize_t>(c.data.size()), c.data.data()));
+            },
+            [](const py::tuple& t) {
+                if (t.size() != 6) throw py::value_error("invalid HeatWeights state");
+                return make_weights(t[0].cast<std::size_t>(), t[1].cast<std::size_t>(), t[2].cast<std::size_t>(),
+                                    t[3].cast<py::array>(), t[4].cast<py::array>(), t[5].cast<py::array>());
+            }))
         .def(
             "interpolate",
             [](const nightloc::HeatWeights& w, const py::array& values_in) {
@@ -280,6 +326,14 @@ void register_localization(py::module_& m) {
         .def("frame", &Sequence::frame, py::arg("k"))
         .def("fill", &Sequence::fill, py::arg("k"))
         .def("clear", &Sequence::clear)
+        .def(py::pickle([](const Sequence& q) { return q.state(q.weights()); },
+                        [](const py::tuple& t) {
+                            if (t.size() != 7) throw py::value_error("invalid HeatSequence state");
+                            Sequence q(t[0].cast<Weights>(), t[1].cast<std::size_t>(), t[2].cast<std::size_t>(),
+                                       t[3].cast<std::size_t>(), t[4].cast<py::array>());
+                            q.restore(t[5].cast<py::array>(), t[6].cast<std::vector<double>>());
+                            return q;
+                        }))
         .def_property_readonly("size", &Sequence::size)
         .def_property_readonly("capacity", &Sequence::capacity);
 

@@ -176,10 +176,31 @@ HeatSequence::HeatSequence(std::shared_ptr<const HeatWeights> weights, std::size
 void HeatSequence::push(const float* place_values, double fill) {
     if (place_values == nullptr) throw std::invalid_argument("place values are null");
     if (!std::isfinite(fill)) throw std::invalid_argument("fill value must be finite");
+    float* target = next_slot();
+    weights_->interpolate(place_values, target);  // checks the values before anything changes
+    commit(fill);
+}
+
+void HeatSequence::push_map(const float* excess, double fill) {
+    if (excess == nullptr) throw std::invalid_argument("excess map is null");
+    if (!std::isfinite(fill)) throw std::invalid_argument("fill value must be finite");
+    const std::size_t n = weights_->cells();
+    for (std::size_t c = 0; c < n; ++c) {
+        if (!std::isfinite(excess[c])) throw std::invalid_argument("excess map values must be finite");
+    }
+    std::copy(excess, excess + n, next_slot());
+    commit(fill);
+}
+
+float* HeatSequence::next_slot() {
     const std::size_t target = count_ < capacity_ ? slot(count_) : first_;  // full: overwrite the oldest
     if (maps_.size() <= target) maps_.resize(target + 1);
     maps_[target].resize(weights_->cells());
-    weights_->interpolate(place_values, maps_[target].data());  // checks the values first
+    return maps_[target].data();
+}
+
+void HeatSequence::commit(double fill) {
+    const std::size_t target = count_ < capacity_ ? slot(count_) : first_;
     fills_[target] = fill;
     if (count_ < capacity_) {
         ++count_;

@@ -204,6 +204,17 @@ void test_sequence_ring_and_sum() {
     std::vector<float> fine(places, 0.5f);
     CHECK_THROWS(sequence.push(fine.data(), std::numeric_limits<double>::infinity()), std::invalid_argument);
     CHECK(sequence.size() == 4 && sequence.fill(3) == fills.back());
+    // a sequence restored frame by frame from frame() and fill() sums the same
+    HeatSequence restored(weights, 4);
+    for (std::size_t k = 0; k < sequence.size(); ++k) restored.push_map(sequence.frame(k), sequence.fill(k));
+    const std::vector<double> offsets{2.5, 1.0, -0.5, 3.25, 1.0, 1.0};
+    sequence.fuse(offsets.data());
+    restored.fuse(offsets.data());
+    CHECK(std::vector<float>(restored.fused(), restored.fused() + h * w) ==
+          std::vector<float>(sequence.fused(), sequence.fused() + h * w));
+    std::vector<float> nan_map(h * w, std::nanf(""));
+    CHECK_THROWS(restored.push_map(nan_map.data(), 0.0), std::invalid_argument);
+    CHECK(restored.size() == 4);
     sequence.clear();
     CHECK(sequence.size() == 0);
     CHECK_THROWS(HeatSequence(nullptr, 3), std::invalid_argument);

@@ -42,6 +42,14 @@ public:
     /// heat (height * width) from place_values (places(), finite: std::invalid_argument otherwise).
     void interpolate(const float* place_values, float* heat) const;
 
+    /// The weights as given (CSR).
+    struct Csr {
+        const std::vector<std::int32_t>& indptr;
+        const std::vector<std::int32_t>& indices;
+        const std::vector<float>& data;
+    };
+    Csr csr() const noexcept { return {indptr_, indices_, data_}; }
+
 private:
     std::size_t height_, width_, places_;
     std::vector<std::int32_t> indptr_, indices_;
@@ -97,6 +105,9 @@ public:
     /// frame's heat = excess + fill). The oldest frame is dropped when the sequence is full.
     /// Throws std::invalid_argument (the sequence unchanged) for non-finite values or fill.
     void push(const float* place_values, double fill);
+    /// Adds a frame from its excess map itself (cells() finite values), e.g. to restore a saved
+    /// sequence from frame() and fill(). Throws std::invalid_argument as push().
+    void push_map(const float* excess, double fill);
     /// Forgets every frame.
     void clear() noexcept;
     std::size_t size() const noexcept { return count_; }
@@ -116,6 +127,8 @@ public:
 
 private:
     std::size_t slot(std::size_t k) const { return (first_ + k) % capacity_; }
+    float* next_slot();         // the map the next frame goes to (the oldest one's when full)
+    void commit(double fill);   // makes that frame part of the sequence
 
     std::shared_ptr<const HeatWeights> weights_;
     std::size_t capacity_;
