@@ -73,7 +73,8 @@ def test_every_simd_path_translates_identically():
                 for dtype in (np.float32, np.float64):
                     layout = PaddedLayout(h, w, dtype)
                     out = layout.pad(np.full((h, w), 0.5, dtype))
-                    add_translated(layout, out, layout.pad(np.linspace(0, 1, h * w).reshape(h, w).astype(dtype)), sx, sy)
+                    source = layout.pad(np.linspace(0, 1, h * w).reshape(h, w).astype(dtype))
+                    add_translated(layout, out, source, sx, sy)
                     outputs.append(out.copy())
             results[path] = outputs
     for path, outputs in results.items():

@@ -82,7 +82,8 @@ def test_core_equals_opencv_on_random_layouts(simd_path):
         methods.add(_core.downsample_method(h - crop[0] - crop[1], w - crop[2] - crop[3], out_h, out_w))
         frame = _frame(rng, h, w, channels, kind=trial % 4)
         got = Preparer(params).prepare(frame)
-        np.testing.assert_array_equal(got, _opencv_prepare(frame, params), err_msg=f"trial {trial}: {frame.shape} {params}")
+        expected = _opencv_prepare(frame, params)
+        np.testing.assert_array_equal(got, expected, err_msg=f"trial {trial}: {frame.shape} {params}")
     assert methods >= {"integral", "blocks", "weights"}
 
 
@@ -126,8 +127,9 @@ def test_opencv_keeps_clahe_sixteen_bit_and_upsampling():
     clahe = PreparationParams(equalize="clahe")
     np.testing.assert_array_equal(Preparer(clahe).prepare(frame), _opencv_prepare(frame, clahe))
     deep = (frame[:, :, 1].astype(np.uint16) * 257) + rng.integers(0, 200, frame.shape[:2]).astype(np.uint16)
-    np.testing.assert_array_equal(prepare_default := Preparer().prepare(deep), _opencv_prepare(deep, PreparationParams()))
-    assert prepare_default.shape == (24, 48)
+    prepared = Preparer().prepare(deep)
+    np.testing.assert_array_equal(prepared, _opencv_prepare(deep, PreparationParams()))
+    assert prepared.shape == (24, 48)
     small = frame[:20, :40]  # smaller than the 48 x 24 output
     np.testing.assert_array_equal(Preparer().prepare(small), _opencv_prepare(small, PreparationParams()))
 
@@ -147,7 +149,8 @@ def test_opencv_grey_conversion_is_the_documented_fixed_point():
     v = np.arange(1 << 24, dtype=np.uint32)
     image = np.stack([v & 255, (v >> 8) & 255, v >> 16], axis=-1).astype(np.uint8).reshape(4096, 4096, 3)
     b, g, r = (image[..., i].astype(np.int64) for i in range(3))
-    np.testing.assert_array_equal(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), (b * 3735 + g * 19235 + r * 9798 + 16384) >> 15)
+    fixed_point = (b * 3735 + g * 19235 + r * 9798 + 16384) >> 15
+    np.testing.assert_array_equal(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), fixed_point)
     params = PreparationParams(equalize="none", width=4096, height=4096, patch_normalize=False)
     np.testing.assert_array_equal(Preparer(params).prepare(image), cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
     rgb = PreparationParams(equalize="none", width=4096, height=4096, patch_normalize=False, channel_order="rgb")
@@ -163,7 +166,11 @@ def test_real_frames_prepare_identically(shared_data, simd_path):
     if not frames:
         pytest.skip("no 8-bit PNG frames in the shared data")
     for frame in frames:
-        for params in (PreparationParams(), PreparationParams(equalize="none", wrap=False), PreparationParams(crop=(0.1, 0.2, 0, 0))):
+        for params in (
+            PreparationParams(),
+            PreparationParams(equalize="none", wrap=False),
+            PreparationParams(crop=(0.1, 0.2, 0, 0)),
+        ):
             np.testing.assert_array_equal(Preparer(params).prepare(frame), _opencv_prepare(frame, params))
 
 

@@ -75,7 +75,9 @@ nightloc::FrameView frame_view(const py::array& frame, nightloc::PixelOrder orde
     return {static_cast<const std::uint8_t*>(frame.data()), height, width, static_cast<std::size_t>(row_stride), order};
 }
 
-py::array prepare_frame(const py::array& frame, const std::string& order_name, const std::tuple<std::size_t, std::size_t, std::size_t, std::size_t>& crop,
+using Crop = std::tuple<std::size_t, std::size_t, std::size_t, std::size_t>;  // top, bottom, left, right
+
+py::array prepare_frame(const py::array& frame, const std::string& order_name, const Crop& crop,
                         const std::string& equalize, std::size_t width, std::size_t height, bool normalize, int radius,
                         bool wrap, double scale) {
     const nightloc::FrameView view = frame_view(frame, order_from_name(order_name));
@@ -106,7 +108,8 @@ py::array prepare_frame(const py::array& frame, const std::string& order_name, c
 template <class T>
 py::array_t<T, py::array::c_style> checked_vector(const py::array& a, const char* name, const char* dtype) {
     if (!py::isinstance<py::array_t<T>>(a)) {
-        throw py::type_error(std::string(name) + " must have dtype " + dtype + ", got " + std::string(py::str(a.dtype())));
+        throw py::type_error(std::string(name) + " must have dtype " + dtype + ", got " +
+                             std::string(py::str(a.dtype())));
     }
     if (a.ndim() != 1) throw py::value_error(std::string(name) + " must be 1-D, got shape " + shape_string(a));
     if (!(a.flags() & py::array::c_style)) throw py::value_error(std::string(name) + " must be C-contiguous");
@@ -199,7 +202,8 @@ public:
         }
         if (static_cast<std::size_t>(offsets_in.shape(0)) != sequence_.size() - 1) {
             throw py::value_error("offsets must have one row per earlier frame (" +
-                                  std::to_string(sequence_.size() - 1) + "), got " + std::to_string(offsets_in.shape(0)));
+                                  std::to_string(sequence_.size() - 1) + "), got " +
+                                  std::to_string(offsets_in.shape(0)));
         }
         const auto* offsets = static_cast<const double*>(offsets_in.data());
         for (py::ssize_t i = 0; i < 2 * offsets_in.shape(0); ++i) {

@@ -87,7 +87,9 @@ int main() {
     exclusion.rows = exclusion.cols = 8;
     exclusion.mask.resize(17 * 17);
     for (int a = -8; a <= 8; ++a)
-        for (int b = -8; b <= 8; ++b) exclusion.mask[static_cast<std::size_t>((a + 8) * 17 + b + 8)] = a * a + b * b <= 64;
+        for (int b = -8; b <= 8; ++b) {
+            exclusion.mask[static_cast<std::size_t>((a + 8) * 17 + b + 8)] = a * a + b * b <= 64;
+        }
 
     // --- the drive: along y = 1 from x = 0 to 2, night frames, odometry 0.25 m per frame
     int wrong = 0;
@@ -112,7 +114,9 @@ int main() {
         const std::size_t earlier = sequence.size() - 1;
         for (std::size_t k = 0; k < earlier; ++k) {
             double dx = 0;
-            for (std::size_t m = odometry_steps.size() - earlier + k; m < odometry_steps.size(); ++m) dx += odometry_steps[m];
+            for (std::size_t m = odometry_steps.size() - earlier + k; m < odometry_steps.size(); ++m) {
+                dx += odometry_steps[m];
+            }
             offsets.insert(offsets.end(), {dx / step, 0.0});
         }
         sequence.fuse(offsets.data());

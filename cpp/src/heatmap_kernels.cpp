@@ -165,7 +165,7 @@ NL_INLINE std::size_t find_first_lanes(const float* values, std::size_t n, float
     return i + find_first_plain(values + i, n - i, target);
 }
 
-#define NL_DEFINE_HEAT_KERNELS(suffix, attributes, variant)                                                                 \
+#define NL_DEFINE_HEAT_KERNELS(suffix, attributes, variant)                                                         \
     attributes void translate_f32_##suffix(const float* src, std::size_t src_stride, float* out,                   \
                                            std::size_t out_stride, std::size_t height, std::size_t width,           \
                                            const Translation<float>& t, float* scratch) {                           \

@@ -35,7 +35,8 @@ struct PrepareWorkspace::Buffers {
     std::size_t bytes() const noexcept {
         return grey.capacity() + row.capacity() + band.capacity() * 2 + segments.capacity() * 8 +
                corners.capacity() * 8 + cut_columns.capacity() * sizeof(std::size_t) +
-               row_slot.capacity() * sizeof(std::ptrdiff_t) + prefix.capacity() * 4 + (row_weights.capacity() + sums.capacity()) * 4 +
+               row_slot.capacity() * sizeof(std::ptrdiff_t) + prefix.capacity() * 4 +
+               (row_weights.capacity() + sums.capacity()) * 4 +
                small.capacity();
     }
 };

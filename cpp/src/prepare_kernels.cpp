@@ -251,7 +251,8 @@ NL_TARGET_AVX512 NL_INLINE __m512i grey_dwords_avx512(__m512i blue_green, __m512
 // 64 bytes in pixel order: the packs interleave the lanes (dword 4L+m of the packed vector holds
 // pixels 16m + 4L .. +3), one vpermd restores the order.
 NL_TARGET_AVX512 NL_INLINE __m512i pack_grey_avx512(const __m512i grey[4]) {
-    const __m512i packed = _mm512_packus_epi16(_mm512_packus_epi32(grey[0], grey[1]), _mm512_packus_epi32(grey[2], grey[3]));
+    const __m512i packed =
+        _mm512_packus_epi16(_mm512_packus_epi32(grey[0], grey[1]), _mm512_packus_epi32(grey[2], grey[3]));
     const __m512i order = _mm512_set_epi32(15, 11, 7, 3, 14, 10, 6, 2, 13, 9, 5, 1, 12, 8, 4, 0);
     return _mm512_permutexvar_epi32(order, packed);
 }

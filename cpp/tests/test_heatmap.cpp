@@ -61,11 +61,14 @@ void test_translation_against_bilinear_oracle() {
         bool padding_untouched = true;
         for (std::size_t j = 0; j < h; ++j) {
             for (std::size_t i = 0; i < w; ++i) {
-                const long double expected = bilinear(map, h, w, static_cast<double>(j) - sy, static_cast<double>(i) - sx);
+                const long double expected =
+                    bilinear(map, h, w, static_cast<double>(j) - sy, static_cast<double>(i) - sx);
                 worst64 = std::max(worst64, static_cast<double>(std::fabs(out[j * stride + i] - expected)));
                 worst32 = std::max(worst32, static_cast<double>(std::fabs(out32[j * stride + i] - expected)));
             }
-            for (std::size_t i = w; i < stride; ++i) padding_untouched = padding_untouched && out[j * stride + i] == 0.0;
+            for (std::size_t i = w; i < stride; ++i) {
+                padding_untouched = padding_untouched && out[j * stride + i] == 0.0;
+            }
         }
         CHECK(padding_untouched);
     }
@@ -78,7 +81,8 @@ void test_translation_against_bilinear_oracle() {
         nightloc::add_translated(one.data(), 4, zero.data(), 4, 3, 4, 0.0, far < 0 ? -4.0 : 3.0);
     }
     CHECK(zero == std::vector<float>(12, 0.f));
-    CHECK_THROWS(nightloc::add_translated(one.data(), 4, zero.data(), 4, 3, 4, std::nan(""), 0.0), std::invalid_argument);
+    CHECK_THROWS(nightloc::add_translated(one.data(), 4, zero.data(), 4, 3, 4, std::nan(""), 0.0),
+                 std::invalid_argument);
     CHECK_THROWS(nightloc::add_translated(one.data(), 3, zero.data(), 4, 3, 4, 0.0, 0.0), std::invalid_argument);
     CHECK_THROWS(nightloc::add_translated(one.data(), 4, zero.data(), 4, 0, 4, 0.0, 0.0), std::invalid_argument);
 }
@@ -96,7 +100,9 @@ void test_documented_float32_rounding() {
     const double ix = std::floor(sx), iy = std::floor(sy);
     const auto a = static_cast<float>(1.0 - (sx - ix)), b = static_cast<float>(sx - ix);
     const auto wy0 = static_cast<float>(1.0 - (sy - iy)), wy1 = static_cast<float>(sy - iy);
-    auto s = [&](long r, long c) { return r < 0 || c < 0 || r >= long(h) || c >= long(w) ? 0.f : src[r * long(w) + c]; };
+    auto s = [&](long r, long c) {
+        return r < 0 || c < 0 || r >= long(h) || c >= long(w) ? 0.f : src[r * long(w) + c];
+    };
     auto across = [&](long r, long c) { return a * s(r, c) + b * s(r, c - 1); };
     for (long j = 0; j < long(h); ++j)
         for (long i = 0; i < long(w); ++i) {
@@ -185,7 +191,10 @@ void test_sequence_ring_and_sum() {
         CHECK(sequence.size() == n);
         std::vector<std::vector<float>> window(maps.end() - static_cast<std::ptrdiff_t>(n), maps.end());
         std::vector<double> offsets;
-        for (std::size_t k = 0; k + 1 < n; ++k) offsets.insert(offsets.end(), {1.7 * static_cast<double>(n - 1 - k), -0.6 * static_cast<double>(n - 1 - k)});
+        for (std::size_t k = 0; k + 1 < n; ++k) {
+            const auto age = static_cast<double>(n - 1 - k);  // frames between frame k and the newest
+            offsets.insert(offsets.end(), {1.7 * age, -0.6 * age});
+        }
         const double fill_sum = sequence.fuse(offsets.data());
         double expected_fill = fills.back();
         for (std::size_t k = 0; k + 1 < n; ++k) expected_fill += fills[fills.size() - n + k];

@@ -250,7 +250,8 @@ class Localizer:
         earlier = 0 if restart else min(stored, self.params.seq_len - 1)  # frames fused with this one
         if earlier:
             motions = (list(self._motions) + [motion])[-earlier:]
-            offsets = np.ascontiguousarray(self.grid.to_cells(cumulative_offsets(robot_steps_to_map(motions, predicted))))
+            steps = robot_steps_to_map(motions, predicted)
+            offsets = np.ascontiguousarray(self.grid.to_cells(cumulative_offsets(steps)))
             if not np.isfinite(offsets).all():
                 raise ValueError(f"odometry gives non-finite displacements: {offsets.tolist()}")
         else:

@@ -159,7 +159,12 @@ def _packed(frame: np.ndarray) -> bool:
     return frame.shape[0] == 1 or strides[0] >= frame.shape[1] * pixel
 
 
-_CORE_ORDERS = {(2, "bgr"): "grey", (2, "rgb"): "grey", (3, "bgr"): "bgr", (3, "rgb"): "rgb", (4, "bgr"): "bgra", (4, "rgb"): "rgba"}
+#: (ndim or channels, channel_order) -> the core's pixel order
+_CORE_ORDERS = {
+    (2, "bgr"): "grey", (2, "rgb"): "grey",
+    (3, "bgr"): "bgr", (3, "rgb"): "rgb",
+    (4, "bgr"): "bgra", (4, "rgb"): "rgba",
+}
 
 
 def _crop_pixels(value: Union[int, float], size: int) -> int:

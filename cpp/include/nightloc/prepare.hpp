@@ -66,11 +66,13 @@ enum class DownsampleMethod : int {
     copy = 0,      ///< same size: the image itself
     integral = 1,  ///< >= 65 536 input pixels, a non-integer factor: exact area sums from an
                    ///< integral image at fractional cell edges, float64 means, round half to even
-    blocks = 2,    ///< integer factors fy x fx (cv2.resize INTER_AREA's fast path): exact block
-                   ///< sums s, out = round_half_even(float32(s) * (1.f / (fx * fy))); 2 x 2
-                   ///< blocks: (s + 2) >> 2
-    weights = 3,   ///< < 65 536 input pixels, a non-integer factor (cv2.resize INTER_AREA's
-                   ///< general path): float32 per-pixel weights, float32 row and column sums
+    blocks = 2,    ///< integer factors fy x fx whose double reciprocals round-trip, 1 / (out / in)
+                   ///< == in / out (cv2.resize INTER_AREA's fast path): exact block sums s,
+                   ///< out = round_half_even(float32(s) * (1.f / (fx * fy))); 2 x 2 blocks:
+                   ///< (s + 2) >> 2
+    weights = 3,   ///< < 65 536 input pixels with a non-integer factor, or integer factors that
+                   ///< do not round-trip (cv2.resize INTER_AREA's general path): float32
+                   ///< per-pixel weights, float32 row sums, float32 sums of weighted rows
     unsupported = 4,  ///< the output is larger than the input along an axis (upsampling)
 };
 
@@ -112,8 +114,9 @@ private:
 ///  5. patch normalization (nightloc::patch_normalize) when settings.normalize.
 /// Uses the SIMD path of active_simd_backend() (every path gives the same bytes).
 /// Throws std::invalid_argument for a null or empty frame, a row stride shorter than a row, a
-/// crop that removes the whole frame, more than kMaxFramePixels pixels or kMaxFrameWidth columns, a zero output size, an
-/// output larger than the cropped frame (upsampling), or invalid patch settings.
+/// crop that removes the whole frame, more than kMaxFramePixels pixels or kMaxFrameWidth
+/// columns, a zero output size, an output larger than the cropped frame (upsampling), or invalid
+/// patch settings.
 void prepare_frame(const FrameView& frame, const PrepareSettings& settings, std::uint8_t* out,
                    PrepareWorkspace& workspace);
 
