@@ -91,7 +91,10 @@ def add_translated(
     """
     if not (math.isfinite(shift_x) and math.isfinite(shift_y)):
         raise ValueError(f"shifts must be finite, got ({shift_x}, {shift_y})")
-    _core.add_translated(out, source, layout.height, layout.width, layout.stride, float(shift_x), float(shift_y))
+    if not (isinstance(out, np.ndarray) and out.flags.c_contiguous):
+        raise ValueError("out must be a C-contiguous numpy buffer of the layout (PaddedLayout.zeros())")
+    _core.add_translated(out.reshape(-1), np.ascontiguousarray(source).reshape(-1), layout.height, layout.width,
+                         layout.stride, float(shift_x), float(shift_y))
 
 
 def add_translated_opencv(
