@@ -124,7 +124,8 @@ def find_matches_causal(dd: np.ndarray, ds: int = 10, vmin: float = 0.8, vmax: f
                 j = ds - 1 - k  # frames before the query
                 rows = ends - off[j]
                 values = np.where(rows >= 0, dd[q - j, np.maximum(rows, 0)], np.inf).astype(F32)
-                total = (total + values).astype(F32)
+                with np.errstate(over="ignore", invalid="ignore"):  # inf and NaN propagate as in the core
+                    total = (total + values).astype(F32)
             per_velocity[vi] = total
         anchor = np.fmin.reduce(per_velocity, axis=0)  # min over speeds, NaN ignored
         index, ratio = _decide(anchor, rwindow // 2)
