@@ -72,7 +72,10 @@ nightloc::SimdBackend backend_from_name(const std::string& name) {
     return backend;
 }
 
-py::array patch_normalize(const py::array& images_in, int radius, bool wrap, double scale) {
+// An (n, h, w) uint8 stack to a new stack of the same shape by `work(src, dst, n, h, w)`, run
+// without the GIL.
+template <class Work>
+py::array map_stack(const py::array& images_in, Work&& work) {
     const U8Array images = checked_u8(images_in, 3, "images");
     U8Array out({images.shape(0), images.shape(1), images.shape(2)});
     const auto n = static_cast<std::size_t>(images.shape(0));
@@ -82,24 +85,19 @@ py::array patch_normalize(const py::array& images_in, int radius, bool wrap, dou
     std::uint8_t* dst = out.mutable_data();
     {
         py::gil_scoped_release release;
-        if (n > 0) nightloc::patch_normalize(src, dst, n, h, w, radius, wrap, scale);
+        if (n > 0) work(src, dst, n, h, w);
     }
     return std::move(out);
 }
 
-py::array block_normalize(const py::array& images_in, int side) {
-    const U8Array images = checked_u8(images_in, 3, "images");
-    U8Array out({images.shape(0), images.shape(1), images.shape(2)});
-    const auto n = static_cast<std::size_t>(images.shape(0));
-    const auto h = static_cast<std::size_t>(images.shape(1));
-    const auto w = static_cast<std::size_t>(images.shape(2));
-    const std::uint8_t* src = images.data();
-    std::uint8_t* dst = out.mutable_data();
-    {
-        py::gil_scoped_release release;
-        if (n > 0) nightloc::block_normalize(src, dst, n, h, w, side);
-    }
-    return std::move(out);
+py::array patch_normalize(const py::array& images, int radius, bool wrap, double scale) {
+    return map_stack(images, [&](const std::uint8_t* src, std::uint8_t* dst, std::size_t n, std::size_t h,
+                                 std::size_t w) { nightloc::patch_normalize(src, dst, n, h, w, radius, wrap, scale); });
+}
+
+py::array block_normalize(const py::array& images, int side) {
+    return map_stack(images, [&](const std::uint8_t* src, std::uint8_t* dst, std::size_t n, std::size_t h,
+                                 std::size_t w) { nightloc::block_normalize(src, dst, n, h, w, side); });
 }
 
 py::array rotational_sad(const py::array& query_in, const py::array& refs_in, const py::array& shifts_in, int threads,
