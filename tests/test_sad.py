@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -143,3 +148,36 @@ def test_forward_camera_difference_matrix_nordland_size(simd_path):
     exp_scores, _ = oracle.difference_matrix(queries, refs, np.array([0]))
     np.testing.assert_array_equal(scores, exp_scores)
     assert np.all(shifts == 0)
+
+
+_VNNI_OFF_SCRIPT = """
+import sys
+import numpy as np
+import nightloc
+sys.path.insert(0, sys.argv[1])
+import oracle
+rng = np.random.default_rng(5)
+for h, w in ((24, 48), (64, 64), (7, 400), (33, 96)):
+    refs = rng.integers(0, 256, size=(11, h, w), dtype=np.uint8)
+    refs[0] = 255
+    query = rng.integers(0, 256, size=(h, w), dtype=np.uint8)
+    for q in (query, np.zeros_like(query)):
+        np.testing.assert_array_equal(nightloc.rotational_sad(q, refs), oracle.rotational_sad(q, refs, range(w)))
+        scores, shifts = nightloc.difference_matrix(q[None], refs, threads=1)
+        exp_scores, exp_shifts = oracle.difference_matrix(q[None], refs, np.arange(w))
+        np.testing.assert_array_equal(scores, exp_scores)
+        np.testing.assert_array_equal(shifts, exp_shifts)
+print("ok", nightloc.simd_backend())
+"""
+
+
+@pytest.mark.skipif("avx512bw" not in nightloc.available_simd_backends(), reason="needs a CPU with AVX-512BW")
+def test_avx512_kernel_without_vnni_matches_oracle():
+    """NIGHTLOC_AVX512_VNNI=0 selects the vpaddw all-shift kernel (CPUs without VNNI) in a fresh process."""
+    env = dict(os.environ, NIGHTLOC_AVX512_VNNI="0", NIGHTLOC_SIMD="avx512bw")
+    done = subprocess.run(
+        [sys.executable, "-c", _VNNI_OFF_SCRIPT, str(Path(__file__).parent)],
+        env=env, capture_output=True, text=True, timeout=300,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["ok", "avx512bw"]

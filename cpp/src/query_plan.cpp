@@ -102,6 +102,9 @@ QueryPlan::QueryPlan(SimdBackend backend, const SearchShape& shape) : shape_(sha
     stride_ = round_up(shape.pixels, kChunk);
     all_shifts_ = use_all_shift_layout(backend, shape);
     if (all_shifts_) {
+#if NIGHTLOC_X86_KERNELS
+        all_shift_kernel_ = all_shift_kernel();
+#endif
         slots_per_block_ = shape.n_shifts;
         interleaved_bytes_ = stride_ * (shape.width / 2);
         rolled_temp_.reset(new std::uint8_t[stride_]);
@@ -155,7 +158,7 @@ void QueryPlan::evaluate(const std::uint8_t* refs, std::size_t n_refs, std::uint
     if (all_shifts_) {
         const std::size_t width = shape_.width;
         for (std::size_t k = 0; k < query_count_; ++k) {
-            sad_all_shifts_avx512bw(buffer_.data() + k * interleaved_bytes_, width, refs, n_refs, shape_.pixels,
+            all_shift_kernel_(buffer_.data() + k * interleaved_bytes_, width, refs, n_refs, shape_.pixels,
                                     scratch, width, nullptr, nullptr, nullptr);
             for (std::size_t i = 0; i < n_refs; ++i) {
                 const std::uint32_t* row = scratch + i * width;
@@ -178,7 +181,7 @@ void QueryPlan::evaluate_min(std::size_t query, const std::uint8_t* refs, std::s
         throw std::logic_error("QueryPlan::evaluate_min needs the all-shift layout, sorted shifts and a prepared query");
     }
 #if NIGHTLOC_X86_KERNELS
-    sad_all_shifts_avx512bw(buffer_.data() + query * interleaved_bytes_, shape_.width, refs, n_refs, shape_.pixels,
+    all_shift_kernel_(buffer_.data() + query * interleaved_bytes_, shape_.width, refs, n_refs, shape_.pixels,
                             nullptr, 0, selected_.data(), best_sums, best_shifts);
 #else
     (void)refs, (void)n_refs, (void)best_sums, (void)best_shifts;

@@ -78,6 +78,9 @@ private:
     SearchShape shape_;
     bool all_shifts_ = false;
     CopiesKernel copies_kernel_ = nullptr;
+#if NIGHTLOC_X86_KERNELS
+    AllShiftKernel all_shift_kernel_ = nullptr;
+#endif
     std::size_t stride_ = 0;            // bytes per rolled copy
     std::size_t interleaved_bytes_ = 0; // bytes per query in the all-shift layout
     bool fused_min_ = false;

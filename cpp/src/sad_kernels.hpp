@@ -54,6 +54,19 @@ inline constexpr std::size_t kAllShiftMaxWidth = 384;
 void sad_all_shifts_avx512bw(const std::uint8_t* interleaved, std::size_t width, const std::uint8_t* refs,
                              std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride,
                              const std::uint16_t* selected, std::uint32_t* best_sums, std::int32_t* best_shifts);
+
+/// The same, accumulating with AVX-512 VNNI's vpdpwssd (needs a CPU with avx512vnni); same results.
+void sad_all_shifts_avx512vnni(const std::uint8_t* interleaved, std::size_t width, const std::uint8_t* refs,
+                               std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride,
+                               const std::uint16_t* selected, std::uint32_t* best_sums, std::int32_t* best_shifts);
+
+/// Signature of the two all-shift kernels above.
+using AllShiftKernel = void (*)(const std::uint8_t*, std::size_t, const std::uint8_t*, std::size_t, std::size_t,
+                                std::uint32_t*, std::size_t, const std::uint16_t*, std::uint32_t*, std::int32_t*);
+
+/// The all-shift kernel for this CPU: the VNNI variant where the CPU has avx512vnni, unless the
+/// environment variable NIGHTLOC_AVX512_VNNI is "0" (read once).
+AllShiftKernel all_shift_kernel() noexcept;
 #endif
 
 }  // namespace nightloc::detail

@@ -3,6 +3,10 @@
 The paths give bit-identical results; only their speed differs. The default is the fastest the
 CPU supports, or the one named by the environment variable ``NIGHTLOC_SIMD`` (``scalar``,
 ``sse2``, ``avx2``, ``avx512bw``) when it is set to a supported path.
+
+On CPUs with AVX-512 VNNI, the ``avx512bw`` path's all-shift kernel accumulates with
+``vpdpwssd`` instead of ``vpaddw`` (same results, about 15 % faster); the environment variable
+``NIGHTLOC_AVX512_VNNI=0``, read once at start-up, keeps the ``vpaddw`` kernel.
 """
 
 from __future__ import annotations

@@ -1,0 +1,120 @@
+// The two AVX-512 all-shift kernels (vpaddw and VNNI vpdpwssd accumulation) against a plain
+// loop, called directly (internal header): both variants are checked on any CPU that has them,
+// whichever one the library picks at run time. Extreme images (0 against 255) reach the largest
+// word totals the packed VNNI lanes must hold; tall images cross the 32-chunk flush; pixel
+// counts that are not a multiple of 64 take the masked tail.
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "check.hpp"
+#include "sad_kernels.hpp"
+
+#if NIGHTLOC_X86_KERNELS
+namespace {
+
+using nightloc::detail::kChunk;
+using nightloc::detail::round_up;
+
+struct Case {
+    std::size_t height, width, n_refs;
+    int fill;  // -1: random bytes; 0: query 0, references 255; 1: query 255, references 0
+};
+
+// Sum of |query rolled by k - ref| for every shift k: rolled[y][x] = query[y][(x + k) % width].
+std::vector<std::uint32_t> plain_sums(const std::vector<std::uint8_t>& query, const std::uint8_t* ref, std::size_t h,
+                                      std::size_t w) {
+    std::vector<std::uint32_t> sums(w, 0);
+    for (std::size_t k = 0; k < w; ++k) {
+        for (std::size_t y = 0; y < h; ++y) {
+            for (std::size_t x = 0; x < w; ++x) {
+                const int a = query[y * w + (x + k) % w], b = ref[y * w + x];
+                sums[k] += static_cast<std::uint32_t>(a > b ? a - b : b - a);
+            }
+        }
+    }
+    return sums;
+}
+
+// The interleaved layout of sad_kernels.hpp: chunk c of the copy rolled by 2m at (c * w/2 + m) * 64.
+std::vector<std::uint8_t> interleave(const std::vector<std::uint8_t>& query, std::size_t h, std::size_t w) {
+    const std::size_t pixels = h * w, stride = round_up(pixels, kChunk), n_chunks = stride / kChunk;
+    std::vector<std::uint8_t> out(stride * (w / 2) + kChunk, 0), rolled(stride);
+    for (std::size_t m = 0; m < w / 2; ++m) {
+        std::fill(rolled.begin(), rolled.end(), std::uint8_t{0});
+        for (std::size_t y = 0; y < h; ++y) {
+            for (std::size_t x = 0; x < w; ++x) rolled[y * w + x] = query[y * w + (x + 2 * m) % w];
+        }
+        for (std::size_t c = 0; c < n_chunks; ++c) std::memcpy(&out[(c * (w / 2) + m) * kChunk], &rolled[c * kChunk], kChunk);
+    }
+    return out;
+}
+
+void check_kernel(nightloc::detail::AllShiftKernel kernel, const char* name, const Case& c, std::mt19937& rng) {
+    const std::size_t h = c.height, w = c.width, pixels = h * w;
+    std::vector<std::uint8_t> query(pixels), refs(c.n_refs * pixels);
+    std::uniform_int_distribution<int> byte(0, 255);
+    for (auto& v : query) v = static_cast<std::uint8_t>(c.fill < 0 ? byte(rng) : 255 * c.fill);
+    for (auto& v : refs) v = static_cast<std::uint8_t>(c.fill < 0 ? byte(rng) : 255 * (1 - c.fill));
+
+    // The interleaved buffer must be 64-byte aligned: copy it into an aligned allocation.
+    const std::vector<std::uint8_t> layout = interleave(query, h, w);
+    std::vector<std::uint8_t> storage(layout.size() + kChunk);
+    auto* aligned = reinterpret_cast<std::uint8_t*>(round_up(reinterpret_cast<std::uintptr_t>(storage.data()), kChunk));
+    std::memcpy(aligned, layout.data(), layout.size());
+
+    std::vector<std::uint32_t> table(c.n_refs * w, 0);
+    kernel(aligned, w, refs.data(), c.n_refs, pixels, table.data(), w, nullptr, nullptr, nullptr);
+
+    // Min mode over the odd shifts only (bit 4l + 1 of each group mask: shift 8g + 2l + 1).
+    std::vector<std::uint16_t> odd(w / 8, 0x2222);
+    std::vector<std::uint32_t> best(c.n_refs);
+    std::vector<std::int32_t> best_shift(c.n_refs);
+    kernel(aligned, w, refs.data(), c.n_refs, pixels, nullptr, 0, odd.data(), best.data(), best_shift.data());
+
+    bool same = true;
+    for (std::size_t i = 0; i < c.n_refs; ++i) {
+        const std::vector<std::uint32_t> expected = plain_sums(query, refs.data() + i * pixels, h, w);
+        if (!std::equal(expected.begin(), expected.end(), table.begin() + static_cast<std::ptrdiff_t>(i * w))) same = false;
+        std::uint32_t lowest = UINT32_MAX;
+        std::int32_t at = -1;
+        for (std::size_t k = 1; k < w; k += 2) {
+            if (expected[k] < lowest) lowest = expected[k], at = static_cast<std::int32_t>(k);
+        }
+        if (best[i] != lowest || best_shift[i] != at) same = false;
+    }
+    if (!same) std::fprintf(stderr, "%s: %zux%zu, %zu references, fill %d differs from the plain loop\n", name, h, w, c.n_refs, c.fill);
+    CHECK(same);
+}
+
+}  // namespace
+
+int main() {
+    if (!__builtin_cpu_supports("avx512f") || !__builtin_cpu_supports("avx512bw")) {
+        std::printf("no AVX-512BW on this CPU: nothing to check\n");
+        return nightloc_test::check_summary();
+    }
+    const bool vnni = __builtin_cpu_supports("avx512vnni");
+    std::mt19937 rng(7);
+    const Case cases[] = {
+        {24, 48, 5, -1}, {24, 48, 3, 0}, {24, 48, 3, 1},  // the paper's size; the largest totals
+        {5, 8, 4, -1},   {3, 40, 2, -1},                  // one chunk, masked tails
+        {64, 64, 2, 0},  {64, 64, 3, -1},                 // 64 chunks: two flushes at the extreme
+        {6, 384, 2, -1}, {9, 384, 2, 1},                  // the widest panorama (48 groups of copies)
+        {33, 96, 2, 0},                                   // 49.5 chunks, extreme, tail after a flush
+    };
+    for (const Case& c : cases) {
+        check_kernel(nightloc::detail::sad_all_shifts_avx512bw, "avx512bw", c, rng);
+        if (vnni) check_kernel(nightloc::detail::sad_all_shifts_avx512vnni, "avx512vnni", c, rng);
+    }
+    std::printf("checked the vpaddw kernel%s\n", vnni ? " and the VNNI kernel" : " (no VNNI on this CPU)");
+    return nightloc_test::check_summary();
+}
+#else
+int main() {
+    std::printf("no x86 kernels in this build: nothing to check\n");
+    return nightloc_test::check_summary();
+}
+#endif
