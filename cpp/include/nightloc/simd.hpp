@@ -3,7 +3,9 @@
 // Every path computes bit-identical results; they differ only in speed. The active path is the
 // best one the CPU supports, unless the environment variable NIGHTLOC_SIMD (scalar, sse2, avx2,
 // avx512bw) names another supported one when the path is first queried, or set_simd_backend()
-// forces one (tests use this to check every path on one machine).
+// forces one (tests use this to check every path on one machine). Within the avx512bw path, CPUs
+// with AVX-512 VNNI accumulate the all-shift kernel with vpdpwssd (same results, faster); the
+// environment variable NIGHTLOC_AVX512_VNNI=0, read once, keeps the vpaddw variant.
 #pragma once
 
 #include <string>
