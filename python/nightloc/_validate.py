@@ -108,3 +108,23 @@ def thread_count(threads: Optional[int]) -> int:
     if not 1 <= threads <= MAX_THREADS:
         raise ValueError(f"threads must be in [1, {MAX_THREADS}], got {threads}")
     return int(threads)
+
+
+def camera_frame(image: object, name: str, dtype_hint: str, shape_hint: str) -> np.ndarray:
+    """A camera frame: uint8/uint16 ndarray, (H, W) grey or (H, W, 3|4) colour, not empty.
+
+    An (H, W, 1) frame is returned as (H, W). Raises TypeError (not an array, another dtype) or
+    ValueError (another shape, an empty axis) naming ``name``; ``dtype_hint`` and ``shape_hint``
+    end the messages with how to fix the input for the calling function.
+    """
+    if not isinstance(image, np.ndarray):
+        raise TypeError(f"{name} must be a numpy.ndarray (uint8 or uint16), got {type(image).__name__}")
+    if image.dtype not in (np.uint8, np.uint16):
+        raise TypeError(f"{name} has dtype {image.dtype}; {dtype_hint}")
+    if image.ndim == 3 and image.shape[2] == 1:
+        image = image[:, :, 0]
+    if not (image.ndim == 2 or (image.ndim == 3 and image.shape[2] in (3, 4))):
+        raise ValueError(f"{name} must be grey (H, W) or colour (H, W, 3|4), got shape {image.shape}{shape_hint}")
+    if 0 in image.shape:
+        raise ValueError(f"{name} is empty (shape {image.shape})")
+    return image

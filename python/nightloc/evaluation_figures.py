@@ -64,17 +64,15 @@ def seq_len_figure(
     interpolation = _preferred(settings.interpolation, interpolation)
     lengths = [n for n in settings.seq_lengths if evaluation.errors(seq_len=n, noise_model=noise_model,
                                                                     interpolation=interpolation, query=query).size]
-    fig = Figure(max(420, 60 * len(lengths) + 160), 420,
-                 title=f"Distance error vs sequence length{_label(query)}")
-    ax = fig.axes()
-    ax.boxplot([evaluation.errors(seq_len=n, noise_model=noise_model, interpolation=interpolation, query=query)
-                for n in lengths], labels=[str(n) for n in lengths])
-    ax.set_xlabel(f"sequence length (frames); noise model {noise_model}, interpolation {'on' if interpolation else 'off'}")
-    ax.set_ylabel("distance error (m)")
-    ax.set_ylim(0, _top(evaluation, query))
-    if path is not None:
-        fig.save(path)
-    return fig
+    return _error_boxes(
+        evaluation, query,
+        [evaluation.errors(seq_len=n, noise_model=noise_model, interpolation=interpolation, query=query)
+         for n in lengths],
+        [str(n) for n in lengths], width=max(420, 60 * len(lengths) + 160),
+        title=f"Distance error vs sequence length{_label(query)}",
+        xlabel=f"sequence length (frames); noise model {noise_model}, interpolation {'on' if interpolation else 'off'}",
+        path=path,
+    )
 
 
 def noise_figure(
@@ -86,16 +84,14 @@ def noise_figure(
     seq_len = headline_seq_len(evaluation) if seq_len is None else seq_len
     interpolation = _preferred(settings.interpolation, interpolation)
     models = list(settings.noise_models)
-    fig = Figure(max(420, 80 * len(models) + 160), 420, title=f"Distance error vs odometry noise{_label(query)}")
-    ax = fig.axes()
-    ax.boxplot([evaluation.errors(seq_len=seq_len, noise_model=m, interpolation=interpolation, query=query)
-                for m in models], labels=[str(m) for m in models])
-    ax.set_xlabel(f"noise model (Table III); {seq_len}-frame sequences, interpolation {'on' if interpolation else 'off'}")
-    ax.set_ylabel("distance error (m)")
-    ax.set_ylim(0, _top(evaluation, query))
-    if path is not None:
-        fig.save(path)
-    return fig
+    return _error_boxes(
+        evaluation, query,
+        [evaluation.errors(seq_len=seq_len, noise_model=m, interpolation=interpolation, query=query) for m in models],
+        [str(m) for m in models], width=max(420, 80 * len(models) + 160),
+        title=f"Distance error vs odometry noise{_label(query)}",
+        xlabel=f"noise model (Table III); {seq_len}-frame sequences, interpolation {'on' if interpolation else 'off'}",
+        path=path,
+    )
 
 
 def interpolation_figure(
@@ -118,6 +114,22 @@ def interpolation_figure(
     ax.set_ylim(0, _top(evaluation, query))
     if len(series) > 1:
         ax.legend("upper right")
+    if path is not None:
+        fig.save(path)
+    return fig
+
+
+def _error_boxes(
+    evaluation: Evaluation, query: Optional[str], groups: List[np.ndarray], labels: List[str], width: int,
+    title: str, xlabel: str, path: Optional[PathLike],
+) -> Figure:
+    """One box per group of distance errors (m), on the evaluation's common error scale."""
+    fig = Figure(width, 420, title=title)
+    ax = fig.axes()
+    ax.boxplot(groups, labels=labels)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("distance error (m)")
+    ax.set_ylim(0, _top(evaluation, query))
     if path is not None:
         fig.save(path)
     return fig

@@ -32,7 +32,7 @@ from typing import Dict, Iterable, Iterator, Optional, Tuple, Union
 import cv2
 import numpy as np
 
-from . import _core
+from . import _core, _validate
 from .matching import patch_normalize
 from .params import PreparationParams
 from .traverse import Traverse
@@ -172,23 +172,11 @@ def _crop_pixels(value: Union[int, float], size: int) -> int:
 
 
 def _checked_frame(image: object, name: str) -> np.ndarray:
-    if not isinstance(image, np.ndarray):
-        raise TypeError(f"{name} must be a numpy.ndarray (uint8 or uint16), got {type(image).__name__}")
-    if image.dtype not in (np.uint8, np.uint16):
-        raise TypeError(
-            f"{name} has dtype {image.dtype}; prepare takes uint8 or uint16 frames (floats in [0, 1]: "
-            f"numpy.rint(x * 255).astype(numpy.uint8))"
-        )
-    if image.ndim == 3 and image.shape[2] == 1:
-        image = image[:, :, 0]
-    if not (image.ndim == 2 or (image.ndim == 3 and image.shape[2] in (3, 4))):
-        raise ValueError(
-            f"{name} must be grey (H, W) or colour (H, W, 3|4), got shape {image.shape}; "
-            f"a stack is (N, H, W) or (N, H, W, 3)"
-        )
-    if 0 in image.shape:
-        raise ValueError(f"{name} is empty (shape {image.shape})")
-    return image
+    return _validate.camera_frame(
+        image, name,
+        dtype_hint="prepare takes uint8 or uint16 frames (floats in [0, 1]: numpy.rint(x * 255).astype(numpy.uint8))",
+        shape_hint="; a stack is (N, H, W) or (N, H, W, 3)",
+    )
 
 
 # --------------------------------------------------------------------------------------------

@@ -34,6 +34,7 @@ import cv2
 import numpy as np
 
 from ._atomic import replace_folder, staging_folder
+from . import _validate
 from ._validate import thread_count
 from .errors import DatasetError
 from .progress import progress
@@ -672,20 +673,11 @@ def load_traverse(path: PathLike, *, frame_step: int = 1, poses: Optional[PathLi
 
 
 def _checked_image(image: object, index: int) -> np.ndarray:
-    if not isinstance(image, np.ndarray):
-        raise TypeError(f"images[{index}] must be a numpy.ndarray, got {type(image).__name__}")
-    if image.dtype not in (np.uint8, np.uint16):
-        raise TypeError(
-            f"images[{index}] has dtype {image.dtype}; save uint8 images (numpy.clip(x, 0, 255).astype(numpy.uint8)) "
-            f"or uint16"
-        )
-    if image.ndim == 3 and image.shape[2] == 1:
-        image = image[:, :, 0]
-    if not (image.ndim == 2 or (image.ndim == 3 and image.shape[2] in (3, 4))):
-        raise ValueError(f"images[{index}] must be (H, W) grey or (H, W, 3) BGR, got shape {image.shape}")
-    if 0 in image.shape:
-        raise ValueError(f"images[{index}] is empty (shape {image.shape})")
-    return image
+    return _validate.camera_frame(
+        image, f"images[{index}]",
+        dtype_hint="save uint8 images (numpy.clip(x, 0, 255).astype(numpy.uint8)) or uint16",
+        shape_hint="",
+    )
 
 
 def _checked_poses(
