@@ -1,4 +1,4 @@
-// Heat maps over a regular grid and 2D sequence matching (the paper's section III-D/E, DESIGN.md
+// Heat maps over a regular grid and 2D sequence matching (the paper's section III-D/E, docs/design.md
 // steps 4-5) for robot firmware that links nightloc::core: interpolation of per-place values
 // with precomputed sparse weights, sub-cell translation of earlier heat maps by odometry, their
 // sum, and the hottest cell with the runner-up outside a radius (the confidence).
@@ -62,7 +62,7 @@ private:
 /// out[j, i] += E(j - shift_y, i - shift_x): `src` (height x width, rows `src_stride` elements
 /// apart) extended with zeros beyond the grid and interpolated bilinearly, added to `out` (rows
 /// `out_stride` apart; only its height x width cells are touched). Shifts are in cells (x along
-/// columns, y along rows) and must be finite. Rounding follows nightloc.sequence's reference:
+/// columns, y along rows) and must be finite. Rounding follows nightloc.localization.sequence's reference:
 /// with ix = floor(shift_x), fx = shift_x - ix (likewise y) and the weights a = T(1 - fx),
 /// b = T(fx), wy0 = T(1 - fy), wy1 = T(fy) (computed in double, then rounded to T),
 ///     R(r, c) = a * src[r, c] + b * src[r, c - 1]
