@@ -43,6 +43,16 @@ detail::BoxPass box_pass(double s2) {
     return {r, alpha, 1.0 / (2 * rr + 1 + 2 * alpha)};
 }
 
+// A 1-D Gaussian of variance v along direction `angle`, as an axis-aligned one of variances
+// v wx, v wy: shares proportional to |cos| and |sin| whose variance along the direction is v
+// exactly (c^2 wx + s^2 wy = 1); along an axis it is exact, at 45 degrees isotropic.
+void axis_shares(double angle, double& wx, double& wy) {
+    const double c = std::fabs(std::cos(angle)), s = std::fabs(std::sin(angle));
+    const double k = 1.0 / (c * c * c + s * s * s);
+    wx = k * c;
+    wy = k * s;
+}
+
 // Wraps an angle to (-pi, pi].
 double wrap(double angle) {
     double a = std::fmod(angle + kPi, kTwoPi);
@@ -363,8 +373,10 @@ void GridFilter::predict_robot(double forward, double left, double turn) {
     to_pose();
     materialize();
     const GridFilterSettings& s = settings_;
-    const double sigma = std::hypot(s.distance_std, s.position_floor);
     const double step = kTwoPi / static_cast<double>(bins_);
+    // the odometry's distance noise lies along the motion: its direction in the robot frame
+    const double along = std::hypot(forward, left) > 0 ? std::atan2(left, forward) : 0.0;
+    const double pf2 = s.position_floor * s.position_floor, sd2 = s.distance_std * s.distance_std;
     const double turned = (offset_ + turn) / step;
     const double whole = std::floor(turned);
     double new_offset = (turned - whole) * step;
@@ -382,8 +394,11 @@ void GridFilter::predict_robot(double forward, double left, double turn) {
         const double c = std::cos(theta), sn = std::sin(theta);
         const double mx = c * forward - sn * left, my = sn * forward + c * left;
         const std::size_t dst = (b + k_roll) % bins_;
+        double wx, wy;
+        axis_shares(theta + along, wx, wy);
+        const double sigma_x = std::sqrt(sd2 * wx + pf2), sigma_y = std::sqrt(sd2 * wy + pf2);
         total += translate_blur_slice(belief_.data() + b * cells_, work_.data() + dst * cells_, mx / map_.dx,
-                                      my / map_.dy, sigma / map_.dx, sigma / map_.dy);
+                                      my / map_.dy, sigma_x / map_.dx, sigma_y / map_.dy);
     }
     offset_ = new_offset;
     // the heading blur: a circular Gaussian over the bins, taps within 4 std, folded and normalized
@@ -418,10 +433,19 @@ void GridFilter::predict_map(double dx, double dy) {
     to_position();
     materialize();
     const GridFilterSettings& s = settings_;
-    const double along = std::hypot(dx, dy) * s.heading_std;
-    const double sigma = std::sqrt(s.distance_std * s.distance_std + along * along + s.position_floor * s.position_floor);
-    const double total =
-        translate_blur_slice(belief_.data(), work_.data(), dx / map_.dx, dy / map_.dy, sigma / map_.dx, sigma / map_.dy);
+    // noise on the step's length (along it) and direction (across it, |d| heading_std): the
+    // covariance without its off-diagonal term, plus the floor
+    const double d = std::hypot(dx, dy);
+    const double direction = d > 0 ? std::atan2(dy, dx) : 0.0;
+    const double along2 = s.distance_std * s.distance_std, across2 = d * s.heading_std * d * s.heading_std;
+    const double pf2 = s.position_floor * s.position_floor;
+    double ax, ay, cx, cy;
+    axis_shares(direction, ax, ay);
+    axis_shares(direction + 0.5 * kPi, cx, cy);
+    const double sigma_x = std::sqrt(along2 * ax + across2 * cx + pf2);
+    const double sigma_y = std::sqrt(along2 * ay + across2 * cy + pf2);
+    const double total = translate_blur_slice(belief_.data(), work_.data(), dx / map_.dx, dy / map_.dy,
+                                              sigma_x / map_.dx, sigma_y / map_.dy);
     finish_prediction(total, {1.f}, {0});
 }
 
@@ -437,12 +461,12 @@ void GridFilter::predict_unknown() {
 // update
 
 void GridFilter::update_image(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs_in,
-                              std::size_t image_height) {
+                              std::size_t image_height, int threads) {
     if (query == nullptr || refs == nullptr) throw std::invalid_argument("grid filter: null image");
     require(n_refs_in == n_refs(), "grid filter: the reference stack has " + std::to_string(n_refs_in) +
                                        " images but the map has " + std::to_string(n_refs()));
     rotational_sad(query, refs, n_refs_in, image_height, map_.columns, shifts_.data(), shifts_.size(), table_.data(),
-                   1);
+                   threads);
     update(table_.data());
 }
 

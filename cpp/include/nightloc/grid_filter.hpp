@@ -126,8 +126,10 @@ public:
     /// std::invalid_argument, the belief unchanged, when a score is NaN or infinite.
     void update(const float* table);
     /// Measurement from a prepared image: its rotational SAD table against `refs` (n_refs
-    /// images of the query's size, height x width = h x columns), then update(table).
-    void update_image(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height);
+    /// images of the query's size, height x columns pixels) on up to `threads` threads, then
+    /// update(table).
+    void update_image(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
+                      int threads = 1);
 
     GridEstimate estimate() const;
 

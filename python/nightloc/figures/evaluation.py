@@ -253,9 +253,13 @@ def save_evaluation_figures(
 
     ``<prefix>error_vs_seq_len.png``, ``<prefix>error_vs_noise.png``,
     ``<prefix>error_vs_interpolation.png`` (when both settings ran) and
-    ``<prefix>heatmap_frame<i>.png`` for each heat-map frame (default: :func:`pick_heatmap_frame`).
+    ``<prefix>heatmap_frame<i>.png`` for each heat-map frame (default: :func:`pick_heatmap_frame`),
+    from the paper's method's rows (none when only the filter ran).
     """
     out = Path(folder)
+    evaluation = evaluation.subset("paper")  # these are the paper's figures (the filter has its own)
+    if len(evaluation) == 0:
+        return []
     matches = next((m for m in evaluation.matches if query is None or m.name == query), None)
     if matches is None:
         raise ValueError(f"no query named {query!r} in the evaluation")

@@ -24,6 +24,7 @@ import numpy as np
 from .._validate import thread_count
 from ..io.atomic import make_folder, staging_folder, write_text
 from ..io.traverse import save_traverse
+from ..localization.odometry import true_robot_motions
 from ..progress import progress
 from .lighting import Lighting, make_lighting
 from .paths import TraversePlan, plan_traverses
@@ -160,7 +161,8 @@ def make_dataset(
         world: ``"garden"`` (day_reference, night_reference, night_query) or ``"living_room"``
             (day_reference, night_query).
         out_dir: folder to write into (created if missing); each traverse goes to
-            ``out_dir/<traverse>`` (``images/`` + ``poses.csv``), the description to
+            ``out_dir/<traverse>`` (``images/`` + ``poses.csv`` + ``odometry.csv``, the exact
+            wheel odometry between consecutive frames), the description to
             ``out_dir/dataset.json``.
         seed: same seed -> byte-identical images.
         darkness: night darkness in [0, 3] (default 1.0; see :mod:`nightloc.synth.sensor`).
@@ -185,7 +187,15 @@ def make_dataset(
         frames = progress(
             scene.render_plan(plan, threads), total=len(plan.positions), desc=f"{world}/{plan.name}", unit="frame"
         )
-        save_traverse(out / plan.name, frames, positions=plan.positions, headings=plan.headings, overwrite=overwrite)
+        odometry = true_robot_motions(plan.positions, plan.headings)  # the exact wheel odometry
+        save_traverse(
+            out / plan.name,
+            frames,
+            positions=plan.positions,
+            headings=plan.headings,
+            odometry=odometry,
+            overwrite=overwrite,
+        )
         written[plan.name] = out / plan.name
     _write_json_atomic(out / "dataset.json", scene.describe(plans))
     return written
@@ -209,6 +219,8 @@ def _complete(folder: Path) -> bool:
         for name, info in content.get("traverses", {}).items():
             images = folder / world / name / "images"
             if not (folder / world / name / "poses.csv").is_file() or not images.is_dir():
+                return False
+            if not (folder / world / name / "odometry.csv").is_file():  # caches written before odometry.csv
                 return False
             if len(list(images.iterdir())) != info.get("frames"):
                 return False
