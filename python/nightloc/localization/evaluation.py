@@ -49,6 +49,7 @@ from ..io.traverse import Traverse, load_traverse
 from ..matching.sad import MatchResult, difference_matrix, rotational_sad, shifts_to_headings
 from ..preparation.preparer import Preparer
 from ..progress import progress
+from .grid_filter import FilterParams
 from .localizer import Estimate, LocalizationParams, Localizer
 from .odometry import (
     NOISE_MODELS,
@@ -494,7 +495,7 @@ class Evaluation:
         """
         models = self.settings.models
         extra = off_column and False in self.settings.interpolation and interpolation
-        header = f"{'n':>3} | " + " | ".join(f"noise {m}" for m in models)
+        header = f"{'n':>3} | " + " | ".join("log odom." if m == LOG_NOISE_MODEL else f"noise {m}" for m in models)
         if extra:
             header += f" | no interp. (noise {models[0]})"
         lines = [header, "-" * len(header)]
@@ -552,6 +553,7 @@ def evaluate(
     name: str | None = None,
     threads: int | None = None,
     progress_desc: str | None = None,
+    filter_params: FilterParams | None = None,
 ) -> Evaluation:
     """Localizes every frame of ``query`` under every configuration of ``settings``.
 
@@ -565,6 +567,8 @@ def evaluate(
         name: the query's name in the ``query`` column (default its folder name).
         threads: matching threads (default all cores).
         progress_desc: progress-bar label (default "evaluating <name>").
+        filter_params: the filter's :class:`~nightloc.localization.grid_filter.FilterParams`
+            (default its defaults).
 
     Returns:
         :class:`Evaluation`.
@@ -642,7 +646,14 @@ def evaluate(
             record(estimates, np.full(n_frames, n), model, interp, repeat, "paper")
         else:
             noise = settings.log_noise if model == LOG_NOISE_MODEL else model
-            loc = Localizer(ref_map, params, method="filter", odometry_noise=noise, interpolation=interp)
+            loc = Localizer(
+                ref_map,
+                params,
+                method="filter",
+                odometry_noise=noise,
+                filter_params=filter_params,
+                interpolation=interp,
+            )
             estimates = [loc.update_table(matches.tables[i], odometry[i]) for i in range(n_frames)]
             record(estimates, np.arange(1, n_frames + 1), model, interp, repeat, "filter")
     columns = {c: np.concatenate(v) if v else np.zeros(0) for c, v in rows.items()}

@@ -41,7 +41,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .._validate import thread_count, uint8_array
+from .._validate import same_image_size, thread_count, uint8_array
 from ..config import params_section
 from ..io.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, match
@@ -242,6 +242,28 @@ class Localizer:
             self._sequence = self.mapper.sequence(params.seq_len)
         self.reset()
 
+    def fresh(self) -> Localizer:
+        """A new localizer for the same map, method and parameters, sharing this one's grid and
+        interpolation weights (no recomputation), with nothing seen yet: e.g. one per robot or
+        thread over one map."""
+        clone = object.__new__(Localizer)
+        clone.__dict__.update(self.__dict__)
+        if self._filter is not None:
+            f = self._filter
+            clone._filter = GridFilter(
+                self.mapper,
+                self.ref_map.headings,
+                self.ref_map.params.width,
+                self._shifts,
+                self.filter_params,
+                f.noise,
+                self.params.confidence_radius,
+            )
+        else:
+            clone._sequence = self.mapper.sequence(self.params.seq_len)
+        clone.reset()
+        return clone
+
     def with_seq_len(self, seq_len: int) -> Localizer:
         """A new localizer for the same map and parameters but another sequence length.
 
@@ -339,10 +361,7 @@ class Localizer:
             raise ValueError(f"update takes one frame, got an array of shape {query.shape}; loop over its frames")
         if self._filter is not None:
             query = uint8_array(query, 2, "frame")
-            if query.shape != self._prepared_shape:
-                raise ValueError(
-                    f"prepared frame is {query.shape} but the map's images are {self._prepared_shape} (height, width)"
-                )
+            same_image_size(query, self.ref_map.images, "the prepared frame's", "the map's")
             motion = self._motion(odometry)
             state = self._filter.step_image(np.ascontiguousarray(query), self.ref_map.images, motion, self.threads)
             return self._filter_estimate(state, return_heatmap)
