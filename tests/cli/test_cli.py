@@ -34,7 +34,7 @@ def test_demo_runs_the_method_on_the_embedded_data(capsys, tmp_path):
         assert list((out_dir / world).glob("heatmap_frame*.png"))
         assert (out_dir / world / "errors_wheel.csv").read_text().splitlines()[0].endswith(",ref_index,method")
     assert out.count("|") > 40  # the median-error tables
-    assert out.count("Bayes filter") == 4  # map and wheel odometry, two worlds
+    assert out.count("wheel odometry (RobotMotion)  Bayes filter") == 2  # the comparison tables
 
 
 def test_info_reports_paths(capsys):
