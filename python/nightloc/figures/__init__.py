@@ -2,7 +2,9 @@
 
 * :mod:`~nightloc.figures.evaluation` — ``nightloc evaluate`` / ``demo``: error box plots, heat map;
 * :mod:`~nightloc.figures.route` — ``nightloc route``: difference matrix, PR curve, matches;
-* :mod:`~nightloc.figures.synth` — the synthetic worlds: map and day/night panoramas.
+* :mod:`~nightloc.figures.synth` — the synthetic worlds: map and day/night panoramas;
+* :mod:`~nightloc.figures.trajectory` — a localized traverse (``nightloc localize``): the
+  estimated trajectory on the map and the error per frame.
 
 Each figure function returns a :class:`matplotlib.figure.Figure` (made without pyplot, so it
 draws in scripts, servers and notebooks alike) and writes it atomically when given a path.
