@@ -11,7 +11,8 @@ folder of images; order = sorted file names) or videos (``--frame-step``). Write
 * ``OUT/pr.csv``: ``threshold,precision,recall`` when ground truth is available;
 * ``OUT/summary.json``: parameters, sizes, timings, recall at 100 % precision, best F1;
 * figures ``difference_matrix.png`` and, with ground truth, ``pr_curve.png`` and
-  ``correspondence.png`` (the paper's Figure 23) unless ``--no-figures``.
+  ``correspondence.png`` (the paper's Figure 23) unless ``--no-figures``; ``--figure-format
+  pdf|svg`` writes them as PDF or SVG instead.
 
 Ground truth (``--ground-truth auto``): positions when both traverses have poses (tolerance in
 metres, default 3 as in the paper's creek experiment); otherwise, when the two traverses name
@@ -33,6 +34,8 @@ from pathlib import Path
 import numpy as np
 
 from ..config import load_params_file
+from ..figures import FORMATS as FIGURE_FORMATS
+from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, write_text
 from ..io.traverse import Traverse, load_traverse
 from ..preparation.params import PreparationParams
@@ -86,6 +89,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--frame-step", type=int, default=1, help="keep every k-th frame of a video (default 1)")
     parser.add_argument("--threads", type=int, help="worker threads (default all cores)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
+    add_figure_format_option(parser)
     parser.set_defaults(run=run)
 
 
@@ -221,10 +225,20 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_figures:
         from ..figures.route import save_route_figures
 
-        try:
-            figures = [Path(p).name for p in save_route_figures(result, evaluation, out)]
-        except ImportError as error:  # nightloc.figures.plotting missing from a partial install
-            print(f"figures skipped: {error}")
+        truth_text = None
+        if truth is not None:
+            truth_text = f"{truth_kind}, ±{truth.tolerance:g} {'m' if truth.kind == 'positions' else 'frames'}"
+        saved = save_route_figures(
+            result,
+            evaluation,
+            out,
+            args.figure_format,
+            reference=reference.root,
+            query=query.root,
+            preset=args.preset,
+            ground_truth=truth_text,
+        )
+        figures = [p.name for p in saved]
     summary = {
         "reference": str(reference.root),
         "query": str(query.root),
@@ -252,7 +266,10 @@ def run(args: argparse.Namespace) -> int:
     write_text_atomic(out / "summary.json", json.dumps(summary, indent=1, default=_json_default) + "\n")
     # Outputs of an earlier run into the same folder that this run did not produce would mislead.
     produced = {"matches.csv", "summary.json", *figures} | ({"pr.csv"} if evaluation is not None else set())
-    for stale in ("pr.csv", "difference_matrix.png", "pr_curve.png", "correspondence.png"):
+    figure_names = [
+        f"{stem}.{fmt}" for stem in ("difference_matrix", "pr_curve", "correspondence") for fmt in FIGURE_FORMATS
+    ]
+    for stale in ("pr.csv", *figure_names):
         if stale not in produced and (out / stale).is_file():
             (out / stale).unlink()
 
