@@ -172,14 +172,17 @@ def run(args: argparse.Namespace) -> int:
         )
         print(comparison_table(evaluation, wheel_evaluation))
         if not args.no_figures:
+            from ..figures._common import figure_path
             from ..figures.filter import comparison_figure
 
+            figure = figure_path(target, "filter_vs_paper", args.figure_format)
             comparison_figure(
                 comparison_errors(evaluation, wheel_evaluation),
                 f"{world}: night query frames {COMPARE_FROM}-{frames}, {args.repeats} noise draw(s) per model",
-                target / "filter_vs_paper.png",
+                figure,
+                args.figure_format,
             )
-            written.append("filter_vs_paper.png")
+            written.append(figure.name)
         print(f"wrote {target}/" + ", ".join(written))
     print(f"\ndone in {time.perf_counter() - start:.1f} s")
     return 0

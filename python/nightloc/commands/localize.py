@@ -16,9 +16,10 @@ Writes, each file atomically:
 
 * ``OUT/trajectory.csv``: ``image,x,y,heading,confidence,credible_radius,ref_index`` per frame
   (metres, radians; heading ``nan`` when the map has no headings);
-* ``OUT/trajectory.png`` (unless ``--no-figures``): the references, the estimated path with its
-  credible radius, and the true path when LOG has ``poses.csv`` — then the command also prints
-  the median and 90th-percentile distance errors.
+* ``OUT/trajectory.png`` (unless ``--no-figures``; ``--figure-format pdf|svg`` for another
+  format): the references, the estimated path with its credible radius, and the true path when
+  LOG has ``poses.csv`` — then the command also prints the median and 90th-percentile distance
+  errors.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ import numpy as np
 
 from ..config import load_params_file
 from ..errors import DatasetError
+from ..figures import add_figure_format_option
 from ..io.atomic import atomic_file, check_output_path, make_folder
 from ..io.reference_map import ReferenceMap
 from ..io.traverse import load_traverse
@@ -67,6 +69,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--params", type=Path, help="TOML file with [localization], [filter] and/or [preparation]")
     parser.add_argument("--threads", type=int, default=1, help="matching threads (default 1, as on a robot)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw trajectory.png")
+    add_figure_format_option(parser)
     parser.set_defaults(run=run)
 
 
@@ -126,19 +129,26 @@ def run(args: argparse.Namespace) -> int:
     positions = np.array([(e.x, e.y) for e in estimates])
     truth = None if log.positions is None else np.asarray(log.positions, dtype=np.float64)
     if not args.no_figures:
-        from ..figures.filter import localized_trajectory_figure
+        from ..figures._common import figure_path
+        from ..figures.trajectory import trajectory_figure
 
-        caption = f"{len(estimates)} frames of {log.root.name} against {len(ref_map)} references"
-        localized_trajectory_figure(
+        caption = (
+            f"{len(estimates)} frames of {log.root.name} against {len(ref_map)} references; odometry "
+            f"{'none' if args.odometry is not None and args.odometry.strip().lower() == 'none' else 'from the log'}, "
+            f"noise {args.odometry_noise}; disks: credible radius ({localizer.filter_params.credibility:.0%})"
+        )
+        figure = figure_path(out, "trajectory", args.figure_format)
+        trajectory_figure(
             ref_map.positions,
             positions,
-            np.array([e.credible_radius for e in estimates]),
             truth,
+            credible_radius=np.array([e.credible_radius for e in estimates]),
             title="nightloc localize: the Bayes filter's trajectory",
             caption=caption,
-            path=out / "trajectory.png",
+            path=figure,
+            figure_format=args.figure_format,
         )
-        written.append("trajectory.png")
+        written.append(figure.name)
     print(
         f"{len(estimates)} frames of {log.root} localized against {len(ref_map)} references in {seconds:.1f} s "
         f"({1000 * seconds / max(len(estimates), 1):.1f} ms per frame)"
