@@ -25,8 +25,15 @@ def box_pass(s2: float) -> tuple[int, float, float]:
     return r, alpha, 1.0 / (2 * r + 1 + 2 * alpha)
 
 
+#: Box radius beyond which the core runs the blur as running sums (the whole kernel) instead of
+#: explicit taps (the kernel without its ends below KERNEL_CUT of its peak).
+MAX_EXPLICIT_RADIUS = 1
+KERNEL_CUT = 1e-4
+
+
 def blur_kernel(sigma: float) -> np.ndarray:
-    """Three extended-box passes of variance sigma^2 / 3 each, convolved (centred, odd length)."""
+    """Three extended-box passes of variance sigma^2 / 3 each, convolved (centred, odd length); for
+    box radii the core runs as explicit taps, without the ends below KERNEL_CUT of the peak."""
     if sigma <= 0:
         return np.ones(1)
     r, alpha, inv_w = box_pass(sigma * sigma / 3.0)
@@ -35,6 +42,11 @@ def blur_kernel(sigma: float) -> np.ndarray:
     kernel = np.ones(1)
     for _ in range(3):
         kernel = np.convolve(kernel, box)
+    if r <= MAX_EXPLICIT_RADIUS:
+        cut = 0
+        while 2 * cut + 1 < len(kernel) and kernel[cut] < KERNEL_CUT * kernel.max():
+            cut += 1
+        kernel = kernel[cut : len(kernel) - cut]
     return kernel
 
 
@@ -157,7 +169,7 @@ class OracleFilter:
             reach = math.ceil(3.0 * sigma_bins)
             for t in range(-reach, reach + 1):
                 taps[t % self.bins] += math.exp(-0.5 * t * t / sigma_bins**2)
-            taps /= taps.sum()
+            taps = np.where(taps < KERNEL_CUT * taps.max(), 0.0, taps / taps.sum())
         blurred = np.zeros_like(q)
         for d, g in enumerate(taps):
             if g > 0:

@@ -22,8 +22,9 @@ constexpr double kLog2e = 1.442695040888963407359924681002;
 // The likelihood's floor: 2^-60 relative to the best place (no underflow, no denormals).
 constexpr double kLowestLog2 = -60.0;
 // Blurs whose composed kernel (three box passes: 6 r + 7 taps) is at most this long run as one
-// explicit pass per axis (shift included); wider ones as running sums (O(1) per cell, slower here).
-constexpr std::size_t kMaxComposedTaps = 49;
+// explicit pass per axis (shift included); wider ones as running sums (O(1) per cell; faster
+// from r = 2 on, measured on AVX-512).
+constexpr std::size_t kMaxComposedTaps = 13;
 // Cells per chunk of the loops over all bins (a multiple of 16: the sums' lanes).
 constexpr std::size_t kCellChunk = 256;
 
@@ -134,9 +135,9 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
         }
     }
     // Slots in a stable order along the cells: a cell that shares places with the previous one
-    // keeps them in the same slots, so 16 neighbouring cells (mostly one triangle) read at most two
-    // places per slot and the measurement needs no gather there (the sum's order changes, not its
-    // terms: weights sum in slot order).
+    // keeps them in the same slots, so 16 neighbouring cells (one triangle or a few) read at most
+    // four places per slot and the measurement needs no gather there (the sum's order changes,
+    // not its terms: weights sum in slot order).
     for (std::size_t c = 1; c < cells_; ++c) {
         for (std::size_t a = 0; a < slots_; ++a) {
             const std::int32_t want = ell_index_[a * cells_ + c - 1];
@@ -151,25 +152,24 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
             }
         }
     }
-    ell_pairs_.assign(2 * (cells_ / 16) * slots_, -1);
+    ell_places_.assign(4 * (cells_ / 16) * slots_, -1);
     for (std::size_t block = 0; block < cells_ / 16; ++block)
         for (std::size_t slot = 0; slot < slots_; ++slot) {
             const std::int32_t* idx = ell_index_.data() + slot * cells_ + block * 16;
-            const std::int32_t first = idx[0];
-            std::int32_t second = first;
-            bool two = true;
-            for (int l = 1; l < 16; ++l) {
-                if (idx[l] == first || idx[l] == second) continue;
-                if (second == first) {
-                    second = idx[l];
+            std::int32_t distinct[4];
+            std::size_t count = 0;
+            bool fits = true;
+            for (int l = 0; l < 16 && fits; ++l) {
+                if (std::find(distinct, distinct + count, idx[l]) != distinct + count) continue;
+                if (count == 4) {
+                    fits = false;
                 } else {
-                    two = false;
+                    distinct[count++] = idx[l];
                 }
             }
-            if (two) {
-                ell_pairs_[2 * (block * slots_ + slot)] = first;
-                ell_pairs_[2 * (block * slots_ + slot) + 1] = second;
-            }
+            if (!fits) continue;
+            std::int32_t* out = ell_places_.data() + 4 * (block * slots_ + slot);
+            for (std::size_t q = 0; q < 4; ++q) out[q] = distinct[q < count ? q : 0];
         }
     belief_.resize(bins_ * cells_);
     work_.resize(bins_ * cells_);
@@ -179,7 +179,7 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
     const std::size_t side = std::max(height_, width_);
     sums_.resize(side);
     zeros_.assign(side, 0.f);
-    padded_.assign(side + kMaxComposedTaps + 2, 0.f);
+    padded_.assign(side + kMaxComposedTaps + 2, 0.f);  // grown for wide tiles
     table_.resize(n_refs() * n_shifts());
     mins_.resize(n_refs());
     best_shifts_.resize(n_refs());
@@ -211,6 +211,9 @@ void GridFilter::set_noise(double distance_std, double heading_std) {
 
 namespace {
 
+// Taps of the composed kernel below this share of its peak are left out (symmetric, from the ends).
+constexpr double kKernelCut = 1e-4;
+
 std::vector<double> composed_box_kernel(double sigma) {
     // three extended-box passes of variance sigma^2 / 3 each, convolved: taps -R..R, R = 3 (r + 1)
     const detail::BoxPass pass = box_pass(sigma * sigma / 3.0);
@@ -223,7 +226,12 @@ std::vector<double> composed_box_kernel(double sigma) {
             for (std::size_t b = 0; b < box.size(); ++b) next[a + b] += kernel[a] * box[b];
         kernel.swap(next);
     }
-    return kernel;
+    // the ends below 1e-4 of the peak (the passes' alpha^2, alpha^3 corners) are left out
+    const double peak = *std::max_element(kernel.begin(), kernel.end());
+    std::size_t cut = 0;
+    while (2 * cut + 1 < kernel.size() && kernel[cut] < kKernelCut * peak) ++cut;
+    return std::vector<double>(kernel.begin() + static_cast<std::ptrdiff_t>(cut),
+                               kernel.end() - static_cast<std::ptrdiff_t>(cut));
 }
 
 // The taps of one axis: the bilinear shift by `shift` cells convolved with the blur `kernel`
@@ -258,41 +266,48 @@ double GridFilter::translate_blur_slice(const float* src, float* dst, double shi
         std::fill(dst, dst + cells_, 0.f);  // everything lands beyond the grid
         return 0.0;
     }
+    // Per axis one operator: the bilinear shift convolved with the three box passes. Short
+    // kernels run as one explicit pass (composed taps); wide ones as the shift's two taps, then
+    // running sums (O(1) per cell) on a tile with room for everything that spreads beyond the
+    // grid and may come back (the passes' intermediate results included).
     const detail::BoxPass pass_x = box_pass(sigma_x * sigma_x / 3.0), pass_y = box_pass(sigma_y * sigma_y / 3.0);
-    if (6 * std::max(pass_x.r, pass_y.r) + 7 <= kMaxComposedTaps) {
-        // shift and blur of each axis in one explicit pass (the composed kernel)
-        const std::vector<double> gx = sigma_x > 0 ? composed_box_kernel(sigma_x) : std::vector<double>{1.0};
-        const std::vector<double> gy = sigma_y > 0 ? composed_box_kernel(sigma_y) : std::vector<double>{1.0};
-        std::ptrdiff_t off_x = 0, off_y = 0;
-        shift_blur_taps(shift_y, gy, taps_y_, off_y);
-        shift_blur_taps(shift_x, gx, taps_x_, off_x);
+    const bool wide_x = sigma_x > 0 && 6 * pass_x.r + 7 > kMaxComposedTaps;
+    const bool wide_y = sigma_y > 0 && 6 * pass_y.r + 7 > kMaxComposedTaps;
+    static const std::vector<double> identity{1.0};
+    std::ptrdiff_t off_x = 0, off_y = 0;
+    shift_blur_taps(shift_y, wide_y || !(sigma_y > 0) ? identity : composed_box_kernel(sigma_y), taps_y_, off_y);
+    shift_blur_taps(shift_x, wide_x || !(sigma_x > 0) ? identity : composed_box_kernel(sigma_x), taps_x_, off_x);
+    if (!wide_x && !wide_y) {  // the common case: two explicit passes, grid to grid
         k.conv_rows(src, tile_a_.data(), height_, width_, taps_y_.data(), taps_y_.size(), off_y, zeros_.data());
         k.conv_cols(tile_a_.data(), dst, height_, width_, taps_x_.data(), taps_x_.size(), off_x, padded_.data());
     } else {
-        // wide blurs: the bilinear shift into a tile with room for all of it, then three running-sum
-        // passes per axis (O(1) per cell), then the grid's part: the same operator as above
-        // margins: the shift, and the reach of the three passes (their intermediate results spread too)
-        const auto mx = static_cast<std::size_t>(std::fabs(std::floor(shift_x))) + 2 + 3 * (pass_x.r + 1);
-        const auto my = static_cast<std::size_t>(std::fabs(std::floor(shift_y))) + 2 + 3 * (pass_y.r + 1);
+        const std::size_t my = wide_y ? static_cast<std::size_t>(std::fabs(std::floor(shift_y))) + 2 + 3 * (pass_y.r + 1) : 0;
+        const std::size_t mx = wide_x ? static_cast<std::size_t>(std::fabs(std::floor(shift_x))) + 2 + 3 * (pass_x.r + 1) : 0;
         const std::size_t th = height_ + 2 * my, tw = width_ + 2 * mx, tn = th * tw;
         wide_a_.assign(tn, 0.f);
-        wide_b_.assign(tn, 0.f);
-        wide_c_.assign(tn, 0.f);
+        wide_b_.resize(tn);
         for (std::size_t j = 0; j < height_; ++j) {
-            std::copy(src + j * width_, src + (j + 1) * width_, wide_c_.data() + (j + my) * tw + mx);
+            std::copy(src + j * width_, src + (j + 1) * width_, wide_a_.data() + (j + my) * tw + mx);
         }
-        add_translated(wide_c_.data(), tw, wide_a_.data(), tw, th, tw, shift_x, shift_y);
-        if (sums_.size() < std::max(th, tw)) sums_.resize(std::max(th, tw));
-        if (zeros_.size() < std::max(th, tw)) zeros_.resize(std::max(th, tw), 0.f);
+        const std::size_t side = std::max(th, tw);
+        if (sums_.size() < side) sums_.resize(side);
+        if (zeros_.size() < side) zeros_.resize(side, 0.f);
+        if (padded_.size() < side + kMaxComposedTaps + 2) padded_.resize(side + kMaxComposedTaps + 2, 0.f);
         float* current = wide_a_.data();
         float* other = wide_b_.data();
-        if (sigma_y > 0) {
+        // y: the composed pass, or the shift then three running passes across rows
+        k.conv_rows(current, other, th, tw, taps_y_.data(), taps_y_.size(), off_y, zeros_.data());
+        std::swap(current, other);
+        if (wide_y) {
             for (int p = 0; p < 3; ++p) {
                 k.box_rows(current, other, th, tw, pass_y, sums_.data(), zeros_.data());
                 std::swap(current, other);
             }
         }
-        if (sigma_x > 0) {
+        // x: the composed pass, or the shift then three running passes across the transpose's rows
+        k.conv_cols(current, other, th, tw, taps_x_.data(), taps_x_.size(), off_x, padded_.data());
+        std::swap(current, other);
+        if (wide_x) {
             k.transpose(current, other, th, tw);  // now tw rows of th
             std::swap(current, other);
             for (int p = 0; p < 3; ++p) {
@@ -412,9 +427,12 @@ void GridFilter::predict_robot(double forward, double left, double turn) {
             const double v = std::exp(-0.5 * static_cast<double>(t * t) / (sigma_bins * sigma_bins));
             taps[static_cast<std::size_t>(((t % B) + B) % B)] += v;
         }
-        double sum = 0;
-        for (double v : taps) sum += v;
-        for (double& v : taps) v /= sum;
+        double sum = 0, peak = 0;
+        for (double v : taps) {
+            sum += v;
+            peak = std::max(peak, v);
+        }
+        for (double& v : taps) v = v < kKernelCut * peak ? 0.0 : v / sum;  // taps below 1e-4 of the peak: none
     }
     std::vector<float> tap_values;
     std::vector<std::size_t> tap_offsets;
@@ -550,7 +568,7 @@ void GridFilter::update(const float* table) {
     const auto& k = detail::filter_kernels(active_simd_backend());
     const float one = 1.f;
     const std::size_t zero_offset = 0;
-    detail::UpdateArgs args{ell_data_.data(), ell_index_.data(), ell_pairs_.data(), slots_, cells_,
+    detail::UpdateArgs args{ell_data_.data(), ell_index_.data(), ell_places_.data(), slots_, cells_,
                             log_lik_.data(), stride, B,
                             // the prior: the pending prediction (heading blur, normalization, floor) or the belief
                             pending_ ? work_.data() : belief_.data(), pending_ ? pending_taps_.data() : &one,
@@ -678,13 +696,18 @@ GridEstimate GridFilter::estimate() const {
     double far = 0;
     scratch_.resize(cells_);
     double within = 0;
-    for (std::size_t j = 0; j < height_; ++j)
+    for (std::size_t j = 0; j < height_; ++j) {
+        const double ey = cy(j) - e.y;
+        double* d_row = scratch_.data() + j * width_;
         for (std::size_t i = 0; i < width_; ++i) {
-            const double d = std::hypot(cx(i) - e.x, cy(j) - e.y);
-            scratch_[j * width_ + i] = d;
-            far = std::max(far, d);
-            if (d <= s.confidence_radius) within += M[j * width_ + i];
+            const double ex = cx(i) - e.x;
+            d_row[i] = std::sqrt(ex * ex + ey * ey);
         }
+        for (std::size_t i = 0; i < width_; ++i) {
+            far = std::max(far, d_row[i]);
+            if (d_row[i] <= s.confidence_radius) within += M[j * width_ + i];
+        }
+    }
     e.confidence = std::min(std::max(within / total, 0.0), 1.0);
     const double target = s.credibility * total;
     constexpr std::size_t kBins = 1024;

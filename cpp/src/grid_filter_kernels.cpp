@@ -61,41 +61,80 @@ NL_INLINE void exp2_vector(const F16& y, F16& out) {
 // bodies shared by every path
 
 NL_INLINE void box_rows_body(const float* __restrict src, float* __restrict dst, std::size_t rows, std::size_t cols,
-                             const BoxPass& pass, double* __restrict acc, const float* __restrict zeros) {
+                             const BoxPass& pass, float* __restrict acc, const float* __restrict zeros) {
     const std::size_t r = pass.r;
-    const double alpha = pass.alpha, inv_w = pass.inv_w;
-    for (std::size_t i = 0; i < cols; ++i) acc[i] = 0.0;
+    const auto alpha = static_cast<float>(pass.alpha), inv_w = static_cast<float>(pass.inv_w);
+    for (std::size_t i = 0; i < cols; ++i) acc[i] = 0.f;
     for (std::size_t t = 0; t <= r && t < rows; ++t) {
         const float* row = src + t * cols;
-        for (std::size_t i = 0; i < cols; ++i) acc[i] += static_cast<double>(row[i]);
+        for (std::size_t i = 0; i < cols; ++i) acc[i] = acc[i] + row[i];
     }
     for (std::size_t j = 0; j < rows; ++j) {
         const float* lo = j >= r + 1 ? src + (j - r - 1) * cols : zeros;
         const float* hi = j + r + 1 < rows ? src + (j + r + 1) * cols : zeros;
+        const float* gone = j >= r ? src + (j - r) * cols : zeros;
         float* out = dst + j * cols;
         for (std::size_t i = 0; i < cols; ++i) {
-            const double v = (acc[i] + alpha * (static_cast<double>(lo[i]) + static_cast<double>(hi[i]))) * inv_w;
-            out[i] = static_cast<float>(v > 0.0 ? v : 0.0);  // a negative rounding residue becomes 0
-        }
-        if (j + r + 1 < rows) {
-            for (std::size_t i = 0; i < cols; ++i) acc[i] += static_cast<double>(hi[i]);
-        }
-        if (j >= r) {
-            const float* gone = src + (j - r) * cols;
-            for (std::size_t i = 0; i < cols; ++i) acc[i] -= static_cast<double>(gone[i]);
+            const float a = acc[i];
+            const float v = (a + alpha * (lo[i] + hi[i])) * inv_w;
+            out[i] = v > 0.f ? v : 0.f;  // a negative rounding residue of the running sum becomes 0
+            acc[i] = (a + hi[i]) - gone[i];
         }
     }
 }
 
-// dst[j][i] = sum_t taps[t] * src[j + t - offset][i] (rows outside [0, rows) count 0), summed in
-// float from 0 in t order. `rows_of` holds the n_taps row pointers of one output row.
-NL_INLINE void conv_rows_one(const float* const* in, const float* taps, std::size_t n_taps, float* out,
-                             std::size_t i) {
+// out[i] = sum_t taps[t] * in[t][i] for i in [0, cols), summed in float from 0 in t order: blocks
+// of 64 (four independent 16-lane sums hide the adds' latency), then of 16, the last one shifted
+// back to end at the row's end (its overlap is recomputed, to the same values); rows shorter than
+// 16 element by element. Every element is the same sequence of operations.
+NL_INLINE void taps_row_one(const float* const* in, const float* taps, std::size_t n_taps, float* out, std::size_t i) {
     float acc = 0.f;
     for (std::size_t t = 0; t < n_taps; ++t) acc = acc + taps[t] * in[t][i];
     out[i] = acc;
 }
 
+template <bool Vector>
+NL_INLINE void taps_row(const float* const* in, const float* taps, std::size_t n_taps, float* out, std::size_t cols) {
+    if (!Vector || cols < 16) {
+        for (std::size_t i = 0; i < cols; ++i) taps_row_one(in, taps, n_taps, out, i);
+        return;
+    }
+    std::size_t i = 0;
+    for (; i + 64 <= cols; i += 64) {
+        F16 a0 = {}, a1 = {}, a2 = {}, a3 = {};
+        for (std::size_t t = 0; t < n_taps; ++t) {
+            const float g = taps[t];
+            F16 x0, x1, x2, x3;
+            std::memcpy(&x0, in[t] + i, sizeof(x0));
+            std::memcpy(&x1, in[t] + i + 16, sizeof(x1));
+            std::memcpy(&x2, in[t] + i + 32, sizeof(x2));
+            std::memcpy(&x3, in[t] + i + 48, sizeof(x3));
+            a0 = a0 + g * x0;
+            a1 = a1 + g * x1;
+            a2 = a2 + g * x2;
+            a3 = a3 + g * x3;
+        }
+        std::memcpy(out + i, &a0, sizeof(a0));
+        std::memcpy(out + i + 16, &a1, sizeof(a1));
+        std::memcpy(out + i + 32, &a2, sizeof(a2));
+        std::memcpy(out + i + 48, &a3, sizeof(a3));
+    }
+    if (i == cols) return;
+    for (;;) {  // 16 at a time from i on
+        if (i + 16 > cols) i = cols - 16;
+        F16 a = {};
+        for (std::size_t t = 0; t < n_taps; ++t) {
+            F16 x;
+            std::memcpy(&x, in[t] + i, sizeof(x));
+            a = a + taps[t] * x;
+        }
+        std::memcpy(out + i, &a, sizeof(a));
+        if (i + 16 >= cols) return;
+        i += 16;
+    }
+}
+
+// dst[j][i] = sum_t taps[t] * src[j + t - offset][i] (rows outside [0, rows) count 0).
 template <bool Vector>
 NL_INLINE void conv_rows_body(const float* src, float* dst, std::size_t rows, std::size_t cols, const float* taps,
                               std::size_t n_taps, std::ptrdiff_t offset, const float* zeros) {
@@ -105,59 +144,26 @@ NL_INLINE void conv_rows_body(const float* src, float* dst, std::size_t rows, st
             const std::ptrdiff_t r = static_cast<std::ptrdiff_t>(j + t) - offset;
             in[t] = r >= 0 && r < static_cast<std::ptrdiff_t>(rows) ? src + static_cast<std::size_t>(r) * cols : zeros;
         }
-        float* out = dst + j * cols;
-        std::size_t i = 0;
-        if (Vector) {
-            for (; i + 16 <= cols; i += 16) {
-                F16 acc = {};
-                for (std::size_t t = 0; t < n_taps; ++t) {
-                    F16 x;
-                    std::memcpy(&x, in[t] + i, sizeof(x));
-                    acc = acc + taps[t] * x;
-                }
-                std::memcpy(out + i, &acc, sizeof(acc));
-            }
-        }
-        for (; i < cols; ++i) conv_rows_one(in, taps, n_taps, out, i);
+        taps_row<Vector>(in, taps, n_taps, dst + j * cols, cols);
     }
 }
 
-// dst[j][i] = sum_t taps[t] * src[j][i + t - offset] (zero beyond the row), summed in float from
-// 0 in t order; `padded` holds cols + n_taps floats of scratch.
-NL_INLINE void conv_cols_one(const float* p, const float* taps, std::size_t n_taps, float* out, std::size_t i) {
-    float acc = 0.f;
-    for (std::size_t t = 0; t < n_taps; ++t) acc = acc + taps[t] * p[i + t];
-    out[i] = acc;
-}
-
+// dst[j][i] = sum_t taps[t] * src[j][i + t - offset] (columns outside [0, cols) count 0);
+// `padded` holds cols + n_taps floats of scratch.
 template <bool Vector>
 NL_INLINE void conv_cols_body(const float* src, float* dst, std::size_t rows, std::size_t cols, const float* taps,
                               std::size_t n_taps, std::ptrdiff_t offset, float* padded) {
-    // padded[q] = src[j][q - lead] with lead = n_taps - 1 - offset ... kept general: the window of
-    // output i reads src columns i - offset .. i - offset + n_taps - 1
-    const std::ptrdiff_t lead = offset;  // padded[i + t] = src[j][i + t - offset]: padded[q] = x[q - lead]
+    const std::ptrdiff_t lead = offset;  // padded[q] = x[q - lead]: output i reads padded[i + t]
     const std::size_t length = cols + n_taps;
+    const float* in[kMaxTaps];
+    for (std::size_t t = 0; t < n_taps; ++t) in[t] = padded + t;
     for (std::size_t j = 0; j < rows; ++j) {
         const float* x = src + j * cols;
-        // padded[q] = x[q - lead] where that is a column, else 0
         const std::ptrdiff_t q0 = lead > 0 ? lead : 0;
         const std::ptrdiff_t q1 = std::min(static_cast<std::ptrdiff_t>(length), lead + static_cast<std::ptrdiff_t>(cols));
         for (std::size_t q = 0; q < length; ++q) padded[q] = 0.f;
         for (std::ptrdiff_t q = q0; q < q1; ++q) padded[q] = x[q - lead];
-        float* out = dst + j * cols;
-        std::size_t i = 0;
-        if (Vector) {
-            for (; i + 16 <= cols; i += 16) {
-                F16 acc = {};
-                for (std::size_t t = 0; t < n_taps; ++t) {
-                    F16 v;
-                    std::memcpy(&v, padded + i + t, sizeof(v));
-                    acc = acc + taps[t] * v;
-                }
-                std::memcpy(out + i, &acc, sizeof(acc));
-            }
-        }
-        for (; i < cols; ++i) conv_cols_one(padded, taps, n_taps, out, i);
+        taps_row<Vector>(in, taps, n_taps, dst + j * cols, cols);
     }
 }
 
@@ -247,8 +253,61 @@ NL_INLINE void measure_plain(const UpdateArgs& u, std::size_t c0, std::size_t m)
         for (std::size_t c = c0; c < c0 + m; ++c) measure_one(u, b, c);
 }
 
-NL_INLINE void measure_vector(const UpdateArgs& u, std::size_t c0, std::size_t m) {
+// V groups of 16 cells from c on, bin b (V independent dependency chains: the exp's polynomial
+// and the sums are latency-bound one group at a time).
+template <int V>
+NL_INLINE void measure_groups(const UpdateArgs& u, std::size_t b, std::size_t c, const float* values,
+                              const float* const* in, float* belief) {
     const F16 zero = {}, lowest = zero + kLowest;
+    F16 y[V], acc[V];
+    for (int v = 0; v < V; ++v) {
+        y[v] = zero;
+        acc[v] = zero;
+    }
+    for (std::size_t k = 0; k < u.slots; ++k) {
+        for (int v = 0; v < V; ++v) {
+            const std::size_t cv = c + 16 * static_cast<std::size_t>(v);
+            const std::int32_t* places = u.places4 + 4 * ((cv / 16) * u.slots + k);
+            F16 d, x;
+            I16 idx;
+            std::memcpy(&d, u.data + k * u.n + cv, sizeof(d));
+            std::memcpy(&idx, u.index + k * u.n + cv, sizeof(idx));
+            if (places[0] >= 0) {  // at most four places among the 16 cells (a triangle's corner): selects
+                x = zero + values[places[0]];
+                x = idx == places[1] ? zero + values[places[1]] : x;
+                x = idx == places[2] ? zero + values[places[2]] : x;
+                x = idx == places[3] ? zero + values[places[3]] : x;
+            } else {
+                for (int l = 0; l < 16; ++l) x[l] = values[idx[l]];
+            }
+            y[v] = y[v] + d * x;
+        }
+    }
+    for (std::size_t t = 0; t < u.n_taps; ++t) {
+        for (int v = 0; v < V; ++v) {
+            F16 x;
+            std::memcpy(&x, in[t] + c + 16 * static_cast<std::size_t>(v), sizeof(x));
+            acc[v] = acc[v] + u.taps[t] * x;
+        }
+    }
+    for (int v = 0; v < V; ++v) {
+        const std::size_t cv = c + 16 * static_cast<std::size_t>(v);
+        F16 yy = y[v] > lowest ? y[v] : lowest;
+        F16 l, mg;
+        exp2_vector(yy, l);
+        const F16 p = (acc[v] * u.a + u.f) * l;
+        std::memcpy(belief + cv, &p, sizeof(p));
+        if (b == 0) {
+            mg = zero + p;
+        } else {
+            std::memcpy(&mg, u.marginal + cv, sizeof(mg));
+            mg = mg + p;
+        }
+        std::memcpy(u.marginal + cv, &mg, sizeof(mg));
+    }
+}
+
+NL_INLINE void measure_vector(const UpdateArgs& u, std::size_t c0, std::size_t m) {
     const float* in[kMaxTaps];
     for (std::size_t b = 0; b < u.bins; ++b) {
         const float* values = u.log_lik + b * u.stride;
@@ -260,43 +319,8 @@ NL_INLINE void measure_vector(const UpdateArgs& u, std::size_t c0, std::size_t m
             __builtin_prefetch(belief + c, 1);
         }
         std::size_t c = c0;
-        for (; c + 16 <= c0 + m; c += 16) {
-            F16 y = {};
-            const std::int32_t* pair = u.pairs + 2 * (c / 16) * u.slots;
-            for (std::size_t k = 0; k < u.slots; ++k) {
-                F16 d, v;
-                I16 idx;
-                std::memcpy(&d, u.data + k * u.n + c, sizeof(d));
-                std::memcpy(&idx, u.index + k * u.n + c, sizeof(idx));
-                const std::int32_t first = pair[2 * k], second = pair[2 * k + 1];
-                if (first >= 0) {  // at most two places among the 16 cells (one triangle edge): two loads
-                    const F16 v0 = zero + values[first], v1 = zero + values[second];
-                    v = idx == second ? v1 : v0;
-                } else {
-                    for (int l = 0; l < 16; ++l) v[l] = values[idx[l]];
-                }
-                y = y + d * v;
-            }
-            y = y > lowest ? y : lowest;
-            F16 acc = {};
-            for (std::size_t t = 0; t < u.n_taps; ++t) {
-                F16 x;
-                std::memcpy(&x, in[t] + c, sizeof(x));
-                acc = acc + u.taps[t] * x;
-            }
-            const F16 prior = acc * u.a + u.f;
-            F16 l, mg;
-            exp2_vector(y, l);
-            const F16 p = prior * l;
-            std::memcpy(belief + c, &p, sizeof(p));
-            if (b == 0) {
-                mg = zero + p;
-            } else {
-                std::memcpy(&mg, u.marginal + c, sizeof(mg));
-                mg = mg + p;
-            }
-            std::memcpy(u.marginal + c, &mg, sizeof(mg));
-        }
+        for (; c + 64 <= c0 + m; c += 64) measure_groups<4>(u, b, c, values, in, belief);
+        for (; c + 16 <= c0 + m; c += 16) measure_groups<1>(u, b, c, values, in, belief);
         for (; c < c0 + m; ++c) measure_one(u, b, c);
     }
 }
@@ -320,7 +344,7 @@ NL_INLINE void sum_vector(const float* values, std::size_t n, double* lanes) {
 
 #define NL_DEFINE_FILTER_KERNELS(suffix, attributes, variant, vector_on)                                            \
     attributes void box_rows_##suffix(const float* src, float* dst, std::size_t rows, std::size_t cols,            \
-                                      const BoxPass& pass, double* acc, const float* zeros) {                      \
+                                      const BoxPass& pass, float* acc, const float* zeros) {                       \
         box_rows_body(src, dst, rows, cols, pass, acc, zeros);                                                      \
     }                                                                                                               \
     attributes void conv_rows_##suffix(const float* src, float* dst, std::size_t rows, std::size_t cols,           \

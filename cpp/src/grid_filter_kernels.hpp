@@ -27,8 +27,8 @@ inline constexpr std::size_t kMaxTaps = 4096;
 struct UpdateArgs {
     const float* data;           ///< ELL weights, slot k of cell c at k * n + c (unused slots weigh 0)
     const std::int32_t* index;   ///< ELL place indices, same layout
-    const std::int32_t* pairs;   ///< per block of 16 cells (c / 16) and slot k, at 2 (block slots + k): the
-                                 ///< two places its 16 indices take (equal if one), or -1 when more
+    const std::int32_t* places4; ///< per block of 16 cells (c / 16) and slot k, at 4 (block slots + k): the
+                                 ///< up to four places its 16 indices take (repeated to fill), or -1 when more
     std::size_t slots, n;        ///< slots per cell, cells
     const float* log_lik;        ///< bins rows of `stride` values: the log2-likelihood of each place
     std::size_t stride, bins;
@@ -42,14 +42,14 @@ struct UpdateArgs {
 };
 
 struct FilterKernels {
-    /// One extended-box pass along the row axis: dst[j][i] = max(0, float((sum_{|t| <= r}
-    /// src[j+t][i] + alpha (src[j-r-1][i] + src[j+r+1][i])) * inv_w)), rows beyond [0, rows)
-    /// zero. The window sum is a running double sum (acc: cols doubles of scratch), added row by
-    /// row in the order: start with rows 0..r, then per output row j: +src[j+r+1], -src[j-r];
-    /// the two extra taps are added in double as double(src[j-r-1]) + double(src[j+r+1]) (a
-    /// missing row counts 0). `zeros`: cols zeros.
+    /// One extended-box pass along the row axis: dst[j][i] = max(0, (acc + alpha (src[j-r-1][i] +
+    /// src[j+r+1][i])) * inv_w) in float32, rows beyond [0, rows) zero, where acc is the running
+    /// sum of src[j-r..j+r][i] (acc: cols floats of scratch): it starts as 0 + rows 0..r, and
+    /// after output row j becomes (acc + src[j+r+1]) - src[j-r] (missing rows count 0; `zeros`:
+    /// cols zeros). A running float sum leaves rounding residues of ~1e-7 of the largest value it
+    /// carried; negative ones are cut to 0.
     void (*box_rows)(const float* src, float* dst, std::size_t rows, std::size_t cols, const BoxPass& pass,
-                     double* acc, const float* zeros);
+                     float* acc, const float* zeros);
     /// dst[j][i] = sum_t taps[t] * src[j + t - offset][i] for t < n_taps (rows outside [0, rows)
     /// count 0; n_taps <= kMaxTaps), summed in float from 0 in t order. `zeros`: cols zeros.
     void (*conv_rows)(const float* src, float* dst, std::size_t rows, std::size_t cols, const float* taps,

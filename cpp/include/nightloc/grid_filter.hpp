@@ -25,10 +25,11 @@
 //      per axis, as three extended-box passes per axis (Gwosdek et al. 2011: the exact variance).
 //      Shift and blur act on the plane (the belief is zero beyond the grid) and the result is cut
 //      to the grid: mass that leaves the grid is dropped. Per axis one linear operator, y first:
-//      short kernels (<= 49 taps) composed with the shift and applied as one explicit pass; wider
-//      ones as running sums in double over a tile that holds the shifted belief (O(1) per cell);
+//      short kernels (<= 13 taps: box radius <= 1 cell) composed with the shift and applied as one
+//      explicit pass; wider ones as the shift's two taps then running float sums (O(1) per cell)
+//      over a tile that holds everything the passes spread beyond the grid;
 //   3. heading blur: a circular Gaussian of std sqrt(heading_std^2 + heading_floor^2) radians
-//      over the bins (explicit taps within 4 std);
+//      over the bins (taps within 3 std, those below 1e-4 of the peak left out);
 //   4. normalization and a uniform floor: p = (1 - uniform_floor) p / sum + uniform_floor / cells
 //      (a kidnapped robot is found again; an empty grid becomes uniform).
 // Map-frame motion (dx, dy): one shift, blur std sqrt(distance_std^2 + (|d| heading_std)^2 +
@@ -189,13 +190,13 @@ private:
     std::vector<float> ell_data_;      // the weights, slot k of cell c at k * cells + c; a cell
                                        // without weights: weight 1 at place index places_ (the fill)
     std::vector<std::int32_t> ell_index_;
-    std::vector<std::int32_t> ell_pairs_;    // per 16-cell block and slot: its two places, or -1
+    std::vector<std::int32_t> ell_places_;   // per 16-cell block and slot: its <= 4 places, or -1
     mutable std::vector<float> belief_;
     std::vector<float> work_;
     mutable std::vector<float> marginal_;
     mutable bool marginal_valid_ = true;
     std::vector<float> tile_a_, tile_b_, zeros_, padded_, taps_x_, taps_y_, wide_a_, wide_b_, wide_c_;
-    std::vector<double> sums_;         // running sums of the box passes
+    std::vector<float> sums_;          // running sums of the box passes
     std::vector<float> table_, mins_, place_scores_, log_lik_;
     std::vector<std::int32_t> best_shifts_;
     mutable std::vector<double> scratch_;
