@@ -161,8 +161,11 @@ NL_INLINE void conv_cols_body(const float* src, float* dst, std::size_t rows, st
         const float* x = src + j * cols;
         const std::ptrdiff_t q0 = lead > 0 ? lead : 0;
         const std::ptrdiff_t q1 = std::min(static_cast<std::ptrdiff_t>(length), lead + static_cast<std::ptrdiff_t>(cols));
-        for (std::size_t q = 0; q < length; ++q) padded[q] = 0.f;
-        for (std::ptrdiff_t q = q0; q < q1; ++q) padded[q] = x[q - lead];
+        const auto lo = static_cast<std::size_t>(std::min(q0, static_cast<std::ptrdiff_t>(length)));
+        const auto hi = static_cast<std::size_t>(std::max(q1, static_cast<std::ptrdiff_t>(lo)));
+        for (std::size_t q = 0; q < lo; ++q) padded[q] = 0.f;
+        for (std::size_t q = lo; q < hi; ++q) padded[q] = x[static_cast<std::ptrdiff_t>(q) - lead];
+        for (std::size_t q = hi; q < length; ++q) padded[q] = 0.f;
         taps_row<Vector>(in, taps, n_taps, dst + j * cols, cols);
     }
 }
