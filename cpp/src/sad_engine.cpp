@@ -203,4 +203,28 @@ void difference_matrix(const std::uint8_t* queries, std::size_t n_queries, const
     });
 }
 
+std::size_t match(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
+                  std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, float* scores,
+                  std::int32_t* best_shifts, double* headings, int threads) {
+    if (n_refs == 0) throw std::invalid_argument("the reference stack is empty");
+    std::vector<std::uint32_t> sums(n_refs);
+    difference_matrix_sums(query, 1, refs, n_refs, height, width, shifts, n_shifts, sums.data(), best_shifts, threads);
+    const auto pixels = static_cast<double>(height * width);
+    std::size_t best = 0;
+    for (std::size_t i = 0; i < n_refs; ++i) {
+        scores[i] = score_from_sum(sums[i], pixels);
+        if (sums[i] < sums[best]) best = i;  // the first minimum: ties go to the lowest index
+    }
+    if (headings != nullptr) {
+        for (std::size_t i = 0; i < n_refs; ++i) headings[i] = shift_heading(best_shifts[i], width);
+    }
+    return best;
+}
+
+double shift_heading(std::int32_t shift, std::size_t width) noexcept {
+    const double two_pi = 6.283185307179586476925286766559;
+    const double angle = two_pi * static_cast<double>(shift) / static_cast<double>(width);
+    return angle > 0.5 * two_pi ? angle - two_pi : angle;
+}
+
 }  // namespace nightloc

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cstdlib>
 #include <stdexcept>
+#include <string>
 
 #include "sad_kernels.hpp"
 
@@ -43,19 +44,22 @@ SimdBackend default_backend() noexcept {
 }  // namespace
 
 const char* simd_backend_name(SimdBackend backend) noexcept {
-    switch (backend) {
-        case SimdBackend::scalar: return "scalar";
-        case SimdBackend::sse2: return "sse2";
-        case SimdBackend::avx2: return "avx2";
-        case SimdBackend::avx512bw: return "avx512bw";
+    for (const SimdBackendName& entry : kSimdBackendNames) {
+        if (entry.backend == backend) return entry.name;
     }
     return "unknown";
 }
 
+std::string simd_backend_names() {
+    std::string out;
+    for (const SimdBackendName& entry : kSimdBackendNames) out += (out.empty() ? "" : ", ") + std::string(entry.name);
+    return out;
+}
+
 bool parse_simd_backend(const std::string& name, SimdBackend& backend) noexcept {
-    for (SimdBackend b : {SimdBackend::scalar, SimdBackend::sse2, SimdBackend::avx2, SimdBackend::avx512bw}) {
-        if (name == simd_backend_name(b)) {
-            backend = b;
+    for (const SimdBackendName& entry : kSimdBackendNames) {
+        if (name == entry.name) {
+            backend = entry.backend;
             return true;
         }
     }
@@ -66,8 +70,8 @@ bool simd_backend_supported(SimdBackend backend) noexcept { return cpu_supports(
 
 std::vector<SimdBackend> supported_simd_backends() {
     std::vector<SimdBackend> out;
-    for (SimdBackend b : {SimdBackend::scalar, SimdBackend::sse2, SimdBackend::avx2, SimdBackend::avx512bw}) {
-        if (cpu_supports(b)) out.push_back(b);
+    for (const SimdBackendName& entry : kSimdBackendNames) {
+        if (cpu_supports(entry.backend)) out.push_back(entry.backend);
     }
     return out;
 }

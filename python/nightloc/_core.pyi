@@ -10,6 +10,7 @@ DEFAULT_PATCH_SCALE: float
 MAX_IMAGE_PIXELS: int
 MAX_PATCH_RADIUS: int
 MAX_TRAJECTORY_PLAN_ENTRIES: float
+ALL_SIMD_BACKENDS: Tuple[str, ...]
 
 def simd_backend() -> str: ...
 def best_simd_backend() -> str: ...

@@ -1,8 +1,8 @@
 """Which SIMD path the compiled kernels use, and a way to force one (tests run every path).
 
 The paths give bit-identical results; only their speed differs. The default is the fastest the
-CPU supports, or the one named by the environment variable ``NIGHTLOC_SIMD`` (``scalar``,
-``sse2``, ``avx2``, ``avx512bw``) when it is set to a supported path.
+CPU supports, or the one named by the environment variable ``NIGHTLOC_SIMD`` (one of
+``ALL_BACKENDS``: ``scalar``, ``sse2``, ``avx2``, ``avx512bw``) when it is set to a supported path.
 
 On CPUs with AVX-512 VNNI, the ``avx512bw`` path's all-shift kernel accumulates with
 ``vpdpwssd`` instead of ``vpaddw`` (same results, about 15 % faster); the environment variable
@@ -18,13 +18,14 @@ from typing import Iterator, Optional, Tuple
 
 from . import _core
 
-__all__ = ["simd_backend", "available_simd_backends", "set_simd_backend", "use_simd_backend"]
+__all__ = ["ALL_BACKENDS", "simd_backend", "available_simd_backends", "set_simd_backend", "use_simd_backend"]
 
-ALL_BACKENDS: Tuple[str, ...] = ("scalar", "sse2", "avx2", "avx512bw")
+#: Every path the core knows (named once, in the C++ core), whether or not this CPU has it.
+ALL_BACKENDS: Tuple[str, ...] = tuple(_core.ALL_SIMD_BACKENDS)
 
 
 def simd_backend() -> str:
-    """Name of the SIMD path in use: ``"scalar"``, ``"sse2"``, ``"avx2"`` or ``"avx512bw"``."""
+    """Name of the SIMD path in use, one of ``ALL_BACKENDS``."""
     return _core.simd_backend()
 
 

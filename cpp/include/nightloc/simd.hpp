@@ -15,8 +15,25 @@ namespace nightloc {
 
 enum class SimdBackend : int { scalar = 0, sse2 = 1, avx2 = 2, avx512bw = 3 };
 
-/// Lower-case name of a path: "scalar", "sse2", "avx2" or "avx512bw".
+/// A path and its name: the one place the names are written (the bindings and Python read them).
+struct SimdBackendName {
+    SimdBackend backend;
+    const char* name;
+};
+
+/// Every path the library knows (compiled into this build or not), slowest first per architecture.
+inline constexpr SimdBackendName kSimdBackendNames[] = {
+    {SimdBackend::scalar, "scalar"},
+    {SimdBackend::sse2, "sse2"},
+    {SimdBackend::avx2, "avx2"},
+    {SimdBackend::avx512bw, "avx512bw"},
+};
+
+/// Lower-case name of a path (see kSimdBackendNames).
 const char* simd_backend_name(SimdBackend backend) noexcept;
+
+/// All names of kSimdBackendNames, comma-separated (for messages).
+std::string simd_backend_names();
 
 /// Parses a name as returned by simd_backend_name(); false when the name is unknown.
 bool parse_simd_backend(const std::string& name, SimdBackend& backend) noexcept;
