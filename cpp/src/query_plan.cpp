@@ -34,6 +34,10 @@ CopiesKernel copies_kernel_for(SimdBackend backend) {
         case SimdBackend::avx2: return sad_copies_avx2;
         case SimdBackend::avx512bw: return sad_copies_avx512bw;
 #endif
+#if NIGHTLOC_ARM_KERNELS
+        case SimdBackend::neon: return sad_copies_neon;
+        case SimdBackend::neon_dotprod: return sad_copies_neon_dotprod;
+#endif
         default: return sad_copies_scalar;
     }
 }

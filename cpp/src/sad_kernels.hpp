@@ -10,6 +10,13 @@
 #define NIGHTLOC_X86_KERNELS 0
 #endif
 
+// AArch64: NEON is part of the baseline; the dot-product kernels carry a target attribute.
+#if defined(__aarch64__) && (defined(__GNUC__) || defined(__clang__))
+#define NIGHTLOC_ARM_KERNELS 1
+#else
+#define NIGHTLOC_ARM_KERNELS 0
+#endif
+
 namespace nightloc::detail {
 
 /// Byte alignment and padding granule of the query copies (one zmm register).
@@ -28,6 +35,17 @@ using CopiesKernel = void (*)(const std::uint8_t* copies, std::size_t stride, st
 void sad_copies_scalar(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
                        const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
                        std::size_t out_stride);
+
+#if NIGHTLOC_ARM_KERNELS
+/// NEON: vabdq_u8 + vpadalq_u8 into 16-bit lanes (flushed to 32 bits before they can overflow).
+void sad_copies_neon(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
+                     const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                     std::size_t out_stride);
+/// NEON with the dot-product extension (ARMv8.2 udot): vabdq_u8 + vdotq_u32 against ones.
+void sad_copies_neon_dotprod(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
+                             const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                             std::size_t out_stride);
+#endif
 
 #if NIGHTLOC_X86_KERNELS
 void sad_copies_sse2(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,

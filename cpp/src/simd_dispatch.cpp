@@ -8,11 +8,31 @@
 
 #include "sad_kernels.hpp"
 
+#if NIGHTLOC_ARM_KERNELS && defined(__linux__)
+#include <sys/auxv.h>
+#endif
+
 namespace nightloc {
 namespace {
 
+#if NIGHTLOC_ARM_KERNELS && defined(__linux__)
+constexpr unsigned long kHwcapAsimdDotProduct = 1ul << 20;  // HWCAP_ASIMDDP (asm/hwcap.h)
+#endif
+
 constexpr int kUnset = -1;
 std::atomic<int> g_active{kUnset};
+
+#if NIGHTLOC_ARM_KERNELS
+// The dot-product extension (udot), from the kernel's hardware capabilities: never from compile
+// flags, so one binary serves Cortex-A53/A72 (without) and A55/A76 and later (with).
+bool arm_has_dotprod() noexcept {
+#if defined(__linux__)
+    return (getauxval(AT_HWCAP) & kHwcapAsimdDotProduct) != 0;
+#else
+    return false;
+#endif
+}
+#endif
 
 bool cpu_supports(SimdBackend backend) noexcept {
     switch (backend) {
@@ -25,12 +45,16 @@ bool cpu_supports(SimdBackend backend) noexcept {
             return __builtin_cpu_supports("avx2");
         case SimdBackend::avx512bw:
             return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw");
-#else
+#endif
+#if NIGHTLOC_ARM_KERNELS
+        case SimdBackend::neon:
+            return true;  // part of the AArch64 baseline
+        case SimdBackend::neon_dotprod:
+            return arm_has_dotprod();
+#endif
         default:
             return false;
-#endif
     }
-    return false;
 }
 
 SimdBackend default_backend() noexcept {
@@ -77,10 +101,12 @@ std::vector<SimdBackend> supported_simd_backends() {
 }
 
 SimdBackend best_simd_backend() noexcept {
-    for (SimdBackend b : {SimdBackend::avx512bw, SimdBackend::avx2, SimdBackend::sse2}) {
-        if (cpu_supports(b)) return b;
+    // the last supported entry: the table lists each architecture's paths slowest first
+    SimdBackend best = SimdBackend::scalar;
+    for (const SimdBackendName& entry : kSimdBackendNames) {
+        if (cpu_supports(entry.backend)) best = entry.backend;
     }
-    return SimdBackend::scalar;
+    return best;
 }
 
 SimdBackend active_simd_backend() noexcept {

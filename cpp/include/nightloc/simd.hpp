@@ -13,7 +13,7 @@
 
 namespace nightloc {
 
-enum class SimdBackend : int { scalar = 0, sse2 = 1, avx2 = 2, avx512bw = 3 };
+enum class SimdBackend : int { scalar = 0, sse2 = 1, avx2 = 2, avx512bw = 3, neon = 4, neon_dotprod = 5 };
 
 /// A path and its name: the one place the names are written (the bindings and Python read them).
 struct SimdBackendName {
@@ -21,12 +21,15 @@ struct SimdBackendName {
     const char* name;
 };
 
-/// Every path the library knows (compiled into this build or not), slowest first per architecture.
+/// Every path the library knows (compiled into this build or not), slowest first per
+/// architecture: x86-64 (sse2, avx2, avx512bw) and AArch64 (neon, neon-dotprod).
 inline constexpr SimdBackendName kSimdBackendNames[] = {
     {SimdBackend::scalar, "scalar"},
     {SimdBackend::sse2, "sse2"},
     {SimdBackend::avx2, "avx2"},
     {SimdBackend::avx512bw, "avx512bw"},
+    {SimdBackend::neon, "neon"},
+    {SimdBackend::neon_dotprod, "neon-dotprod"},
 };
 
 /// Lower-case name of a path (see kSimdBackendNames).
