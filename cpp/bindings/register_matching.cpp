@@ -1,6 +1,7 @@
 // pybind11 glue for matching (nightloc.matching): rotation-invariant SAD tables, the per-frame
 // match, difference matrices (nightloc/sad.hpp) and the choice of SIMD path (nightloc/simd.hpp).
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -142,6 +143,36 @@ void register_matching(py::module_& m) {
         py::arg("name"), "Forces a SIMD path for the whole process.");
     m.def("reset_simd_backend", &nightloc::reset_simd_backend,
           "Returns to the default SIMD path (NIGHTLOC_SIMD if valid, else the best).");
+
+    m.def(
+        "available_avx512_sad_variants",
+        [] {
+            std::vector<std::string> names;
+            for (auto v : {nightloc::Avx512SadVariant::vpaddw, nightloc::Avx512SadVariant::vnni}) {
+                if (nightloc::avx512_sad_variant_supported(v)) names.emplace_back(nightloc::avx512_sad_variant_name(v));
+            }
+            return names;
+        },
+        "Accumulations of the avx512bw all-shift SAD kernel this CPU can run (vpaddw, vnni).");
+    m.def(
+        "avx512_sad_variant",
+        []() -> py::object {
+            if (!nightloc::avx512_sad_variant_supported(nightloc::Avx512SadVariant::vpaddw)) return py::none();
+            const auto variant = nightloc::avx512_sad_variant();  // may time both variants, once per process
+            return py::make_tuple(nightloc::avx512_sad_variant_name(variant), nightloc::avx512_sad_variant_reason());
+        },
+        "(variant, reason) of the avx512bw path's all-shift SAD kernel; None without AVX-512BW.");
+    m.def(
+        "set_avx512_sad_variant",
+        [](const std::optional<std::string>& name) {
+            if (!name) return nightloc::reset_avx512_sad_variant();
+            if (*name != "vpaddw" && *name != "vnni") {
+                throw py::value_error("unknown AVX-512 SAD variant '" + *name + "'; expected vpaddw or vnni");
+            }
+            nightloc::set_avx512_sad_variant(*name == "vnni" ? nightloc::Avx512SadVariant::vnni
+                                                             : nightloc::Avx512SadVariant::vpaddw);
+        },
+        py::arg("name"), "Forces the avx512bw all-shift SAD variant process-wide (None: the per-CPU choice).");
 
     m.def("rotational_sad", &rotational_sad, py::arg("query"), py::arg("refs"), py::arg("shifts"), py::arg("threads"),
           py::arg("divisor") = 0.0);

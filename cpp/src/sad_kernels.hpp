@@ -82,9 +82,12 @@ void sad_all_shifts_avx512vnni(const std::uint8_t* interleaved, std::size_t widt
 using AllShiftKernel = void (*)(const std::uint8_t*, std::size_t, const std::uint8_t*, std::size_t, std::size_t,
                                 std::uint32_t*, std::size_t, const std::uint16_t*, std::uint32_t*, std::int32_t*);
 
-/// The all-shift kernel for this CPU: the VNNI variant where the CPU has avx512vnni, unless the
-/// environment variable NIGHTLOC_AVX512_VNNI is "0" (read once).
-AllShiftKernel all_shift_kernel() noexcept;
+/// The all-shift kernel of the variant in use (nightloc::avx512_sad_variant(), avx512_variant.cpp).
+AllShiftKernel all_shift_kernel();
+
+/// The CPU family table of the variant choice: the Avx512SadVariant value for a CPUID vendor
+/// string and family, or -1 (not listed: measure); `why` receives the table's reason.
+int avx512_sad_variant_of_family(const char* vendor, unsigned family, const char** why) noexcept;
 #endif
 
 }  // namespace nightloc::detail

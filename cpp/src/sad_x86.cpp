@@ -302,16 +302,6 @@ void sad_all_shifts_avx512vnni(const std::uint8_t* interleaved, std::size_t widt
     sad_all_shifts<true>(interleaved, width, refs, n_refs, pixels, out, out_stride, selected, best_sums, best_shifts);
 }
 
-AllShiftKernel all_shift_kernel() noexcept {
-    static const AllShiftKernel chosen = [] {
-        const char* env = std::getenv("NIGHTLOC_AVX512_VNNI");
-        const bool disabled = env != nullptr && std::strcmp(env, "0") == 0;
-        return __builtin_cpu_supports("avx512vnni") && !disabled ? sad_all_shifts_avx512vnni
-                                                                 : sad_all_shifts_avx512bw;
-    }();
-    return chosen;
-}
-
 }  // namespace nightloc::detail
 
 #endif  // NIGHTLOC_X86_KERNELS

@@ -4,9 +4,12 @@ The paths give bit-identical results; only their speed differs. The default is t
 CPU supports, or the one named by the environment variable ``NIGHTLOC_SIMD`` (one of
 ``ALL_BACKENDS``: ``scalar``, ``sse2``, ``avx2``, ``avx512bw``) when it is set to a supported path.
 
-On CPUs with AVX-512 VNNI, the ``avx512bw`` path's all-shift kernel accumulates with
-``vpdpwssd`` instead of ``vpaddw`` (same results, about 15 % faster); the environment variable
-``NIGHTLOC_AVX512_VNNI=0``, read once at start-up, keeps the ``vpaddw`` kernel.
+On CPUs with AVX-512 VNNI, the ``avx512bw`` path's all-shift kernel can accumulate with
+``vpdpwssd`` (``"vnni"``) or ``vpaddw`` (same results); which is faster depends on the CPU
+(``vpaddw`` by 20 % on AMD Zen 4, within a few per cent either way on Intel Sapphire Rapids).
+The choice is made once per process — a table for AMD Zen 4, otherwise both are timed at first
+use (about a millisecond) — and ``avx512_sad_variant()`` says which and why;
+``NIGHTLOC_AVX512_VNNI=0`` or ``1`` forces it.
 """
 
 from __future__ import annotations
@@ -18,7 +21,14 @@ from typing import Iterator, Optional, Tuple
 
 from . import _core
 
-__all__ = ["ALL_BACKENDS", "simd_backend", "available_simd_backends", "set_simd_backend", "use_simd_backend"]
+__all__ = [
+    "ALL_BACKENDS",
+    "simd_backend",
+    "available_simd_backends",
+    "set_simd_backend",
+    "use_simd_backend",
+    "avx512_sad_variant",
+]
 
 #: Every path the core knows (named once, in the C++ core), whether or not this CPU has it.
 ALL_BACKENDS: Tuple[str, ...] = tuple(_core.ALL_SIMD_BACKENDS)
@@ -57,6 +67,16 @@ def use_simd_backend(name: str) -> Iterator[None]:
         yield
     finally:
         _core.set_simd_backend(previous)
+
+
+def avx512_sad_variant() -> Optional[Tuple[str, str]]:
+    """``(variant, reason)`` of the ``avx512bw`` path's all-shift SAD kernel, e.g.
+    ``("vpaddw", "CPU table: AuthenticAMD family 19h ...")``; None on CPUs without AVX-512BW.
+
+    The first call may time both variants (about a millisecond, once per process).
+    """
+    found = _core.avx512_sad_variant()
+    return None if found is None else (str(found[0]), str(found[1]))
 
 
 def _check_environment() -> None:

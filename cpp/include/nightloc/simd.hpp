@@ -1,11 +1,18 @@
-// Run-time selection of the SIMD path used by the SAD kernels.
+// Run-time selection of the SIMD path used by the kernels.
 //
 // Every path computes bit-identical results; they differ only in speed. The active path is the
-// best one the CPU supports, unless the environment variable NIGHTLOC_SIMD (scalar, sse2, avx2,
-// avx512bw) names another supported one when the path is first queried, or set_simd_backend()
-// forces one (tests use this to check every path on one machine). Within the avx512bw path, CPUs
-// with AVX-512 VNNI accumulate the all-shift kernel with vpdpwssd (same results, faster); the
-// environment variable NIGHTLOC_AVX512_VNNI=0, read once, keeps the vpaddw variant.
+// best one the CPU supports, unless the environment variable NIGHTLOC_SIMD (a name of
+// kSimdBackendNames) names another supported one when the path is first queried, or
+// set_simd_backend() forces one (tests use this to check every path on one machine).
+//
+// Within the avx512bw path, the all-shift SAD kernel accumulates either with vpaddw or, on CPUs
+// with AVX-512 VNNI, with vpdpwssd (same results). Which one is faster depends on the CPU (and on
+// the host): on AMD Zen 4 vpaddw by 20 % (234-239 vs 189 G/s); on Intel Sapphire Rapids the two
+// were within a few per cent, either way round. The variant is chosen once per process
+// (avx512_sad_variant_reason() says how): NIGHTLOC_AVX512_VNNI=0 or 1 forces it; AMD family 19h
+// (Zen 4) takes vpaddw from a table; on every other CPU with VNNI (or with
+// NIGHTLOC_AVX512_VNNI=measure) both are timed at first use (about a millisecond, 3.5 M byte
+// comparisons each, best of 7 alternating rounds) and the faster one is kept.
 #pragma once
 
 #include <string>
@@ -59,5 +66,28 @@ void set_simd_backend(SimdBackend backend);
 
 /// Returns to the default choice (NIGHTLOC_SIMD if valid, else the best path).
 void reset_simd_backend() noexcept;
+
+/// How the avx512bw path's all-shift SAD kernel accumulates (bit-identical results).
+enum class Avx512SadVariant : int { vpaddw = 0, vnni = 1 };
+
+/// "vpaddw" or "vnni".
+const char* avx512_sad_variant_name(Avx512SadVariant variant) noexcept;
+
+/// Whether the variant can run here (vpaddw: AVX-512BW; vnni: also AVX-512 VNNI).
+bool avx512_sad_variant_supported(Avx512SadVariant variant) noexcept;
+
+/// The variant the avx512bw path uses (decided at the first call; see above). Only meaningful
+/// where avx512bw is supported.
+Avx512SadVariant avx512_sad_variant();
+
+/// Why that variant: the override, the CPU family table entry, or the measured times.
+std::string avx512_sad_variant_reason();
+
+/// Forces a variant for the whole process (tests, benchmarks). Throws std::invalid_argument
+/// when the CPU cannot run it.
+void set_avx512_sad_variant(Avx512SadVariant variant);
+
+/// Returns to the per-CPU choice.
+void reset_avx512_sad_variant() noexcept;
 
 }  // namespace nightloc
