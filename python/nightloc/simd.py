@@ -8,7 +8,7 @@ On CPUs with AVX-512 VNNI, the ``avx512bw`` path's all-shift kernel can accumula
 ``vpdpwssd`` (``"vnni"``) or ``vpaddw`` (same results); which is faster depends on the CPU
 (``vpaddw`` by 20 % on AMD Zen 4, within a few per cent either way on Intel Sapphire Rapids).
 The choice is made once per process — a table for AMD Zen 4, otherwise both are timed at first
-use (about a millisecond) — and ``avx512_sad_variant()`` says which and why;
+use (about 2 ms; vnni must win by 2 %) — and ``avx512_sad_variant()`` says which and why;
 ``NIGHTLOC_AVX512_VNNI=0`` or ``1`` forces it.
 """
 
@@ -73,7 +73,7 @@ def avx512_sad_variant() -> Optional[Tuple[str, str]]:
     """``(variant, reason)`` of the ``avx512bw`` path's all-shift SAD kernel, e.g.
     ``("vpaddw", "CPU table: AuthenticAMD family 19h ...")``; None on CPUs without AVX-512BW.
 
-    The first call may time both variants (about a millisecond, once per process).
+    The first call may time both variants (about 2 ms, once per process).
     """
     found = _core.avx512_sad_variant()
     return None if found is None else (str(found[0]), str(found[1]))
