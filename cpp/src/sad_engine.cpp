@@ -23,6 +23,8 @@ constexpr std::size_t kQueryBlockBytes = std::size_t{512} * 1024;
 constexpr std::size_t kMaxQueryBlock = 64;
 // References per task at most (bounds the per-task tile of results).
 constexpr std::size_t kMaxRefsPerTask = 1 << 15;
+// Smallest chunk of references of guided scheduling (~15 us of work at 48x24, all shifts).
+constexpr std::size_t kMinGuidedChunk = 64;
 // Below this many byte comparisons a second thread costs more than it saves (~50 us of work).
 constexpr double kMinComparisonsPerThread = 1e7;
 
@@ -105,11 +107,12 @@ void compute_tile(Tile tile, QueryPlan& plan, bool prepared, const std::uint8_t*
 // tile, from the thread that computed it (tiles never overlap).
 //
 // Work split: blocks of queries (their prepared copies share L2 with a block of references) times
-// chunks of references. With few query blocks (the per-frame match: one), the references are cut
-// into 4 chunks per thread of equal size (to 8 references), handed out dynamically: equal chunks
-// keep two threads equally busy to the end (a short last chunk left one thread idle for up to a
-// chunk), several per thread absorb other processes taking a core for a while. A single query
-// block is prepared once, before the threads start, and shared (evaluation is const).
+// chunks of references, handed out dynamically. A single query block (the per-frame match) is
+// prepared once, before the threads start, and shared (evaluation is const); its references are
+// cut into shrinking chunks (guided scheduling: each a quarter of what is left for two threads,
+// down to 64 references, ~15 us), so that threads that start late (thread creation, another
+// process on the core) or run slower still finish together: with equal chunks one thread could
+// idle for up to a chunk at the end. Several query blocks: 4 equal chunks per thread and block.
 template <class Sink>
 void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs,
                               std::size_t n_refs, const SearchShape& shape, int threads, Sink&& sink) {
@@ -123,22 +126,32 @@ void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries
     const std::size_t n_q_blocks = (n_queries + q_block - 1) / q_block;
     const int n_threads = useful_threads(threads, static_cast<double>(n_queries) * static_cast<double>(n_refs) *
                                                       static_cast<double>(n_shifts) * static_cast<double>(pixels));
+    const auto n_workers = static_cast<std::size_t>(n_threads);
 
-    std::size_t n_r_chunks = (n_refs + kMaxRefsPerTask - 1) / kMaxRefsPerTask;
-    if (n_threads > 1 && n_q_blocks < 4 * static_cast<std::size_t>(n_threads)) {
-        const std::size_t wanted = (4 * static_cast<std::size_t>(n_threads) + n_q_blocks - 1) / n_q_blocks;
-        n_r_chunks = std::max(n_r_chunks, wanted);
+    // Chunk c of the references is [bounds[c], bounds[c + 1]), multiples of 8 but the last.
+    std::vector<std::size_t> bounds{0};
+    if (n_workers > 1 && n_q_blocks == 1) {
+        while (bounds.back() < n_refs) {
+            const std::size_t left = n_refs - bounds.back();
+            const std::size_t size = (std::max(kMinGuidedChunk, left / (2 * n_workers)) + 7) / 8 * 8;
+            bounds.push_back(bounds.back() + std::min({size, left, kMaxRefsPerTask}));
+        }
+    } else {
+        std::size_t n_chunks = (n_refs + kMaxRefsPerTask - 1) / kMaxRefsPerTask;
+        if (n_workers > 1 && n_q_blocks < 4 * n_workers) {
+            n_chunks = std::max(n_chunks, (4 * n_workers + n_q_blocks - 1) / n_q_blocks);
+        }
+        n_chunks = std::clamp<std::size_t>(n_chunks, 1, (n_refs + 7) / 8);
+        for (std::size_t c = 1; c < n_chunks; ++c) bounds.push_back(std::max(bounds.back(), c * n_refs / n_chunks / 8 * 8));
+        bounds.push_back(n_refs);
     }
-    n_r_chunks = std::clamp<std::size_t>(n_r_chunks, 1, (n_refs + 7) / 8);
-    auto chunk_start = [&](std::size_t c) {  // multiples of 8, nearly equal chunks
-        return c >= n_r_chunks ? n_refs : c * n_refs / n_r_chunks / 8 * 8;
-    };
+    const std::size_t n_r_chunks = bounds.size() - 1;
     auto tile_of = [&](std::size_t task) {
         Tile tile{};
         tile.q_first = task / n_r_chunks * q_block;
         tile.q_count = std::min(q_block, n_queries - tile.q_first);
-        tile.r_first = chunk_start(task % n_r_chunks);
-        tile.r_count = chunk_start(task % n_r_chunks + 1) - tile.r_first;
+        tile.r_first = bounds[task % n_r_chunks];
+        tile.r_count = bounds[task % n_r_chunks + 1] - tile.r_first;
         return tile;
     };
 
