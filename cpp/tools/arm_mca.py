@@ -30,6 +30,7 @@ import glob
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -140,6 +141,16 @@ def cycles_per_iteration(mca: str, cpu: str, body_lines: list[str], out_dir: str
     return int(m.group(1)) / iterations
 
 
+def has_model(mca: str, cpu: str, unit_prefix: str) -> bool:
+    """Whether llvm-mca schedules `cpu` with its own model (its resources carry `unit_prefix`)."""
+    with tempfile.NamedTemporaryFile("w", suffix=".s") as f:
+        f.write("add x0, x0, 1\n")
+        f.flush()
+        done = subprocess.run([mca, "-mtriple=aarch64", f"-mcpu={cpu}", "-iterations=1", f.name],
+                              capture_output=True, text=True)
+    return unit_prefix in done.stdout
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--cxx", default="aarch64-linux-gnu-g++", help="AArch64 cross compiler")
@@ -178,6 +189,8 @@ def main() -> int:
                 loops[f"{row}, {title}"] = body_lines
 
     print(f"llvm-mca {version.group(1) if version else '?'} ({mca}); {compiler_version}")
+    if not has_model(mca, "neoverse-n1", "N1Unit"):
+        print("warning: this llvm-mca has no Neoverse-N1 model (its neoverse-n1 is the A57 model): install llvm-19")
     print("Byte comparisons per cycle of the hot loop (bytes per iteration / cycles per iteration):\n")
     print("| loop | " + " | ".join(title for title, *_ in CPUS) + " |")
     print("| --- | " + " | ".join("---" for _ in CPUS) + " |")
@@ -190,4 +203,5 @@ def main() -> int:
 
 
 if __name__ == "__main__":
+    signal.signal(signal.SIGPIPE, signal.SIG_DFL)  # `| head` ends it quietly
     sys.exit(main())
