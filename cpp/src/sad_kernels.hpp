@@ -10,7 +10,8 @@
 #define NIGHTLOC_X86_KERNELS 0
 #endif
 
-// AArch64: NEON is part of the baseline; the dot-product kernels carry a target attribute.
+// AArch64: NEON is part of the baseline; the dot-product kernel's file compiles it for
+// armv8.2-a+dotprod with a target pragma (sad_neon_dotprod.cpp).
 #if defined(__aarch64__) && (defined(__GNUC__) || defined(__clang__))
 #define NIGHTLOC_ARM_KERNELS 1
 #else
