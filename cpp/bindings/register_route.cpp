@@ -1,10 +1,6 @@
 // pybind11 glue for route mode (nightloc.route): contrast enhancement, trajectory search, and a
 // difference matrix written in place into a caller's array. Checks every input and releases the
 // GIL around the work. The documented API is python/nightloc/route.
-#include <pybind11/numpy.h>
-#include <pybind11/pybind11.h>
-#include <pybind11/stl.h>
-
 #include <algorithm>
 #include <cstdint>
 #include <limits>
@@ -12,48 +8,31 @@
 #include <string>
 #include <vector>
 
+#include "glue.hpp"
 #include "nightloc/sad.hpp"
 #include "nightloc/seqslam.hpp"
 
-namespace py = pybind11;
-
 namespace {
 
-using F32Array = py::array_t<float, py::array::c_style>;
-using U8Array = py::array_t<std::uint8_t, py::array::c_style>;
+using nightloc::glue::checked_array;
+using nightloc::glue::extent;
+using nightloc::glue::shape_text;
+using nightloc::glue::without_gil;
 
-std::string shape_of(const py::array& a) {
-    std::string s = "(";
-    for (py::ssize_t d = 0; d < a.ndim(); ++d) s += (d ? ", " : "") + std::to_string(a.shape(d));
-    return s + (a.ndim() == 1 ? ",)" : ")");
-}
+using F32Array = nightloc::glue::CArray<float>;
 
-// A C-contiguous float32 matrix (rank 2), or TypeError/ValueError naming the problem.
+// A C-contiguous (n_query, n_ref) float32 matrix, writable if asked.
 F32Array checked_matrix(const py::array& a, const char* name, bool writable) {
-    // Equivalence, not identity: arrays rebuilt by pickle (e.g. on a Dask worker) may carry an
-    // equal dtype object that is not numpy's cached singleton.
-    if (!py::isinstance<py::array_t<float>>(a)) {
-        throw py::type_error(std::string(name) + " must have dtype float32, got " + std::string(py::str(a.dtype())) +
-                             " (convert with numpy.asarray(x, dtype=numpy.float32))");
-    }
-    if (a.ndim() != 2) {
-        throw py::value_error(std::string(name) + " must be 2-D (n_query, n_ref), got shape " + shape_of(a));
-    }
-    if (!(a.flags() & py::array::c_style)) {
-        throw py::value_error(std::string(name) + " must be C-contiguous (use numpy.ascontiguousarray)");
-    }
-    if (writable && !a.writeable()) throw py::value_error(std::string(name) + " must be writable");
-    return py::reinterpret_borrow<F32Array>(a);
+    F32Array matrix = checked_array<float>(a, name, 2, "(n_query, n_ref)");
+    if (writable) nightloc::glue::require_writable(a, name);
+    return matrix;
 }
 
-U8Array checked_stack(const py::array& a, const char* name) {
-    if (!py::isinstance<py::array_t<std::uint8_t>>(a)) {
-        throw py::type_error(std::string(name) + " must have dtype uint8, got " + std::string(py::str(a.dtype())));
-    }
-    if (a.ndim() != 3) throw py::value_error(std::string(name) + " must be 3-D, got shape " + shape_of(a));
-    if (!(a.flags() & py::array::c_style)) throw py::value_error(std::string(name) + " must be C-contiguous");
-    if (a.shape(0) == 0) throw py::value_error(std::string(name) + " is empty (no images)");
-    return py::reinterpret_borrow<U8Array>(a);
+// A C-contiguous, non-empty (n, h, w) uint8 image stack.
+nightloc::glue::CArray<std::uint8_t> checked_stack(const py::array& a, const char* name) {
+    auto stack = checked_array<std::uint8_t>(a, name, 3);
+    nightloc::glue::require_images(stack, name);
+    return stack;
 }
 
 nightloc::EnhanceOffset offset_from_name(const std::string& name) {
@@ -89,18 +68,15 @@ py::tuple enhance_contrast(const py::array& d_in, int radius, const std::string&
     } else {
         out = checked_matrix(out_in.cast<py::array>(), "out", true);
         if (out.shape(0) != d.shape(0) || out.shape(1) != d.shape(1)) {
-            throw py::value_error("out has shape " + shape_of(out) + " but d has shape " + shape_of(d));
+            throw py::value_error("out has shape " + shape_text(out) + " but d has shape " + shape_text(d));
         }
     }
     const float* src = d.data();
     float* dst = out.mutable_data();
-    float added = 0.0f;
-    {
-        py::gil_scoped_release release;
-        added = nightloc::enhance_contrast(src, dst, static_cast<std::size_t>(d.shape(0)),
-                                           static_cast<std::size_t>(d.shape(1)), static_cast<std::size_t>(radius),
-                                           offset, threads);
-    }
+    const float added = without_gil([&] {
+        return nightloc::enhance_contrast(src, dst, extent(d, 0), extent(d, 1), static_cast<std::size_t>(radius), offset,
+                                          threads);
+    });
     return py::make_tuple(std::move(out), added);
 }
 
@@ -122,13 +98,11 @@ py::tuple trajectory_search(const py::array& dd_in, int ds, double vmin, double 
         s[q] = std::numeric_limits<double>::quiet_NaN();
     }
     const float* m = dd.data();
-    {
-        py::gil_scoped_release release;
-        // std::invalid_argument (too few references) reaches Python as ValueError.
-        nightloc::trajectory_search(m, static_cast<std::size_t>(n_queries), static_cast<std::size_t>(dd.shape(1)),
-                                    plan, r, s, static_cast<std::size_t>(query_begin),
+    // std::invalid_argument (too few references) reaches Python as ValueError.
+    without_gil([&] {
+        nightloc::trajectory_search(m, extent(dd, 0), extent(dd, 1), plan, r, s, static_cast<std::size_t>(query_begin),
                                     static_cast<std::size_t>(query_end), threads);
-    }
+    });
     return py::make_tuple(std::move(refs), std::move(scores));
 }
 
@@ -148,38 +122,25 @@ py::dict trajectory_plan(int ds, double vmin, double vmax, int uniqueness_radius
 
 void difference_matrix_into(const py::array& queries_in, const py::array& refs_in, const py::array& shifts_in,
                             int threads, double divisor, const py::array& out_in) {
-    const U8Array queries = checked_stack(queries_in, "queries");
-    const U8Array refs = checked_stack(refs_in, "refs");
-    if (queries.shape(1) != refs.shape(1) || queries.shape(2) != refs.shape(2)) {
-        throw py::value_error("queries are " + std::to_string(queries.shape(1)) + " x " +
-                              std::to_string(queries.shape(2)) + " pixels but refs are " +
-                              std::to_string(refs.shape(1)) + " x " + std::to_string(refs.shape(2)));
-    }
-    if (!py::isinstance<py::array_t<std::int32_t>>(shifts_in) || shifts_in.ndim() != 1 || shifts_in.size() == 0) {
-        throw py::type_error("shifts must be a non-empty 1-D int32 array");
-    }
-    const auto shifts_view = py::reinterpret_borrow<py::array_t<std::int32_t>>(shifts_in).unchecked<1>();
-    std::vector<std::int32_t> shifts(static_cast<std::size_t>(shifts_view.shape(0)));
-    for (py::ssize_t i = 0; i < shifts_view.shape(0); ++i) shifts[static_cast<std::size_t>(i)] = shifts_view(i);
+    const auto queries = checked_stack(queries_in, "queries");
+    const auto refs = checked_stack(refs_in, "refs");
+    nightloc::glue::require_same_image_size(queries, 1, refs, "query");
+    const std::vector<std::int32_t> shifts = nightloc::glue::shift_list(shifts_in, true);
     F32Array out = checked_matrix(out_in, "out", true);
     if (out.shape(0) != queries.shape(0) || out.shape(1) != refs.shape(0)) {
-        throw py::value_error("out has shape " + shape_of(out) + ", expected (" + std::to_string(queries.shape(0)) +
+        throw py::value_error("out has shape " + shape_text(out) + ", expected (" + std::to_string(queries.shape(0)) +
                               ", " + std::to_string(refs.shape(0)) + ")");
     }
     if (!(divisor > 0.0)) throw py::value_error("divisor must be > 0");
     const std::uint8_t* q = queries.data();
     const std::uint8_t* r = refs.data();
     float* o = out.mutable_data();
-    {
-        py::gil_scoped_release release;
+    without_gil([&] {
         // Best shifts are not needed by route mode: a scratch buffer for this block of queries.
-        std::vector<std::int32_t> best_shifts(static_cast<std::size_t>(queries.shape(0)) *
-                                              static_cast<std::size_t>(refs.shape(0)));
-        nightloc::difference_matrix(q, static_cast<std::size_t>(queries.shape(0)), r,
-                                    static_cast<std::size_t>(refs.shape(0)), static_cast<std::size_t>(refs.shape(1)),
-                                    static_cast<std::size_t>(refs.shape(2)), shifts.data(), shifts.size(), o,
-                                    best_shifts.data(), threads, divisor);
-    }
+        std::vector<std::int32_t> best_shifts(extent(queries, 0) * extent(refs, 0));
+        nightloc::difference_matrix(q, extent(queries, 0), r, extent(refs, 0), extent(refs, 1), extent(refs, 2),
+                                    shifts.data(), shifts.size(), o, best_shifts.data(), threads, divisor);
+    });
 }
 
 }  // namespace

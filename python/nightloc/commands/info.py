@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 
-from .. import __version__
+from .. import __version__, _core
 from ..matching.sad import match
 from ..matching.simd import available_simd_backends, simd_backend, use_simd_backend
 
@@ -36,9 +36,19 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--refs must be >= 1")
     print(f"nightloc {__version__}")
     print(f"SIMD path in use: {simd_backend()}  (supported: {', '.join(available_simd_backends())})")
+    variant = _core.avx512_sad_variant()
+    if variant is not None:
+        print(f"avx512bw all-shift kernel: {variant[0]}  ({variant[1]})")
     print(f"rotation-invariant SAD, 48x24 images, 48 shifts, {args.refs} references, 1 thread:")
     for backend in available_simd_backends():
-        with use_simd_backend(backend):
-            speed = kernel_speed(args.refs, repeats=1 if backend == "scalar" else 5)
-        print(f"  {backend:9s} {speed / 1e9:8.1f} G byte comparisons/s")
+        variants = _core.available_avx512_sad_variants() if backend == "avx512bw" else [None]
+        for name in variants:
+            _core.set_avx512_sad_variant(name)
+            try:
+                with use_simd_backend(backend):
+                    speed = kernel_speed(args.refs, repeats=1 if backend == "scalar" else 5)
+            finally:
+                _core.set_avx512_sad_variant(None)
+            label = backend if name is None else f"{backend} {name}"
+            print(f"  {label:16s} {speed / 1e9:8.1f} G byte comparisons/s")
     return 0
