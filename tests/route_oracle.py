@@ -99,7 +99,8 @@ def find_matches_centred(dd: np.ndarray, ds: int = 10, vmin: float = 0.8, vmax: 
             total = np.zeros(n_ref + 1, F32)
             for k in range(ds + 1):
                 rows = np.minimum(starts + off[k], n_ref)
-                total = (total + padded[columns[k], rows]).astype(F32)
+                with np.errstate(over="ignore", invalid="ignore"):  # inf and NaN propagate as in the core
+                    total = (total + padded[columns[k], rows]).astype(F32)
             per_velocity[vi] = total
         anchor = np.fmin.reduce(per_velocity, axis=0)  # min over speeds, NaN ignored
         index, ratio = _decide(anchor, rwindow // 2)
