@@ -16,14 +16,20 @@ compiled kernel called per map (:func:`add_translated`) and the localizer's comp
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.interpolate import griddata
 from scipy.ndimage import map_coordinates
 
 import nightloc
-from nightloc.heatmap import invert_scores
-from nightloc.sequence import add_translated, add_translated_opencv, cumulative_offsets
+from nightloc.localization.heatmap import invert_scores
+from nightloc.localization.sequence import add_translated, cumulative_offsets
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from heat_oracle import add_translated_opencv, scratch
 
 N_REFS, SEQ_LEN, STEP = 50, 10, (0.12, 0.05)
 GROUP = f"localizer update: {N_REFS} refs, 100x100 grid, n={SEQ_LEN}"
@@ -33,8 +39,9 @@ GROUP = f"localizer update: {N_REFS} refs, 100x100 grid, n={SEQ_LEN}"
 def setup():
     rng = np.random.default_rng(0)
     raw = rng.integers(0, 256, (N_REFS, 96, 192), dtype=np.uint8)
-    ref_map = nightloc.ReferenceMap(nightloc.prepare(raw), rng.uniform([0, 0], [7, 5], (N_REFS, 2)),
-                                    rng.uniform(-np.pi, np.pi, N_REFS))
+    ref_map = nightloc.ReferenceMap(
+        nightloc.prepare(raw), rng.uniform([0, 0], [7, 5], (N_REFS, 2)), rng.uniform(-np.pi, np.pi, N_REFS)
+    )
     frame = rng.integers(0, 256, (320, 640, 3), dtype=np.uint8)
     return ref_map, frame
 
@@ -122,16 +129,26 @@ def sequence_maps(setup):
 
 def _sum_with(translate, layout, padded, offsets):
     total = padded[-1].copy()
-    scratch = layout.scratch()
     for source, (sx, sy) in zip(padded[:-1], offsets):
-        translate(layout, total, source, float(sx), float(sy), scratch)
+        translate(layout, total, source, float(sx), float(sy))
     return layout.view(total)
+
+
+_WORK_BUFFERS: dict = {}
+
+
+def _opencv_passes(layout, out, source, shift_x, shift_y):
+    """The OpenCV three-pass oracle with a work buffer kept across calls (as the core needs none)."""
+    buffer = _WORK_BUFFERS.get(layout.size)
+    if buffer is None:
+        buffer = _WORK_BUFFERS[layout.size] = scratch(layout)
+    add_translated_opencv(layout, out, source, shift_x, shift_y, buffer)
 
 
 @pytest.mark.parametrize("method", ["opencv passes", "core per map"])
 def test_sequence_sum_per_map(benchmark, sequence_maps, method):
     layout, sequence, padded, offsets = sequence_maps
-    translate = add_translated_opencv if method == "opencv passes" else add_translated
+    translate = _opencv_passes if method == "opencv passes" else add_translated
     benchmark.group = SUM_GROUP
     got = benchmark(_sum_with, translate, layout, padded, offsets)
     sequence.fuse_peak(offsets)
@@ -142,4 +159,4 @@ def test_sequence_sum_core_sequence(benchmark, sequence_maps):
     layout, sequence, padded, offsets = sequence_maps
     benchmark.group = SUM_GROUP
     benchmark(sequence.fuse_peak, offsets)
-    np.testing.assert_allclose(sequence.fused(), _sum_with(add_translated_opencv, layout, padded, offsets), atol=1e-5)
+    np.testing.assert_allclose(sequence.fused(), _sum_with(_opencv_passes, layout, padded, offsets), atol=1e-5)

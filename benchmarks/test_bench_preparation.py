@@ -21,11 +21,11 @@ import numpy as np
 import pytest
 
 import nightloc
-from nightloc.preparation import area_downsample, area_downsample_opencv
+from nightloc.preparation.downsample import area_downsample, area_downsample_opencv
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-import oracle  # noqa: E402
-from test_preparation import area_weights, equalize_oracle, panorama  # noqa: E402
+import oracle
+from preparation_oracle import area_weights, equalize_oracle, panorama
 
 SIZES = [(480, 640), (320, 640), (960, 1920)]
 MAP_SIZE = 500

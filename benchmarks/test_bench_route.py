@@ -26,9 +26,9 @@ import pytest
 from nightloc import route
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-import oracle  # noqa: E402
-import route_oracle as ro  # noqa: E402
-from conftest import shared_data_dir  # noqa: E402
+import oracle
+import route_oracle as ro
+from conftest import shared_data_dir
 
 SIZES = [500, 3576]
 _cache: dict = {}
@@ -44,7 +44,10 @@ def nordland(n):
     if (root / "summer").is_dir():
         names = sorted(p.name for p in (root / "summer").iterdir() if p.suffix == ".png")
         chosen = names[1000:1500] if n == 500 else names[:n]
-        load = lambda season: preparer([cv2.imread(str(root / season / name), cv2.IMREAD_COLOR) for name in chosen])
+
+        def load(season):
+            return preparer([cv2.imread(str(root / season / name), cv2.IMREAD_COLOR) for name in chosen])
+
         refs, queries, real = load("summer"), load("winter"), len(chosen) == n
     else:
         refs, queries, _ = ro.synthetic_route(n, n, speed=1.0, seed=n, height=32, width=64)
@@ -93,9 +96,11 @@ def test_core(benchmark, n, threads):
     refs, queries, real = nordland(n)
     benchmark.group = f"route pipeline, {n} x {n}"
     result = benchmark.pedantic(
-        route.match_prepared, args=(refs, queries, "openseqslam"), kwargs={"threads": threads,
-                                                                         "keep_difference": False},
-        rounds=3 if n <= 500 else 2, warmup_rounds=0,
+        route.match_prepared,
+        args=(refs, queries, "openseqslam"),
+        kwargs={"threads": threads, "keep_difference": False},
+        rounds=3 if n <= 500 else 2,
+        warmup_rounds=0,
     )
     record(benchmark, result, n)
     truth = route.GroundTruth.from_frames(n, n, 2)

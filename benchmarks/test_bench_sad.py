@@ -18,7 +18,7 @@ import pytest
 import nightloc
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-import oracle  # noqa: E402
+import oracle
 
 H, W = 24, 48
 SIZES = [50, 500, 5000, pytest.param(50000, marks=pytest.mark.slow)]

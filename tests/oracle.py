@@ -112,7 +112,7 @@ def best_numpy_rotational_sums(query: np.ndarray, refs: np.ndarray, block: int =
     """The fastest vectorized numpy formulation we found (benchmarks/README): all shifts at once,
     |a-b| = a + b - 2 min(a, b) with np.minimum on uint8 and uint32 sums, references in blocks.
     (N, W) int64 sums for shifts 0..W-1."""
-    n, h, w = refs.shape
+    n, _h, w = refs.shape
     flat_refs = refs.reshape(n, -1)
     rolled = np.stack([np.roll(query, -k, axis=1).reshape(-1) for k in range(w)])  # (W, h*w)
     ref_totals = flat_refs.sum(axis=1, dtype=np.int64)

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import json
 import shutil
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Dict, Iterable, Optional, Union
 
 import numpy as np
 
@@ -26,7 +26,7 @@ def random_frames(n: int, seed: int = 0, shape=FRAME_SHAPE) -> list:
     rng = np.random.default_rng(seed)
     frames = []
     for _ in range(n):
-        coarse = rng.integers(0, 256, (shape[0] // 5 + 1, shape[1] // 5 + 1) + tuple(shape[2:]), dtype=np.uint8)
+        coarse = rng.integers(0, 256, (shape[0] // 5 + 1, shape[1] // 5 + 1, *tuple(shape[2:])), dtype=np.uint8)
         frames.append(
             np.ascontiguousarray(
                 np.kron(coarse, np.ones((5, 5) + (1,) * (len(shape) - 2), np.uint8))[: shape[0], : shape[1]]
@@ -59,7 +59,7 @@ class Workspace:
         self._count += 1
         return self.root / f"{stem}_{self._count}"
 
-    def write(self, name: str, data: Union[str, bytes]) -> Path:
+    def write(self, name: str, data: str | bytes) -> Path:
         """Writes ``data`` to a new file named like ``name``; returns its path."""
         path = self.fresh(Path(name).stem).with_suffix(Path(name).suffix)
         path.write_bytes(data.encode("utf-8") if isinstance(data, str) else data)
@@ -76,8 +76,8 @@ class Workspace:
 
     def traverse_variant(
         self,
-        csv: Optional[Union[str, bytes]] = None,
-        images: Optional[Dict[str, bytes]] = None,
+        csv: str | bytes | None = None,
+        images: dict[str, bytes] | None = None,
         remove: Iterable[str] = (),
     ) -> Path:
         """A copy of the good traverse with ``poses.csv`` replaced, image files overwritten and
@@ -100,9 +100,9 @@ class Workspace:
 
     def map_variant(
         self,
-        header_changes: Optional[dict] = None,
-        arrays: Optional[dict] = None,
-        raw_header: Optional[bytes] = None,
+        header_changes: dict | None = None,
+        arrays: dict | None = None,
+        raw_header: bytes | None = None,
         drop: Iterable[str] = (),
     ) -> Path:
         """A copy of the good map with header fields changed, arrays replaced or dropped."""
@@ -120,3 +120,10 @@ class Workspace:
         with open(path, "wb") as stream:
             np.savez(stream, **members)
         return path
+
+
+def reliability_section() -> str:
+    """The README's "Reliability" section."""
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    assert "\n## Reliability\n" in readme, "the README needs a Reliability section"
+    return readme.split("\n## Reliability\n", 1)[1].split("\n## ", 1)[0]

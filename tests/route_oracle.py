@@ -134,8 +134,9 @@ def find_matches_causal(dd: np.ndarray, ds: int = 10, vmin: float = 0.8, vmax: f
     return refs, scores
 
 
-def synthetic_route(n_ref: int, n_query: int, speed: float, seed: int, height: int = 16, width: int = 32,
-                    noise: float = 12.0):
+def synthetic_route(
+    n_ref: int, n_query: int, speed: float, seed: int, height: int = 16, width: int = 32, noise: float = 12.0
+):
     """A 1D route for tests: reference frames of a smoothly changing world (one new random
     texture every frame, blended with its neighbours), and a query traverse of the same route at
     ``speed`` reference frames per query frame, darker, with sensor noise.

@@ -7,7 +7,6 @@ import functools
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Dict, List
 
 import numpy as np
 
@@ -15,7 +14,7 @@ from nightloc.synth.textures import Texture
 from nightloc.synth.world import GroundMap, LightSource, World
 
 
-def bare_world(objects: List[object], lights: Dict[str, LightSource] = None, indoor: bool = False) -> World:
+def bare_world(objects: list[object], lights: dict[str, LightSource] | None = None, indoor: bool = False) -> World:
     """A world of ``objects`` (material ``"grey"``) on a uniform ground, mapped from -10 to 10 m
     in 2 cm cells (farther ground points take the colour of the map's edge)."""
     materials = {"grey": Texture(np.full((8, 8, 3), 128, np.uint8), 100.0)}
@@ -23,8 +22,8 @@ def bare_world(objects: List[object], lights: Dict[str, LightSource] = None, ind
     return World("bare", objects, materials, ground, (0.0, 0.0, 1.0, 1.0), indoor, 0.3, dict(lights or {}), 0)
 
 
-@functools.lru_cache(maxsize=None)
-def default_synth_data() -> Dict[str, Dict[str, Path]]:
+@functools.cache
+def default_synth_data() -> dict[str, dict[str, Path]]:
     """``nightloc.synth.default_dataset`` generated once per test run into a temporary cache."""
     from nightloc.synth import default_dataset
 

@@ -12,60 +12,59 @@ with a compiled SIMD core. Quick start::
 
 from __future__ import annotations
 
+from . import route
 from ._core import __version__
+from .config import load_params, save_params
 from .errors import DatasetError, MapFormatError, NightlocError
+from .io import Traverse, load_traverse, save_traverse
+from .io.reference_map import ReferenceMap
+from .localization import Estimate, LocalizationParams, Localizer, MapDisplacement, RobotMotion
 from .matching import (
-    DEFAULT_PATCH_SCALE,
     MatchResult,
-    block_normalize,
+    available_simd_backends,
     difference_matrix,
     match,
-    patch_normalize,
     rotational_sad,
+    set_simd_backend,
     shifts_to_headings,
+    simd_backend,
+    use_simd_backend,
 )
-from .simd import available_simd_backends, set_simd_backend, simd_backend, use_simd_backend
-from .params import PreparationParams, load_params, save_params
-from .preparation import Preparer, prepare
-from .reference_map import ReferenceMap
-from .traverse import Traverse, load_traverse, save_traverse
-from . import route
+from .preparation import DEFAULT_PATCH_SCALE, PreparationParams, Preparer, block_normalize, patch_normalize, prepare
 from .route import RouteLocalizer, RouteParams
-from .localizer import Estimate, LocalizationParams, Localizer
-from .odometry import MapDisplacement, RobotMotion
 
 __all__ = [
-    "__version__",
     "DEFAULT_PATCH_SCALE",
     "DatasetError",
+    "Estimate",
+    "LocalizationParams",
+    "Localizer",
+    "MapDisplacement",
     "MapFormatError",
     "MatchResult",
     "NightlocError",
+    "PreparationParams",
+    "Preparer",
+    "ReferenceMap",
+    "RobotMotion",
+    "RouteLocalizer",
+    "RouteParams",
+    "Traverse",
+    "__version__",
     "available_simd_backends",
     "block_normalize",
     "difference_matrix",
+    "load_params",
+    "load_traverse",
     "match",
     "patch_normalize",
+    "prepare",
     "rotational_sad",
+    "route",
+    "save_params",
+    "save_traverse",
     "set_simd_backend",
     "shifts_to_headings",
     "simd_backend",
     "use_simd_backend",
-    "Traverse",
-    "load_traverse",
-    "save_traverse",
-    "PreparationParams",
-    "load_params",
-    "save_params",
-    "Preparer",
-    "prepare",
-    "ReferenceMap",
-    "route",
-    "RouteLocalizer",
-    "RouteParams",
-    "Localizer",
-    "LocalizationParams",
-    "Estimate",
-    "MapDisplacement",
-    "RobotMotion",
 ]

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import functools
 import os
-from typing import Optional, Sequence, Union
+from collections.abc import Sequence
 
 import numpy as np
 
-ShiftSpec = Union[None, int, Sequence[int], np.ndarray]
+ShiftSpec = None | int | Sequence[int] | np.ndarray
 
 
 def _describe(array: np.ndarray) -> str:
@@ -80,7 +80,9 @@ def shift_list(shifts: ShiftSpec, width: int) -> np.ndarray:
     if array.dtype.kind not in "iu":
         raise TypeError(f"shifts must be integers, got dtype {array.dtype}")
     if array.min() < 0 or array.max() >= width:
-        raise ValueError(f"shifts must lie in [0, {width}) for images {width} pixels wide, got {array.min()}..{array.max()}")
+        raise ValueError(
+            f"shifts must lie in [0, {width}) for images {width} pixels wide, got {array.min()}..{array.max()}"
+        )
     if np.unique(array).size != array.size:
         raise ValueError("shifts must not repeat a value")
     return np.ascontiguousarray(array, dtype=np.int32)
@@ -99,7 +101,7 @@ def _usable_cores() -> int:
 MAX_THREADS = 1024
 
 
-def thread_count(threads: Optional[int]) -> int:
+def thread_count(threads: int | None) -> int:
     """``threads`` checked (1 .. :data:`MAX_THREADS`), or every core this process may run on when None."""
     if threads is None:
         return _usable_cores()

@@ -12,7 +12,6 @@ import argparse
 import importlib
 import os
 import sys
-from typing import List, Optional
 
 from . import __version__
 
@@ -72,7 +71,7 @@ def _quiet_opencv() -> None:
         pass
 
 
-def main(argv: Optional[List[str]] = None) -> int:
+def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``nightloc`` script; returns the exit status.
 
     0: success; 2: bad input (usage, values, files; one line on stderr); 1: internal error;

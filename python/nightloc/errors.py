@@ -7,7 +7,7 @@ use :class:`NightlocError`, a ``ValueError`` that names the file and, where it a
 
 from __future__ import annotations
 
-__all__ = ["NightlocError", "DatasetError", "MapFormatError"]
+__all__ = ["DatasetError", "MapFormatError", "NightlocError"]
 
 
 class NightlocError(ValueError):

@@ -9,7 +9,8 @@ from __future__ import annotations
 import os
 import sys
 import time
-from typing import Iterable, Iterator, Optional, TypeVar
+from collections.abc import Iterable, Iterator
+from typing import TypeVar
 
 T = TypeVar("T")
 
@@ -23,7 +24,7 @@ def _enabled() -> bool:
     return sys.stderr.isatty()
 
 
-def progress(iterable: Iterable[T], total: Optional[int] = None, desc: str = "", unit: str = "it") -> Iterator[T]:
+def progress(iterable: Iterable[T], total: int | None = None, desc: str = "", unit: str = "it") -> Iterator[T]:
     """Yields the items of ``iterable`` while drawing a progress bar on stderr."""
     if not _enabled():
         yield from iterable

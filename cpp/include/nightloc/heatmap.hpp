@@ -62,7 +62,7 @@ private:
 /// out[j, i] += E(j - shift_y, i - shift_x): `src` (height x width, rows `src_stride` elements
 /// apart) extended with zeros beyond the grid and interpolated bilinearly, added to `out` (rows
 /// `out_stride` apart; only its height x width cells are touched). Shifts are in cells (x along
-/// columns, y along rows) and must be finite. Rounding follows nightloc.sequence's reference:
+/// columns, y along rows) and must be finite. Rounding follows nightloc.localization.sequence's reference:
 /// with ix = floor(shift_x), fx = shift_x - ix (likewise y) and the weights a = T(1 - fx),
 /// b = T(fx), wy0 = T(1 - fy), wy1 = T(fy) (computed in double, then rounded to T),
 ///     R(r, c) = a * src[r, c] + b * src[r, c - 1]

@@ -61,7 +61,7 @@ inline constexpr std::size_t kMaxFramePixels = std::size_t{1} << 31;
 inline constexpr std::size_t kMaxFrameWidth = std::size_t{1} << 24;
 
 /// How the area downsample of an in_height x in_width grey image to out_height x out_width is
-/// computed (the same choice as nightloc.preparation.area_downsample):
+/// computed (the same choice as nightloc.preparation.downsample.area_downsample):
 enum class DownsampleMethod : int {
     copy = 0,      ///< same size: the image itself
     integral = 1,  ///< >= 65 536 input pixels, a non-integer factor: exact area sums from an

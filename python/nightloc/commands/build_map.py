@@ -6,13 +6,14 @@ import argparse
 import time
 from pathlib import Path
 
-from .._atomic import check_output_path
-from ..params import PreparationParams, load_params
-from ..reference_map import ReferenceMap
-from ..traverse import load_traverse
+from ..config import load_params
+from ..io.atomic import check_output_path
+from ..io.reference_map import ReferenceMap
+from ..io.traverse import load_traverse
+from ..preparation.params import PreparationParams
 
 
-def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "build-map",
         help="prepare a traverse (folder or video + poses) into a reference map file",
@@ -41,7 +42,8 @@ def run(args: argparse.Namespace) -> int:
     kind = "360-degree panoramas" if params.wrap else "forward camera"
     print(
         f"{len(reference_map)} frames of {traverse.root} prepared to {params.width}x{params.height} "
-        f"({kind}, equalize={params.equalize}) in {elapsed:.2f} s ({len(reference_map) / max(elapsed, 1e-9):.0f} frames/s)"
+        f"({kind}, equalize={params.equalize}) in {elapsed:.2f} s "
+        f"({len(reference_map) / max(elapsed, 1e-9):.0f} frames/s)"
     )
     extent_min = reference_map.positions.min(axis=0)
     extent_max = reference_map.positions.max(axis=0)

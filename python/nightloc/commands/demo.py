@@ -7,7 +7,7 @@ user cache, about ten seconds): a garden and a living room, each with a day-time
 traverse and a night-time query traverse along another path (the paper's Table I). For each
 world the demo builds the reference map from the day traverse, localizes every night query
 frame for sequence lengths 1-10, odometry noise models 0-3 and interpolation on/off
-(:func:`nightloc.evaluation.evaluate`), prints the median distance errors and writes
+(:func:`nightloc.localization.evaluation.evaluate`), prints the median distance errors and writes
 ``OUT/<world>/errors.csv``, ``summary.csv`` and the figures, as ``nightloc evaluate`` does.
 """
 
@@ -17,10 +17,10 @@ import argparse
 import time
 from pathlib import Path
 
-from .._atomic import check_output_path, make_folder
-from ..evaluation import EvaluationSettings, evaluate
-from ..localizer import LocalizationParams
-from ..reference_map import ReferenceMap
+from ..io.atomic import check_output_path, make_folder
+from ..io.reference_map import ReferenceMap
+from ..localization.evaluation import EvaluationSettings, evaluate
+from ..localization.localizer import LocalizationParams
 
 #: (world, reference traverse, query traverse) pairs the demo evaluates.
 DEMO_PAIRS = (("garden", "day_reference", "night_query"), ("living_room", "day_reference", "night_query"))
@@ -32,7 +32,7 @@ PAPER_RESULTS = {
 }
 
 
-def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Adds the sub-command's parser to ``subparsers``."""
     parser = subparsers.add_parser(
         "demo",
@@ -41,11 +41,17 @@ def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") 
         "their day-time reference maps for sequence lengths 1-10, odometry noise models 0-3 and interpolation "
         "on/off; prints the median errors and writes CSV files and figures.",
     )
-    parser.add_argument("--out", type=Path, default=Path("nightloc_demo"), help="output folder (default ./nightloc_demo)")
+    parser.add_argument(
+        "--out", type=Path, default=Path("nightloc_demo"), help="output folder (default ./nightloc_demo)"
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of the odometry noise (non-negative, default 0)")
     parser.add_argument("--repeats", type=int, default=1, help="odometry noise draws per noise model (default 1)")
-    parser.add_argument("--cache", type=Path, default=None,
-                        help="folder of the generated dataset (default ~/.cache/nightloc or $XDG_CACHE_HOME/nightloc)")
+    parser.add_argument(
+        "--cache",
+        type=Path,
+        default=None,
+        help="folder of the generated dataset (default ~/.cache/nightloc or $XDG_CACHE_HOME/nightloc)",
+    )
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     parser.set_defaults(run=run)
 
@@ -67,19 +73,29 @@ def run(args: argparse.Namespace) -> int:
     params = LocalizationParams()
     for world, reference, query in DEMO_PAIRS:
         ref_map = ReferenceMap.build(folders[world][reference])
-        evaluation = evaluate(ref_map, folders[world][query], settings, params, name=f"{world}/{query}",
-                              progress_desc=f"{world}: evaluating")
+        evaluation = evaluate(
+            ref_map,
+            folders[world][query],
+            settings,
+            params,
+            name=f"{world}/{query}",
+            progress_desc=f"{world}: evaluating",
+        )
         target = make_folder(out / world)
-        written = [evaluation.write_errors_csv(target / "errors.csv").name,
-                   evaluation.write_summary_csv(target / "summary.csv").name]
+        written = [
+            evaluation.write_errors_csv(target / "errors.csv").name,
+            evaluation.write_summary_csv(target / "summary.csv").name,
+        ]
         if not args.no_figures:
-            from ..evaluation_figures import save_evaluation_figures
+            from ..figures.evaluation import save_evaluation_figures
 
             written += [p.name for p in save_evaluation_figures(evaluation, ref_map, target, params=params)]
         frames = len(evaluation.matches[0].results)
         print()
-        print(f"{world}: {frames} night query frames against a day map of {len(ref_map)} images; "
-              f"median distance error (m), interpolation on unless noted:")
+        print(
+            f"{world}: {frames} night query frames against a day map of {len(ref_map)} images; "
+            f"median distance error (m), interpolation on unless noted:"
+        )
         print(evaluation.table(off_column=True))
         print(PAPER_RESULTS[world])
         print(f"wrote {target}/" + ", ".join(written))

@@ -22,20 +22,20 @@ import argparse
 import re
 import time
 from pathlib import Path
-from typing import List, Optional, Tuple
 
-from .._atomic import check_output_path, make_folder
-from ..evaluation import EvaluationSettings, evaluate, match_traverse
-from ..localizer import MAX_SEQ_LEN, LocalizationParams
-from ..params import PreparationParams, load_params_file
-from ..reference_map import ReferenceMap
-from ..traverse import load_traverse
+from ..config import load_params_file
+from ..io.atomic import check_output_path, make_folder
+from ..io.reference_map import ReferenceMap
+from ..io.traverse import load_traverse
+from ..localization.evaluation import EvaluationSettings, evaluate, match_traverse
+from ..localization.localizer import MAX_SEQ_LEN, LocalizationParams
+from ..preparation.params import PreparationParams
 
 #: Figure files this command may write (removed when a later run into the same folder does not).
 FIGURE_NAMES = ("error_vs_seq_len.png", "error_vs_noise.png", "error_vs_interpolation.png")
 
 
-def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Adds the sub-command's parser to ``subparsers``."""
     parser = subparsers.add_parser(
         "evaluate",
@@ -51,8 +51,12 @@ def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") 
     parser.add_argument("--interpolation", default="on,off", help="on, off or on,off (default on,off)")
     parser.add_argument("--repeats", type=int, default=1, help="noise draws per noise model (default 1)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the noise draws (default 0)")
-    parser.add_argument("--odometry", choices=["map", "robot"], default="map",
-                        help="simulated map-frame displacements (the paper, default) or robot-frame wheel odometry")
+    parser.add_argument(
+        "--odometry",
+        choices=["map", "robot"],
+        default="map",
+        help="simulated map-frame displacements (the paper, default) or robot-frame wheel odometry",
+    )
     parser.add_argument("--params", type=Path, help="TOML file with [localization] and/or [preparation] tables")
     parser.add_argument("--heatmap-frames", help="query frames (0-based) for heat-map figures (default: one, chosen)")
     parser.add_argument("--threads", type=int, help="matching threads (default all cores)")
@@ -60,9 +64,9 @@ def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") 
     parser.set_defaults(run=run)
 
 
-def parse_int_list(text: str, option: str) -> Tuple[int, ...]:
+def parse_int_list(text: str, option: str) -> tuple[int, ...]:
     """``"1-3,7"`` -> ``(1, 2, 3, 7)``; raises ValueError naming ``option``."""
-    values: List[int] = []
+    values: list[int] = []
     for part in str(text).split(","):
         part = part.strip()
         if not part:
@@ -83,7 +87,7 @@ def parse_int_list(text: str, option: str) -> Tuple[int, ...]:
     return tuple(dict.fromkeys(values))
 
 
-def parse_interpolation(text: str) -> Tuple[bool, ...]:
+def parse_interpolation(text: str) -> tuple[bool, ...]:
     """``"on,off"`` -> ``(True, False)``."""
     out = []
     for part in str(text).split(","):
@@ -107,11 +111,12 @@ def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
     bad = [m for m in noise_models if m not in (0, 1, 2, 3)]
     if bad:
         raise ValueError(f"--noise-models must be among 0,1,2,3 (the paper's Table III), got {bad[0]}")
-    return EvaluationSettings(seq_lengths, noise_models, parse_interpolation(args.interpolation), args.repeats,
-                              args.seed, args.odometry)
+    return EvaluationSettings(
+        seq_lengths, noise_models, parse_interpolation(args.interpolation), args.repeats, args.seed, args.odometry
+    )
 
 
-def _load_reference(path: Path, preparation: Optional[PreparationParams]) -> ReferenceMap:
+def _load_reference(path: Path, preparation: PreparationParams | None) -> ReferenceMap:
     if path.is_file():
         return ReferenceMap.load(path, preparation) if preparation is not None else ReferenceMap.load(path)
     return ReferenceMap.build(load_traverse(path), preparation)
@@ -122,14 +127,18 @@ def run(args: argparse.Namespace) -> int:
     settings = settings_from_args(args)
     if args.threads is not None and args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
-    heatmap_frames = None if args.heatmap_frames is None else list(parse_int_list(args.heatmap_frames, "--heatmap-frames"))
+    heatmap_frames = (
+        None if args.heatmap_frames is None else list(parse_int_list(args.heatmap_frames, "--heatmap-frames"))
+    )
     sections = load_params_file(args.params) if args.params is not None else {}
     localization = sections.get("localization", LocalizationParams())
     preparation = sections.get("preparation")
     out = check_output_path(args.out, folder=True)  # fail before the work
     query = load_traverse(args.query)
     if query.positions is None:
-        raise ValueError(f"query {args.query} has no poses: evaluation needs poses.csv with columns image,x,y[,heading]")
+        raise ValueError(
+            f"query {args.query} has no poses: evaluation needs poses.csv with columns image,x,y[,heading]"
+        )
     if heatmap_frames is not None and (min(heatmap_frames) < 0 or max(heatmap_frames) >= len(query)):
         raise ValueError(f"--heatmap-frames must be in 0..{len(query) - 1} for {len(query)} query frames")
 
@@ -141,19 +150,28 @@ def run(args: argparse.Namespace) -> int:
     total_s = time.perf_counter() - start
 
     make_folder(out)
-    written = [evaluation.write_errors_csv(out / "errors.csv").name, evaluation.write_summary_csv(out / "summary.csv").name]
+    written = [
+        evaluation.write_errors_csv(out / "errors.csv").name,
+        evaluation.write_summary_csv(out / "summary.csv").name,
+    ]
     if not args.no_figures:
-        from ..evaluation_figures import save_evaluation_figures
+        from ..figures.evaluation import save_evaluation_figures
 
-        written += [p.name for p in save_evaluation_figures(evaluation, ref_map, out, params=localization,
-                                                             heatmap_frames=heatmap_frames)]
+        written += [
+            p.name
+            for p in save_evaluation_figures(
+                evaluation, ref_map, out, params=localization, heatmap_frames=heatmap_frames
+            )
+        ]
     for stale in [*FIGURE_NAMES, *(p.name for p in out.glob("heatmap_frame*.png"))]:
         if stale not in written and (out / stale).is_file():
             (out / stale).unlink()
 
     configs = len(evaluation) // max(len(matches.results), 1)
-    print(f"{len(matches.results)} query frames of {query.root} against {len(ref_map)} references: "
-          f"{configs} configurations in {total_s:.1f} s (matching and preparation {matching_s:.1f} s)")
+    print(
+        f"{len(matches.results)} query frames of {query.root} against {len(ref_map)} references: "
+        f"{configs} configurations in {total_s:.1f} s (matching and preparation {matching_s:.1f} s)"
+    )
     for interp in settings.interpolation:
         print(f"median distance error (m), interpolation {'on' if interp else 'off'}:")
         print(evaluation.table(interpolation=interp))

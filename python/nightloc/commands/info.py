@@ -8,11 +8,11 @@ import time
 import numpy as np
 
 from .. import __version__
-from ..matching import match
-from ..simd import available_simd_backends, simd_backend, use_simd_backend
+from ..matching.sad import match
+from ..matching.simd import available_simd_backends, simd_backend, use_simd_backend
 
 
-def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser("info", help="version, SIMD paths and matching speed on this machine")
     parser.add_argument("--refs", type=int, default=5000, help="references in the speed test (default 5000)")
     parser.set_defaults(run=run)

@@ -29,24 +29,24 @@ import json
 import math
 import time
 from pathlib import Path
-from typing import Optional
 
 import numpy as np
 
-from .._atomic import check_output_path, write_text
-from ..params import PreparationParams, load_params_file
+from ..config import load_params_file
+from ..io.atomic import check_output_path, write_text
+from ..io.traverse import Traverse, load_traverse
+from ..preparation.params import PreparationParams
 from ..route.evaluation import GroundTruth, RouteEvaluation, evaluate_matches
 from ..route.params import PRESETS, RouteParams, resolve_params
 from ..route.pipeline import RouteResult, match_prepared
 from ..route.preparation import RoutePreparer
-from ..traverse import Traverse, load_traverse
 
 #: Default tolerances: frames for frame correspondence, metres for positions.
 DEFAULT_FRAME_TOLERANCE = 2
 DEFAULT_METRE_TOLERANCE = 3.0
 
 
-def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "route",
         help="1D SeqSLAM route matching between two traverses (OpenSeqSLAM-exact preset)",
@@ -57,20 +57,32 @@ def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") 
     parser.add_argument("reference", help="reference traverse: folder or video")
     parser.add_argument("query", help="query traverse: folder or video")
     parser.add_argument("--out", required=True, help="output folder (created if missing)")
-    parser.add_argument("--preset", choices=sorted(PRESETS), default=None,
-                        help="parameter preset (default nightloc; openseqslam reproduces OpenSeqSLAM exactly)")
+    parser.add_argument(
+        "--preset",
+        choices=sorted(PRESETS),
+        default=None,
+        help="parameter preset (default nightloc; openseqslam reproduces OpenSeqSLAM exactly)",
+    )
     parser.add_argument("--params", help="TOML file with [route] and/or [preparation] tables")
     parser.add_argument("--ds", type=int, help="sequence length in frames (OpenSeqSLAM default 10)")
     parser.add_argument("--vmin", type=float, help="slowest speed, reference frames per query frame (0.8)")
     parser.add_argument("--vmax", type=float, help="fastest speed (1.2)")
     parser.add_argument("--mode", choices=["centred", "causal"], help="centred (OpenSeqSLAM) or causal (online)")
-    parser.add_argument("--circular-shifts", action="store_true", default=None,
-                        help="360-degree panoramas: search every column shift")
-    parser.add_argument("--tolerance", type=float,
-                        help=f"ground-truth tolerance: frames (default {DEFAULT_FRAME_TOLERANCE}) or metres "
-                        f"with positions (default {DEFAULT_METRE_TOLERANCE:g})")
-    parser.add_argument("--ground-truth", choices=["auto", "names", "frames", "positions", "none"], default="auto",
-                        help="how correct matches are known (default auto)")
+    parser.add_argument(
+        "--circular-shifts", action="store_true", default=None, help="360-degree panoramas: search every column shift"
+    )
+    parser.add_argument(
+        "--tolerance",
+        type=float,
+        help=f"ground-truth tolerance: frames (default {DEFAULT_FRAME_TOLERANCE}) or metres "
+        f"with positions (default {DEFAULT_METRE_TOLERANCE:g})",
+    )
+    parser.add_argument(
+        "--ground-truth",
+        choices=["auto", "names", "frames", "positions", "none"],
+        default="auto",
+        help="how correct matches are known (default auto)",
+    )
     parser.add_argument("--frame-step", type=int, default=1, help="keep every k-th frame of a video (default 1)")
     parser.add_argument("--threads", type=int, help="worker threads (default all cores)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
@@ -83,8 +95,8 @@ def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") 
 
 def route_params_from_args(args: argparse.Namespace) -> tuple:
     """(RouteParams, PreparationParams or None) from --params, --preset and the overrides."""
-    route_params: Optional[RouteParams] = None
-    preparation: Optional[PreparationParams] = None
+    route_params: RouteParams | None = None
+    preparation: PreparationParams | None = None
     if args.params:
         tables = load_params_file(args.params)
         route_params = tables.get("route")
@@ -108,9 +120,7 @@ def route_params_from_args(args: argparse.Namespace) -> tuple:
 # ground truth
 
 
-def ground_truth_for(
-    kind: str, reference: Traverse, query: Traverse, tolerance: Optional[float]
-) -> tuple:
+def ground_truth_for(kind: str, reference: Traverse, query: Traverse, tolerance: float | None) -> tuple:
     """(GroundTruth or None, the kind used) for the two traverses."""
     same_names = _name_correspondence(reference, query)
     if kind == "auto":
@@ -137,7 +147,7 @@ def ground_truth_for(
     return GroundTruth.from_frames(len(query), len(reference), int(frames)), "frames"
 
 
-def _name_correspondence(reference: Traverse, query: Traverse) -> Optional[np.ndarray]:
+def _name_correspondence(reference: Traverse, query: Traverse) -> np.ndarray | None:
     if reference.is_video or query.is_video:
         return None
     index = {Path(name).name: i for i, name in enumerate(reference.names)}
@@ -209,11 +219,11 @@ def run(args: argparse.Namespace) -> int:
         write_text_atomic(out / "pr.csv", pr_csv(evaluation))
     figures = []
     if not args.no_figures:
-        from ..route.figures import save_route_figures
+        from ..figures.route import save_route_figures
 
         try:
             figures = [Path(p).name for p in save_route_figures(result, evaluation, out)]
-        except ImportError as error:  # nightloc.plotting missing from a partial install
+        except ImportError as error:  # nightloc.figures.plotting missing from a partial install
             print(f"figures skipped: {error}")
     summary = {
         "reference": str(reference.root),
@@ -222,9 +232,9 @@ def run(args: argparse.Namespace) -> int:
         "n_queries": result.n_queries,
         "n_matched": int(result.defined.sum()),
         "params": {field: getattr(params, field) for field in params.__dataclass_fields__},
-        "preparation": None if preparer.preparation is None else {
-            field: getattr(preparer.preparation, field) for field in preparer.preparation.__dataclass_fields__
-        },
+        "preparation": None
+        if preparer.preparation is None
+        else {field: getattr(preparer.preparation, field) for field in preparer.preparation.__dataclass_fields__},
         "timings_s": {key: round(value, 4) for key, value in result.timings.items()},
         "ground_truth": truth_kind,
         "tolerance": None if truth is None else truth.tolerance,
@@ -257,12 +267,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"ground truth from {truth_kind} (+-{truth.tolerance:g} {unit}): {evaluation.summary()}")
     else:
         print("no ground truth: pr.csv not written")
-    print(f"wrote {out}/matches.csv" + (", pr.csv" if evaluation is not None else "") + ", summary.json"
-          + ("".join(f", {name}" for name in figures)))
+    print(
+        f"wrote {out}/matches.csv"
+        + (", pr.csv" if evaluation is not None else "")
+        + ", summary.json"
+        + ("".join(f", {name}" for name in figures))
+    )
     return 0
 
 
-def _finite_or_none(value: float) -> Optional[float]:
+def _finite_or_none(value: float) -> float | None:
     return float(value) if math.isfinite(value) else None
 
 

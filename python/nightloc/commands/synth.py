@@ -6,14 +6,13 @@ import argparse
 import math
 import time
 from pathlib import Path
-from typing import Tuple
 
 from ..synth.dataset import DEFAULT_DARKNESS, DEFAULT_SEED, make_dataset
 from ..synth.render import Camera
 from ..synth.world import WORLD_NAMES
 
 
-def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "synth",
         help="render the synthetic garden / living-room traverses (day reference, night queries)",
@@ -23,14 +22,15 @@ def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") 
             "world goes to OUT/<world>/. Same seed -> byte-identical images."
         ),
     )
-    parser.add_argument("--world", choices=WORLD_NAMES + ("all",), default="garden", help="which world (default garden)")
+    parser.add_argument("--world", choices=(*WORLD_NAMES, "all"), default="garden", help="which world (default garden)")
     parser.add_argument("--out", required=True, type=Path, help="output folder")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"random seed (default {DEFAULT_SEED})")
     parser.add_argument(
         "--darkness",
         type=float,
         default=DEFAULT_DARKNESS,
-        help=f"night darkness in [0, 3]: 0 = night lights exposed like day, 1 = 100x fewer photons (default {DEFAULT_DARKNESS})",
+        help=f"night darkness in [0, 3]: 0 = night lights exposed like day, 1 = 100x fewer photons "
+        f"(default {DEFAULT_DARKNESS})",
     )
     parser.add_argument("--size", default="192x96", help="panorama WIDTHxHEIGHT in pixels (default 192x96)")
     parser.add_argument("--overwrite", action="store_true", help="replace traverse folders that exist")
@@ -38,7 +38,7 @@ def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") 
     parser.set_defaults(run=run)
 
 
-def parse_size(text: str) -> Tuple[int, int]:
+def parse_size(text: str) -> tuple[int, int]:
     """``"192x96"`` -> ``(192, 96)``; a clear ValueError for anything else."""
     parts = text.lower().split("x")
     if len(parts) != 2 or not all(p.strip().isdigit() for p in parts):
@@ -59,7 +59,9 @@ def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     for world in worlds:
         out = args.out / world if args.world == "all" else args.out
-        folders = make_dataset(world, out, args.seed, args.darkness, camera=camera, overwrite=args.overwrite, threads=args.threads)
+        folders = make_dataset(
+            world, out, args.seed, args.darkness, camera=camera, overwrite=args.overwrite, threads=args.threads
+        )
         for name, folder in folders.items():
             frames = sum(1 for _ in (folder / "images").iterdir())
             print(f"{world}/{name}: {frames} frames -> {folder}")

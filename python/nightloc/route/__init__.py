@@ -32,9 +32,9 @@ from .pipeline import (
 from .preparation import RoutePreparer, octave_rgb2gray
 
 __all__ = [
+    "PRESETS",
     "GroundTruth",
     "PRCurve",
-    "PRESETS",
     "RouteEvaluation",
     "RouteLocalizer",
     "RouteParams",

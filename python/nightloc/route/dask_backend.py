@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Dict, List, Optional, Tuple, Union
 
 import numpy as np
 
@@ -40,13 +39,13 @@ from .._validate import same_image_size, shift_list, uint8_array
 from .params import RouteParams, resolve_params
 from .pipeline import RouteResult, _divisor
 
-__all__ = ["dask_available", "dask_route_matrices", "dask_match_prepared"]
+__all__ = ["dask_available", "dask_match_prepared", "dask_route_matrices"]
 
 
 def dask_available() -> bool:
     """True when ``dask`` (with ``dask.array``) can be imported."""
     try:
-        import dask  # noqa: F401
+        import dask
         import dask.array  # noqa: F401
     except ImportError:
         return False
@@ -69,9 +68,15 @@ def _require_dask():
 
 
 def _block_task(
-    queries: np.ndarray, refs: np.ndarray, shifts: np.ndarray, divisor: float, radius: int, offset: str,
-    keep_difference: bool, threads: int,
-) -> Tuple[Optional[np.ndarray], np.ndarray, float]:
+    queries: np.ndarray,
+    refs: np.ndarray,
+    shifts: np.ndarray,
+    divisor: float,
+    radius: int,
+    offset: str,
+    keep_difference: bool,
+    threads: int,
+) -> tuple[np.ndarray | None, np.ndarray, float]:
     """Difference rows and their enhancement (offset ``none`` or ``bound``) for one block;
     returns (difference or None, enhanced, NaN-ignoring minimum of the enhanced block)."""
     difference = np.empty((queries.shape[0], refs.shape[0]), dtype=np.float32)
@@ -93,13 +98,20 @@ def _subtract(block: np.ndarray, minimum: float) -> np.ndarray:
 
 
 def _search_task(
-    pieces: List[np.ndarray], first_row: int, begin: int, end: int, params: RouteParams, threads: int
-) -> Tuple[np.ndarray, np.ndarray]:
+    pieces: list[np.ndarray], first_row: int, begin: int, end: int, params: RouteParams, threads: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Matches of queries [begin, end) from the enhanced rows [first_row, first_row + rows)."""
     window = np.ascontiguousarray(np.concatenate(pieces, axis=0))
     refs, scores = _core.trajectory_search(
-        window, params.ds, params.vmin, params.vmax, params.uniqueness_radius, params.mode == "causal",
-        begin - first_row, end - first_row, threads,
+        window,
+        params.ds,
+        params.vmin,
+        params.vmax,
+        params.uniqueness_radius,
+        params.mode == "causal",
+        begin - first_row,
+        end - first_row,
+        threads,
     )
     return refs[begin - first_row : end - first_row], scores[begin - first_row : end - first_row]
 
@@ -107,14 +119,14 @@ def _search_task(
 # --------------------------------------------------------------------------------------------
 
 
-def _blocks(n_rows: int, rows_per_block: int) -> List[Tuple[int, int]]:
+def _blocks(n_rows: int, rows_per_block: int) -> list[tuple[int, int]]:
     return [(start, min(n_rows, start + rows_per_block)) for start in range(0, n_rows, rows_per_block)]
 
 
 def dask_route_matrices(
     refs: np.ndarray,
     queries: np.ndarray,
-    params: Union[RouteParams, str, None] = None,
+    params: RouteParams | str | None = None,
     rows_per_block: int = 1024,
     keep_difference: bool = False,
     threads_per_task: int = 1,
@@ -151,8 +163,14 @@ def dask_route_matrices(
     n_refs = r.shape[0]
     tasks = [
         delayed(_block_task, pure=True, nout=3)(
-            np.ascontiguousarray(q[start:stop]), refs_node, shifts_node, divisor, p.enhance_radius, block_offset,
-            keep_difference, threads_per_task,
+            np.ascontiguousarray(q[start:stop]),
+            refs_node,
+            shifts_node,
+            divisor,
+            p.enhance_radius,
+            block_offset,
+            keep_difference,
+            threads_per_task,
         )
         for start, stop in blocks
     ]
@@ -162,15 +180,19 @@ def dask_route_matrices(
     else:
         enhanced_nodes = [task[1] for task in tasks]
     enhanced = da.concatenate(
-        [da.from_delayed(node, shape=(stop - start, n_refs), dtype=np.float32)
-         for node, (start, stop) in zip(enhanced_nodes, blocks)],
+        [
+            da.from_delayed(node, shape=(stop - start, n_refs), dtype=np.float32)
+            for node, (start, stop) in zip(enhanced_nodes, blocks)
+        ],
         axis=0,
     )
     difference = None
     if keep_difference:
         difference = da.concatenate(
-            [da.from_delayed(task[0], shape=(stop - start, n_refs), dtype=np.float32)
-             for task, (start, stop) in zip(tasks, blocks)],
+            [
+                da.from_delayed(task[0], shape=(stop - start, n_refs), dtype=np.float32)
+                for task, (start, stop) in zip(tasks, blocks)
+            ],
             axis=0,
         )
     return difference, enhanced, blocks
@@ -179,11 +201,11 @@ def dask_route_matrices(
 def dask_match_prepared(
     refs: np.ndarray,
     queries: np.ndarray,
-    params: Union[RouteParams, str, None] = None,
+    params: RouteParams | str | None = None,
     rows_per_block: int = 1024,
     keep_difference: bool = False,
     threads_per_task: int = 1,
-    client: Optional[object] = None,
+    client: object | None = None,
 ) -> RouteResult:
     """:func:`~nightloc.route.match_prepared` on a Dask cluster.
 
@@ -192,13 +214,14 @@ def dask_match_prepared(
     ``scores`` are numpy arrays and whose ``enhanced`` (and ``difference`` with
     ``keep_difference``) are lazy Dask arrays; ``timings["total"]`` is the wall time.
     """
-    dask, da = _require_dask()
+    dask, _da = _require_dask()
     p = resolve_params(params)
     n_refs = refs.shape[0] if isinstance(refs, np.ndarray) and refs.ndim == 3 else 0
     needed = 2 * p.uniqueness_radius + (1 if p.mode == "centred" else 2)
     if n_refs and n_refs < needed:
         raise ValueError(
-            f"{n_refs} references are too few for a uniqueness window of +-{p.uniqueness_radius} (needs at least {needed})"
+            f"{n_refs} references are too few for a uniqueness window of +-{p.uniqueness_radius} "
+            f"(needs at least {needed})"
         )
     start_time = time.perf_counter()
     difference, enhanced, blocks = dask_route_matrices(
@@ -216,12 +239,8 @@ def dask_match_prepared(
             if b1 > lo and b0 < hi:
                 pieces.append(node[max(lo, b0) - b0 : min(hi, b1) - b0])
         results.append(dask.delayed(_search_task, pure=True, nout=2)(pieces, lo, start, stop, p, threads_per_task))
-    if client is not None:
-        computed = client.compute(results, sync=True)  # type: ignore[attr-defined]
-    else:
-        computed = dask.compute(*results)
+    computed = client.compute(results, sync=True) if client is not None else dask.compute(*results)
     matched = np.concatenate([pair[0] for pair in computed]).astype(np.int64)
     scores = np.concatenate([pair[1] for pair in computed]).astype(np.float64)
-    timings: Dict[str, float] = {"total": time.perf_counter() - start_time}
-    return RouteResult(refs=matched, scores=scores, enhanced=enhanced, difference=difference, params=p,
-                       timings=timings)
+    timings: dict[str, float] = {"total": time.perf_counter() - start_time}
+    return RouteResult(refs=matched, scores=scores, enhanced=enhanced, difference=difference, params=p, timings=timings)

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -29,8 +28,8 @@ __all__ = [
     "GroundTruth",
     "PRCurve",
     "RouteEvaluation",
-    "precision_recall",
     "evaluate_matches",
+    "precision_recall",
 ]
 
 
@@ -52,14 +51,14 @@ class GroundTruth:
     tolerance: float
     n_queries: int
     n_refs: int
-    correspondence: Optional[np.ndarray] = None
-    query_positions: Optional[np.ndarray] = None
-    ref_positions: Optional[np.ndarray] = None
+    correspondence: np.ndarray | None = None
+    query_positions: np.ndarray | None = None
+    ref_positions: np.ndarray | None = None
 
     @classmethod
     def from_frames(
-        cls, n_queries: int, n_refs: int, tolerance: int = 2, correspondence: Optional[np.ndarray] = None
-    ) -> "GroundTruth":
+        cls, n_queries: int, n_refs: int, tolerance: int = 2, correspondence: np.ndarray | None = None
+    ) -> GroundTruth:
         """Frame-aligned traverses: query q is reference ``correspondence[q]`` (default q).
 
         A match r is correct when ``|r - correspondence[q]| <= tolerance`` and that reference
@@ -86,7 +85,7 @@ class GroundTruth:
         return cls("frames", float(tolerance), int(n_queries), int(n_refs), correspondence=truth)
 
     @classmethod
-    def from_positions(cls, query_positions: np.ndarray, ref_positions: np.ndarray, tolerance: float) -> "GroundTruth":
+    def from_positions(cls, query_positions: np.ndarray, ref_positions: np.ndarray, tolerance: float) -> GroundTruth:
         """Traverses with poses: a match is correct within ``tolerance`` metres.
 
         Args:

@@ -16,13 +16,12 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Optional, Union
 
 import numpy as np
 
 from .. import _core
 from .._validate import shift_list, thread_count, uint8_array
-from ..params import PreparationParams
+from ..preparation.params import PreparationParams
 from .params import RouteParams, resolve_params
 from .pipeline import TraverseInput, _as_frames, _divisor
 from .preparation import RoutePreparer
@@ -41,7 +40,7 @@ class RouteUpdate:
     """
 
     index: int
-    ref: Optional[int]
+    ref: int | None
     score: float
 
     @property
@@ -79,12 +78,12 @@ class RouteLocalizer:
     def __init__(
         self,
         reference: TraverseInput,
-        params: Union[RouteParams, str, None] = None,
+        params: RouteParams | str | None = None,
         *,
-        preset: Optional[str] = None,
-        preparation: Optional[PreparationParams] = None,
+        preset: str | None = None,
+        preparation: PreparationParams | None = None,
         prepared: bool = False,
-        threads: Optional[int] = None,
+        threads: int | None = None,
         channel_order: str = "bgr",
     ):
         if params is not None and preset is not None:

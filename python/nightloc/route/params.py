@@ -16,12 +16,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Literal, Optional, Union
+from typing import Literal
 
 from .. import _core
-from ..params import PreparationParams, params_section
+from ..config import params_section
+from ..preparation.params import PreparationParams
 
-__all__ = ["RouteParams", "PRESETS", "route_preset", "resolve_params", "default_preparation"]
+__all__ = ["PRESETS", "RouteParams", "default_preparation", "resolve_params", "route_preset"]
 
 
 @params_section("route")
@@ -92,7 +93,7 @@ class RouteParams:
         return self.ds + self.ds % 2 if self.mode == "centred" else self.ds
 
     @property
-    def shifts(self) -> Optional[list]:
+    def shifts(self) -> list | None:
         """Column shifts searched by the difference matrix: None (all) or ``[0]``."""
         return None if self.circular_shifts else [0]
 
@@ -118,7 +119,7 @@ def route_preset(name: str) -> RouteParams:
     return PRESETS[name]
 
 
-def resolve_params(params: Union[RouteParams, str, None] = None, **overrides: object) -> RouteParams:
+def resolve_params(params: RouteParams | str | None = None, **overrides: object) -> RouteParams:
     """``params`` (a :class:`RouteParams`, a preset name, or None for ``"nightloc"``) with the
     given fields replaced (``None`` values are ignored)."""
     if params is None:

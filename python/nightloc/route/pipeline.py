@@ -18,28 +18,29 @@ from __future__ import annotations
 import math
 import os
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Dict, Iterable, Optional, Tuple, Union
+from typing import Union
 
 import numpy as np
 
 from .. import _core
 from .._validate import same_image_size, shift_list, thread_count, uint8_array
-from ..params import PreparationParams
+from ..io.traverse import Traverse, load_traverse
+from ..preparation.params import PreparationParams
 from ..progress import progress
-from ..traverse import Traverse, load_traverse
 from .params import RouteParams, resolve_params
 from .preparation import RoutePreparer
 
 __all__ = [
     "RouteResult",
-    "route_difference_matrix",
+    "block_rows",
     "enhance_contrast",
-    "trajectory_search",
     "match_prepared",
     "match_route",
-    "block_rows",
+    "route_difference_matrix",
+    "trajectory_search",
 ]
 
 #: Cells per block of rows processed at once (progress granularity and scratch memory).
@@ -68,9 +69,9 @@ class RouteResult:
     refs: np.ndarray
     scores: np.ndarray
     enhanced: np.ndarray
-    difference: Optional[np.ndarray]
+    difference: np.ndarray | None
     params: RouteParams
-    timings: Dict[str, float] = field(default_factory=dict)
+    timings: dict[str, float] = field(default_factory=dict)
 
     @property
     def n_queries(self) -> int:
@@ -105,7 +106,7 @@ def _checked_matrix(matrix: object, name: str) -> np.ndarray:
     return matrix
 
 
-def _checked_out(out: Optional[np.ndarray], shape: Tuple[int, int], name: str = "out") -> np.ndarray:
+def _checked_out(out: np.ndarray | None, shape: tuple[int, int], name: str = "out") -> np.ndarray:
     if out is None:
         return np.empty(shape, dtype=np.float32)
     _checked_matrix(out, name)
@@ -123,9 +124,9 @@ def _divisor(params: RouteParams, refs: np.ndarray) -> float:
 def route_difference_matrix(
     queries: np.ndarray,
     refs: np.ndarray,
-    params: Union[RouteParams, str, None] = None,
-    threads: Optional[int] = None,
-    out: Optional[np.ndarray] = None,
+    params: RouteParams | str | None = None,
+    threads: int | None = None,
+    out: np.ndarray | None = None,
     progress_desc: str = "difference matrix",
 ) -> np.ndarray:
     """The ``(n_query, n_ref)`` float32 difference matrix of prepared images.
@@ -159,10 +160,10 @@ def route_difference_matrix(
 
 def enhance_contrast(
     difference: np.ndarray,
-    params: Union[RouteParams, str, None] = None,
-    threads: Optional[int] = None,
-    out: Optional[np.ndarray] = None,
-    offset: Optional[str] = None,
+    params: RouteParams | str | None = None,
+    threads: int | None = None,
+    out: np.ndarray | None = None,
+    offset: str | None = None,
 ) -> np.ndarray:
     """OpenSeqSLAM's local contrast enhancement of a ``(n_query, n_ref)`` float32 matrix.
 
@@ -206,9 +207,9 @@ def enhance_contrast(
 
 def trajectory_search(
     enhanced: np.ndarray,
-    params: Union[RouteParams, str, None] = None,
-    threads: Optional[int] = None,
-) -> Tuple[np.ndarray, np.ndarray]:
+    params: RouteParams | str | None = None,
+    threads: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Straight-line trajectory search over an enhanced ``(n_query, n_ref)`` matrix.
 
     Centred mode (OpenSeqSLAM): for query q, trajectories over frames q-ds/2 .. q+ds/2 (ds
@@ -244,8 +245,8 @@ def trajectory_search(
 def match_prepared(
     refs: np.ndarray,
     queries: np.ndarray,
-    params: Union[RouteParams, str, None] = None,
-    threads: Optional[int] = None,
+    params: RouteParams | str | None = None,
+    threads: int | None = None,
     keep_difference: bool = True,
 ) -> RouteResult:
     """Route matching of prepared images: difference matrix, enhancement, trajectory search.
@@ -259,7 +260,7 @@ def match_prepared(
             False enhances it in place (one matrix; ``result.difference`` is None).
     """
     p = resolve_params(params)
-    timings: Dict[str, float] = {}
+    timings: dict[str, float] = {}
     start = time.perf_counter()
     difference = route_difference_matrix(queries, refs, p, threads)
     timings["difference"] = time.perf_counter() - start
@@ -279,10 +280,10 @@ def match_prepared(
     )
 
 
-def _as_frames(source: TraverseInput, name: str, frame_step: int) -> Union[Traverse, np.ndarray, Iterable[np.ndarray]]:
+def _as_frames(source: TraverseInput, name: str, frame_step: int) -> Traverse | np.ndarray | Iterable[np.ndarray]:
     if isinstance(source, (str, os.PathLike)):
         return load_traverse(Path(source), frame_step=frame_step)
-    if isinstance(source, (Traverse, np.ndarray)) or isinstance(source, Iterable):
+    if isinstance(source, (Traverse, np.ndarray, Iterable)):
         return source
     raise TypeError(f"{name} must be a Traverse, a path, or frames, got {type(source).__name__}")
 
@@ -290,9 +291,9 @@ def _as_frames(source: TraverseInput, name: str, frame_step: int) -> Union[Trave
 def match_route(
     reference: TraverseInput,
     query: TraverseInput,
-    params: Union[RouteParams, str, None] = None,
-    preparation: Optional[PreparationParams] = None,
-    threads: Optional[int] = None,
+    params: RouteParams | str | None = None,
+    preparation: PreparationParams | None = None,
+    threads: int | None = None,
     keep_difference: bool = True,
     frame_step: int = 1,
 ) -> RouteResult:

@@ -19,22 +19,22 @@ after step 1, a nightloc choice (OpenSeqSLAM stores uint8). The ``"nightloc"`` p
 from __future__ import annotations
 
 import dataclasses
-from typing import Iterable, Iterator, Optional, Union
+from collections.abc import Iterable, Iterator
 
 import numpy as np
 
-from ..matching import block_normalize
-from ..params import PreparationParams
-from ..preparation import Preparer
-from ..traverse import Traverse
+from ..io.traverse import Traverse
+from ..preparation.normalize import block_normalize
+from ..preparation.params import PreparationParams
+from ..preparation.preparer import Preparer
 from .params import RouteParams, default_preparation
 
-__all__ = ["octave_rgb2gray", "RoutePreparer"]
+__all__ = ["RoutePreparer", "octave_rgb2gray"]
 
 #: Octave's rgb2gray weights (R, G, B), as its image package writes them.
 OCTAVE_GREY_WEIGHTS = (0.298936021293775, 0.587043074451121, 0.114020904255103)
 
-ImageInput = Union[np.ndarray, Iterable[np.ndarray], Traverse]
+ImageInput = np.ndarray | Iterable[np.ndarray] | Traverse
 
 
 def octave_rgb2gray(image: np.ndarray, channel_order: str = "bgr") -> np.ndarray:
@@ -86,7 +86,7 @@ class RoutePreparer:
     def __init__(
         self,
         params: RouteParams,
-        preparation: Optional[PreparationParams] = None,
+        preparation: PreparationParams | None = None,
         channel_order: str = "bgr",
     ):
         if not isinstance(params, RouteParams):
@@ -99,12 +99,12 @@ class RoutePreparer:
             chosen = preparation if preparation is not None else default_preparation(params)
             if chosen.channel_order != channel_order:
                 chosen = dataclasses.replace(chosen, channel_order=channel_order)
-            self._preparer: Optional[Preparer] = Preparer(chosen)
+            self._preparer: Preparer | None = Preparer(chosen)
         else:
             self._preparer = None
 
     @property
-    def preparation(self) -> Optional[PreparationParams]:
+    def preparation(self) -> PreparationParams | None:
         """The :class:`PreparationParams` in use (None for OpenSeqSLAM's preparation)."""
         return None if self._preparer is None else self._preparer.params
 

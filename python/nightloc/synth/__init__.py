@@ -13,7 +13,7 @@ Quick start::
     folders = make_dataset("garden", "data/garden", seed=0)     # {"day_reference": Path, ...}
     paths = default_dataset()      # both worlds, generated once into ~/.cache/nightloc
 
-    from nightloc.synth import SynthScene                       # single frames
+    from nightloc.synth import SynthScene  # single frames
     scene = SynthScene("living_room", seed=0, darkness=1.0)
     image = scene.frame("night", x=2.0, y=1.5, heading=0.3)     # (96, 192, 3) uint8 BGR
 
@@ -40,14 +40,14 @@ from .render import Camera, cast_rays, column_azimuths, render_panorama, render_
 from .world import WORLD_NAMES, World, build_world
 
 __all__ = [
-    "Camera",
     "DEFAULT_DARKNESS",
     "DEFAULT_SEED",
     "GENERATOR_VERSION",
-    "SynthScene",
     "TRAVERSE_NAMES",
-    "TraversePlan",
     "WORLD_NAMES",
+    "Camera",
+    "SynthScene",
+    "TraversePlan",
     "World",
     "build_world",
     "cast_rays",

@@ -15,16 +15,16 @@ from __future__ import annotations
 import json
 import os
 import shutil
+from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Dict, Iterator, List, Optional, Union
 
 import numpy as np
 
-from .._atomic import make_folder, staging_folder, write_text
 from .._validate import thread_count
+from ..io.atomic import make_folder, staging_folder, write_text
+from ..io.traverse import save_traverse
 from ..progress import progress
-from ..traverse import save_traverse
 from .lighting import Lighting, make_lighting
 from .paths import TraversePlan, plan_traverses
 from .render import Camera, render_panorama, render_radiance
@@ -32,13 +32,13 @@ from .sensor import Exposure, metered_exposure
 from .world import WORLD_NAMES, World, build_world
 
 __all__ = [
-    "GENERATOR_VERSION",
-    "DEFAULT_SEED",
     "DEFAULT_DARKNESS",
-    "make_dataset",
-    "default_dataset",
-    "default_cache_dir",
+    "DEFAULT_SEED",
+    "GENERATOR_VERSION",
     "SynthScene",
+    "default_cache_dir",
+    "default_dataset",
+    "make_dataset",
 ]
 
 #: Bumped whenever the generator's output changes; part of the cache folder's name.
@@ -60,15 +60,17 @@ class SynthScene:
         camera: panorama size and optics (default 192 x 96).
     """
 
-    def __init__(self, world: str, seed: int = DEFAULT_SEED, darkness: float = DEFAULT_DARKNESS, camera: Optional[Camera] = None):
+    def __init__(
+        self, world: str, seed: int = DEFAULT_SEED, darkness: float = DEFAULT_DARKNESS, camera: Camera | None = None
+    ):
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise ValueError(f"seed must be an int >= 0, got {seed!r}")
         self.seed = int(seed)
         self.darkness = float(darkness)
         self.camera = camera or Camera()
         self.world: World = build_world(world, self.seed)
-        self.lighting: Dict[str, Lighting] = {c: make_lighting(self.world, c, self.seed) for c in ("day", "night")}
-        self.exposure: Dict[str, Exposure] = {
+        self.lighting: dict[str, Lighting] = {c: make_lighting(self.world, c, self.seed) for c in ("day", "night")}
+        self.exposure: dict[str, Exposure] = {
             "day": metered_exposure(self._meter("day"), 0.0, DAY_GAMMA),
             "night": metered_exposure(self._meter("night"), self.darkness, NIGHT_GAMMA),
         }
@@ -79,9 +81,13 @@ class SynthScene:
         radiance = render_radiance(self.world, self.lighting[condition], (x0 + x1) / 2, (y0 + y1) / 2, 0.0, self.camera)
         return float(np.minimum(radiance, np.percentile(radiance, 98.0)).mean())
 
-    def frame(self, condition: str, x: float, y: float, heading: float, rng: Optional[np.random.Generator] = None) -> np.ndarray:
+    def frame(
+        self, condition: str, x: float, y: float, heading: float, rng: np.random.Generator | None = None
+    ) -> np.ndarray:
         """One ``(height, width, 3)`` uint8 BGR panorama; ``rng`` None renders it noiseless."""
-        return render_panorama(self.world, self.lighting[condition], self.exposure[condition], x, y, heading, self.camera, rng)
+        return render_panorama(
+            self.world, self.lighting[condition], self.exposure[condition], x, y, heading, self.camera, rng
+        )
 
     def frame_rng(self, traverse: str, index: int) -> np.random.Generator:
         """The noise generator of frame ``index`` of ``traverse`` (independent of render order)."""
@@ -89,13 +95,15 @@ class SynthScene:
         traverse_id = sum(ord(c) * (i + 1) for i, c in enumerate(traverse))
         return np.random.default_rng([self.seed, 5, world_id, traverse_id, int(index)])
 
-    def render_plan(self, plan: TraversePlan, threads: Optional[int] = None) -> Iterator[np.ndarray]:
+    def render_plan(self, plan: TraversePlan, threads: int | None = None) -> Iterator[np.ndarray]:
         """Renders the frames of ``plan`` in order (``threads`` at a time; default all cores)."""
         self.world.check_camera_positions(plan.positions)
 
         def one(index: int) -> np.ndarray:
             x, y = plan.positions[index]
-            return self.frame(plan.condition, float(x), float(y), float(plan.headings[index]), self.frame_rng(plan.name, index))
+            return self.frame(
+                plan.condition, float(x), float(y), float(plan.headings[index]), self.frame_rng(plan.name, index)
+            )
 
         workers = thread_count(threads)
         if workers == 1:
@@ -104,7 +112,7 @@ class SynthScene:
         with ThreadPoolExecutor(max_workers=workers) as pool:
             yield from pool.map(one, range(len(plan.positions)))
 
-    def describe(self, plans: List[TraversePlan]) -> dict:
+    def describe(self, plans: list[TraversePlan]) -> dict:
         """The dataset.json content: generator, world, lighting, camera and traverses."""
         day = self.lighting["day"]
         return {
@@ -113,7 +121,12 @@ class SynthScene:
             "world": self.world.name,
             "seed": self.seed,
             "darkness": self.darkness,
-            "mapped_area": {"x0": self.world.mapped_area[0], "y0": self.world.mapped_area[1], "x1": self.world.mapped_area[2], "y1": self.world.mapped_area[3]},
+            "mapped_area": {
+                "x0": self.world.mapped_area[0],
+                "y0": self.world.mapped_area[1],
+                "x1": self.world.mapped_area[2],
+                "y1": self.world.mapped_area[3],
+            },
             "camera": {
                 "width": self.camera.width,
                 "height": self.camera.height,
@@ -133,14 +146,14 @@ def _write_json_atomic(path: Path, content: dict) -> None:
 
 def make_dataset(
     world: str,
-    out_dir: Union[str, os.PathLike],
+    out_dir: str | os.PathLike,
     seed: int = DEFAULT_SEED,
     darkness: float = DEFAULT_DARKNESS,
     *,
-    camera: Optional[Camera] = None,
+    camera: Camera | None = None,
     overwrite: bool = False,
-    threads: Optional[int] = None,
-) -> Dict[str, Path]:
+    threads: int | None = None,
+) -> dict[str, Path]:
     """Renders every traverse of ``world`` into ``out_dir`` and returns their folders by name.
 
     Args:
@@ -167,9 +180,11 @@ def make_dataset(
             if (out / plan.name).exists():
                 raise FileExistsError(f"{out / plan.name} exists; pass overwrite=True (--overwrite) to replace it")
     make_folder(out)  # names a file in the way
-    written: Dict[str, Path] = {}
+    written: dict[str, Path] = {}
     for plan in plans:
-        frames = progress(scene.render_plan(plan, threads), total=len(plan.positions), desc=f"{world}/{plan.name}", unit="frame")
+        frames = progress(
+            scene.render_plan(plan, threads), total=len(plan.positions), desc=f"{world}/{plan.name}", unit="frame"
+        )
         save_traverse(out / plan.name, frames, positions=plan.positions, headings=plan.headings, overwrite=overwrite)
         written[plan.name] = out / plan.name
     _write_json_atomic(out / "dataset.json", scene.describe(plans))
@@ -200,7 +215,7 @@ def _complete(folder: Path) -> bool:
     return True
 
 
-def default_dataset(cache_dir: Optional[Union[str, os.PathLike]] = None) -> Dict[str, Dict[str, Path]]:
+def default_dataset(cache_dir: str | os.PathLike | None = None) -> dict[str, dict[str, Path]]:
     """The default synthetic dataset, generated once into the user cache; its traverse folders.
 
     Returns ``{"garden": {"day_reference": Path, "night_reference": Path, "night_query": Path},
@@ -227,4 +242,6 @@ def default_dataset(cache_dir: Optional[Union[str, os.PathLike]] = None) -> Dict
                     raise
         finally:
             shutil.rmtree(staging, ignore_errors=True)
-    return {world: {p.name: folder / world / p.name for p in plan_traverses(world, DEFAULT_SEED)} for world in WORLD_NAMES}
+    return {
+        world: {p.name: folder / world / p.name for p in plan_traverses(world, DEFAULT_SEED)} for world in WORLD_NAMES
+    }

@@ -17,12 +17,12 @@ interval overlaps the distances at which its height lies in ``[bottom, top]``
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-__all__ = ["Prism", "Cylinder", "PackedGeometry", "box", "panel", "horizontal_intervals", "height_window", "slab_hits"]
+__all__ = ["Cylinder", "PackedGeometry", "Prism", "box", "height_window", "horizontal_intervals", "panel", "slab_hits"]
 
 _EPS = 1e-9
 
@@ -46,7 +46,7 @@ class Prism:
     bottom: float
     top: float
     material: str
-    emission: Optional[str] = None
+    emission: str | None = None
     u_offset: float = 0.0
 
     def __post_init__(self) -> None:
@@ -69,12 +69,12 @@ class Cylinder:
     The texture coordinate ``u`` is the arc length ``radius * angle`` counter-clockwise from +x.
     """
 
-    center: Tuple[float, float]
+    center: tuple[float, float]
     radius: float
     bottom: float
     top: float
     material: str
-    emission: Optional[str] = None
+    emission: str | None = None
     u_offset: float = 0.0
 
     def __post_init__(self) -> None:
@@ -98,7 +98,14 @@ def box(x0: float, y0: float, x1: float, y1: float, bottom: float, top: float, m
 
 
 def panel(
-    center: Tuple[float, float], width: float, depth: float, facing: float, bottom: float, top: float, material: str, **kw
+    center: tuple[float, float],
+    width: float,
+    depth: float,
+    facing: float,
+    bottom: float,
+    top: float,
+    material: str,
+    **kw,
 ) -> Prism:
     """A box whose front face (edge 0, ``u`` from 0 to ``width``) faces azimuth ``facing`` (rad).
 
@@ -121,7 +128,7 @@ class PackedGeometry:
     the last vertex, which adds zero-length edges that no ray hits), the rest the cylinders.
     """
 
-    objects: List[object]
+    objects: list[object]
     vertices: np.ndarray = field(init=False)  # (P, Vmax, 2) edge start points
     edge_vectors: np.ndarray = field(init=False)  # (P, Vmax, 2) edge end - start
     edge_u0: np.ndarray = field(init=False)  # (P, Vmax) perimeter coordinate of edge starts + offset
@@ -168,7 +175,7 @@ class PackedGeometry:
         """``(O,)`` bool: whether the ground point ``(x, y)`` lies inside each footprint."""
         rel = np.array([x, y]) - self.vertices
         cross = self.edge_vectors[..., 0] * rel[..., 1] - self.edge_vectors[..., 1] * rel[..., 0]
-        degenerate = (self.edge_vectors ** 2).sum(-1) == 0
+        degenerate = (self.edge_vectors**2).sum(-1) == 0
         in_prism = np.all((cross >= 0) | degenerate, axis=1)
         in_circle = (x - self.circles[:, 0]) ** 2 + (y - self.circles[:, 1]) ** 2 <= self.circles[:, 2] ** 2
         return np.concatenate([in_prism, in_circle])
@@ -246,7 +253,9 @@ def horizontal_intervals(geometry: PackedGeometry, ox: float, oy: float, dx: np.
     )
 
 
-def height_window(bottom: np.ndarray, top: np.ndarray, slope: np.ndarray, height: float) -> Tuple[np.ndarray, np.ndarray]:
+def height_window(
+    bottom: np.ndarray, top: np.ndarray, slope: np.ndarray, height: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Horizontal distances ``(near, far)`` over which a ray's height lies in ``[bottom, top]``.
 
     The ray starts at height ``height`` and rises ``slope`` metres per metre of horizontal
@@ -289,7 +298,9 @@ def polygon_of(obj: object) -> np.ndarray:
     return obj.footprint_polygon()
 
 
-def check_free(geometry: PackedGeometry, points: Sequence[Tuple[float, float]], height: float, clearance: float = 0.0) -> None:
+def check_free(
+    geometry: PackedGeometry, points: Sequence[tuple[float, float]], height: float, clearance: float = 0.0
+) -> None:
     """Raises ValueError if a camera at ``height`` at one of ``points`` would be inside a solid."""
     for x, y in points:
         inside = geometry.inside_footprint(float(x), float(y))

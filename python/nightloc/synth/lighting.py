@@ -23,8 +23,8 @@ so shading, shadows and bright spots all move.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Dict, Optional, Sequence, Tuple
 
 import cv2
 import numpy as np
@@ -33,9 +33,9 @@ from .geometry import Cylinder, polygon_of
 from .textures import fbm, value_noise
 from .world import GroundMap, LightSource, World
 
-__all__ = ["Lighting", "SkyMap", "CONDITIONS", "make_lighting", "shade_objects", "ground_irradiance"]
+__all__ = ["CONDITIONS", "Lighting", "SkyMap", "ground_irradiance", "make_lighting", "shade_objects"]
 
-CONDITIONS: Tuple[str, ...] = ("day", "night")
+CONDITIONS: tuple[str, ...] = ("day", "night")
 
 
 @dataclass(frozen=True)
@@ -79,16 +79,16 @@ class Lighting:
     condition: str
     ambient: np.ndarray
     ambient_up_weight: float
-    sun_direction: Optional[np.ndarray]
+    sun_direction: np.ndarray | None
     sun: np.ndarray
     sun_on_surfaces: bool
-    lamps: Tuple[LightSource, ...]
-    glow: Dict[str, float]
+    lamps: tuple[LightSource, ...]
+    glow: dict[str, float]
     sky: SkyMap
     ground: GroundMap
 
 
-def _sky_map(rng: np.random.Generator, condition: str, indoor: bool, sun_direction: Optional[np.ndarray]) -> SkyMap:
+def _sky_map(rng: np.random.Generator, condition: str, indoor: bool, sun_direction: np.ndarray | None) -> SkyMap:
     rows, cols = 220, 720  # 0.5 degree cells from +90 to -20 degrees elevation
     elevation = np.radians(90.0 - (np.arange(rows) + 0.5) * 110.0 / rows)[:, None]
     azimuth = ((np.arange(cols) + 0.5) * 2 * np.pi / cols)[None, :]
@@ -106,7 +106,9 @@ def _sky_map(rng: np.random.Generator, condition: str, indoor: bool, sun_directi
                 + np.sin(elevation) * sun_direction[2]
             )
             sky = sky + (2.5 * np.exp((cos_angle - 1) / 0.01) + 40.0 * (cos_angle > np.cos(np.radians(0.8))))[..., None]
-        below = np.array([0.25, 0.35, 0.18], np.float32) * (0.6 + 0.8 * value_noise(rng, rows, cols, 22, 180))[..., None]
+        below = (
+            np.array([0.25, 0.35, 0.18], np.float32) * (0.6 + 0.8 * value_noise(rng, rows, cols, 22, 180))[..., None]
+        )
     else:
         horizon, zenith = np.array([0.010, 0.008, 0.006], np.float32), np.array([0.0015, 0.002, 0.004], np.float32)
         glow = np.exp(-np.clip(elevation, 0, None) / np.radians(12.0))
@@ -124,14 +126,26 @@ def _sky_map(rng: np.random.Generator, condition: str, indoor: bool, sun_directi
 def _rasterize_hull(mask: np.ndarray, ground: GroundMap, points: np.ndarray) -> None:
     """Fills the convex hull of ground points ``(N, 2)`` metres into ``mask`` (uint8, ground grid)."""
     shift = 4
-    pix = np.stack([(points[:, 0] - ground.x0) * ground.pixels_per_metre - 0.5, (points[:, 1] - ground.y0) * ground.pixels_per_metre - 0.5], axis=1)
+    pix = np.stack(
+        [
+            (points[:, 0] - ground.x0) * ground.pixels_per_metre - 0.5,
+            (points[:, 1] - ground.y0) * ground.pixels_per_metre - 0.5,
+        ],
+        axis=1,
+    )
     limit = 4 * max(mask.shape)
     pix = np.clip(pix, -limit, limit)
     hull = cv2.convexHull(np.round(pix * (1 << shift)).astype(np.int32))
     cv2.fillConvexPoly(mask, hull, 255, lineType=cv2.LINE_AA, shift=shift)
 
 
-def _shadow_mask(world: World, ground: GroundMap, light_point: Optional[np.ndarray], sun_direction: Optional[np.ndarray], skip_tag: Optional[str]) -> np.ndarray:
+def _shadow_mask(
+    world: World,
+    ground: GroundMap,
+    light_point: np.ndarray | None,
+    sun_direction: np.ndarray | None,
+    skip_tag: str | None,
+) -> np.ndarray:
     """Float32 ground-grid map of light reaching the ground (1 lit, 0 shadowed) for one light."""
     mask = np.zeros(ground.values.shape[:2], np.uint8)
     for obj in world.objects:
@@ -166,9 +180,9 @@ def _shadow_mask(world: World, ground: GroundMap, light_point: Optional[np.ndarr
 def ground_irradiance(
     world: World,
     ambient: np.ndarray,
-    sun_direction: Optional[np.ndarray] = None,
-    sun: Optional[np.ndarray] = None,
-    lamps: Sequence[Tuple[str, LightSource]] = (),
+    sun_direction: np.ndarray | None = None,
+    sun: np.ndarray | None = None,
+    lamps: Sequence[tuple[str, LightSource]] = (),
 ) -> GroundMap:
     """Irradiance of the ground plane on the grid of ``world.ground``, shadows included.
 
@@ -189,7 +203,9 @@ def ground_irradiance(
         d2 = (xs - lx) ** 2 + (ys - ly) ** 2 + lz * lz
         cosine = lz / np.sqrt(d2)
         lit = _shadow_mask(world, grid, np.array(lamp.position, float), None, name)
-        irradiance += (np.asarray(lamp.power, np.float32)[None, None, :] * (cosine / d2 * lit)[..., None]).astype(np.float32)
+        irradiance += (np.asarray(lamp.power, np.float32)[None, None, :] * (cosine / d2 * lit)[..., None]).astype(
+            np.float32
+        )
     return GroundMap(np.ascontiguousarray(irradiance, dtype=np.float32), grid.x0, grid.y0, grid.pixels_per_metre)
 
 
@@ -213,7 +229,7 @@ def make_lighting(world: World, condition: str, seed: int = 0) -> Lighting:
     return lighting
 
 
-_LIGHTING_CACHE: Dict[tuple, tuple] = {}
+_LIGHTING_CACHE: dict[tuple, tuple] = {}
 
 
 def _make_lighting(world: World, condition: str, seed: int) -> Lighting:
@@ -229,7 +245,9 @@ def _make_lighting(world: World, condition: str, seed: int) -> Lighting:
             azimuth = rng.uniform(-np.pi, np.pi)
             elevation = np.radians(rng.uniform(28.0, 45.0))
             ambient = np.array([0.55, 0.62, 0.75], np.float32)
-        sun_direction = np.array([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)])
+        sun_direction = np.array(
+            [np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)]
+        )
         sun = np.array([3.0, 2.85, 2.6], np.float32)
     else:
         sun_direction = None
@@ -237,8 +255,21 @@ def _make_lighting(world: World, condition: str, seed: int) -> Lighting:
         ambient = np.array([0.0015, 0.0018, 0.0025] if not world.indoor else [0.003, 0.003, 0.0035], np.float32)
     sky = _sky_map(rng, condition, world.indoor, sun_direction)
     irradiance = ground_irradiance(world, ambient, sun_direction, sun, lamps)
-    ground = GroundMap(world.ground.values * irradiance.values, irradiance.x0, irradiance.y0, irradiance.pixels_per_metre)
-    return Lighting(condition, ambient, 0.25 if world.indoor else 0.45, sun_direction, sun, not world.indoor, tuple(l for _, l in lamps), glow, sky, ground)
+    ground = GroundMap(
+        world.ground.values * irradiance.values, irradiance.x0, irradiance.y0, irradiance.pixels_per_metre
+    )
+    return Lighting(
+        condition,
+        ambient,
+        0.25 if world.indoor else 0.45,
+        sun_direction,
+        sun,
+        not world.indoor,
+        tuple(lamp for _, lamp in lamps),
+        glow,
+        sky,
+        ground,
+    )
 
 
 def shade_objects(lighting: Lighting, albedo: np.ndarray, points: np.ndarray, normals: np.ndarray) -> np.ndarray:

@@ -18,13 +18,12 @@ seed draws the wobble, the sideways error and the living room's random query pos
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Dict, List, Tuple
 
 import numpy as np
 
-__all__ = ["TraversePlan", "plan_traverses", "TRAVERSE_NAMES"]
+__all__ = ["TRAVERSE_NAMES", "TraversePlan", "plan_traverses"]
 
-TRAVERSE_NAMES: Dict[str, Tuple[str, ...]] = {
+TRAVERSE_NAMES: dict[str, tuple[str, ...]] = {
     "garden": ("day_reference", "night_reference", "night_query"),
     "living_room": ("day_reference", "night_query"),
 }
@@ -55,7 +54,7 @@ def wrap_angle(angles: np.ndarray) -> np.ndarray:
     return np.where(wrapped == -np.pi, np.pi, wrapped)
 
 
-def _polyline_samples(waypoints: np.ndarray, count: int) -> Tuple[np.ndarray, np.ndarray]:
+def _polyline_samples(waypoints: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
     """``count`` points evenly spaced along a polyline (ends included) and the travel direction there."""
     segments = np.diff(waypoints, axis=0)
     lengths = np.hypot(segments[:, 0], segments[:, 1])
@@ -68,7 +67,7 @@ def _polyline_samples(waypoints: np.ndarray, count: int) -> Tuple[np.ndarray, np
     return points, direction
 
 
-def _lawnmower_rows(xs: np.ndarray, ys: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+def _lawnmower_rows(xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Stops of a boustrophedon over the grid ``xs x ys`` and the direction of travel at each."""
     points, directions = [], []
     for row, y in enumerate(ys):
@@ -103,14 +102,16 @@ ROOM_GRID_X = np.linspace(0.0, 6.0, 13)
 ROOM_GRID_Y = np.linspace(0.0, 3.0, 4)
 
 
-def plan_traverses(world: str, seed: int = 0) -> List[TraversePlan]:
+def plan_traverses(world: str, seed: int = 0) -> list[TraversePlan]:
     """The traverses of ``world`` (``"garden"`` or ``"living_room"``), in Table I order."""
     rng = np.random.default_rng([int(seed), 4, 0 if world == "garden" else 1])
     if world == "garden":
         stops, directions = _lawnmower_rows(GARDEN_ROW_X, GARDEN_ROW_Y)
         day = TraversePlan("day_reference", "day", stops, _wobble(rng, directions))
         points, directions = _polyline_samples(_lawnmower_polyline(GARDEN_ROW_X, GARDEN_ROW_Y), 53)
-        night_ref = TraversePlan("night_reference", "night", _sideways(rng, points, directions, 0.05), _wobble(rng, directions))
+        night_ref = TraversePlan(
+            "night_reference", "night", _sideways(rng, points, directions, 0.05), _wobble(rng, directions)
+        )
         points, directions = _polyline_samples(GARDEN_QUERY_WAYPOINTS, 41)
         query = TraversePlan("night_query", "night", _sideways(rng, points, directions, 0.08), _wobble(rng, directions))
         return [day, night_ref, query]

@@ -19,7 +19,6 @@ occlusion are real; rays that miss every solid meet the ground plane (downwards)
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Dict, Optional, Tuple
 
 import numpy as np
 
@@ -28,7 +27,7 @@ from .lighting import Lighting, shade_objects
 from .sensor import Exposure, capture
 from .world import World
 
-__all__ = ["Camera", "RayHits", "cast_rays", "render_radiance", "render_panorama", "column_azimuths", "row_elevations"]
+__all__ = ["Camera", "RayHits", "cast_rays", "column_azimuths", "render_panorama", "render_radiance", "row_elevations"]
 
 # What a ray hit, in RayHits.kind.
 SKY, GROUND, OBJECT = 0, 1, 2
@@ -180,7 +179,7 @@ class _Atlas:
         return self.offset[material] + row * self.cols[material] + col
 
 
-_ATLASES: Dict[int, Tuple[World, _Atlas]] = {}
+_ATLASES: dict[int, tuple[World, _Atlas]] = {}
 
 
 def _atlas(world: World) -> _Atlas:
@@ -193,7 +192,9 @@ def _atlas(world: World) -> _Atlas:
     return cached[1]
 
 
-def render_radiance(world: World, lighting: Lighting, x: float, y: float, heading: float, camera: Camera = Camera()) -> np.ndarray:
+def render_radiance(
+    world: World, lighting: Lighting, x: float, y: float, heading: float, camera: Camera = Camera()
+) -> np.ndarray:
     """Linear scene radiance of the panorama at ``(x, y, heading)``: ``(height, width, 3)`` float32 RGB."""
     hits = cast_rays(world, x, y, heading, camera)
     rows, cols = hits.kind.shape
@@ -212,7 +213,9 @@ def render_radiance(world: World, lighting: Lighting, x: float, y: float, headin
         points = np.stack([a.ravel()[solid] for a in (hits.x, hits.y, hits.z)], axis=1)
         normals = np.stack([a.ravel()[solid] for a in (hits.nx, hits.ny, hits.nz)], axis=1)
         shaded = shade_objects(lighting, atlas.albedo[texel], points, normals)
-        glow = np.array([lighting.glow.get(o.emission, 0.0) if o.emission else 0.0 for o in world.objects], np.float32)[obj]
+        glow = np.array([lighting.glow.get(o.emission, 0.0) if o.emission else 0.0 for o in world.objects], np.float32)[
+            obj
+        ]
         if glow.any():
             shaded += atlas.emissive[texel] * glow[:, None]
         radiance[solid] = shaded
@@ -235,7 +238,7 @@ def render_panorama(
     y: float,
     heading: float,
     camera: Camera = Camera(),
-    rng: Optional[np.random.Generator] = None,
+    rng: np.random.Generator | None = None,
 ) -> np.ndarray:
     """The camera image at ``(x, y, heading)``: ``(height, width, 3)`` uint8 BGR.
 

@@ -2,9 +2,9 @@
 
 A pixel of scene radiance ``L`` (linear units, see :mod:`nightloc.synth.lighting`) collects
 ``N ~ Poisson(k * L)`` photo-electrons (``k`` = :attr:`Exposure.electrons_per_unit`, clipped at
-the full well; drawn exactly below 12 electrons, as its normal limit above), gains Gaussian read noise, is amplified by the digital ``gain``, normalized by the
-full well, clipped to [0, 1] and quantized to 16 bits, encoded with the tone curve
-``value ** (1 / gamma)`` and rounded to ``uint8``.
+the full well; drawn exactly below 12 electrons, as its normal limit above), gains Gaussian read
+noise, is amplified by the digital ``gain``, normalized by the full well, clipped to [0, 1] and
+quantized to 16 bits, encoded with the tone curve ``value ** (1 / gamma)`` and rounded to ``uint8``.
 
 Night darkness. A day frame is exposed so that the metered scene radiance collects 18 % of the
 full well (:func:`metered_exposure`). At night the camera meters the (much dimmer) night scene
@@ -17,11 +17,10 @@ to the signal) and an image about 10 times darker in linear terms.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
 
 import numpy as np
 
-__all__ = ["Exposure", "capture", "metered_exposure", "FULL_WELL", "READ_NOISE"]
+__all__ = ["FULL_WELL", "READ_NOISE", "Exposure", "capture", "metered_exposure"]
 
 FULL_WELL = 4000.0  # electrons at the brightest output level
 READ_NOISE = 2.5  # electrons rms
@@ -71,7 +70,7 @@ def metered_exposure(metered_radiance: float, darkness: float = 0.0, gamma: floa
     return Exposure(electrons_per_unit=electrons, gain=10.0**darkness, gamma=gamma)
 
 
-def capture(radiance: np.ndarray, exposure: Exposure, rng: Optional[np.random.Generator] = None) -> np.ndarray:
+def capture(radiance: np.ndarray, exposure: Exposure, rng: np.random.Generator | None = None) -> np.ndarray:
     """Sensor read-out of a ``(H, W, 3)`` linear RGB radiance image: ``(H, W, 3)`` uint8 **BGR**.
 
     ``rng`` draws shot (Poisson) and read (Gaussian) noise; None gives the noiseless expectation.

@@ -8,15 +8,15 @@ columns and ``v`` around the rows. Nothing is downloaded; every pattern comes fr
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Dict, Optional, Sequence, Tuple
 
 import cv2
 import numpy as np
 
-__all__ = ["Texture", "TEXTURE_KINDS", "make_texture", "value_noise", "fbm"]
+__all__ = ["TEXTURE_KINDS", "Texture", "fbm", "make_texture", "value_noise"]
 
-RGB = Tuple[float, float, float]
+RGB = tuple[float, float, float]
 
 
 @dataclass(frozen=True)
@@ -29,7 +29,7 @@ class Texture:
 
     albedo: np.ndarray
     pixels_per_metre: float
-    emissive: Optional[np.ndarray] = None
+    emissive: np.ndarray | None = None
 
 
 def value_noise(rng: np.random.Generator, rows: int, cols: int, cells_y: int, cells_x: int) -> np.ndarray:
@@ -52,7 +52,9 @@ def value_noise(rng: np.random.Generator, rows: int, cols: int, cells_y: int, ce
     return np.ascontiguousarray(big[y0 : y0 + rows, x0 : x0 + cols])
 
 
-def fbm(rng: np.random.Generator, rows: int, cols: int, cells_y: int, cells_x: int, octaves: int = 4, gain: float = 0.5) -> np.ndarray:
+def fbm(
+    rng: np.random.Generator, rows: int, cols: int, cells_y: int, cells_x: int, octaves: int = 4, gain: float = 0.5
+) -> np.ndarray:
     """Fractal sum of :func:`value_noise` octaves, rescaled to [0, 1], ``(rows, cols)`` float32."""
     total = np.zeros((rows, cols), np.float32)
     amplitude = 1.0
@@ -76,7 +78,7 @@ def _to_uint8(values: np.ndarray) -> np.ndarray:
     return np.clip(np.round(np.asarray(values, np.float32) * 255.0), 0, 255).astype(np.uint8)
 
 
-def _shape(width_m: float, height_m: float, ppm: float) -> Tuple[int, int]:
+def _shape(width_m: float, height_m: float, ppm: float) -> tuple[int, int]:
     return max(4, int(round(height_m * ppm))), max(4, int(round(width_m * ppm)))
 
 
@@ -119,7 +121,9 @@ def _brick(rng, rows, cols, ppm, colour=(0.45, 0.16, 0.09), mortar=(0.55, 0.52, 
     return albedo
 
 
-def _foliage(rng, rows, cols, ppm, dark=(0.03, 0.10, 0.02), light=(0.16, 0.36, 0.07), flowers=0.0, flower=(0.8, 0.75, 0.2)):
+def _foliage(
+    rng, rows, cols, ppm, dark=(0.03, 0.10, 0.02), light=(0.16, 0.36, 0.07), flowers=0.0, flower=(0.8, 0.75, 0.2)
+):
     """Leaves: blotchy two-tone noise with fine detail and optional flower dots."""
     coarse = fbm(rng, rows, cols, max(1, rows // 24), max(1, cols // 24), octaves=3)
     fine = value_noise(rng, rows, cols, max(1, rows // 3), max(1, cols // 3))
@@ -141,7 +145,9 @@ def _bark(rng, rows, cols, ppm, colour=(0.20, 0.13, 0.08)):
     return np.asarray(colour, np.float32) * (0.45 + 0.7 * streaks * (0.6 + 0.4 * knots))[..., None]
 
 
-def _paint(rng, rows, cols, ppm, colour=(0.70, 0.66, 0.58), stripes=0.0, stripe_colour=(0.55, 0.50, 0.42), skirting=0.0):
+def _paint(
+    rng, rows, cols, ppm, colour=(0.70, 0.66, 0.58), stripes=0.0, stripe_colour=(0.55, 0.50, 0.42), skirting=0.0
+):
     """Painted plaster or wallpaper: flat colour, faint mottling, optional vertical stripes and skirting board."""
     mottle = fbm(rng, rows, cols, max(1, rows // 32), max(1, cols // 32), octaves=3)
     albedo = np.asarray(colour, np.float32) * (0.92 + 0.16 * mottle)[..., None]
@@ -176,7 +182,18 @@ def _books(rng, rows, cols, ppm, shelf=0.35, wood=(0.30, 0.18, 0.09)):
     """A bookcase front: shelves of books with random widths, heights and colours."""
     albedo = np.empty((rows, cols, 3), np.float32)
     albedo[:] = np.asarray(wood, np.float32) * 0.35
-    palette = np.array([[0.5, 0.05, 0.05], [0.05, 0.15, 0.45], [0.6, 0.5, 0.1], [0.1, 0.35, 0.1], [0.7, 0.7, 0.65], [0.08, 0.08, 0.08], [0.55, 0.25, 0.05]], np.float32)
+    palette = np.array(
+        [
+            [0.5, 0.05, 0.05],
+            [0.05, 0.15, 0.45],
+            [0.6, 0.5, 0.1],
+            [0.1, 0.35, 0.1],
+            [0.7, 0.7, 0.65],
+            [0.08, 0.08, 0.08],
+            [0.55, 0.25, 0.05],
+        ],
+        np.float32,
+    )
     shelf_px = max(2, int(shelf * ppm))
     board = max(1, int(0.025 * ppm))
     for top in range(0, rows, shelf_px):
@@ -197,7 +214,9 @@ def _books(rng, rows, cols, ppm, shelf=0.35, wood=(0.30, 0.18, 0.09)):
 def _picture(rng, rows, cols, ppm, frame=(0.1, 0.07, 0.04)):
     """A painting: gradient background, a few ellipses and rectangles, a frame."""
     top_colour, bottom_colour = rng.uniform(0.05, 0.8, 3), rng.uniform(0.05, 0.8, 3)
-    albedo = _mix(tuple(top_colour), tuple(bottom_colour), np.linspace(0, 1, rows, dtype=np.float32)[:, None].repeat(cols, 1))
+    albedo = _mix(
+        tuple(top_colour), tuple(bottom_colour), np.linspace(0, 1, rows, dtype=np.float32)[:, None].repeat(cols, 1)
+    )
     for _ in range(int(rng.integers(3, 7))):
         colour = tuple(float(c) for c in rng.uniform(0.02, 0.9, 3))
         cx, cy = int(rng.integers(0, cols)), int(rng.integers(0, rows))
@@ -289,10 +308,13 @@ def _appliance(rng, rows, cols, ppm, colour=(0.75, 0.75, 0.73)):
 
 def _plain(rng, rows, cols, ppm, colour=(0.8, 0.78, 0.72), noise=0.1):
     """A nearly uniform surface (ceiling, lamp shade, shed roof underside)."""
-    return np.asarray(colour, np.float32) * (1 - noise / 2 + noise * fbm(rng, rows, cols, max(1, rows // 32), max(1, cols // 32), 3))[..., None]
+    return (
+        np.asarray(colour, np.float32)
+        * (1 - noise / 2 + noise * fbm(rng, rows, cols, max(1, rows // 32), max(1, cols // 32), 3))[..., None]
+    )
 
 
-TEXTURE_KINDS: Dict[str, Callable[..., np.ndarray]] = {
+TEXTURE_KINDS: dict[str, Callable[..., np.ndarray]] = {
     "planks": _planks,
     "brick": _brick,
     "foliage": _foliage,
@@ -312,7 +334,9 @@ TEXTURE_KINDS: Dict[str, Callable[..., np.ndarray]] = {
 }
 
 
-def make_texture(kind: str, rng: np.random.Generator, width_m: float, height_m: float, ppm: float = 100.0, **params) -> Texture:
+def make_texture(
+    kind: str, rng: np.random.Generator, width_m: float, height_m: float, ppm: float = 100.0, **params
+) -> Texture:
     """A ``width_m x height_m`` metre texture of one of :data:`TEXTURE_KINDS`.
 
     Args:
@@ -330,6 +354,8 @@ def make_texture(kind: str, rng: np.random.Generator, width_m: float, height_m: 
     return Texture(_to_uint8(albedo), float(ppm), None if emissive is None else _to_uint8(emissive))
 
 
-def jitter_colour(rng: np.random.Generator, colour: Sequence[float], amount: float = 0.15) -> Tuple[float, float, float]:
+def jitter_colour(
+    rng: np.random.Generator, colour: Sequence[float], amount: float = 0.15
+) -> tuple[float, float, float]:
     """``colour`` with each channel scaled by a random factor in ``1 +- amount``."""
     return tuple(float(c) for c in _jitter(rng, tuple(colour), amount))

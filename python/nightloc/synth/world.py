@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
-from typing import Dict, List, Tuple
 
 import cv2
 import numpy as np
@@ -20,11 +19,11 @@ import numpy as np
 from .geometry import Cylinder, PackedGeometry, Prism, box, check_free, panel
 from .textures import Texture, fbm, jitter_colour, make_texture, value_noise
 
-__all__ = ["World", "LightSource", "GroundMap", "WORLD_NAMES", "build_world"]
+__all__ = ["WORLD_NAMES", "GroundMap", "LightSource", "World", "build_world"]
 
-WORLD_NAMES: Tuple[str, ...] = ("garden", "living_room")
+WORLD_NAMES: tuple[str, ...] = ("garden", "living_room")
 
-RGB = Tuple[float, float, float]
+RGB = tuple[float, float, float]
 
 
 @dataclass(frozen=True)
@@ -37,9 +36,9 @@ class LightSource:
     Objects whose ``emission`` tag equals the light's name glow while it is on.
     """
 
-    position: Tuple[float, float, float]
+    position: tuple[float, float, float]
     power: RGB
-    conditions: Tuple[str, ...]
+    conditions: tuple[str, ...]
     glow: float = 4.0  # radiance gain of the glowing object (lamp shade, lit window)
 
 
@@ -60,7 +59,7 @@ class GroundMap:
         r = np.clip(((y - self.y0) * self.pixels_per_metre).astype(np.int64), 0, rows - 1)
         return self.values[r, c]
 
-    def cell_centres(self) -> Tuple[np.ndarray, np.ndarray]:
+    def cell_centres(self) -> tuple[np.ndarray, np.ndarray]:
         """``(x, y)`` of every cell, each ``(rows, cols)``."""
         rows, cols = self.values.shape[:2]
         xs = self.x0 + (np.arange(cols) + 0.5) / self.pixels_per_metre
@@ -84,20 +83,22 @@ class World:
     """
 
     name: str
-    objects: List[object]
-    materials: Dict[str, Texture]
+    objects: list[object]
+    materials: dict[str, Texture]
     ground: GroundMap
-    mapped_area: Tuple[float, float, float, float]
+    mapped_area: tuple[float, float, float, float]
     indoor: bool
     camera_height: float
-    lights: Dict[str, LightSource]
+    lights: dict[str, LightSource]
     seed: int
     geometry: PackedGeometry = field(init=False)
     material_index: np.ndarray = field(init=False)  # (O,) index into material_names
-    material_names: List[str] = field(init=False)
+    material_names: list[str] = field(init=False)
 
     def __post_init__(self) -> None:
-        self.objects = [o for o in self.objects if isinstance(o, Prism)] + [o for o in self.objects if isinstance(o, Cylinder)]
+        self.objects = [o for o in self.objects if isinstance(o, Prism)] + [
+            o for o in self.objects if isinstance(o, Cylinder)
+        ]
         self.geometry = PackedGeometry(self.objects)
         missing = sorted({o.material for o in self.objects} - set(self.materials))
         if missing:
@@ -149,7 +150,7 @@ def _garden_ground(rng: np.random.Generator) -> GroundMap:
 
 def _garden(seed: int) -> World:
     rng = np.random.default_rng([seed, 1])
-    tex: Dict[str, Texture] = {}
+    tex: dict[str, Texture] = {}
 
     def material(name: str, kind: str, width: float, height: float, ppm: float = 100.0, **params) -> str:
         tex[name] = make_texture(kind, rng, width, height, ppm, **params)
@@ -160,7 +161,9 @@ def _garden(seed: int) -> World:
     post = material("post", "wood", 0.5, 2.0, colour=(0.22, 0.14, 0.08))
     brick = material("brick", "brick", 4.5, 3.2)
     roof = material("roof", "tiles", 4.0, 1.0)
-    siding = material("shed", "planks", 4.0, 2.1, colour=(0.20, 0.30, 0.22), plank=0.12, gap=0.01, rails=(), vertical=False)
+    siding = material(
+        "shed", "planks", 4.0, 2.1, colour=(0.20, 0.30, 0.22), plank=0.12, gap=0.01, rails=(), vertical=False
+    )
     shed_roof = material("shed_roof", "plain", 2.0, 2.0, colour=(0.12, 0.12, 0.13))
     door = material("door", "panels", 0.9, 2.0, colour=(0.08, 0.18, 0.35))
     shed_door = material("shed_door", "panels", 0.8, 1.8, colour=(0.55, 0.45, 0.30))
@@ -170,8 +173,17 @@ def _garden(seed: int) -> World:
     metal = material("metal", "plain", 0.5, 1.0, colour=(0.15, 0.15, 0.16))
     lamp = material("lamp", "plain", 0.5, 0.3, colour=(0.9, 0.85, 0.7), noise=0.05)
     leaves = [
-        material(f"leaves_{i}", "foliage", 3.0, 2.0, dark=jitter_colour(rng, d, 0.2), light=jitter_colour(rng, l, 0.2), flowers=f, flower=fc)
-        for i, (d, l, f, fc) in enumerate(
+        material(
+            f"leaves_{i}",
+            "foliage",
+            3.0,
+            2.0,
+            dark=jitter_colour(rng, d, 0.2),
+            light=jitter_colour(rng, lit, 0.2),
+            flowers=f,
+            flower=fc,
+        )
+        for i, (d, lit, f, fc) in enumerate(
             [
                 ((0.03, 0.10, 0.02), (0.16, 0.36, 0.07), 0.0, (1, 1, 1)),
                 ((0.02, 0.07, 0.03), (0.09, 0.25, 0.08), 0.0, (1, 1, 1)),
@@ -184,7 +196,7 @@ def _garden(seed: int) -> World:
     ]
     windows = [material(f"window_{i}", "window", 1.2, 1.2, panes=(2, 2) if i % 2 else (3, 2)) for i in range(3)]
 
-    objects: List[object] = []
+    objects: list[object] = []
     # Fences (west, south, east) with posts every ~2 m; the house closes the north side.
     objects.append(box(-1.56, -1.5, -1.5, 6.8, 0.0, 1.8, fence_a))
     objects.append(box(-1.5, -1.56, 8.5, -1.5, 0.0, 1.8, fence_a, u_offset=1.3))
@@ -198,7 +210,9 @@ def _garden(seed: int) -> World:
     objects.append(box(-1.5, 6.8, 8.5, 9.5, 0.0, 3.2, brick))
     objects.append(box(-1.8, 6.55, 8.8, 9.8, 3.2, 3.45, roof))
     for i, (x, w) in enumerate([(0.6, 1.4), (2.6, 1.0), (6.9, 1.6)]):
-        objects.append(panel((x, 6.79), w, 0.02, -np.pi / 2, 0.9, 2.1, windows[i], emission="house_window" if i != 1 else None))
+        objects.append(
+            panel((x, 6.79), w, 0.02, -np.pi / 2, 0.9, 2.1, windows[i], emission="house_window" if i != 1 else None)
+        )
     objects.append(panel((4.4, 6.79), 0.9, 0.02, -np.pi / 2, 0.0, 2.0, door))
     objects.append(Cylinder((5.2, 6.72), 0.07, 2.05, 2.3, lamp, emission="porch_lamp"))
     objects.append(Cylinder((8.2, 6.68), 0.05, 0.0, 3.2, metal))  # downpipe
@@ -230,9 +244,15 @@ def _garden(seed: int) -> World:
         objects.append(Cylinder((cx, cy), canopy_r, canopy_z[0], canopy_z[1], leaf, u_offset=rng.uniform(0, 3)))
     # Shrubs in the beds along the fences: different sizes, leaves and flowers.
     for cx, cy, r, h, k in [
-        (-1.05, -0.6, 0.45, 1.1, 2), (-1.0, 0.7, 0.4, 0.8, 3), (-1.0, 4.0, 0.45, 1.4, 4),
-        (0.3, -1.05, 0.4, 0.9, 4), (4.6, -1.05, 0.45, 1.2, 2), (5.9, -1.0, 0.5, 0.7, 3),
-        (6.8, -1.1, 0.35, 1.0, 1), (8.0, 5.9, 0.45, 1.1, 3), (-1.0, 6.2, 0.4, 0.9, 2),
+        (-1.05, -0.6, 0.45, 1.1, 2),
+        (-1.0, 0.7, 0.4, 0.8, 3),
+        (-1.0, 4.0, 0.45, 1.4, 4),
+        (0.3, -1.05, 0.4, 0.9, 4),
+        (4.6, -1.05, 0.45, 1.2, 2),
+        (5.9, -1.0, 0.5, 0.7, 3),
+        (6.8, -1.1, 0.35, 1.0, 1),
+        (8.0, 5.9, 0.45, 1.1, 3),
+        (-1.0, 6.2, 0.4, 0.9, 2),
     ]:
         objects.append(Cylinder((cx, cy), r, 0.0, h, leaves[k], u_offset=rng.uniform(0, 3)))
 
@@ -265,18 +285,28 @@ def _room_floor(rng: np.random.Generator) -> GroundMap:
     u, v = (xs - 0.9) / 3.4, (ys - 0.7) / 1.9
     border = (u < 0.06) | (u > 0.94) | (v < 0.09) | (v > 0.91)
     diamonds = (np.abs(((u * 6) % 1) - 0.5) + np.abs(((v * 3) % 1) - 0.5)) < 0.3
-    rug_colour = np.where(border[..., None], np.array([0.45, 0.06, 0.05], np.float32), np.where(diamonds[..., None], np.array([0.65, 0.55, 0.30], np.float32), np.array([0.10, 0.12, 0.30], np.float32)))
+    rug_colour = np.where(
+        border[..., None],
+        np.array([0.45, 0.06, 0.05], np.float32),
+        np.where(
+            diamonds[..., None], np.array([0.65, 0.55, 0.30], np.float32), np.array([0.10, 0.12, 0.30], np.float32)
+        ),
+    )
     rug_colour *= (0.85 + 0.3 * value_noise(rng, rows, cols, rows // 3, cols // 3))[..., None]
     albedo = np.where(rug[..., None], rug_colour, albedo)
     runner = (xs > 4.9) & (xs < 6.7) & (ys > -0.2) & (ys < 0.35)
     stripes = (np.floor((xs - 4.9) / 0.12) % 2) == 0
-    albedo = np.where(runner[..., None], np.where(stripes[..., None], np.array([0.6, 0.6, 0.55], np.float32), np.array([0.25, 0.35, 0.28], np.float32)), albedo)
+    albedo = np.where(
+        runner[..., None],
+        np.where(stripes[..., None], np.array([0.6, 0.6, 0.55], np.float32), np.array([0.25, 0.35, 0.28], np.float32)),
+        albedo,
+    )
     return GroundMap(np.ascontiguousarray(albedo, dtype=np.float32), x0, y0, ppm)
 
 
 def _living_room(seed: int) -> World:
     rng = np.random.default_rng([seed, 2])
-    tex: Dict[str, Texture] = {}
+    tex: dict[str, Texture] = {}
 
     def material(name: str, kind: str, width: float, height: float, ppm: float = 100.0, **params) -> str:
         tex[name] = make_texture(kind, rng, width, height, ppm, **params)
@@ -284,7 +314,16 @@ def _living_room(seed: int) -> World:
 
     wall_cream = material("wall_cream", "paint", 4.0, 2.5, colour=(0.70, 0.64, 0.52), skirting=0.1)
     wall_blue = material("wall_blue", "paint", 4.0, 2.5, colour=(0.30, 0.40, 0.52), skirting=0.1)
-    wallpaper = material("wallpaper", "paint", 4.0, 2.5, colour=(0.62, 0.58, 0.48), stripes=0.2, stripe_colour=(0.45, 0.30, 0.25), skirting=0.1)
+    wallpaper = material(
+        "wallpaper",
+        "paint",
+        4.0,
+        2.5,
+        colour=(0.62, 0.58, 0.48),
+        stripes=0.2,
+        stripe_colour=(0.45, 0.30, 0.25),
+        skirting=0.1,
+    )
     ceiling = material("ceiling", "plain", 2.0, 2.0, colour=(0.8, 0.8, 0.78), noise=0.06)
     sofa = material("sofa", "fabric", 2.5, 0.95, colour=(0.12, 0.18, 0.35))
     armchair = material("armchair", "fabric", 2.0, 0.9, colour=(0.45, 0.10, 0.08), seam=0.35)
@@ -300,12 +339,15 @@ def _living_room(seed: int) -> World:
     curtain = material("curtain", "curtain", 1.0, 2.2, colour=(0.55, 0.35, 0.25))
     plant = material("plant", "foliage", 1.5, 1.0, dark=(0.02, 0.08, 0.02), light=(0.12, 0.35, 0.08))
     pot = material("pot", "plain", 1.0, 0.4, colour=(0.55, 0.25, 0.12), noise=0.2)
-    pictures = [material(f"picture_{i}", "picture", w, h) for i, (w, h) in enumerate([(0.9, 0.6), (0.5, 0.7), (0.7, 0.5), (1.0, 0.7), (0.4, 0.4)])]
+    pictures = [
+        material(f"picture_{i}", "picture", w, h)
+        for i, (w, h) in enumerate([(0.9, 0.6), (0.5, 0.7), (0.7, 0.5), (1.0, 0.7), (0.4, 0.4)])
+    ]
 
     H = 2.5  # ceiling height
     xw, xe, ys_, yn = -1.0, 7.0, -0.9, 3.9  # inner faces of the walls
     t = 0.15  # wall thickness
-    objects: List[object] = []
+    objects: list[object] = []
     # Ceiling slab over the whole room (its underside is what the camera sees).
     objects.append(box(xw - t, ys_ - t, xe + t, yn + t, H, H + 0.2, ceiling))
     # North, west and east walls; the south wall has two window openings.
@@ -321,7 +363,9 @@ def _living_room(seed: int) -> World:
         objects.append(box(x0, ys_ - t, x1, ys_, 0.0, sill, wall_cream, u_offset=x0))
         objects.append(box(x0, ys_ - t, x1, ys_, lintel, H, wall_cream, u_offset=x0))
         for cx in (x0 - 0.18, x1 + 0.18):  # curtains drawn aside
-            objects.append(panel((cx, ys_ + 0.03), 0.32, 0.05, np.pi / 2, 0.05, 2.3, curtain, u_offset=rng.uniform(0, 1)))
+            objects.append(
+                panel((cx, ys_ + 0.03), 0.32, 0.05, np.pi / 2, 0.05, 2.3, curtain, u_offset=rng.uniform(0, 1))
+            )
     # North wall: sofa with a backrest, two pictures, a floor lamp and a plant.
     objects.append(box(1.4, 3.25, 3.9, 3.65, 0.0, 0.45, sofa))
     objects.append(box(1.4, 3.65, 3.9, 3.9, 0.0, 0.9, sofa, u_offset=0.7))

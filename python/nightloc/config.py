@@ -1,0 +1,382 @@
+"""Configuration: frozen parameter dataclasses with the paper's defaults, loaded from and saved to TOML.
+
+Each parameter class is a frozen dataclass registered under a TOML table name with
+:func:`params_section`; its fields are type-checked when an instance is made (from Python or
+from a file), and a ``validate(self)`` method, when the class defines one, checks ranges. A
+parameter file holds one table per class::
+
+    [preparation]
+    width = 48
+    equalize = "clahe"
+    crop = [0, 0.1, 0, 0]     # top, bottom, left, right: ints are pixels, floats fractions
+
+Missing keys keep their defaults; unknown tables or keys are an error naming them. Other modules
+add their own classes the same way::
+
+    @params_section("localization")
+    @dataclass(frozen=True)
+    class LocalizationParams:
+        grid_width: int = 100
+        def validate(self): ...
+
+    load_params("params.toml", LocalizationParams)
+
+Supported field types: ``bool``, ``int``, ``float`` (an int is accepted), ``str``,
+``Literal[...]``, ``Optional[T]`` (None is written by leaving the key out, so its default must be
+None), unions such as ``int | float`` (the first type that fits wins), ``tuple[T, ...]`` and
+``tuple[T1, T2]``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import os
+import re
+import tomllib
+import types
+import typing
+from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
+from typing import Any, Literal, TypeVar, Union
+
+import numpy as np
+
+from .errors import NightlocError
+from .io.atomic import write_text
+
+__all__ = [
+    "dumps_toml",
+    "load_params",
+    "load_params_file",
+    "params_from_dict",
+    "params_section",
+    "params_to_dict",
+    "registered_sections",
+    "save_params",
+]
+
+T = TypeVar("T")
+
+_SECTIONS: dict[str, type] = {}
+_SECTION_ATTRIBUTE = "__params_section__"
+
+
+# --------------------------------------------------------------------------------------------
+# registration and type checking
+
+
+def params_section(name: str) -> Callable[[type[T]], type[T]]:
+    """Class decorator: registers a frozen dataclass as the TOML table ``[name]``.
+
+    Apply it above ``@dataclass(frozen=True)``. It wraps ``__init__`` (so also
+    ``dataclasses.replace``): after the dataclass's own initialization, every field is
+    type-checked and normalized (numpy scalars to Python, lists to tuples, ints to floats for
+    float fields), then the class's ``validate()`` runs when it has one.
+    """
+    if not re.fullmatch(r"[A-Za-z0-9_-]+", name):
+        raise ValueError(f"section name {name!r} must be a bare TOML key (letters, digits, _ and -)")
+
+    def register(cls: type[T]) -> type[T]:
+        if not dataclasses.is_dataclass(cls) or not cls.__dataclass_params__.frozen:  # type: ignore[attr-defined]
+            raise TypeError(
+                f"{cls.__name__} must be a frozen dataclass (@dataclass(frozen=True)) below @params_section"
+            )
+        existing = _SECTIONS.get(name)
+        if existing is not None and existing.__qualname__ != cls.__qualname__:
+            raise ValueError(f"section [{name}] is already taken by {existing.__qualname__}")
+        hints = typing.get_type_hints(cls)
+        fields = {field.name: hints[field.name] for field in dataclasses.fields(cls)}
+        dataclass_init = cls.__init__
+
+        @functools.wraps(dataclass_init)
+        def __init__(self: Any, *args: Any, **kwargs: Any) -> None:
+            dataclass_init(self, *args, **kwargs)
+            for field_name, hint in fields.items():
+                value = _coerce(getattr(self, field_name), hint, f"{cls.__name__}.{field_name}")
+                object.__setattr__(self, field_name, value)
+            validate = getattr(self, "validate", None)
+            if callable(validate):
+                validate()
+
+        cls.__init__ = __init__  # type: ignore[method-assign]
+        setattr(cls, _SECTION_ATTRIBUTE, name)
+        _SECTIONS[name] = cls
+        return cls
+
+    return register
+
+
+def registered_sections() -> dict[str, type]:
+    """TOML table name -> parameter class, for every registered class."""
+    return dict(_SECTIONS)
+
+
+def _section_of(cls: type) -> str:
+    name = getattr(cls, _SECTION_ATTRIBUTE, None)
+    if name is None or _SECTIONS.get(name) is not cls:
+        raise TypeError(
+            f"{getattr(cls, '__name__', cls)!r} is not a parameter class (decorate it with @params_section)"
+        )
+    return name
+
+
+def _type_name(hint: Any) -> str:
+    origin = typing.get_origin(hint)
+    if origin is Literal:
+        return " or ".join(repr(a) for a in typing.get_args(hint))
+    if origin in (Union, types.UnionType):
+        return " or ".join(_type_name(a) for a in typing.get_args(hint))
+    if origin is tuple:
+        args = typing.get_args(hint)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return f"a list of {_type_name(args[0])}"
+        return f"a list of {len(args)} values ({', '.join(_type_name(a) for a in args)})"
+    if hint is type(None):
+        return "None"
+    return getattr(hint, "__name__", str(hint))
+
+
+def _describe(value: Any) -> str:
+    return f"{type(value).__name__} {value!r}"
+
+
+class _Mismatch(Exception):
+    pass
+
+
+def _convert(value: Any, hint: Any) -> Any:
+    """``value`` as ``hint`` (normalized), or raises _Mismatch."""
+    origin = typing.get_origin(hint)
+    if hint is Any:
+        return value
+    if hint is type(None):
+        if value is None:
+            return None
+        raise _Mismatch
+    if origin is Literal:
+        for allowed in typing.get_args(hint):
+            if type(value) is type(allowed) and value == allowed:
+                return allowed
+        raise _Mismatch
+    if origin in (Union, types.UnionType):
+        for option in typing.get_args(hint):
+            try:
+                return _convert(value, option)
+            except _Mismatch:
+                continue
+        raise _Mismatch
+    if origin is tuple:
+        if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple, np.ndarray)):
+            raise _Mismatch
+        items = list(value)
+        args = typing.get_args(hint)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_convert(item, args[0]) for item in items)
+        if len(items) != len(args):
+            raise _Mismatch
+        return tuple(_convert(item, arg) for item, arg in zip(items, args))
+    if hint is bool:
+        if isinstance(value, (bool, np.bool_)):
+            return bool(value)
+        raise _Mismatch
+    if hint is int:
+        if isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)):
+            return int(value)
+        raise _Mismatch
+    if hint is float:
+        if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_)):
+            return float(value)
+        raise _Mismatch
+    if hint is str:
+        if isinstance(value, str):
+            return value
+        raise _Mismatch
+    raise TypeError(f"parameter type {hint!r} is not supported (see nightloc.config)")
+
+
+def _coerce(value: Any, hint: Any, name: str) -> Any:
+    try:
+        return _convert(value, hint)
+    except _Mismatch:
+        raise TypeError(f"{name} must be {_type_name(hint)}, got {_describe(value)}") from None
+
+
+# --------------------------------------------------------------------------------------------
+# dataclass <-> dict
+
+
+def params_to_dict(params: Any) -> dict[str, Any]:
+    """The fields of a parameter instance as a dict (tuples as lists; None values left out)."""
+    _section_of(type(params))
+    out: dict[str, Any] = {}
+    for field in dataclasses.fields(params):
+        value = getattr(params, field.name)
+        if value is None:
+            continue
+        out[field.name] = list(value) if isinstance(value, tuple) else value
+    return out
+
+
+def params_from_dict(cls: type[T], table: Mapping[str, Any], where: str = "") -> T:
+    """An instance of the parameter class ``cls`` from a TOML table (missing keys: defaults).
+
+    Raises NightlocError (a ValueError) naming ``where`` and the offending key for an unknown key,
+    a wrong type or an out-of-range value.
+    """
+    section = _section_of(cls)
+    prefix = f"{where}: " if where else ""
+    if not isinstance(table, Mapping):
+        raise NightlocError(f"{prefix}[{section}] must be a table of key = value pairs, got {_describe(table)}")
+    names = [field.name for field in dataclasses.fields(cls)]  # type: ignore[arg-type]
+    for key in table:
+        if key not in names:
+            close = [n for n in names if n.replace("_", "") == str(key).replace("_", "").lower()]
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise NightlocError(f"{prefix}unknown key {key!r} in [{section}]{hint}; known keys: {', '.join(names)}")
+    try:
+        return cls(**table)  # type: ignore[call-arg]
+    except (TypeError, ValueError) as error:
+        raise NightlocError(f"{prefix}[{section}] {error}") from None
+
+
+# --------------------------------------------------------------------------------------------
+# TOML writing (tomllib only reads)
+
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+def _toml_key(key: str) -> str:
+    if not isinstance(key, str):
+        raise TypeError(f"TOML keys must be strings, got {_describe(key)}")
+    return key if _BARE_KEY.fullmatch(key) else _toml_string(key)
+
+
+def _toml_string(text: str) -> str:
+    out = []
+    for char in text:
+        if char in _ESCAPES:
+            out.append(_ESCAPES[char])
+        elif ord(char) < 0x20 or ord(char) == 0x7F:
+            out.append(f"\\u{ord(char):04X}")
+        else:
+            out.append(char)
+    return '"' + "".join(out) + '"'
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        number = float(value)
+        if math.isnan(number):
+            return "nan"
+        if math.isinf(number):
+            return "inf" if number > 0 else "-inf"
+        return repr(number)  # always has '.', 'e' or is 'inf'/'nan': a TOML float, exact round trip
+    if isinstance(value, str):
+        return _toml_string(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(item) for item in value) + "]"
+    if isinstance(value, Mapping):
+        return "{" + ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items()) + "}"
+    raise TypeError(f"cannot write {_describe(value)} to TOML")
+
+
+def dumps_toml(document: Mapping[str, Any], header: str = "") -> str:
+    """A TOML document: scalars and arrays as ``key = value``, nested mappings as ``[tables]``.
+
+    Values: bool, int, float (exact round trip; nan and inf allowed), str, lists/tuples and
+    mappings of those. None values are left out (TOML has no null). ``header`` becomes comment
+    lines at the top.
+    """
+    lines = [f"# {line}".rstrip() for line in header.splitlines()]
+
+    def emit(table: Mapping[str, Any], path: tuple[str, ...]) -> None:
+        scalars = [(k, v) for k, v in table.items() if v is not None and not isinstance(v, Mapping)]
+        tables = [(k, v) for k, v in table.items() if isinstance(v, Mapping)]
+        if path and (scalars or not tables):
+            if lines:
+                lines.append("")
+            lines.append("[" + ".".join(_toml_key(p) for p in path) + "]")
+        for key, value in scalars:
+            lines.append(f"{_toml_key(key)} = {_toml_value(value)}")
+        for key, value in tables:
+            emit(value, (*path, key))
+
+    emit(document, ())
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------------------------
+# files
+
+
+def load_params_file(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """Every table of a parameter file: section name -> parameter instance.
+
+    Raises NightlocError naming the file for a missing or malformed file, a key outside a table,
+    an unknown table or key, or a bad value.
+    """
+    file = Path(path)
+    try:
+        data = file.read_bytes()
+    except OSError as error:
+        raise NightlocError(f"parameter file {file} cannot be read: {error.strerror or error}") from error
+    try:
+        document = tomllib.loads(data.decode("utf-8-sig"))  # a byte-order mark (Windows editors) is fine
+    except UnicodeDecodeError as error:
+        raise NightlocError(f"parameter file {file} is not UTF-8 text (byte {error.start})") from None
+    except tomllib.TOMLDecodeError as error:
+        raise NightlocError(f"parameter file {file} is not valid TOML: {error}") from None
+    result: dict[str, Any] = {}
+    for key, value in document.items():
+        cls = _SECTIONS.get(key)
+        if cls is None:
+            owner = [name for name, c in _SECTIONS.items() if key in {f.name for f in dataclasses.fields(c)}]
+            if not isinstance(value, dict) and owner:
+                raise NightlocError(f"{file}: key {key!r} is outside any table; put it under [{owner[0]}]")
+            raise NightlocError(
+                f"{file}: unknown {'table [' + key + ']' if isinstance(value, dict) else 'key ' + repr(key)}; "
+                f"known tables: {', '.join('[' + name + ']' for name in sorted(_SECTIONS))}"
+            )
+        result[key] = params_from_dict(cls, value, where=str(file))
+    return result
+
+
+def load_params(path: str | os.PathLike[str], cls: type[T] | None = None) -> T:
+    """The parameters of class ``cls`` (default :class:`~nightloc.PreparationParams`) from a TOML file.
+
+    Reads the table ``[section]`` of ``cls``; a file without it gives the defaults. The whole
+    file is checked: unknown tables or keys are an error naming them.
+    """
+    if cls is None:
+        from .preparation.params import PreparationParams  # the parameters most files hold
+
+        cls = PreparationParams  # type: ignore[assignment]
+    chosen: type = cls  # type: ignore[assignment]
+    section = _section_of(chosen)
+    found = load_params_file(path)
+    return found[section] if section in found else chosen()  # type: ignore[return-value]
+
+
+def save_params(path: str | os.PathLike[str], params: Any | Iterable[Any]) -> None:
+    """Writes one parameter instance, or several of different classes, to a TOML file.
+
+    Every field is written, defaults included, so the file documents the full configuration.
+    The write is atomic (temporary file, then rename).
+    """
+    items = list(params) if isinstance(params, (list, tuple)) else [params]
+    if not items:
+        raise ValueError("params is empty: pass at least one parameter instance")
+    document: dict[str, Any] = {}
+    for item in items:
+        section = _section_of(type(item))
+        if section in document:
+            raise ValueError(f"two instances for table [{section}]")
+        document[section] = params_to_dict(item)
+    write_text(Path(path), dumps_toml(document, header="nightloc parameters"))

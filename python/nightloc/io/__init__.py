@@ -1,0 +1,18 @@
+"""Data on disk: image files, pose files, videos, traverses, reference maps and atomic writes.
+
+* :mod:`~nightloc.io.images` — image suffixes, natural-order folder listing, decoding/encoding;
+* :mod:`~nightloc.io.poses` — ``poses.csv`` (``image,x,y[,heading]``) and frame-keyed pose CSVs;
+* :mod:`~nightloc.io.video` — video files as traverses;
+* :mod:`~nightloc.io.traverse` — :class:`Traverse`, :func:`load_traverse`, :func:`save_traverse`;
+* :mod:`~nightloc.io.reference_map` — :class:`ReferenceMap`, the prepared day map (``.npz``);
+* :mod:`~nightloc.io.atomic` — atomic file and folder writes.
+"""
+
+from __future__ import annotations
+
+# io depends on no other stage, so that every stage may use it. The reference map is the one module
+# here built on preparation and matching: import it as nightloc.ReferenceMap or from
+# nightloc.io.reference_map (re-exporting it here would make io import those stages).
+from .traverse import IMAGE_SUFFIXES, VIDEO_SUFFIXES, Traverse, load_traverse, save_traverse
+
+__all__ = ["IMAGE_SUFFIXES", "VIDEO_SUFFIXES", "Traverse", "load_traverse", "save_traverse"]

@@ -1,0 +1,136 @@
+"""Image files: which suffixes are images, listing a folder in natural order, decoding and encoding.
+
+Decoding goes through OpenCV (``cv2.imdecode`` on the file's bytes, so non-ASCII paths work) and
+returns frames as stored: grey ``(H, W)`` or BGR ``(H, W, 3)``, uint8 or uint16. Problems raise
+:class:`~nightloc.errors.DatasetError` naming the file.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+from typing import Union
+
+import cv2
+import numpy as np
+
+from ..errors import DatasetError
+
+__all__ = ["IMAGE_SUFFIXES", "list_images", "natural_key", "read_image_file", "write_image_file"]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+#: File suffixes (lower case) treated as images when a folder is listed.
+IMAGE_SUFFIXES = frozenset(
+    {
+        ".png",
+        ".jpg",
+        ".jpeg",
+        ".jpe",
+        ".bmp",
+        ".dib",
+        ".tif",
+        ".tiff",
+        ".webp",
+        ".pgm",
+        ".ppm",
+        ".pbm",
+        ".pnm",
+        ".pxm",
+        ".sr",
+        ".ras",
+        ".jp2",
+    }
+)
+
+
+def natural_key(name: str) -> tuple[object, ...]:
+    """Sort key comparing runs of digits as numbers: ``img2.png`` < ``img10.png``."""
+    parts = re.split(r"(\d+)", name)
+    return tuple((0, int(part), part) if part.isdigit() else (1, part.lower(), part) for part in parts)
+
+
+def list_images(folder: Path) -> list[str]:
+    """Names of the image files in ``folder`` (not hidden, suffix in :data:`IMAGE_SUFFIXES`), in
+    natural order."""
+    names = [
+        entry.name
+        for entry in os.scandir(folder)
+        if not entry.name.startswith(".") and Path(entry.name).suffix.lower() in IMAGE_SUFFIXES and entry.is_file()
+    ]
+    return sorted(names, key=natural_key)
+
+
+def _decode_error_hint(path: Path) -> str:
+    try:
+        size = path.stat().st_size
+    except OSError as error:
+        return f"cannot be read ({error.strerror or error})"
+    if size == 0:
+        return "is empty (0 bytes)"
+    return f"is not an image OpenCV can decode ({size} bytes; truncated, corrupt or another file type)"
+
+
+def _jpeg_truncated(data: np.ndarray) -> bool:
+    """True when a JPEG stream has no end-of-image marker after its last scan.
+
+    Entropy-coded data never contains ``FF D9`` (0xFF bytes are stuffed), so a JPEG cut inside
+    its last scan lacks the marker; older OpenCV builds decode such files with a grey fill.
+    """
+    raw = data.tobytes()
+    if not raw.startswith(b"\xff\xd8"):
+        return False
+    last_scan = raw.rfind(b"\xff\xda")
+    return last_scan >= 0 and raw.find(b"\xff\xd9", last_scan) < 0
+
+
+def read_image_file(path: PathLike, context: str = "") -> np.ndarray:
+    """Decodes one image file as stored: grey ``(H, W)`` or BGR ``(H, W, 3)``, uint8 or uint16.
+
+    An alpha channel is dropped. Raises :class:`DatasetError` (with ``context``, e.g. the
+    ``poses.csv`` line naming the file) for a missing, empty, truncated or undecodable file, or a
+    float image.
+    """
+    file = Path(path)
+    where = f" ({context})" if context else ""
+    try:
+        data = np.fromfile(file, dtype=np.uint8)
+    except OSError as error:
+        raise DatasetError(f"image {file}{where} cannot be read: {error.strerror or error}") from error
+    image = cv2.imdecode(data, cv2.IMREAD_ANYCOLOR | cv2.IMREAD_ANYDEPTH) if data.size else None
+    if image is None:
+        raise DatasetError(f"image {file}{where} {_decode_error_hint(file)}")
+    if file.suffix.lower() in (".jpg", ".jpeg", ".jpe") and _jpeg_truncated(data):
+        raise DatasetError(f"image {file}{where} is a truncated JPEG (no end-of-image marker after its last scan)")
+    if image.dtype not in (np.uint8, np.uint16):
+        raise DatasetError(
+            f"image {file}{where} has {image.dtype} pixels; nightloc reads 8- or 16-bit images "
+            f"(convert it, e.g. to 16-bit PNG)"
+        )
+    if image.ndim == 3:
+        channels = image.shape[2]
+        if channels == 1:
+            image = image[:, :, 0]
+        elif channels == 4:
+            image = cv2.cvtColor(image, cv2.COLOR_BGRA2BGR)
+        elif channels != 3:
+            raise DatasetError(f"image {file}{where} has {channels} channels; expected 1, 3 or 4")
+    return np.ascontiguousarray(image)
+
+
+def write_image_file(file: Path, image: np.ndarray, index: int) -> None:
+    """Encodes ``image`` (uint8, or uint16 for PNG/TIFF/PNM) into ``file`` by its suffix; JPEG at quality 95.
+
+    ``index`` names the frame in error messages (``images[index]``).
+    """
+    suffix = file.suffix.lower()
+    if image.dtype == np.uint16 and suffix not in (".png", ".tif", ".tiff", ".pgm", ".ppm", ".pnm"):
+        raise ValueError(f"images[{index}] is 16-bit; {suffix} stores 8-bit images only (use png or tiff)")
+    options: list = []
+    if suffix in (".jpg", ".jpeg", ".jpe"):
+        options = [cv2.IMWRITE_JPEG_QUALITY, 95]
+    ok, encoded = cv2.imencode(suffix, image, options)
+    if not ok:
+        raise ValueError(f"OpenCV could not encode images[{index}] as {suffix}")
+    encoded.tofile(file)

@@ -1,0 +1,182 @@
+"""Pose files: ``poses.csv`` (``image,x,y[,heading]``) of a traverse folder, or a CSV keyed by video
+frame index (``frame,x,y[,heading]``).
+
+Positions are metres in the map frame; headings radians, counter-clockwise from +x, wrapped to
+(-pi, pi]. Reading checks every cell and raises :class:`~nightloc.errors.DatasetError` naming the
+file and the line.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DatasetError
+
+__all__ = ["PoseRow", "checked_poses", "poses_from_rows", "read_pose_csv", "wrap_headings", "write_pose_csv"]
+
+
+def wrap_headings(headings: np.ndarray) -> np.ndarray:
+    """Angles (radians) wrapped to (-pi, pi]; values already inside are returned bit-exact."""
+    values = np.asarray(headings, dtype=np.float64)
+    outside = (values <= -math.pi) | (values > math.pi)
+    if not outside.any():
+        return values.copy()
+    wrapped = np.mod(values + math.pi, 2.0 * math.pi) - math.pi
+    wrapped = np.where(wrapped <= -math.pi, math.pi, wrapped)
+    return np.where(outside, wrapped, values)
+
+
+class PoseRow:
+    """One row of a pose file: its line number, key (image name or frame index), x, y, heading."""
+
+    __slots__ = ("heading", "key", "line", "x", "y")
+
+    def __init__(self, line: int, key: object, x: float, y: float, heading: float | None):
+        self.line, self.key, self.x, self.y, self.heading = line, key, x, y, heading
+
+
+def _parse_number(text: str, column: str, file: Path, line: int) -> float:
+    cell = text.strip()
+    if not cell:
+        raise DatasetError(f"{file} line {line}: column '{column}' is empty; every row needs a number there")
+    try:
+        value = float(cell)
+    except ValueError:
+        raise DatasetError(f"{file} line {line}: column '{column}' holds {cell!r}, which is not a number") from None
+    if not math.isfinite(value):
+        raise DatasetError(
+            f"{file} line {line}: column '{column}' is {cell!r}; positions and headings must be finite numbers"
+        )
+    return value
+
+
+def _parse_frame(text: str, file: Path, line: int) -> int:
+    cell = text.strip()
+    try:
+        value = int(cell)
+    except ValueError:
+        raise DatasetError(
+            f"{file} line {line}: column 'frame' holds {cell!r}; expected a frame index (an integer >= 0)"
+        ) from None
+    if value < 0:
+        raise DatasetError(f"{file} line {line}: frame index {value} is negative")
+    return value
+
+
+def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
+    """Rows of a poses CSV: ``(rows, has_heading)``.
+
+    The CSV must have a header with ``key_column`` (``image`` or ``frame``), ``x`` and ``y``;
+    ``heading`` is optional and other columns are ignored. Column names are matched without
+    case and surrounding blanks; a UTF-8 byte-order mark and CRLF line ends are accepted; blank
+    lines are skipped. Keys must be unique.
+    """
+    try:
+        with open(file, newline="", encoding="utf-8-sig") as handle:
+            reader = csv.reader(handle)
+            header: list | None = None
+            header_line = 0
+            rows = []
+            seen = {}
+            for fields in reader:
+                line = reader.line_num
+                if not any(field.strip() for field in fields):
+                    continue
+                if header is None:
+                    header = [field.strip().lower() for field in fields]
+                    header_line = line
+                    for column in (key_column, "x", "y"):
+                        if column not in header:
+                            raise DatasetError(
+                                f"{file} line {line}: missing column '{column}' (the header has: "
+                                f"{', '.join(repr(h) for h in header)}); the header must be "
+                                f"{key_column},x,y[,heading]"
+                            )
+                    duplicates = sorted({h for h in header if header.count(h) > 1 and h})
+                    if duplicates:
+                        raise DatasetError(f"{file} line {line}: column {duplicates[0]!r} appears twice in the header")
+                    index = {name: header.index(name) for name in (key_column, "x", "y")}
+                    has_heading = "heading" in header
+                    if has_heading:
+                        index["heading"] = header.index("heading")
+                    continue
+                if len(fields) != len(header):
+                    raise DatasetError(
+                        f"{file} line {line}: {len(fields)} fields, but the header (line {header_line}) has "
+                        f"{len(header)}"
+                    )
+                raw_key = fields[index[key_column]]
+                if key_column == "frame":
+                    key: object = _parse_frame(raw_key, file, line)
+                else:
+                    key = raw_key.strip()
+                    if not key:
+                        raise DatasetError(f"{file} line {line}: column 'image' is empty")
+                if key in seen:
+                    raise DatasetError(
+                        f"{file} line {line}: {key_column} {key!r} is listed twice (first on line {seen[key]})"
+                    )
+                seen[key] = line
+                x = _parse_number(fields[index["x"]], "x", file, line)
+                y = _parse_number(fields[index["y"]], "y", file, line)
+                heading = _parse_number(fields[index["heading"]], "heading", file, line) if has_heading else None
+                rows.append(PoseRow(line, key, x, y, heading))
+    except UnicodeDecodeError as error:
+        raise DatasetError(f"{file} is not UTF-8 text ({error.reason} at byte {error.start})") from None
+    except csv.Error as error:
+        raise DatasetError(f"{file}: malformed CSV ({error})") from None
+    except OSError as error:
+        raise DatasetError(f"{file} cannot be read: {error.strerror or error}") from error
+    if header is None:
+        raise DatasetError(f"{file} is empty; it needs the header {key_column},x,y[,heading] and one row per frame")
+    if not rows:
+        raise DatasetError(f"{file} has a header but no rows; add one row per frame")
+    return rows, has_heading
+
+
+def poses_from_rows(rows: Sequence[PoseRow], has_heading: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """``(N, 2)`` positions and ``(N,)`` wrapped headings (or None) of pose rows."""
+    positions = np.array([(row.x, row.y) for row in rows], dtype=np.float64).reshape(-1, 2)
+    headings = wrap_headings(np.array([row.heading for row in rows], dtype=np.float64)) if has_heading else None
+    return positions, headings
+
+
+def checked_poses(positions: object | None, headings: object | None) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Positions ``(N, 2)`` metres and headings ``(N,)`` radians given by a caller, as float64;
+    headings wrapped to (-pi, pi]. Raises ValueError for wrong shapes or non-finite values."""
+    if positions is None:
+        if headings is not None:
+            raise ValueError("headings need positions: pass positions too, or neither")
+        return None, None
+    pos = np.asarray(positions, dtype=np.float64)
+    if pos.ndim != 2 or pos.shape[1] != 2:
+        raise ValueError(f"positions must be (N, 2) metres, got shape {pos.shape}")
+    if not np.isfinite(pos).all():
+        row = int(np.argwhere(~np.isfinite(pos))[0, 0])
+        raise ValueError(f"positions[{row}] is {pos[row].tolist()}; positions must be finite")
+    head = None
+    if headings is not None:
+        head = np.asarray(headings, dtype=np.float64)
+        if head.shape != (len(pos),):
+            raise ValueError(f"headings must be ({len(pos)},) radians to match positions, got shape {head.shape}")
+        if not np.isfinite(head).all():
+            raise ValueError(f"headings[{int(np.argwhere(~np.isfinite(head))[0, 0])}] is not finite")
+        head = wrap_headings(head)
+    return pos, head
+
+
+def write_pose_csv(file: Path, names: Sequence[str], positions: np.ndarray, headings: np.ndarray | None) -> None:
+    """Writes ``image,x,y[,heading]`` rows (``repr`` of the floats: they read back bit-exact)."""
+    with open(file, "w", newline="", encoding="utf-8") as handle:
+        writer = csv.writer(handle, lineterminator="\n")
+        writer.writerow(["image", "x", "y"] + (["heading"] if headings is not None else []))
+        for i, name in enumerate(names):
+            row = [name, repr(float(positions[i, 0])), repr(float(positions[i, 1]))]
+            if headings is not None:
+                row.append(repr(float(headings[i])))
+            writer.writerow(row)

@@ -1,0 +1,406 @@
+"""Reference maps: the prepared day-time images of a traverse, their poses and parameters.
+
+A robot builds the map once (:meth:`ReferenceMap.build`), saves it (:meth:`ReferenceMap.save`)
+and loads it at start-up (:meth:`ReferenceMap.load`), then matches camera frames against it
+(:meth:`ReferenceMap.match`), prepared with the very parameters the map was built with.
+
+File format (version 1): a numpy ``.npz`` archive (zip, no pickled objects) with the arrays
+``images`` ``(N, Ry, Rx)`` uint8, ``positions`` ``(N, 2)`` float64, optionally ``headings``
+``(N,)`` float64, and ``header``: UTF-8 JSON bytes holding ``format`` ("nightloc-reference-map"),
+``format_version``, the preparation parameters, the frame names, the source traverse, the
+nightloc version and a SHA-256 checksum of every array. Saving writes a temporary file in the
+same folder and renames it over the target, so an interrupted save never leaves a partial map.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import zipfile
+import zlib
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, Union
+
+import numpy as np
+
+from .._core import __version__
+from .._validate import uint8_array
+from ..config import params_from_dict, params_to_dict
+from ..errors import DatasetError, MapFormatError
+from ..matching.sad import MatchResult, match
+from ..preparation.params import PreparationParams
+from ..preparation.preparer import Preparer
+from .atomic import atomic_file
+from .poses import wrap_headings
+from .traverse import Traverse, load_traverse
+
+__all__ = ["MAP_FORMAT", "MAP_FORMAT_VERSION", "ReferenceMap"]
+
+#: The ``format`` string in every map file's header.
+MAP_FORMAT = "nightloc-reference-map"
+#: The newest map format version this nightloc reads and the one it writes.
+MAP_FORMAT_VERSION = 1
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def _sha256(array: np.ndarray) -> str:
+    return hashlib.sha256(np.ascontiguousarray(array).tobytes()).hexdigest()
+
+
+def _frozen(array: np.ndarray) -> np.ndarray:
+    """A read-only C-contiguous copy of ``array`` backed by an immutable ``bytes`` object, so that
+    not even ``setflags(write=True)`` can make it writable: a map shared between threads (or
+    handed to callers) cannot be changed under them."""
+    contiguous = np.ascontiguousarray(array)
+    return np.frombuffer(contiguous.tobytes(), dtype=contiguous.dtype).reshape(contiguous.shape)
+
+
+class ReferenceMap:
+    """Prepared reference images with their positions, headings and preparation parameters.
+
+    Immutable and safe to share between threads: the arrays are read-only copies that not even
+    ``setflags(write=True)`` can make writable.
+
+    Attributes:
+        images: ``(N, Ry, Rx)`` uint8 prepared images (C-contiguous).
+        positions: ``(N, 2)`` float64 metres in the map frame.
+        headings: ``(N,)`` float64 radians in (-pi, pi], or None.
+        names: the N frame names (image file names of the source traverse).
+        params: the :class:`PreparationParams` the images were prepared with.
+        source: where the images came from (the traverse path), or "".
+    """
+
+    __slots__ = ("_headings", "_images", "_names", "_params", "_positions", "_source")
+
+    def __init__(
+        self,
+        images: np.ndarray,
+        positions: Any,
+        headings: Any | None = None,
+        names: Sequence[str] | None = None,
+        params: PreparationParams | None = None,
+        source: str = "",
+    ):
+        """Wraps already prepared images; see :meth:`build` to prepare a traverse.
+
+        Raises TypeError/ValueError for a wrong dtype or shape, sizes that disagree with
+        ``params`` (width x height), non-finite positions or headings, or repeated names.
+        """
+        params = PreparationParams() if params is None else params
+        if not isinstance(params, PreparationParams):
+            raise TypeError(f"params must be a PreparationParams, got {type(params).__name__}")
+        stack = uint8_array(images, 3, "images")
+        if stack.shape[1:] != (params.height, params.width):
+            raise ValueError(
+                f"images are {stack.shape[2]}x{stack.shape[1]} (width x height) but params say "
+                f"{params.width}x{params.height}: prepare them with these params"
+            )
+        n = stack.shape[0]
+        try:
+            pos = np.array(positions, dtype=np.float64)
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"positions must be ({n}, 2) numbers (metres): {error}") from None
+        if pos.shape != (n, 2):
+            raise ValueError(f"positions must be ({n}, 2) metres for {n} images, got shape {pos.shape}")
+        if not np.isfinite(pos).all():
+            raise ValueError(f"positions[{int(np.argwhere(~np.isfinite(pos))[0, 0])}] is not finite")
+        head = None
+        if headings is not None:
+            try:
+                head = np.array(headings, dtype=np.float64)
+            except (TypeError, ValueError) as error:
+                raise ValueError(f"headings must be ({n},) numbers (radians): {error}") from None
+            if head.shape != (n,):
+                raise ValueError(f"headings must be ({n},) radians, got shape {head.shape}")
+            if not np.isfinite(head).all():
+                raise ValueError(f"headings[{int(np.argwhere(~np.isfinite(head))[0, 0])}] is not finite")
+            head = wrap_headings(head)
+        if names is None:
+            name_tuple = tuple(f"{i:06d}" for i in range(n))
+        else:
+            if isinstance(names, str):
+                raise TypeError("names must be a sequence of strings, not one string")
+            name_tuple = tuple(names)
+            if len(name_tuple) != n or not all(isinstance(name, str) for name in name_tuple):
+                raise ValueError(f"names must be {n} strings, got {len(name_tuple)} items")
+            if len(set(name_tuple)) != n:
+                raise ValueError("names must not repeat")
+        self._images = _frozen(stack)
+        self._positions = _frozen(pos)
+        self._headings = None if head is None else _frozen(head)
+        self._names = name_tuple
+        self._params = params
+        self._source = str(source)
+
+    def __getstate__(self) -> dict:
+        return {name: getattr(self, name) for name in self.__slots__}
+
+    def __setstate__(self, state: dict) -> None:
+        for name, value in state.items():
+            if isinstance(value, np.ndarray):
+                value = _frozen(value)
+            object.__setattr__(self, name, value)
+
+    # --- attributes
+
+    @property
+    def images(self) -> np.ndarray:
+        """``(N, Ry, Rx)`` uint8 prepared reference images."""
+        return self._images
+
+    @property
+    def positions(self) -> np.ndarray:
+        """``(N, 2)`` float64 positions in metres."""
+        return self._positions
+
+    @property
+    def headings(self) -> np.ndarray | None:
+        """``(N,)`` float64 headings in radians, or None."""
+        return self._headings
+
+    @property
+    def names(self) -> tuple:
+        """Frame names, one per image."""
+        return self._names
+
+    @property
+    def params(self) -> PreparationParams:
+        """The preparation parameters of the images (queries must use the same)."""
+        return self._params
+
+    @property
+    def source(self) -> str:
+        """The traverse the map was built from, or ""."""
+        return self._source
+
+    @property
+    def preparer(self) -> Preparer:
+        """A :class:`Preparer` with the map's parameters, for query frames."""
+        return Preparer(self._params)
+
+    def __len__(self) -> int:
+        return self._images.shape[0]
+
+    def __repr__(self) -> str:
+        p = self._params
+        return f"ReferenceMap({len(self)} images {p.width}x{p.height}, source={self._source!r})"
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, ReferenceMap):
+            return NotImplemented
+        same_headings = (self._headings is None and other._headings is None) or (
+            self._headings is not None
+            and other._headings is not None
+            and np.array_equal(self._headings, other._headings)
+        )
+        return (
+            self._params == other._params
+            and self._names == other._names
+            and np.array_equal(self._images, other._images)
+            and np.array_equal(self._positions, other._positions)
+            and same_headings
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+    # --- building and matching
+
+    @classmethod
+    def build(cls, traverse: Traverse | PathLike, params: PreparationParams | None = None) -> ReferenceMap:
+        """Prepares every frame of a traverse (with poses) into a map.
+
+        Args:
+            traverse: a :class:`Traverse`, or a path given to :func:`load_traverse`.
+            params: preparation parameters (default: the paper's).
+
+        Raises:
+            DatasetError: the traverse has no poses, or a frame cannot be read.
+        """
+        if not isinstance(traverse, Traverse):
+            traverse = load_traverse(traverse)
+        if traverse.positions is None:
+            raise DatasetError(
+                f"traverse {traverse.root} has no poses; a reference map needs the position of every "
+                f"image (add poses.csv with columns image,x,y[,heading])"
+            )
+        preparer = Preparer(params)
+        images = preparer.prepare(traverse)
+        return cls(images, traverse.positions, traverse.headings, traverse.names, preparer.params, str(traverse.root))
+
+    def match(self, frame: np.ndarray, *, prepared: bool = False, threads: int | None = None) -> MatchResult:
+        """Matches one camera frame against the map (eqs. 2-3).
+
+        Args:
+            frame: a raw camera frame (prepared here with the map's parameters), or with
+                ``prepared=True`` an already prepared ``(Ry, Rx)`` uint8 image.
+            threads: worker threads (default all cores).
+
+        Returns:
+            :class:`MatchResult`; ``self.positions[result.index]`` is the best place. Panoramic maps
+            (``params.wrap``) search every column shift, others shift 0 only.
+        """
+        query = frame if prepared else self.preparer.prepare(frame)
+        if isinstance(query, np.ndarray) and query.ndim != 2:
+            raise ValueError(f"match takes one frame, got a stack of shape {query.shape}; loop over its frames")
+        return match(query, self._images, shifts=self._params.shifts, threads=threads)
+
+    # --- files
+
+    def _header(self) -> dict[str, Any]:
+        checksums = {"images": _sha256(self._images), "positions": _sha256(self._positions)}
+        if self._headings is not None:
+            checksums["headings"] = _sha256(self._headings)
+        return {
+            "format": MAP_FORMAT,
+            "format_version": MAP_FORMAT_VERSION,
+            "nightloc_version": __version__,
+            "count": len(self),
+            "image_shape": [self._params.height, self._params.width],
+            "params": params_to_dict(self._params),
+            "names": list(self._names),
+            "source": self._source,
+            "checksums": checksums,
+        }
+
+    def save(self, path: PathLike) -> Path:
+        """Writes the map to one file atomically (temporary file in the same folder, then rename).
+
+        Returns the path written. Any suffix works; ``.map`` or ``.npz`` are customary.
+        """
+        target = Path(path)
+        if target.is_dir():
+            raise IsADirectoryError(f"{target} is a folder; give a file name such as {target / 'reference.map'}")
+        header = np.frombuffer(json.dumps(self._header(), ensure_ascii=False).encode("utf-8"), dtype=np.uint8)
+        arrays = {"header": header, "images": self._images, "positions": self._positions}
+        if self._headings is not None:
+            arrays["headings"] = self._headings
+        with atomic_file(target, "wb") as stream:
+            np.savez(stream, **arrays)
+        return target
+
+    @classmethod
+    def load(cls, path: PathLike, params: PreparationParams | None = None) -> ReferenceMap:
+        """Reads a map written by :meth:`save`, checking format, version, shapes and checksums.
+
+        Args:
+            path: the map file.
+            params: the preparation parameters the caller will prepare queries with; when given
+                and different from the map's, MapFormatError names the differing fields.
+
+        Raises:
+            FileNotFoundError: no such file.
+            PermissionError: the file cannot be read.
+            MapFormatError: not a nightloc map, truncated or corrupt, a newer format version,
+                checksum mismatch, or other parameters than ``params``.
+        """
+        file = Path(path)
+        if not file.exists():
+            raise FileNotFoundError(f"reference map {file} does not exist")
+        if file.is_dir():
+            raise MapFormatError(f"{file} is a folder, not a reference map file (build one with nightloc build-map)")
+        with open(file, "rb") as stream:  # an unreadable file raises its own OSError (e.g. PermissionError)
+            magic = stream.read(6)
+        if magic.startswith(b"\x93NUMPY"):
+            raise MapFormatError(f"{file} is a single numpy array, not a nightloc reference map")
+        if not magic.startswith(b"PK\x03\x04"):
+            what = "an empty file" if not magic else f"not an .npz (zip) archive; it starts with {magic!r}"
+            raise MapFormatError(f"{file} is not a nightloc reference map ({what})")
+        try:
+            # The file is opened here (not by np.load) so that it is closed on every error path.
+            with open(file, "rb") as stream:
+                loaded = np.load(stream, allow_pickle=False)
+                if not isinstance(loaded, np.lib.npyio.NpzFile):
+                    raise MapFormatError(f"{file} is a single numpy array, not a nightloc reference map")
+                with loaded as archive:
+                    members = set(archive.files)
+                    if "header" not in members:
+                        raise MapFormatError(f"{file} is an .npz archive but not a nightloc reference map (no header)")
+                    header = json.loads(archive["header"].tobytes().decode("utf-8"))
+                    arrays = {name: archive[name] for name in ("images", "positions", "headings") if name in members}
+        except MapFormatError:
+            raise
+        except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as error:
+            raise MapFormatError(
+                f"{file} is not a readable nightloc reference map (truncated or corrupt?): {error}"
+            ) from None
+        except Exception as error:
+            # Damaged bytes reach numpy's and zipfile's parsers, which raise many other types: a
+            # SyntaxError from an array header (ast.literal_eval), NotImplementedError for zip
+            # flag bits, MemoryError for an absurd shape, ...
+            raise MapFormatError(
+                f"{file} is not a readable nightloc reference map (damaged: {type(error).__name__}: {error})"
+            ) from None
+        return cls._from_parts(file, header, arrays, params)
+
+    @classmethod
+    def _from_parts(
+        cls, file: Path, header: Any, arrays: dict[str, np.ndarray], params: PreparationParams | None
+    ) -> ReferenceMap:
+        if not isinstance(header, dict) or header.get("format") != MAP_FORMAT:
+            raise MapFormatError(
+                f"{file} is not a nightloc reference map (header format {header.get('format')!r})"
+                if isinstance(header, dict)
+                else f"{file}: map header is not a JSON object"
+            )
+        version = header.get("format_version")
+        if not isinstance(version, int) or version < 1:
+            raise MapFormatError(f"{file}: bad format_version {version!r}")
+        if version > MAP_FORMAT_VERSION:
+            raise MapFormatError(
+                f"{file} has map format version {version}, written by a newer nightloc "
+                f"({header.get('nightloc_version')}); this nightloc {__version__} reads version "
+                f"{MAP_FORMAT_VERSION}: upgrade nightloc"
+            )
+        try:
+            map_params = params_from_dict(PreparationParams, header["params"], where=f"{file} header")
+            names = header["names"]
+            checksums = header["checksums"]
+            count = header["count"]
+        except KeyError as error:
+            raise MapFormatError(f"{file}: map header lacks {error}") from None
+        except ValueError as error:
+            raise MapFormatError(f"{file}: map parameters are invalid: {error}") from None
+        if not isinstance(checksums, dict):
+            raise MapFormatError(f"{file}: the header's checksums are not a table (corrupt file)")
+        if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+            raise MapFormatError(f"{file}: the header's image count {count!r} is not a positive integer")
+        optional = ("headings",) if "headings" in checksums or "headings" in arrays else ()
+        for name in ("images", "positions", *optional):
+            if name not in arrays:
+                raise MapFormatError(f"{file}: the map lacks its '{name}' array (corrupt file)")
+            if name not in checksums:
+                raise MapFormatError(f"{file}: the header has no checksum for '{name}' (corrupt file)")
+            if _sha256(arrays[name]) != checksums[name]:
+                raise MapFormatError(f"{file}: checksum of '{name}' does not match (the file is corrupt)")
+        images = arrays["images"]
+        expected = (count, map_params.height, map_params.width)
+        if images.dtype != np.uint8 or images.shape != expected:
+            raise MapFormatError(f"{file}: images are {images.dtype} {images.shape}, expected uint8 {expected}")
+        if not isinstance(names, list) or len(names) != count:
+            raise MapFormatError(
+                f"{file}: the header lists {len(names) if isinstance(names, list) else '?'} names for {count} images"
+            )
+        if params is not None:
+            if not isinstance(params, PreparationParams):
+                raise TypeError(f"params must be a PreparationParams, got {type(params).__name__}")
+            different = map_params.differences(params)
+            if different:
+                listing = ", ".join(f"{k}: map {a!r}, requested {b!r}" for k, (a, b) in different.items())
+                raise MapFormatError(
+                    f"{file} was built with other preparation parameters ({listing}); rebuild the map with "
+                    f"these parameters or load it without params to use the map's"
+                )
+        try:
+            return cls(
+                np.ascontiguousarray(images),
+                arrays["positions"],
+                arrays.get("headings"),
+                names,
+                map_params,
+                str(header.get("source", "")),
+            )
+        except (TypeError, ValueError) as error:
+            raise MapFormatError(f"{file}: inconsistent map contents: {error}") from None

@@ -1,0 +1,462 @@
+"""Evaluation the paper's way: distance errors over sequence lengths, noise models, interpolation.
+
+For a reference map and a query traverse with ground-truth poses, :func:`evaluate` runs the
+:class:`~nightloc.Localizer` over the whole query traverse (in its order, as a robot would see
+it) for every combination of
+
+* sequence length ``n`` (default 1..10; at the start of the traverse a sequence holds the frames
+  it has),
+* odometry noise model (the paper's Table III, default 0, 1, 2, 3; odometry simulated from the
+  query's ground truth, see :mod:`nightloc.localization.odometry`),
+* interpolation on / off,
+* repeat (independent noise draws; the same draw is shared by all ``n`` and both interpolation
+  settings, so their comparison is paired),
+
+and records, per query frame, the estimate and its distance error (the paper's Figures 10-12,
+16-18, 21-22). Frames are matched against the map once (:func:`nightloc.difference_matrix`); each
+configuration reuses those scores.
+
+Outputs (:meth:`Evaluation.write_errors_csv`, :meth:`Evaluation.write_summary_csv`, written
+atomically) have the headers :data:`ERRORS_HEADER` and :data:`SUMMARY_HEADER`.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import os
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal, Union
+
+import numpy as np
+
+from ..errors import DatasetError
+from ..io.atomic import atomic_file
+from ..io.reference_map import ReferenceMap
+from ..io.traverse import Traverse, load_traverse
+from ..matching.sad import MatchResult, difference_matrix, shifts_to_headings
+from ..preparation.preparer import Preparer
+from ..progress import progress
+from .localizer import Estimate, LocalizationParams, Localizer
+from .odometry import NOISE_MODELS, noise_model, simulate_map_odometry, simulate_robot_odometry
+
+__all__ = [
+    "ERRORS_HEADER",
+    "SUMMARY_HEADER",
+    "Evaluation",
+    "EvaluationSettings",
+    "QueryMatches",
+    "SummaryRow",
+    "evaluate",
+    "match_traverse",
+    "replay",
+    "simulated_odometry",
+]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+#: Columns of ``errors.csv``: one row per query frame and configuration.
+ERRORS_HEADER: tuple[str, ...] = (
+    "query",
+    "image",
+    "seq_len",
+    "noise_model",
+    "interpolation",
+    "repeat",
+    "x_est",
+    "y_est",
+    "x_true",
+    "y_true",
+    "error_m",
+    "ref_index",
+)
+#: Columns of ``summary.csv``: one row per (seq_len, noise_model, interpolation).
+SUMMARY_HEADER: tuple[str, ...] = ("seq_len", "noise_model", "interpolation", "n", "median_m", "mean_m", "p90_m")
+
+
+@dataclass(frozen=True)
+class EvaluationSettings:
+    """Which configurations :func:`evaluate` runs.
+
+    Attributes:
+        seq_lengths: sequence lengths n (default 1..10).
+        noise_models: Table III noise models (default 0, 1, 2, 3).
+        interpolation: interpolation settings to run (default on and off).
+        repeats: independent odometry noise draws per noise model (model 0 has no noise, so it
+            runs once whatever this says).
+        seed: seed of the noise draws (draw r of model m uses ``default_rng([seed, m, r])``).
+        odometry: ``"map"``: map-frame displacements with noise on step length and direction
+            (the paper); ``"robot"``: wheel-odometry readings (noise on step length and turn)
+            rotated into the map with the localizer's own heading estimate; needs headings.
+    """
+
+    seq_lengths: tuple[int, ...] = tuple(range(1, 11))
+    noise_models: tuple[int, ...] = (0, 1, 2, 3)
+    interpolation: tuple[bool, ...] = (True, False)
+    repeats: int = 1
+    seed: int = 0
+    odometry: Literal["map", "robot"] = "map"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "seq_lengths", _unique_ints(self.seq_lengths, "seq_lengths", 1))
+        object.__setattr__(self, "noise_models", _unique_ints(self.noise_models, "noise_models", 0))
+        for model in self.noise_models:
+            noise_model(model)
+        modes = tuple(dict.fromkeys(bool(v) for v in self.interpolation))
+        if not modes:
+            raise ValueError("interpolation needs at least one setting (True and/or False)")
+        object.__setattr__(self, "interpolation", modes)
+        if isinstance(self.repeats, bool) or not isinstance(self.repeats, (int, np.integer)) or self.repeats < 1:
+            raise ValueError(f"repeats must be an int >= 1, got {self.repeats!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise ValueError(f"seed must be a non-negative int, got {self.seed!r}")
+        if self.odometry not in ("map", "robot"):
+            raise ValueError(f"odometry must be 'map' or 'robot', got {self.odometry!r}")
+
+    def repeats_of(self, model: int) -> int:
+        """Noise draws for ``model``: 1 for the noise-free model 0, else ``repeats``."""
+        noise = NOISE_MODELS[model]
+        return 1 if noise.distance_std == 0 and noise.heading_std == 0 else int(self.repeats)
+
+
+def _unique_ints(values: Iterable[int], name: str, least: int) -> tuple[int, ...]:
+    out = []
+    for value in values:
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise TypeError(f"{name} must be integers, got {value!r}")
+        if value < least:
+            raise ValueError(f"{name} must be >= {least}, got {value}")
+        if int(value) not in out:
+            out.append(int(value))
+    if not out:
+        raise ValueError(f"{name} needs at least one value")
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class QueryMatches:
+    """A query traverse matched against a map once: what every configuration reuses.
+
+    Attributes:
+        name: the query's name in the outputs (e.g. its folder name).
+        images: the N frame names.
+        positions: ``(N, 2)`` true positions; ``headings``: ``(N,)`` or None.
+        results: N :class:`~nightloc.MatchResult` (scores against every reference, headings).
+    """
+
+    name: str
+    images: tuple[str, ...]
+    positions: np.ndarray
+    headings: np.ndarray | None
+    results: tuple[MatchResult, ...]
+
+
+def match_traverse(
+    ref_map: ReferenceMap, query: Traverse | PathLike, name: str | None = None, threads: int | None = None
+) -> QueryMatches:
+    """Prepares every frame of ``query`` with the map's parameters and matches it against the map.
+
+    Raises:
+        DatasetError: the query has no poses (ground truth is needed to evaluate).
+    """
+    traverse = query if isinstance(query, Traverse) else load_traverse(query)
+    if traverse.positions is None:
+        raise DatasetError(
+            f"query traverse {traverse.root} has no poses; evaluation needs the true position of every frame "
+            f"(poses.csv with columns image,x,y[,heading])"
+        )
+    prepared = Preparer(ref_map.params).prepare(traverse)
+    if prepared.ndim == 2:
+        prepared = prepared[np.newaxis]
+    scores, shifts = difference_matrix(prepared, ref_map.images, shifts=ref_map.params.shifts, threads=threads)
+    width = ref_map.params.width
+    results = tuple(
+        MatchResult(int(np.argmin(scores[i])), scores[i], shifts[i], shifts_to_headings(shifts[i], width), width)
+        for i in range(len(prepared))
+    )
+    return QueryMatches(
+        name=name if name is not None else traverse.root.name,
+        images=tuple(traverse.names),
+        positions=np.asarray(traverse.positions, dtype=np.float64),
+        headings=None if traverse.headings is None else np.asarray(traverse.headings, dtype=np.float64),
+        results=results,
+    )
+
+
+def simulated_odometry(matches: QueryMatches, model: int, repeat: int, settings: EvaluationSettings) -> list[object]:
+    """The odometry fed to the localizer for each query frame (element 0 is None: no previous frame)."""
+    rng = np.random.default_rng([settings.seed, model, repeat])
+    if settings.odometry == "robot":
+        if matches.headings is None:
+            raise DatasetError(
+                f"query {matches.name} has no headings: robot-frame odometry needs them (use odometry 'map')"
+            )
+        motions: list[object] = list(simulate_robot_odometry(matches.positions, matches.headings, model, rng))
+    else:
+        motions = [tuple(step) for step in simulate_map_odometry(matches.positions, model, rng)]
+    motions[0] = None
+    return motions
+
+
+def replay(
+    ref_map: ReferenceMap,
+    matches: QueryMatches,
+    frame: int,
+    seq_len: int,
+    interpolation: bool = True,
+    noise: int = 0,
+    repeat: int = 0,
+    settings: EvaluationSettings | None = None,
+    params: LocalizationParams | None = None,
+) -> Estimate:
+    """The estimate (with heat maps) for one query frame of one configuration, as :func:`evaluate`
+    computed it: the localizer runs from the start of the traverse up to ``frame``."""
+    settings = settings or EvaluationSettings()
+    if not 0 <= frame < len(matches.results):
+        raise ValueError(f"frame must be in 0..{len(matches.results) - 1}, got {frame}")
+    loc = Localizer(ref_map, params, seq_len=seq_len, interpolation=interpolation)
+    odometry = simulated_odometry(matches, noise, repeat, settings)
+    for i in range(frame):
+        loc.update_match(matches.results[i], odometry[i])
+    return loc.update_match(matches.results[frame], odometry[frame], return_heatmap=True)
+
+
+@dataclass(frozen=True)
+class SummaryRow:
+    """Distance-error statistics of one configuration (metres)."""
+
+    seq_len: int
+    noise_model: int
+    interpolation: bool
+    n: int
+    median_m: float
+    mean_m: float
+    p90_m: float
+
+
+class Evaluation:
+    """Per-frame results of :func:`evaluate` (columns of :data:`ERRORS_HEADER` as arrays).
+
+    Attributes:
+        columns: name -> ``(rows,)`` array; ``interpolation`` is bool.
+        settings: the :class:`EvaluationSettings` used.
+        matches: the :class:`QueryMatches` of each query evaluated (for figures and replays).
+    """
+
+    def __init__(self, columns: dict[str, np.ndarray], settings: EvaluationSettings, matches: Sequence[QueryMatches]):
+        missing = [c for c in ERRORS_HEADER if c not in columns]
+        if missing:
+            raise ValueError(f"columns missing: {missing}")
+        lengths = {len(columns[c]) for c in ERRORS_HEADER}
+        if len(lengths) != 1:
+            raise ValueError("columns must have equal lengths")
+        self.columns = {c: np.asarray(columns[c]) for c in ERRORS_HEADER}
+        self.settings = settings
+        self.matches = tuple(matches)
+
+    def __len__(self) -> int:
+        return len(self.columns["error_m"])
+
+    @staticmethod
+    def concatenate(parts: Sequence[Evaluation]) -> Evaluation:
+        """One evaluation of several queries (same settings)."""
+        if not parts:
+            raise ValueError("nothing to concatenate")
+        columns = {c: np.concatenate([p.columns[c] for p in parts]) for c in ERRORS_HEADER}
+        return Evaluation(columns, parts[0].settings, [m for p in parts for m in p.matches])
+
+    def select(
+        self,
+        seq_len: int | None = None,
+        noise_model: int | None = None,
+        interpolation: bool | None = None,
+        query: str | None = None,
+    ) -> np.ndarray:
+        """Boolean row mask of the rows matching every given value."""
+        mask = np.ones(len(self), dtype=bool)
+        for column, value in (
+            ("seq_len", seq_len),
+            ("noise_model", noise_model),
+            ("interpolation", interpolation),
+            ("query", query),
+        ):
+            if value is not None:
+                mask &= self.columns[column] == value
+        return mask
+
+    def errors(self, **selection) -> np.ndarray:
+        """Distance errors (metres) of the rows matching ``selection`` (see :meth:`select`)."""
+        return self.columns["error_m"][self.select(**selection)]
+
+    def median(self, **selection) -> float:
+        """Median distance error (metres) of the selected rows; NaN if none."""
+        errors = self.errors(**selection)
+        return float(np.median(errors)) if errors.size else math.nan
+
+    def summary(self, query: str | None = None) -> list[SummaryRow]:
+        """Statistics per (seq_len, noise_model, interpolation), in the settings' order."""
+        rows = []
+        for n in self.settings.seq_lengths:
+            for model in self.settings.noise_models:
+                for interp in self.settings.interpolation:
+                    e = self.errors(seq_len=n, noise_model=model, interpolation=interp, query=query)
+                    if e.size == 0:
+                        continue
+                    rows.append(
+                        SummaryRow(
+                            n,
+                            model,
+                            interp,
+                            int(e.size),
+                            float(np.median(e)),
+                            float(e.mean()),
+                            float(np.percentile(e, 90)),
+                        )
+                    )
+        return rows
+
+    def write_errors_csv(self, path: PathLike) -> Path:
+        """Writes ``errors.csv`` (header :data:`ERRORS_HEADER`) atomically."""
+        c = self.columns
+        with atomic_file(path, "w", newline="") as stream:
+            writer = csv.writer(stream, lineterminator="\n")
+            writer.writerow(ERRORS_HEADER)
+            for i in range(len(self)):
+                writer.writerow(
+                    [
+                        c["query"][i],
+                        c["image"][i],
+                        int(c["seq_len"][i]),
+                        int(c["noise_model"][i]),
+                        "on" if c["interpolation"][i] else "off",
+                        int(c["repeat"][i]),
+                        _metres(c["x_est"][i]),
+                        _metres(c["y_est"][i]),
+                        _metres(c["x_true"][i]),
+                        _metres(c["y_true"][i]),
+                        _metres(c["error_m"][i]),
+                        int(c["ref_index"][i]),
+                    ]
+                )
+        return Path(path)
+
+    def write_summary_csv(self, path: PathLike, query: str | None = None) -> Path:
+        """Writes ``summary.csv`` (header :data:`SUMMARY_HEADER`) atomically."""
+        with atomic_file(path, "w", newline="") as stream:
+            writer = csv.writer(stream, lineterminator="\n")
+            writer.writerow(SUMMARY_HEADER)
+            for row in self.summary(query):
+                writer.writerow(
+                    [
+                        row.seq_len,
+                        row.noise_model,
+                        "on" if row.interpolation else "off",
+                        row.n,
+                        _metres(row.median_m),
+                        _metres(row.mean_m),
+                        _metres(row.p90_m),
+                    ]
+                )
+        return Path(path)
+
+    def table(self, query: str | None = None, interpolation: bool = True, off_column: bool = False) -> str:
+        """Median error (m) by sequence length (rows) and noise model (columns), as text.
+
+        ``off_column`` adds a last column with interpolation off at the first noise model (when
+        it was evaluated).
+        """
+        models = self.settings.noise_models
+        extra = off_column and False in self.settings.interpolation and interpolation
+        header = f"{'n':>3} | " + " | ".join(f"noise {m}" for m in models)
+        if extra:
+            header += f" | no interp. (noise {models[0]})"
+        lines = [header, "-" * len(header)]
+        for n in self.settings.seq_lengths:
+            cells = [self.median(seq_len=n, noise_model=m, interpolation=interpolation, query=query) for m in models]
+            line = f"{n:>3} | " + " | ".join(f"{v:7.2f}" for v in cells)
+            if extra:
+                line += f" | {self.median(seq_len=n, noise_model=models[0], interpolation=False, query=query):7.2f}"
+            lines.append(line)
+        return "\n".join(lines)
+
+
+def _metres(value: float) -> str:
+    return f"{float(value):.4f}"
+
+
+def evaluate(
+    ref_map: ReferenceMap,
+    query: Traverse | PathLike | QueryMatches,
+    settings: EvaluationSettings | None = None,
+    params: LocalizationParams | None = None,
+    name: str | None = None,
+    threads: int | None = None,
+    progress_desc: str | None = None,
+) -> Evaluation:
+    """Localizes every frame of ``query`` under every configuration of ``settings``.
+
+    Args:
+        ref_map: the reference map.
+        query: a traverse with poses (folder path or :class:`Traverse`), or the
+            :class:`QueryMatches` of an earlier :func:`match_traverse`.
+        settings: configurations (default: n = 1..10, noise 0-3, interpolation on and off).
+        params: localization parameters (grid, margin, ...); ``seq_len`` and ``interpolation``
+            are set per configuration.
+        name: the query's name in the ``query`` column (default its folder name).
+        threads: matching threads (default all cores).
+        progress_desc: progress-bar label (default "evaluating <name>").
+
+    Returns:
+        :class:`Evaluation`.
+    """
+    settings = settings or EvaluationSettings()
+    params = params or LocalizationParams()
+    if not isinstance(ref_map, ReferenceMap):
+        raise TypeError(f"ref_map must be a nightloc.ReferenceMap, got {type(ref_map).__name__}")
+    matches = query if isinstance(query, QueryMatches) else match_traverse(ref_map, query, name, threads)
+    if name is not None and isinstance(query, QueryMatches):
+        matches = dataclasses.replace(matches, name=name)
+    if settings.odometry == "robot" and matches.headings is None:
+        raise DatasetError(f"query {matches.name} has no headings: robot-frame odometry needs them")
+    if settings.odometry == "robot" and ref_map.headings is None:
+        raise DatasetError("the reference map has no headings: robot-frame odometry needs them")
+    n_frames = len(matches.results)
+    jobs = [
+        (interp, model, repeat)
+        for interp in settings.interpolation
+        for model in settings.noise_models
+        for repeat in range(settings.repeats_of(model))
+    ]
+    bases = {interp: Localizer(ref_map, params, interpolation=interp) for interp in settings.interpolation}
+    rows: dict[str, list[np.ndarray]] = {c: [] for c in ERRORS_HEADER}
+    images = np.array(matches.images, dtype=object)
+    query_names = np.full(n_frames, matches.name, dtype=object)
+    desc = progress_desc or f"evaluating {matches.name}"
+    total = len(jobs) * len(settings.seq_lengths)
+    work = ((job, n) for job in jobs for n in settings.seq_lengths)
+    odometry_cache: dict[tuple[int, int], list[object]] = {}
+    for (interp, model, repeat), n in progress(work, total=total, desc=desc, unit="config"):
+        odometry = odometry_cache.get((model, repeat))
+        if odometry is None:
+            odometry = odometry_cache[(model, repeat)] = simulated_odometry(matches, model, repeat, settings)
+        loc = bases[interp].with_seq_len(n)
+        estimates = [loc.update_match(result, odometry[i]) for i, result in enumerate(matches.results)]
+        x = np.array([e.x for e in estimates])
+        y = np.array([e.y for e in estimates])
+        rows["query"].append(query_names)
+        rows["image"].append(images)
+        rows["seq_len"].append(np.full(n_frames, n))
+        rows["noise_model"].append(np.full(n_frames, model))
+        rows["interpolation"].append(np.full(n_frames, interp))
+        rows["repeat"].append(np.full(n_frames, repeat))
+        rows["x_est"].append(x)
+        rows["y_est"].append(y)
+        rows["x_true"].append(matches.positions[:, 0])
+        rows["y_true"].append(matches.positions[:, 1])
+        rows["error_m"].append(np.hypot(x - matches.positions[:, 0], y - matches.positions[:, 1]))
+        rows["ref_index"].append(np.array([e.ref_index for e in estimates]))
+    columns = {c: np.concatenate(v) for c, v in rows.items()}
+    return Evaluation(columns, settings, [matches])

@@ -1,0 +1,248 @@
+"""Evaluation: end to end on the synthetic world, the CLI's outputs and columns, and its errors."""
+
+from __future__ import annotations
+
+import csv
+import functools
+import itertools
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+import nightloc
+from nightloc.cli import main
+from nightloc.localization.evaluation import (
+    ERRORS_HEADER,
+    SUMMARY_HEADER,
+    EvaluationSettings,
+    evaluate,
+    match_traverse,
+    replay,
+)
+
+from synth_support import default_synth_data
+
+
+@functools.cache
+def _world(world: str):
+    folders = default_synth_data()[world]
+    ref_map = nightloc.ReferenceMap.build(folders["day_reference"])
+    return folders, ref_map, match_traverse(ref_map, folders["night_query"])
+
+
+@functools.cache
+def _evaluation(world: str):
+    _, ref_map, matches = _world(world)
+    settings = EvaluationSettings(seq_lengths=(1, 7, 10), noise_models=(0, 1, 2, 3), repeats=3)
+    return evaluate(ref_map, matches, settings)
+
+
+@pytest.mark.parametrize("world", ["garden", "living_room"])
+def test_sequences_halve_the_error_and_interpolation_lowers_it_further(world):
+    ev = _evaluation(world)
+    single = ev.median(seq_len=1, noise_model=0, interpolation=True)
+    ten = ev.median(seq_len=10, noise_model=0, interpolation=True)
+    ten_off = ev.median(seq_len=10, noise_model=0, interpolation=False)
+    assert ten <= 0.5 * single, (world, single, ten)
+    assert ten < ten_off, (world, ten, ten_off)
+    assert ev.median(seq_len=7, noise_model=0, interpolation=True) < ev.median(
+        seq_len=7, noise_model=0, interpolation=False
+    )
+
+
+@pytest.mark.parametrize("world", ["garden", "living_room"])
+def test_odometry_noise_degrades_gracefully(world):
+    ev = _evaluation(world)
+    single = ev.median(seq_len=1, noise_model=0, interpolation=True)
+    medians = [ev.median(seq_len=10, noise_model=m, interpolation=True) for m in (0, 1, 2, 3)]
+    assert all(b >= a - 0.05 for a, b in itertools.pairwise(medians)), medians  # worse with more noise...
+    assert medians[3] < single, (medians, single)  # ...but still better than single frames
+    assert medians[3] < 1.25
+
+
+def test_rows_cover_every_configuration_and_errors_are_distances():
+    ev = _evaluation("garden")
+    _, ref_map, matches = _world("garden")
+    n = len(matches.results)
+    # noise model 0 runs once, models 1-3 three times each; 3 lengths, 2 interpolation settings
+    assert len(ev) == n * 3 * 2 * (1 + 3 * 3)
+    c = ev.columns
+    np.testing.assert_allclose(c["error_m"], np.hypot(c["x_est"] - c["x_true"], c["y_est"] - c["y_true"]))
+    assert set(np.unique(c["repeat"][c["noise_model"] == 0])) == {0}
+    assert set(np.unique(c["repeat"][c["noise_model"] == 3])) == {0, 1, 2}
+    off = ev.select(interpolation=False)
+    np.testing.assert_array_equal(
+        np.column_stack([c["x_est"][off], c["y_est"][off]]), ref_map.positions[c["ref_index"][off].astype(int)]
+    )
+    # single frames without interpolation: the best-matching reference, whatever the noise
+    single_off = ev.select(seq_len=1, interpolation=False, noise_model=0)
+    assert list(c["ref_index"][single_off]) == [r.index for r in matches.results]
+
+
+def test_replay_reproduces_a_row_with_its_heat_maps():
+    ev = _evaluation("garden")
+    _, ref_map, matches = _world("garden")
+    frame = 20
+    est = replay(ref_map, matches, frame, seq_len=7, noise=3, repeat=2, settings=ev.settings)
+    row = ev.select(seq_len=7, noise_model=3, interpolation=True) & (ev.columns["repeat"] == 2)
+    x = ev.columns["x_est"][row][frame]
+    y = ev.columns["y_est"][row][frame]
+    assert (est.x, est.y) == (x, y)
+    assert est.heatmap.shape == (100, 100) and est.frames == 7
+
+
+def test_robot_frame_odometry_mode_runs_and_helps():
+    _, ref_map, matches = _world("garden")
+    settings = EvaluationSettings(seq_lengths=(1, 10), noise_models=(0, 2), interpolation=(True,), odometry="robot")
+    ev = evaluate(ref_map, matches, settings)
+    assert ev.median(seq_len=10, noise_model=0) < ev.median(seq_len=1, noise_model=0)
+
+
+def _read_csv(path: Path):
+    with open(path, newline="") as handle:
+        rows = list(csv.reader(handle))
+    return rows[0], rows[1:]
+
+
+def test_cli_writes_errors_summary_and_figures(tmp_path, capsys):
+    folders, ref_map, matches = _world("garden")
+    out = tmp_path / "out"
+    argv = [
+        "evaluate",
+        str(folders["day_reference"]),
+        str(folders["night_query"]),
+        "--out",
+        str(out),
+        "--seq-lengths",
+        "1,3-4",
+        "--noise-models",
+        "0,2",
+        "--repeats",
+        "2",
+        "--heatmap-frames",
+        "5,12",
+    ]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    assert "noise 0 | noise 2" in printed
+    header, rows = _read_csv(out / "errors.csv")
+    assert tuple(header) == ERRORS_HEADER
+    n = len(matches.results)
+    assert len(rows) == n * 3 * 2 * (1 + 2)
+    assert {r[4] for r in rows} == {"on", "off"} and {r[2] for r in rows} == {"1", "3", "4"}
+    assert [r[1] for r in rows[:n]] == list(matches.images)
+    assert {r[0] for r in rows} == {"night_query"}
+    # the summary is the statistics of the rows (an independent recomputation)
+    s_header, s_rows = _read_csv(out / "summary.csv")
+    assert tuple(s_header) == SUMMARY_HEADER and len(s_rows) == 3 * 2 * 2
+    for seq_len, model, interp, count, median, mean, p90 in s_rows:
+        errors = np.array([float(r[10]) for r in rows if (r[2], r[3], r[4]) == (seq_len, model, interp)])
+        assert int(count) == errors.size
+        assert float(median) == pytest.approx(np.median(errors), abs=2e-4)
+        assert float(mean) == pytest.approx(errors.mean(), abs=2e-4)
+        assert float(p90) == pytest.approx(np.percentile(errors, 90), abs=2e-4)
+    # the same numbers as the API
+    api = evaluate(ref_map, matches, EvaluationSettings((1, 3, 4), (0, 2), repeats=2))
+    np.testing.assert_allclose([float(r[10]) for r in rows], api.columns["error_m"], atol=1e-4)
+    for name in (
+        "error_vs_seq_len.png",
+        "error_vs_noise.png",
+        "error_vs_interpolation.png",
+        "heatmap_frame5.png",
+        "heatmap_frame12.png",
+    ):
+        image = cv2.imread(str(out / name))
+        assert image is not None and image.shape[2] == 3, name
+    # a second run without figures leaves no stale figure behind
+    assert main([*argv[:5], "--seq-lengths", "1", "--no-figures"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["errors.csv", "summary.csv"]
+
+
+def test_cli_accepts_a_map_file_and_parameter_file(tmp_path, capsys):
+    folders, ref_map, _ = _world("living_room")
+    map_file = ref_map.save(tmp_path / "room.map")
+    params = tmp_path / "p.toml"
+    params.write_text("[localization]\ngrid_width = 60\ngrid_height = 30\n")
+    out = tmp_path / "out"
+    assert (
+        main(
+            [
+                "evaluate",
+                str(map_file),
+                str(folders["night_query"]),
+                "--out",
+                str(out),
+                "--seq-lengths",
+                "1,5",
+                "--noise-models",
+                "0",
+                "--interpolation",
+                "on",
+                "--params",
+                str(params),
+                "--no-figures",
+            ]
+        )
+        == 0
+    )
+    _, rows = _read_csv(out / "summary.csv")
+    assert [(r[0], r[2]) for r in rows] == [("1", "on"), ("5", "on")]
+
+
+@pytest.mark.parametrize(
+    ("extra", "words"),
+    [
+        (["--seq-lengths", "0-3"], "--seq-lengths"),
+        (["--seq-lengths", "a"], "not an integer"),
+        (["--noise-models", "5"], "table iii"),
+        (["--interpolation", "maybe"], "on or off"),
+        (["--repeats", "0"], "--repeats"),
+        (["--seed", "-2"], "non-negative"),
+        (["--heatmap-frames", "999"], "--heatmap-frames"),
+    ],
+)
+def test_cli_bad_options_are_one_line_errors_and_write_nothing(tmp_path, capsys, extra, words):
+    folders, _, _ = _world("garden")
+    out = tmp_path / "out"
+    status = main(["evaluate", str(folders["day_reference"]), str(folders["night_query"]), "--out", str(out), *extra])
+    err = capsys.readouterr().err
+    assert status == 2 and err.startswith("nightloc evaluate: error:") and err.count("\n") == 1
+    assert words.lower() in err.lower()
+    assert not out.exists()
+
+
+def test_cli_query_without_poses_and_output_file_in_the_way(tmp_path, capsys):
+    folders, _, _ = _world("garden")
+    no_poses = tmp_path / "no_poses"
+    (no_poses / "images").mkdir(parents=True)
+    for name in ("a.png", "b.png"):
+        cv2.imwrite(str(no_poses / "images" / name), np.full((24, 48), 100, np.uint8))
+    assert main(["evaluate", str(folders["day_reference"]), str(no_poses), "--out", str(tmp_path / "o")]) == 2
+    assert "no poses" in capsys.readouterr().err
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    assert main(["evaluate", str(folders["day_reference"]), str(folders["night_query"]), "--out", str(blocker)]) == 2
+    assert "not a folder" in capsys.readouterr().err
+    assert blocker.read_text() == "x"
+
+
+def test_heatmap_figure_marks_truth_and_estimate_where_they_are():
+    from nightloc.figures.evaluation import heatmap_figure, pick_heatmap_frame
+
+    ev = _evaluation("garden")
+    _, ref_map, matches = _world("garden")
+    frame = pick_heatmap_frame(ev, seq_len=7)
+    assert frame >= 6  # a whole 7-frame sequence behind it
+    single = ev.errors(seq_len=1, noise_model=0, interpolation=True)
+    seven = ev.errors(seq_len=7, noise_model=0, interpolation=True)
+    assert single[frame] - seven[frame] == pytest.approx(np.max((single - seven)[6:]))
+    fig = heatmap_figure(ref_map, matches, frame, 7)
+    image = fig.render()
+    for col in (0, 1):
+        ax = fig.axes(0, col)
+        px, py = ax.to_pixel(*matches.positions[frame])
+        patch = image[int(py) - 2 : int(py) + 3, int(px) - 2 : int(px) + 3].astype(int)
+        # the red truth cross (214, 39, 40 RGB) is drawn over the heat map there
+        assert (np.abs(patch - [40, 39, 214]).sum(axis=2) < 90).any()
