@@ -212,25 +212,32 @@ nightloc::RouteFilter make_filter(std::size_t n_refs, const nightloc::RouteFilte
     return nightloc::RouteFilter(n_refs, params);  // std::invalid_argument -> ValueError
 }
 
-py::tuple route_filter_matrix(const py::array& matrix_in, const nightloc::RouteFilterParams& params,
-                              py::object weights_in) {
+// weights: None or n values in [0, 1] (copied), as a vector (empty for None).
+std::vector<double> checked_weights(const py::object& weights_in, std::size_t n) {
+    std::vector<double> weights;
+    if (weights_in.is_none()) return weights;
+    const auto w = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(weights_in);
+    if (!w || w.ndim() != 1 || static_cast<std::size_t>(w.shape(0)) != n) {
+        throw py::value_error("weights must be a 1-D array of " + std::to_string(n) +
+                              " values in [0, 1] (one per query)");
+    }
+    weights.assign(w.data(), w.data() + n);
+    for (double v : weights) {
+        if (!(v >= 0.0 && v <= 1.0)) throw py::value_error("weights must lie in [0, 1], got " + float_text(v));
+    }
+    return weights;
+}
+
+// Runs `filter` over the rows of `matrix` (continuing its state); returns (best, confidence, off_route).
+py::tuple run_rows(nightloc::RouteFilter& filter, const py::array& matrix_in, const py::object& weights_in,
+                   int threads) {
     const F32Array matrix = checked_matrix(matrix_in, "matrix", false);
     const auto n_queries = static_cast<std::size_t>(matrix.shape(0));
-    const auto n_refs = static_cast<std::size_t>(matrix.shape(1));
-    if (n_refs == 0) throw py::value_error("matrix has no references (shape " + shape_of(matrix) + ")");
-    nightloc::validate(params);
-    std::vector<double> weights;
-    if (!weights_in.is_none()) {
-        const auto w = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(weights_in);
-        if (!w || w.ndim() != 1 || static_cast<std::size_t>(w.shape(0)) != n_queries) {
-            throw py::value_error("weights must be a 1-D array of " + std::to_string(n_queries) +
-                                  " values in [0, 1] (one per query)");
-        }
-        weights.assign(w.data(), w.data() + n_queries);
-        for (double v : weights) {
-            if (!(v >= 0.0 && v <= 1.0)) throw py::value_error("weights must lie in [0, 1], got " + float_text(v));
-        }
+    if (static_cast<std::size_t>(matrix.shape(1)) != filter.n_refs()) {
+        throw py::value_error("matrix has " + std::to_string(matrix.shape(1)) + " columns but the filter has " +
+                              std::to_string(filter.n_refs()) + " references");
     }
+    const std::vector<double> weights = checked_weights(weights_in, n_queries);
     py::array_t<std::int64_t> best(static_cast<py::ssize_t>(n_queries));
     py::array_t<double> confidence(static_cast<py::ssize_t>(n_queries));
     py::array_t<double> off_route(static_cast<py::ssize_t>(n_queries));
@@ -241,9 +248,17 @@ py::tuple route_filter_matrix(const py::array& matrix_in, const nightloc::RouteF
     const double* w = weights.empty() ? nullptr : weights.data();
     {
         py::gil_scoped_release release;
-        nightloc::route_filter(m, n_queries, n_refs, params, w, b, c, o);
+        filter.run(m, n_queries, w, b, c, o, threads);
     }
     return py::make_tuple(std::move(best), std::move(confidence), std::move(off_route));
+}
+
+py::tuple route_filter_matrix(const py::array& matrix_in, const nightloc::RouteFilterParams& params,
+                              const py::object& weights_in, int threads) {
+    const F32Array matrix = checked_matrix(matrix_in, "matrix", false);
+    if (matrix.shape(1) == 0) throw py::value_error("matrix has no references (shape " + shape_of(matrix) + ")");
+    nightloc::RouteFilter filter(static_cast<std::size_t>(matrix.shape(1)), params);
+    return run_rows(filter, matrix, weights_in, threads);
 }
 
 py::array_t<double> texture_weights(const py::array& stack_in, double min_texture) {
@@ -348,6 +363,8 @@ void register_route_filter(py::module_& m) {
                 return step_tuple(s);
             },
             py::arg("row"), py::arg("weight") = 1.0, "One frame's row: returns (best, confidence, off_route).")
+        .def("run", &run_rows, py::arg("matrix"), py::arg("weights") = py::none(), py::arg("threads") = 1,
+             "Consecutive frames' rows (n, n_refs) float32: returns (best, confidence, off_route) arrays.")
         .def("frame", &filter_frame, py::arg("image"), py::arg("refs"), py::arg("shifts"), py::arg("divisor"),
              py::arg("enhance_radius"), py::arg("min_texture"), py::arg("threads"), py::arg("row"),
              "One prepared frame: difference row, enhancement, texture weight and step; returns "
@@ -372,6 +389,7 @@ void register_route_filter(py::module_& m) {
         .def_property_readonly("n_refs", &nightloc::RouteFilter::n_refs);
 
     m.def("route_filter", &route_filter_matrix, py::arg("matrix"), py::arg("params"), py::arg("weights") = py::none(),
+          py::arg("threads") = 1,
           "The route filter over an (n_query, n_ref) float32 matrix; returns (best int64, confidence, off_route).");
     m.def(
         "motion_kernel",

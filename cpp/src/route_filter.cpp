@@ -5,9 +5,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
+
+#include "parallel.hpp"
 
 namespace nightloc {
 
@@ -32,6 +35,80 @@ void require(bool ok, const std::string& message) {
 }
 
 bool probability(double p) noexcept { return p >= 0.0 && p <= 1.0; }
+
+// Sum of n doubles in a fixed order: four interleaved partial sums (so the additions pipeline
+// and vectorize), combined as (s0 + s1) + (s2 + s3), then the remainder in order.
+double sum_of(const double* x, std::size_t n) noexcept {
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+    std::size_t i = 0;
+    for (; i + 4 <= n; i += 4) {
+        s0 += x[i];
+        s1 += x[i + 1];
+        s2 += x[i + 2];
+        s3 += x[i + 3];
+    }
+    double total = (s0 + s1) + (s2 + s3);
+    for (; i < n; ++i) total += x[i];
+    return total;
+}
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// The largest (Max) or smallest value of n >= 1 doubles without NaN: four interleaved running
+// extremes (exact in any order; the layout lets the compiler vectorize).
+template <bool Max>
+double extreme_of(const double* x, std::size_t n) noexcept {
+    auto pick = [](double a, double b) { return Max ? (b > a ? b : a) : (b < a ? b : a); };
+    double e0 = x[0], e1 = x[0], e2 = x[0], e3 = x[0];
+    std::size_t i = 0;
+    for (; i + 4 <= n; i += 4) {
+        e0 = pick(e0, x[i]);
+        e1 = pick(e1, x[i + 1]);
+        e2 = pick(e2, x[i + 2]);
+        e3 = pick(e3, x[i + 3]);
+    }
+    double e = pick(pick(e0, e1), pick(e2, e3));
+    for (; i < n; ++i) e = pick(e, x[i]);
+    return e;
+}
+
+// exp(x) for x <= 0 in plain IEEE operations with a fixed order (the same result on every CPU;
+// the loop calling it vectorizes), within a few ulp of the correctly rounded value; 0 below
+// -708 (where exp underflows to subnormals). x = k ln2 + r with |r| <= ln2/2 (k by the
+// 1.5 * 2^52 rounding trick, ln2 split so k * ln2_hi is exact), exp(r) by its Taylor series to
+// r^13/13! (truncation below 2e-16 relative), times 2^k built in the exponent bits.
+inline double exp_nonpositive(double x) noexcept {
+    constexpr double kShifter = 6755399441055744.0;  // 1.5 * 2^52
+    constexpr double kLog2e = 1.4426950408889634;
+    constexpr double kLn2Hi = 6.93147180369123816490e-01;  // 0x3fe62e42fee00000: 32 trailing zero bits
+    constexpr double kLn2Lo = 1.90821492927058770002e-10;
+    const double clamped = x > -708.0 ? x : -708.0;
+    const double shifted = clamped * kLog2e + kShifter;
+    const double k = shifted - kShifter;
+    const double r = (clamped - k * kLn2Hi) - k * kLn2Lo;
+    double poly = 1.0 / 6227020800.0;  // 1/13!
+    poly = poly * r + 1.0 / 479001600.0;
+    poly = poly * r + 1.0 / 39916800.0;
+    poly = poly * r + 1.0 / 3628800.0;
+    poly = poly * r + 1.0 / 362880.0;
+    poly = poly * r + 1.0 / 40320.0;
+    poly = poly * r + 1.0 / 5040.0;
+    poly = poly * r + 1.0 / 720.0;
+    poly = poly * r + 1.0 / 120.0;
+    poly = poly * r + 1.0 / 24.0;
+    poly = poly * r + 1.0 / 6.0;
+    poly = poly * r + 0.5;
+    poly = poly * r + 1.0;
+    poly = poly * r + 1.0;
+    std::int64_t shifted_bits = 0;
+    std::int64_t shifter_bits = 0;
+    std::memcpy(&shifted_bits, &shifted, sizeof shifted);
+    std::memcpy(&shifter_bits, &kShifter, sizeof kShifter);
+    const std::int64_t exponent = (shifted_bits - shifter_bits + 1023) << 52;  // 2^k, k in [-1022, 0]
+    double two_k = 0.0;
+    std::memcpy(&two_k, &exponent, sizeof exponent);
+    return x > -708.0 ? poly * two_k : 0.0;
+}
 
 }  // namespace
 
@@ -112,124 +189,141 @@ void RouteFilter::set_state(const double* belief, double off_route) {
     off_ = off_route / total;
 }
 
+double route_likelihood(const float* row, std::size_t n, double lambda, double clip, double* out) noexcept {
+    // Row statistics over the finite values (v - v == 0 is false for NaN and inf); `out` holds
+    // the finite values, then the deviations, with non-finite values counted as the mean.
+    std::size_t count = 0;
+    for (std::size_t r = 0; r < n; ++r) {
+        const float v = row[r];
+        const bool finite = v - v == 0.0f;
+        out[r] = finite ? static_cast<double>(v) : kInf;
+        count += finite ? 1 : 0;
+    }
+    const double lowest = n > 0 ? extreme_of<false>(out, n) : kInf;
+    for (std::size_t r = 0; r < n; ++r) out[r] = out[r] == kInf ? 0.0 : out[r];
+    const double mean = count > 0 ? sum_of(out, n) / static_cast<double>(count) : 0.0;
+    for (std::size_t r = 0; r < n; ++r) {
+        const float v = row[r];
+        out[r] = v - v == 0.0f ? out[r] - mean : 0.0;
+    }
+    double squares = 0.0;
+    for (std::size_t r = 0; r < n; ++r) squares += out[r] * out[r];
+    const double sd = count > 0 ? std::sqrt(squares / static_cast<double>(count)) : 0.0;
+    if (!(lambda > 0.0 && sd > 0.0)) {
+        std::fill(out, out + n, 1.0);
+        return static_cast<double>(n);
+    }
+    // L = exp(-lambda * (min(z, clip) - min_r min(z_r, clip))), z = deviation / sd: 1 at the best
+    // place; clip is applied in deviations (+inf: none).
+    const double slope = lambda / sd;
+    const double cap = clip * sd;
+    const double best_dev = std::min(lowest - mean, cap);
+    for (std::size_t r = 0; r < n; ++r) out[r] = exp_nonpositive(-slope * (std::min(out[r], cap) - best_dev));
+    return sum_of(out, n);
+}
+
 RouteFilterStep RouteFilter::step(const float* row, double weight) {
     require(weight >= 0.0 && weight <= 1.0, "weight must be in [0, 1], got " + std::to_string(weight));
+    likelihood_.resize(belief_.size());
+    const double sum = route_likelihood(row, belief_.size(), params_.sharpness * weight, params_.clip,
+                                        likelihood_.data());
+    return update(likelihood_.data(), sum);
+}
+
+RouteFilterStep RouteFilter::update(const double* likelihood, double likelihood_sum) {
     const std::size_t n = belief_.size();
     const double nd = static_cast<double>(n);
     double* b = belief_.data();
     double* p = scratch_.data();
+    const double on = 1.0 - off_;  // the belief sums to 1 - off_ (normalized every step)
 
-    // 1. Predict: shift by every advance of the kernel, in order of the advance.
-    double on = 0.0;
-    for (std::size_t r = 0; r < n; ++r) on += b[r];
+    // 1. Predict. The shifted sum of every advance of the kernel goes to p; the mass that moved
+    // past either end is known from the belief's first and last entries, so the rescaling to the
+    // on-route mass, the uniform floor and the off-route exchange fold into one affine map
+    // p' = scale * p + offset, applied with the update.
     std::fill(p, p + n, 0.0);
+    double lost = 0.0;
     for (std::size_t i = 0; i < kernel_.weights.size(); ++i) {
         const double w = kernel_.weights[i];
         const std::int64_t k = kernel_.first + static_cast<std::int64_t>(i);
         if (w == 0.0) continue;
+        const std::size_t shift = static_cast<std::size_t>(k >= 0 ? k : -k);
+        const std::size_t inside = shift < n ? n - shift : 0;
         if (k >= 0) {
-            const auto shift = static_cast<std::size_t>(k);
-            for (std::size_t r = shift; r < n; ++r) p[r] += w * b[r - shift];
+            for (std::size_t r = 0; r < inside; ++r) p[r + shift] += w * b[r];
+            lost += w * sum_of(b + inside, n - inside);
         } else {
-            const auto shift = static_cast<std::size_t>(-k);
-            for (std::size_t r = 0; r + shift < n; ++r) p[r] += w * b[r + shift];
+            for (std::size_t r = 0; r < inside; ++r) p[r] += w * b[r + shift];
+            lost += w * sum_of(b, n - inside);
         }
     }
-    double moved = 0.0;
-    for (std::size_t r = 0; r < n; ++r) moved += p[r];
-    if (moved > 0.0) {
-        const double scale = on / moved;
-        for (std::size_t r = 0; r < n; ++r) p[r] *= scale;
-    } else {
-        for (std::size_t r = 0; r < n; ++r) p[r] = on / nd;
-    }
-    const double keep = 1.0 - params_.floor;
-    const double spread = params_.floor * on / nd;
-    for (std::size_t r = 0; r < n; ++r) p[r] = keep * p[r] + spread;
+    const double moved = on - lost;
     const double stay = 1.0 - params_.leave;
     const double back = off_ * params_.rejoin / nd;
-    for (std::size_t r = 0; r < n; ++r) p[r] = stay * p[r] + back;
-    double off = off_ * (1.0 - params_.rejoin) + on * params_.leave;
+    double scale = 0.0;
+    double offset = stay * on / nd + back;  // nothing left on the route: uniform
+    if (moved > 0.0) {
+        scale = stay * (1.0 - params_.floor) * (on / moved);
+        offset = stay * (params_.floor * on / nd) + back;
+    }
+    const double off = (off_ * (1.0 - params_.rejoin) + on * params_.leave) * (likelihood_sum / nd);
 
-    // 2. Update with the row's likelihood.
-    const double lambda = params_.sharpness * weight;
-    double sum = 0.0;
-    std::size_t count = 0;
-    for (std::size_t r = 0; r < n; ++r) {
-        if (std::isfinite(row[r])) {
-            sum += static_cast<double>(row[r]);
-            ++count;
-        }
-    }
-    double mean = 0.0;
-    double sd = 0.0;
-    if (count > 0) {
-        mean = sum / static_cast<double>(count);
-        double squares = 0.0;
-        for (std::size_t r = 0; r < n; ++r) {
-            if (std::isfinite(row[r])) {
-                const double dev = static_cast<double>(row[r]) - mean;
-                squares += dev * dev;
-            }
-        }
-        sd = std::sqrt(squares / static_cast<double>(count));
-    }
-    if (lambda > 0.0 && sd > 0.0) {
-        // Log-likelihoods into b (the old belief is no longer needed), then exp relative to the top.
-        const double zero_clipped = std::min(0.0, params_.clip);
-        double top = -std::numeric_limits<double>::infinity();
-        for (std::size_t r = 0; r < n; ++r) {
-            const double z = std::isfinite(row[r]) ? (static_cast<double>(row[r]) - mean) / sd : 0.0;
-            const double ll = -lambda * (std::isfinite(row[r]) ? std::min(z, params_.clip) : zero_clipped);
-            b[r] = ll;
-            top = std::max(top, ll);
-        }
-        double likelihood_sum = 0.0;
-        for (std::size_t r = 0; r < n; ++r) {
-            const double l = std::exp(b[r] - top);
-            likelihood_sum += l;
-            b[r] = p[r] * l;
-        }
-        off *= likelihood_sum / nd;
-    } else {
-        std::copy(p, p + n, b);
-    }
-    double total = off;
-    for (std::size_t r = 0; r < n; ++r) total += b[r];
+    // 2. Update: posterior = prediction x likelihood, normalized with the off-route state.
+    for (std::size_t r = 0; r < n; ++r) b[r] = (scale * p[r] + offset) * likelihood[r];
+    const double total = sum_of(b, n) + off;
     if (!(total > 0.0) || !std::isfinite(total)) {
-        // Cannot happen with floor > 0; with floor = 0 every place may have been ruled out.
-        reset();
-        total = 1.0;
+        reset();  // cannot happen with floor > 0; with floor = 0 every place may be ruled out
     } else {
-        for (std::size_t r = 0; r < n; ++r) b[r] /= total;
-        off_ = off / total;
+        const double inverse = 1.0 / total;
+        for (std::size_t r = 0; r < n; ++r) b[r] *= inverse;
+        off_ = off * inverse;
     }
 
-    // 3. Answer.
-    RouteFilterStep out;
+    // 3. Answer: the first maximum, and the mass around it.
+    const double top = extreme_of<true>(b, n);
     std::size_t best = 0;
-    for (std::size_t r = 1; r < n; ++r) {
-        if (b[r] > b[best]) best = r;
-    }
+    while (best + 1 < n && b[best] != top) ++best;
     const std::size_t lo = best >= params_.window ? best - params_.window : 0;
     const std::size_t hi = std::min(n - 1, best + params_.window);
-    double mass = 0.0;
-    for (std::size_t r = lo; r <= hi; ++r) mass += b[r];
+    RouteFilterStep out;
     out.best = static_cast<std::int64_t>(best);
-    out.confidence = std::min(1.0, mass);
+    out.confidence = std::min(1.0, sum_of(b + lo, hi - lo + 1));
     out.off_route = off_;
     return out;
 }
 
-void route_filter(const float* matrix, std::size_t n_queries, std::size_t n_refs, const RouteFilterParams& params,
-                  const double* weights, std::int64_t* best, double* confidence, double* off_route) {
-    RouteFilter filter(n_refs, params);
-    for (std::size_t q = 0; q < n_queries; ++q) {
-        const RouteFilterStep s = filter.step(matrix + q * n_refs, weights ? weights[q] : 1.0);
-        best[q] = s.best;
-        confidence[q] = s.confidence;
-        off_route[q] = s.off_route;
+void RouteFilter::run(const float* rows, std::size_t n_rows, const double* weights, std::int64_t* best,
+                      double* confidence, double* off_route, int threads) {
+    const std::size_t n = belief_.size();
+    for (std::size_t q = 0; q < n_rows; ++q) {
+        const double w = weights ? weights[q] : 1.0;
+        require(w >= 0.0 && w <= 1.0, "weight " + std::to_string(q) + " must be in [0, 1], got " + std::to_string(w));
     }
+    // Likelihoods do not depend on the belief: a block of rows at a time on the threads, then
+    // the sequential updates of that block.
+    const std::size_t block = threads > 1 ? std::min<std::size_t>(n_rows, 64) : 1;
+    std::vector<double> likelihoods(block * n);
+    std::vector<double> sums(block);
+    for (std::size_t start = 0; start < n_rows; start += block) {
+        const std::size_t rows_here = std::min(block, n_rows - start);
+        detail::parallel_for(rows_here, threads, [&](std::size_t i) {
+            const std::size_t q = start + i;
+            const double lambda = params_.sharpness * (weights ? weights[q] : 1.0);
+            sums[i] = route_likelihood(rows + q * n, n, lambda, params_.clip, likelihoods.data() + i * n);
+        });
+        for (std::size_t i = 0; i < rows_here; ++i) {
+            const RouteFilterStep s = update(likelihoods.data() + i * n, sums[i]);
+            best[start + i] = s.best;
+            confidence[start + i] = s.confidence;
+            off_route[start + i] = s.off_route;
+        }
+    }
+}
+
+void route_filter(const float* matrix, std::size_t n_queries, std::size_t n_refs, const RouteFilterParams& params,
+                  const double* weights, std::int64_t* best, double* confidence, double* off_route, int threads) {
+    RouteFilter filter(n_refs, params);
+    filter.run(matrix, n_queries, weights, best, confidence, off_route, threads);
 }
 
 double texture_weight(const std::uint8_t* image, std::size_t n_pixels, double min_texture) noexcept {

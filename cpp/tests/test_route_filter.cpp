@@ -222,6 +222,42 @@ void test_errors() {
     CHECK_THROWS(f.set_state(zeros.data(), 0.0), std::invalid_argument);
 }
 
+void test_likelihood_exp_accuracy() {
+    // route_likelihood's exp (its own polynomial) against std::exp over the whole range used.
+    const std::size_t n = 4000;
+    std::vector<float> row(n);
+    for (std::size_t r = 0; r < n; ++r) row[r] = static_cast<float>(r) * 0.25f;  // z from -1.73 to 1.73
+    std::vector<double> out(n);
+    const double lambda = 400.0;  // exponents down to about -1386: underflow to 0 is covered
+    const double sum = nightloc::route_likelihood(row.data(), n, lambda, INFINITY, out.data());
+    double mean = 0.0;
+    for (float v : row) mean += v;
+    mean /= static_cast<double>(n);
+    double var = 0.0;
+    for (float v : row) var += (v - mean) * (v - mean);
+    const double sd = std::sqrt(var / static_cast<double>(n));
+    double worst = 0.0;
+    double total = 0.0;
+    for (std::size_t r = 0; r < n; ++r) {
+        const double exponent = -lambda * ((row[r] - mean) / sd - (row[0] - mean) / sd);
+        const double expected = exponent > -708.0 ? std::exp(exponent) : 0.0;
+        total += out[r];
+        if (expected > 0.0) worst = std::max(worst, std::fabs(out[r] - expected) / expected);
+        if (exponent < -709.0) CHECK(out[r] == 0.0);
+    }
+    std::printf("likelihood exp: worst relative error %.3g\n", worst);
+    CHECK(worst < 1e-12);
+    CHECK(close(sum, total, 1e-12));
+    CHECK(out[0] == 1.0);
+    // NaN entries count as the mean; a row without spread or lambda 0 gives all 1.
+    row[7] = std::nanf("");
+    nightloc::route_likelihood(row.data(), n, 1.0, INFINITY, out.data());
+    CHECK(std::isfinite(out[7]) && out[7] > 0.0);
+    const std::vector<float> flat(n, 2.0f);
+    CHECK(nightloc::route_likelihood(flat.data(), n, 1.0, 0.0, out.data()) == static_cast<double>(n));
+    CHECK(out[5] == 1.0);
+}
+
 void test_texture_weight() {
     std::vector<std::uint8_t> flat(100, 128);
     CHECK(nightloc::texture_weight(flat.data(), flat.size(), 1.0) == 0.0);
@@ -240,6 +276,23 @@ int main() {
     test_flat_row_only_predicts();
     test_batch_equals_stream_and_kidnap();
     test_errors();
+    test_likelihood_exp_accuracy();
     test_texture_weight();
+    // The threaded batch (blocks of likelihoods on threads) equals the single-threaded one.
+    {
+        std::mt19937 rng(11);
+        std::normal_distribution<float> noise(0.0f, 1.0f);
+        const std::size_t n = 300, m = 150;
+        std::vector<float> matrix(m * n);
+        for (auto& v : matrix) v = noise(rng);
+        std::vector<double> weights(m);
+        for (std::size_t q = 0; q < m; ++q) weights[q] = static_cast<double>(q % 7) / 6.0;
+        nightloc::RouteFilterParams p;
+        std::vector<std::int64_t> b1(m), b4(m);
+        std::vector<double> c1(m), c4(m), o1(m), o4(m);
+        nightloc::route_filter(matrix.data(), m, n, p, weights.data(), b1.data(), c1.data(), o1.data(), 1);
+        nightloc::route_filter(matrix.data(), m, n, p, weights.data(), b4.data(), c4.data(), o4.data(), 4);
+        CHECK(b1 == b4 && c1 == c4 && o1 == o4);
+    }
     return nightloc_test::check_summary();
 }

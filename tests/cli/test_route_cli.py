@@ -83,6 +83,8 @@ def test_route_command_options(synthetic_traverses, tmp_path):
         str(night),
         "--out",
         str(out),
+        "--method",
+        "seqslam",
         "--mode",
         "causal",
         "--ds",

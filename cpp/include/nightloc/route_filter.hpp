@@ -36,7 +36,7 @@ struct RouteFilterParams {
     double floor = 3e-3;      ///< uniform mixing per frame, [0, 1]
     double sharpness = 0.7;   ///< lambda, per standard deviation of the row (>= 0)
     double clip = 0.0;        ///< z above this is no evidence against a place (any value, inf: no clip)
-    double leave = 1e-3;      ///< probability per frame of leaving the route, [0, 1]
+    double leave = 1e-2;      ///< probability per frame of leaving the route, [0, 1]
     double rejoin = 1e-2;     ///< probability per frame of rejoining it (uniformly), [0, 1]
     std::size_t window = 2;   ///< confidence = belief mass within +-window references of the best
 };
@@ -72,6 +72,16 @@ public:
     /// is ignored, the belief is only predicted).
     RouteFilterStep step(const float* row, double weight = 1.0);
 
+    /// One frame from its likelihood (n_refs values, route_likelihood()) and their sum.
+    RouteFilterStep update(const double* likelihood, double likelihood_sum);
+
+    /// n_rows consecutive frames: rows (n_rows, n_refs) row-major, weights n_rows values in
+    /// [0, 1] or nullptr for all 1; writes best, confidence and off_route (n_rows each). Equal
+    /// to n_rows calls of step (continues from the current state); the likelihoods of blocks of
+    /// rows are computed on up to `threads` threads, the updates in order on one.
+    void run(const float* rows, std::size_t n_rows, const double* weights, std::int64_t* best, double* confidence,
+             double* off_route, int threads = 1);
+
     /// Back to the uniform belief (e.g. after the robot was carried elsewhere).
     void reset();
 
@@ -90,6 +100,7 @@ private:
     MotionKernel kernel_;
     std::vector<double> belief_;
     std::vector<double> scratch_;
+    std::vector<double> likelihood_;
     double off_ = 0.0;
 };
 
@@ -97,7 +108,13 @@ private:
 /// uniform belief. weights: n_queries values in [0, 1], or nullptr for all 1. Writes best,
 /// confidence and off_route (n_queries each). Equal to n_queries calls of RouteFilter::step.
 void route_filter(const float* matrix, std::size_t n_queries, std::size_t n_refs, const RouteFilterParams& params,
-                  const double* weights, std::int64_t* best, double* confidence, double* off_route);
+                  const double* weights, std::int64_t* best, double* confidence, double* off_route, int threads = 1);
+
+/// The likelihood of one difference row (n values, lower = more similar) as the filter uses it:
+/// out[r] = exp(-lambda * (min(z[r], clip) - min_s min(z[s], clip))), z = (row - mean) / std over
+/// the finite values (non-finite values: z = 0); all 1 when lambda is 0 or the row has no
+/// spread. Returns the sum of out. Depends on nothing but the row (any thread, any order).
+double route_likelihood(const float* row, std::size_t n, double lambda, double clip, double* out) noexcept;
 
 /// Evidence weight of a prepared image from its texture: min(1, mad / min_texture) with mad the
 /// mean absolute deviation of its pixels from their mean (grey levels); a flat image gives 0.

@@ -1,10 +1,18 @@
-"""Route-mode figures, drawn with :mod:`nightloc.figures.plotting` (OpenCV; no matplotlib).
+"""Route-mode figures.
+
+Drawn with :mod:`nightloc.figures.plotting` (OpenCV):
 
 * :func:`difference_matrix_figure`: the (enhanced) difference matrix with the matches on it;
 * :func:`pr_curve_figure`: precision against recall, with recall at 100 % precision and the best
   F1 point marked;
 * :func:`correspondence_figure`: the paper's Figure 23, matched reference frame against query
   frame, with the true positives accepted at 100 % precision highlighted.
+
+Drawn with matplotlib (Agg backend, imported when called; ImportError when it is missing):
+
+* :func:`filter_confidence_figure`: the route filter's confidence and off-route probability per
+  query frame, correct and wrong matches marked;
+* :func:`pr_comparison_figure`: the precision-recall curves of several methods on one plot.
 
 Each function returns the :class:`~nightloc.figures.plotting.Figure`; ``path`` saves it as a PNG
 (atomically).
@@ -22,7 +30,14 @@ import numpy as np
 from ..route.evaluation import RouteEvaluation
 from ..route.pipeline import RouteResult
 
-__all__ = ["correspondence_figure", "difference_matrix_figure", "pr_curve_figure", "save_route_figures"]
+__all__ = [
+    "correspondence_figure",
+    "difference_matrix_figure",
+    "filter_confidence_figure",
+    "pr_comparison_figure",
+    "pr_curve_figure",
+    "save_route_figures",
+]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -190,7 +205,8 @@ def _truth_line(evaluation: RouteEvaluation, result: RouteResult):
 def save_route_figures(result: RouteResult, evaluation: RouteEvaluation | None, folder: PathLike) -> list:
     """Writes the figures that apply into ``folder``; returns their paths.
 
-    ``difference_matrix.png`` always; ``pr_curve.png`` and ``correspondence.png`` with ground truth.
+    ``difference_matrix.png`` always; ``pr_curve.png`` and ``correspondence.png`` with ground truth;
+    ``filter_confidence.png`` for the route filter when matplotlib is installed.
     """
     out = os.fspath(folder)
     paths = [os.path.join(out, "difference_matrix.png")]
@@ -200,4 +216,101 @@ def save_route_figures(result: RouteResult, evaluation: RouteEvaluation | None, 
         pr_curve_figure(evaluation, paths[-1])
         paths.append(os.path.join(out, "correspondence.png"))
         correspondence_figure(result, evaluation, paths[-1])
+    if result.confidence is not None and _matplotlib_available():
+        paths.append(os.path.join(out, "filter_confidence.png"))
+        filter_confidence_figure(result, evaluation, paths[-1])
     return paths
+
+
+# --------------------------------------------------------------------------------------------
+# matplotlib figures
+
+
+def _matplotlib_available() -> bool:
+    try:
+        import matplotlib as mpl  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _pyplot():
+    """matplotlib's pyplot on the Agg backend (no display needed)."""
+    import matplotlib as mpl
+
+    mpl.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig, path: PathLike | None) -> None:
+    if path is None:
+        return
+    import io
+
+    from ..io.atomic import write_bytes
+
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=100)
+    write_bytes(path, buffer.getvalue())
+
+
+def filter_confidence_figure(
+    result: RouteResult, evaluation: RouteEvaluation | None = None, path: PathLike | None = None
+):
+    """The route filter's confidence (belief within ``filter_window`` of the match) and off-route
+    probability per query frame; with ground truth, correct matches in blue and wrong ones in red,
+    and the 100 %-precision threshold as a line. Returns the matplotlib Figure (closed after
+    saving when ``path`` is given)."""
+    if result.confidence is None:
+        raise ValueError("filter_confidence_figure needs a route filter result (params.method == 'filter')")
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(10, 3.6), layout="constrained")
+    queries = np.arange(result.n_queries)
+    if evaluation is not None:
+        good = evaluation.correct
+        ax.scatter(queries[good], result.confidence[good], s=3, color="tab:blue", label="confidence, correct match")
+        ax.scatter(queries[~good], result.confidence[~good], s=5, color="tab:red", label="confidence, wrong match")
+        if math.isfinite(evaluation.threshold_at_100):
+            level = 1.0 - evaluation.threshold_at_100
+            ax.axhline(level, color="tab:blue", lw=0.8, ls="--", label=f"100% precision above {level:.3f}")
+    else:
+        ax.scatter(queries, result.confidence, s=3, color="tab:blue", label="confidence")
+    ax.plot(queries, result.off_route, color="tab:orange", lw=0.8, label="off-route probability")
+    ax.set_xlim(0, max(1, result.n_queries))
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_xlabel("query frame")
+    ax.set_ylabel("probability")
+    ax.set_title("route filter: confidence of each match and off-route probability")
+    ax.legend(loc="lower left", fontsize=8, markerscale=2)
+    _save(fig, path)
+    if path is not None:
+        plt.close(fig)
+    return fig
+
+
+def pr_comparison_figure(evaluations: dict, path: PathLike | None = None):
+    """Precision against recall of several methods (``{name: RouteEvaluation}``), each labelled
+    with its best F1 and recall at 100 % precision. Returns the matplotlib Figure (closed after
+    saving when ``path`` is given)."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6, 5), layout="constrained")
+    for name, evaluation in evaluations.items():
+        curve = evaluation.curve
+        ax.plot(
+            np.concatenate([[0.0], curve.recall]),
+            np.concatenate([[1.0], curve.precision]),
+            lw=1.5,
+            label=f"{name}: best F1 {evaluation.best_f1:.3f}, R@100P {evaluation.recall_at_100:.3f}",
+        )
+    ax.set_xlim(0, 1.0)
+    ax.set_ylim(0, 1.02)
+    ax.set_xlabel("recall")
+    ax.set_ylabel("precision")
+    ax.set_title("precision-recall by method")
+    ax.legend(loc="lower left", fontsize=8)
+    _save(fig, path)
+    if path is not None:
+        plt.close(fig)
+    return fig
