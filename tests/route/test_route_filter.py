@@ -232,7 +232,7 @@ def test_bad_inputs_raise_clear_errors():
         route.route_filter(np.zeros((4, 10), np.float32), weights=np.ones(3))
     with pytest.raises(TypeError, match="float32"):
         route.route_filter(np.zeros((4, 10)))
-    with pytest.raises(ValueError, match="positive sum|not all be 0"):
+    with pytest.raises(ValueError, match="not all be 0"):
         f.set_state(np.zeros(10), 0.0)
     with pytest.raises(ValueError, match="min_texture"):
         route.texture_weights(np.zeros((2, 4, 4), np.uint8), -1.0)
