@@ -215,7 +215,7 @@ def test_route_command_compares_methods(synthetic_traverses, tmp_path, capsys):
     """``--method seqslam,filter``: both sets from one difference matrix, a comparison summary and
     table; the filter's set equals the default run's; a later single-method run into the same
     folder removes the comparison's sets."""
-    day, night, refs, queries = synthetic_traverses
+    day, night, _, _ = synthetic_traverses
     out = tmp_path / "both"
     assert main(["route", str(day), str(night), "--out", str(out), "--method", "seqslam,filter"]) == 0
     printed = capsys.readouterr().out
