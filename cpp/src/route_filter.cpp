@@ -54,6 +54,21 @@ double sum_of(const double* x, std::size_t n) noexcept {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
+// Sum of the squares of n doubles, in sum_of's order.
+double sum_of_squares(const double* x, std::size_t n) noexcept {
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+    std::size_t i = 0;
+    for (; i + 4 <= n; i += 4) {
+        s0 += x[i] * x[i];
+        s1 += x[i + 1] * x[i + 1];
+        s2 += x[i + 2] * x[i + 2];
+        s3 += x[i + 3] * x[i + 3];
+    }
+    double total = (s0 + s1) + (s2 + s3);
+    for (; i < n; ++i) total += x[i] * x[i];
+    return total;
+}
+
 // The largest (Max) or smallest value of n >= 1 doubles without NaN: four interleaved running
 // extremes (exact in any order; the layout lets the compiler vectorize).
 template <bool Max>
@@ -190,24 +205,40 @@ void RouteFilter::set_state(const double* belief, double off_route) {
 }
 
 double route_likelihood(const float* row, std::size_t n, double lambda, double clip, double* out) noexcept {
-    // Row statistics over the finite values (v - v == 0 is false for NaN and inf); `out` holds
-    // the finite values, then the deviations, with non-finite values counted as the mean.
-    std::size_t count = 0;
+    // Row statistics over the finite values (v - v == 0 is false for NaN and inf), four
+    // interleaved partial sums / minima / counts combined in a fixed order; `out` then holds the
+    // deviations from the mean, with non-finite values counted as the mean (deviation 0).
+    double sums[4] = {0.0, 0.0, 0.0, 0.0};
+    double lows[4] = {kInf, kInf, kInf, kInf};
+    std::size_t counts[4] = {0, 0, 0, 0};
+    std::size_t i = 0;
+    for (; i + 4 <= n; i += 4) {
+        for (std::size_t j = 0; j < 4; ++j) {
+            const float v = row[i + j];
+            const bool finite = v - v == 0.0f;
+            const double x = finite ? static_cast<double>(v) : 0.0;
+            sums[j] += x;
+            lows[j] = finite && x < lows[j] ? x : lows[j];
+            counts[j] += finite ? 1 : 0;
+        }
+    }
+    double sum = (sums[0] + sums[1]) + (sums[2] + sums[3]);
+    double lowest = std::min(std::min(lows[0], lows[1]), std::min(lows[2], lows[3]));
+    std::size_t count = (counts[0] + counts[1]) + (counts[2] + counts[3]);
+    for (; i < n; ++i) {
+        const float v = row[i];
+        if (v - v == 0.0f) {
+            sum += static_cast<double>(v);
+            lowest = std::min(lowest, static_cast<double>(v));
+            ++count;
+        }
+    }
+    const double mean = count > 0 ? sum / static_cast<double>(count) : 0.0;
     for (std::size_t r = 0; r < n; ++r) {
         const float v = row[r];
-        const bool finite = v - v == 0.0f;
-        out[r] = finite ? static_cast<double>(v) : kInf;
-        count += finite ? 1 : 0;
+        out[r] = v - v == 0.0f ? static_cast<double>(v) - mean : 0.0;
     }
-    const double lowest = n > 0 ? extreme_of<false>(out, n) : kInf;
-    for (std::size_t r = 0; r < n; ++r) out[r] = out[r] == kInf ? 0.0 : out[r];
-    const double mean = count > 0 ? sum_of(out, n) / static_cast<double>(count) : 0.0;
-    for (std::size_t r = 0; r < n; ++r) {
-        const float v = row[r];
-        out[r] = v - v == 0.0f ? out[r] - mean : 0.0;
-    }
-    double squares = 0.0;
-    for (std::size_t r = 0; r < n; ++r) squares += out[r] * out[r];
+    const double squares = sum_of_squares(out, n);
     const double sd = count > 0 ? std::sqrt(squares / static_cast<double>(count)) : 0.0;
     if (!(lambda > 0.0 && sd > 0.0)) {
         std::fill(out, out + n, 1.0);
