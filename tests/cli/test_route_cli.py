@@ -168,7 +168,7 @@ def test_nordland_full_route(shared_data, tmp_path, capsys):
     )
     summary = json.loads((out / "summary.json").read_text())
     assert summary["n_refs"] == summary["n_queries"] == 3576 and summary["ground_truth"] == "names"
-    assert round(summary["recall_at_100_precision"], 3) == 0.355  # measured; README
+    assert round(summary["recall_at_100_precision"], 3) == 0.355  # measured; docs/route_mode.md
     rows = read_csv(out / "matches.csv")
     assert len(rows) == 3577
 

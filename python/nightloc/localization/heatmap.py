@@ -1,6 +1,6 @@
 """Heat maps: match scores over irregular reference positions, interpolated onto a regular grid.
 
-The paper's section III-D, DESIGN.md step 4. For one query frame, the minimum rotated scores of
+The paper's section III-D, docs/design.md step 4. For one query frame, the minimum rotated scores of
 all references (eq. 3, lower = more similar) are *inverted* (best = hottest, see
 :func:`invert_scores`) and linearly interpolated over the reference positions onto a regular
 grid; the position estimate is the hottest grid cell (eq. 4), and the closest reference to it is
