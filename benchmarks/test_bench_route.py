@@ -130,7 +130,10 @@ def nightloc_enhanced(n=3576):
     preparer = route.RoutePreparer(params)
     if (root / "summer").is_dir():
         names = sorted(p.name for p in (root / "summer").iterdir() if p.suffix == ".png")[:n]
-        load = lambda season: preparer([cv2.imread(str(root / season / name), cv2.IMREAD_COLOR) for name in names])
+
+        def load(season):
+            return preparer([cv2.imread(str(root / season / name), cv2.IMREAD_COLOR) for name in names])
+
         refs, queries, real = load("summer"), load("winter"), len(names) == n
     else:
         refs, queries, _ = ro.synthetic_route(n, n, speed=1.0, seed=n, height=32, width=64)
@@ -144,7 +147,7 @@ def nightloc_enhanced(n=3576):
 
 @pytest.mark.parametrize("threads", [1, 2])
 def test_search_seqslam(benchmark, threads):
-    enhanced, _, real = nightloc_enhanced()
+    enhanced, _, _ = nightloc_enhanced()
     benchmark.group = "route search only, 3576 x 3576 (enhanced matrix given)"
     params = route.RouteParams(method="seqslam")
     refs, scores = benchmark.pedantic(route.trajectory_search, args=(enhanced, params, threads), rounds=2)

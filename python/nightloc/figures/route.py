@@ -266,7 +266,7 @@ def filter_confidence_figure(
     if result.confidence is None:
         raise ValueError("filter_confidence_figure needs a route filter result (params.method == 'filter')")
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(10, 3.6), layout="constrained")
+    fig, ax = plt.subplots(figsize=(12, 3.6), layout="constrained")
     queries = np.arange(result.n_queries)
     if evaluation is not None:
         good = evaluation.correct
@@ -283,7 +283,7 @@ def filter_confidence_figure(
     ax.set_xlabel("query frame")
     ax.set_ylabel("probability")
     ax.set_title("route filter: confidence of each match and off-route probability")
-    ax.legend(loc="lower left", fontsize=8, markerscale=2)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, markerscale=2)
     _save(fig, path)
     if path is not None:
         plt.close(fig)
