@@ -16,6 +16,8 @@ from nightloc import route
 
 import route_oracle as ro
 
+pytestmark = pytest.mark.sanitize  # drives the compiled filter: CI reruns it under ASan + UBSan
+
 PARAMS = [
     route.RouteParams(),
     route.RouteParams(filter_clip=math.inf, filter_floor=0.02, filter_leave=0.0, filter_window=1),
