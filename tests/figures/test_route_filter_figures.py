@@ -1,5 +1,5 @@
-"""The route filter's matplotlib figures (skipped without matplotlib): drawn, saved atomically as
-PNG, and their content checked against the data they show."""
+"""The route filter's figures: drawn, saved atomically, and their content checked against the
+data they show."""
 
 from __future__ import annotations
 
@@ -11,8 +11,6 @@ from nightloc import route
 from nightloc.figures.route import filter_confidence_figure, pr_comparison_figure, save_route_figures
 
 import route_oracle as ro
-
-pytest.importorskip("matplotlib", reason="matplotlib is not installed (the filter's figures need it)")
 
 
 @pytest.fixture(scope="module")
@@ -30,6 +28,7 @@ def test_filter_confidence_figure(results, tmp_path):
     result, evaluation = results["filter"]
     fig = filter_confidence_figure(result, evaluation)
     ax = fig.axes[0]
+    assert "route filter, sharpness 0.7" in ax.get_title()
     # Two scatters (correct, wrong) hold every query's confidence once.
     shown = np.concatenate([c.get_offsets()[:, 1] for c in ax.collections])
     np.testing.assert_allclose(np.sort(shown), np.sort(result.confidence))
@@ -50,6 +49,10 @@ def test_pr_comparison_figure_and_saved_set(results, tmp_path):
     assert f"{evaluations['filter'].best_f1:.3f}" in labels[0]
     np.testing.assert_allclose(fig.axes[0].lines[0].get_xdata()[1:], evaluations["filter"].curve.recall)
     paths = save_route_figures(*results["filter"], tmp_path)
-    assert [p.rsplit("/", 1)[-1] for p in paths][-1] == "filter_confidence.png"
-    assert all(cv2.imread(p) is not None for p in paths)
+    assert paths[-1].name == "filter_confidence.png"
+    assert all(cv2.imread(str(p)) is not None for p in paths)
+    svg = save_route_figures(*results["filter"], tmp_path, "svg")
+    assert svg[-1].name == "filter_confidence.svg" and svg[-1].read_text().lstrip().startswith("<?xml")
+    pr_comparison_figure(evaluations, tmp_path / "comparison.pdf")
+    assert (tmp_path / "comparison.pdf").read_bytes().startswith(b"%PDF")
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]

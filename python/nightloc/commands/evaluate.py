@@ -2,7 +2,7 @@
 
     nightloc evaluate REFERENCE QUERY --out OUT [--seq-lengths 1-10] [--noise-models 0,1,2,3]
                       [--interpolation on,off] [--repeats 1] [--seed 0] [--odometry map|robot]
-                      [--params FILE.toml] [--heatmap-frames 12,30] [--no-figures]
+                      [--params FILE.toml] [--heatmap-frames 12,30] [--no-figures] [--figure-format png|pdf|svg]
 
 REFERENCE is a traverse folder with poses (``images/`` + ``poses.csv``) or a map file written
 by ``nightloc build-map``; QUERY is a traverse folder with poses (the ground truth). Writes,
@@ -13,7 +13,7 @@ atomically:
 * ``OUT/summary.csv``: ``seq_len,noise_model,interpolation,n,median_m,mean_m,p90_m``;
 * figures (unless ``--no-figures``): ``error_vs_seq_len.png``, ``error_vs_noise.png``,
   ``error_vs_interpolation.png`` (the paper's Figures 10-12) and ``heatmap_frame<i>.png``
-  (Figure 9).
+  (Figure 9); ``.pdf`` or ``.svg`` with ``--figure-format``.
 """
 
 from __future__ import annotations
@@ -24,6 +24,8 @@ import time
 from pathlib import Path
 
 from ..config import load_params_file
+from ..figures import FORMATS as FIGURE_FORMATS
+from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, make_folder
 from ..io.reference_map import ReferenceMap
 from ..io.traverse import load_traverse
@@ -32,7 +34,11 @@ from ..localization.localizer import MAX_SEQ_LEN, LocalizationParams
 from ..preparation.params import PreparationParams
 
 #: Figure files this command may write (removed when a later run into the same folder does not).
-FIGURE_NAMES = ("error_vs_seq_len.png", "error_vs_noise.png", "error_vs_interpolation.png")
+FIGURE_NAMES = tuple(
+    f"{stem}.{fmt}"
+    for stem in ("error_vs_seq_len", "error_vs_noise", "error_vs_interpolation")
+    for fmt in FIGURE_FORMATS
+)
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -61,6 +67,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--heatmap-frames", help="query frames (0-based) for heat-map figures (default: one, chosen)")
     parser.add_argument("--threads", type=int, help="matching threads (default all cores)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
+    add_figure_format_option(parser)
     parser.set_defaults(run=run)
 
 
@@ -160,10 +167,16 @@ def run(args: argparse.Namespace) -> int:
         written += [
             p.name
             for p in save_evaluation_figures(
-                evaluation, ref_map, out, params=localization, heatmap_frames=heatmap_frames
+                evaluation,
+                ref_map,
+                out,
+                params=localization,
+                heatmap_frames=heatmap_frames,
+                figure_format=args.figure_format,
             )
         ]
-    for stale in [*FIGURE_NAMES, *(p.name for p in out.glob("heatmap_frame*.png"))]:
+    heatmaps = [p.name for fmt in FIGURE_FORMATS for p in out.glob(f"heatmap_frame*.{fmt}")]
+    for stale in [*FIGURE_NAMES, *heatmaps]:
         if stale not in written and (out / stale).is_file():
             (out / stale).unlink()
 

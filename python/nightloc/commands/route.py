@@ -16,7 +16,7 @@ folder of images; order = sorted file names) or videos (``--frame-step``). Write
   100 % precision, best F1, the fraction of queries matched correctly at any score;
 * figures ``difference_matrix.png`` and, with ground truth, ``pr_curve.png`` and
   ``correspondence.png`` (the paper's Figure 23), and for the filter ``filter_confidence.png``,
-  unless ``--no-figures``.
+  unless ``--no-figures``; ``--figure-format pdf|svg`` writes them as PDF or SVG instead.
 
 Several methods (``--method seqslam,filter``) share the prepared images and the difference
 matrix; each writes its set into ``OUT/<method>/``, and ``OUT/summary.json`` holds the
@@ -42,6 +42,8 @@ from pathlib import Path
 import numpy as np
 
 from ..config import load_params_file
+from ..figures import FORMATS as FIGURE_FORMATS
+from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, write_text
 from ..io.traverse import Traverse, load_traverse
 from ..preparation.params import PreparationParams
@@ -101,6 +103,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--frame-step", type=int, default=1, help="keep every k-th frame of a video (default 1)")
     parser.add_argument("--threads", type=int, help="worker threads (default all cores)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
+    add_figure_format_option(parser)
     parser.set_defaults(run=run)
 
 
@@ -225,15 +228,16 @@ def pr_csv(evaluation: RouteEvaluation) -> str:
 # --------------------------------------------------------------------------------------------
 
 
-#: Files one method's run writes (the stale ones of an earlier run are removed).
+#: Files one method's run writes (the stale ones of an earlier run are removed), figures in every format.
 METHOD_FILES = (
     "matches.csv",
     "pr.csv",
     "summary.json",
-    "difference_matrix.png",
-    "pr_curve.png",
-    "correspondence.png",
-    "filter_confidence.png",
+    *(
+        f"{stem}.{fmt}"
+        for stem in ("difference_matrix", "pr_curve", "correspondence", "filter_confidence")
+        for fmt in FIGURE_FORMATS
+    ),
 )
 
 
@@ -307,10 +311,20 @@ def _write_method(
     if not args.no_figures:
         from ..figures.route import save_route_figures
 
-        try:
-            figures = [Path(p).name for p in save_route_figures(result, evaluation, folder)]
-        except ImportError as error:  # a plotting library missing from a partial install
-            print(f"figures skipped: {error}")
+        truth_text = None
+        if truth is not None:
+            truth_text = f"{truth_kind}, ±{truth.tolerance:g} {'m' if truth.kind == 'positions' else 'frames'}"
+        saved = save_route_figures(
+            result,
+            evaluation,
+            folder,
+            args.figure_format,
+            reference=reference.root,
+            query=query.root,
+            preset=args.preset,
+            ground_truth=truth_text,
+        )
+        figures = [p.name for p in saved]
     p = result.params
     summary = {
         "method": p.method,
@@ -386,17 +400,18 @@ def _write_comparison(out: Path, summaries: dict, evaluations: dict, args, truth
     """OUT/summary.json with every method's figures, OUT/pr_comparison.png, and a table on stdout."""
     figures = []
     if truth is not None and not args.no_figures:
-        try:
-            from ..figures.route import pr_comparison_figure
+        from ..figures.route import pr_comparison_figure
 
-            pr_comparison_figure(
-                {method: evaluation for method, (_, evaluation) in evaluations.items()}, out / "pr_comparison.png"
-            )
-            figures.append("pr_comparison.png")
-        except ImportError as error:  # matplotlib is not installed
-            print(f"comparison figure skipped: {error}")
-    elif (out / "pr_comparison.png").is_file():
-        (out / "pr_comparison.png").unlink()
+        name = f"pr_comparison.{args.figure_format}"
+        pr_comparison_figure(
+            {method: evaluation for method, (_, evaluation) in evaluations.items()},
+            out / name,
+            figure_format=args.figure_format,
+        )
+        figures.append(name)
+    for fmt in FIGURE_FORMATS:
+        if f"pr_comparison.{fmt}" not in figures and (out / f"pr_comparison.{fmt}").is_file():
+            (out / f"pr_comparison.{fmt}").unlink()
     keys = ("best_f1", "recall_at_100_precision", "correct_any_score")
     comparison = {
         "methods": list(summaries),

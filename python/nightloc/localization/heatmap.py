@@ -16,7 +16,7 @@ Conventions:
 
 * A heat map is a float64 array ``(grid_height, grid_width)``; ``heat[j, i]`` is the value at
   ``x = grid.xs[i]``, ``y = grid.ys[j]`` (cell *centres*, metres): row 0 is the lowest y.
-  :meth:`HeatGrid.extent` gives the outer cell edges for :meth:`nightloc.figures.plotting.Axes.image`.
+  :meth:`HeatGrid.extent` gives the outer cell edges for matplotlib's ``imshow(heat, extent=..., origin="lower")``.
 * **Outside the reference hull** (``outside="lowest"``, the default) a cell holds the frame's
   lowest inverted score: no better than the worst-matching reference, so the estimate stays
   inside the mapped area. ``outside="nearest"`` gives such cells the value of their nearest
