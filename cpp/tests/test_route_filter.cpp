@@ -13,6 +13,7 @@
 #include "check.hpp"
 
 #include <nightloc/route_filter.hpp>
+#include <nightloc/simd.hpp>
 
 namespace {
 
@@ -293,6 +294,15 @@ int main() {
         nightloc::route_filter(matrix.data(), m, n, p, weights.data(), b1.data(), c1.data(), o1.data(), 1);
         nightloc::route_filter(matrix.data(), m, n, p, weights.data(), b4.data(), c4.data(), o4.data(), 4);
         CHECK(b1 == b4 && c1 == c4 && o1 == o4);
+        // Every SIMD path this CPU has (the likelihood loop's AVX2 / AVX-512 builds): same bits.
+        for (nightloc::SimdBackend path : nightloc::supported_simd_backends()) {
+            nightloc::set_simd_backend(path);
+            std::vector<std::int64_t> bp(m);
+            std::vector<double> cp(m), op(m);
+            nightloc::route_filter(matrix.data(), m, n, p, weights.data(), bp.data(), cp.data(), op.data(), 1);
+            CHECK(bp == b1 && cp == c1 && op == o1);
+        }
+        nightloc::reset_simd_backend();
     }
     return nightloc_test::check_summary();
 }
