@@ -185,10 +185,17 @@ void difference_matrix_into(const py::array& queries_in, const py::array& refs_i
 
 // ---- route filter (nightloc/route_filter.hpp) ----------------------------------------------
 
-std::string float_text(double value) {
-    std::string text = std::to_string(value);
-    return text;
+// The filter's bindings use only checked_matrix / checked_stack / F32Array from above (kept the
+// same when the bindings moved to glue.hpp) and these two local helpers.
+std::string float_text(double value) { return std::to_string(value); }
+
+std::string filter_shape_text(const py::array& a) {
+    std::string s = "(";
+    for (py::ssize_t d = 0; d < a.ndim(); ++d) s += (d ? ", " : "") + std::to_string(a.shape(d));
+    return s + (a.ndim() == 1 ? ",)" : ")");
 }
+
+using FilterImage = py::array_t<std::uint8_t, py::array::c_style>;
 
 // A C-contiguous 1-D float32 row of n values.
 py::array_t<float, py::array::c_style> checked_row(const py::array& a, std::size_t n) {
@@ -198,7 +205,7 @@ py::array_t<float, py::array::c_style> checked_row(const py::array& a, std::size
     }
     if (a.ndim() != 1 || static_cast<std::size_t>(a.shape(0)) != n) {
         throw py::value_error("row must have shape (" + std::to_string(n) + ",) (one value per reference), got " +
-                              shape_of(a));
+                              filter_shape_text(a));
     }
     if (!(a.flags() & py::array::c_style)) throw py::value_error("row must be C-contiguous");
     return py::reinterpret_borrow<py::array_t<float, py::array::c_style>>(a);
@@ -256,13 +263,13 @@ py::tuple run_rows(nightloc::RouteFilter& filter, const py::array& matrix_in, co
 py::tuple route_filter_matrix(const py::array& matrix_in, const nightloc::RouteFilterParams& params,
                               const py::object& weights_in, int threads) {
     const F32Array matrix = checked_matrix(matrix_in, "matrix", false);
-    if (matrix.shape(1) == 0) throw py::value_error("matrix has no references (shape " + shape_of(matrix) + ")");
+    if (matrix.shape(1) == 0) throw py::value_error("matrix has no references (shape " + filter_shape_text(matrix) + ")");
     nightloc::RouteFilter filter(static_cast<std::size_t>(matrix.shape(1)), params);
     return run_rows(filter, matrix, weights_in, threads);
 }
 
 py::array_t<double> texture_weights(const py::array& stack_in, double min_texture) {
-    const U8Array stack = checked_stack(stack_in, "images");
+    const auto stack = checked_stack(stack_in, "images");
     const auto n = static_cast<std::size_t>(stack.shape(0));
     const auto pixels = static_cast<std::size_t>(stack.shape(1) * stack.shape(2));
     py::array_t<double> out(static_cast<py::ssize_t>(n));
@@ -281,12 +288,12 @@ py::array_t<double> texture_weights(const py::array& stack_in, double min_textur
 py::tuple filter_frame(nightloc::RouteFilter& filter, const py::array& image_in, const py::array& refs_in,
                        const py::array& shifts_in, double divisor, int enhance_radius, double min_texture,
                        int threads, const py::array& row_in) {
-    const U8Array refs = checked_stack(refs_in, "refs");
+    const auto refs = checked_stack(refs_in, "refs");
     if (!py::isinstance<py::array_t<std::uint8_t>>(image_in) || image_in.ndim() != 2 ||
         !(image_in.flags() & py::array::c_style)) {
         throw py::type_error("image must be a C-contiguous 2-D uint8 array (one prepared frame)");
     }
-    const auto image = py::reinterpret_borrow<U8Array>(image_in);
+    const auto image = py::reinterpret_borrow<FilterImage>(image_in);
     if (image.shape(0) != refs.shape(1) || image.shape(1) != refs.shape(2)) {
         throw py::value_error("the image is " + std::to_string(image.shape(0)) + " x " + std::to_string(image.shape(1)) +
                               " pixels but refs are " + std::to_string(refs.shape(1)) + " x " +
@@ -308,7 +315,7 @@ py::tuple filter_frame(nightloc::RouteFilter& filter, const py::array& image_in,
     for (py::ssize_t i = 0; i < shifts_view.shape(0); ++i) shifts[static_cast<std::size_t>(i)] = shifts_view(i);
     F32Array row = checked_matrix(row_in, "row", true);
     if (row.shape(0) != 1 || static_cast<std::size_t>(row.shape(1)) != n_refs) {
-        throw py::value_error("row must have shape (1, " + std::to_string(n_refs) + "), got " + shape_of(row));
+        throw py::value_error("row must have shape (1, " + std::to_string(n_refs) + "), got " + filter_shape_text(row));
     }
     const std::uint8_t* q = image.data();
     const std::uint8_t* r = refs.data();
