@@ -73,6 +73,55 @@ def difference_matrix_into(
     out: npt.NDArray[np.float32],
 ) -> None: ...
 
+# Route filter (cpp/bindings/register_route.cpp, nightloc/route_filter.hpp; use nightloc.route.filter)
+class RouteFilterParams:
+    vmin: float
+    vmax: float
+    backward: float
+    floor: float
+    sharpness: float
+    clip: float
+    leave: float
+    rejoin: float
+    window: int
+    def __init__(self) -> None: ...
+    def validate(self) -> None: ...
+
+class RouteFilter:
+    def __init__(self, n_refs: int, params: RouteFilterParams) -> None: ...
+    def step(self, row: npt.NDArray[np.float32], weight: float = 1.0) -> tuple[int, float, float]: ...
+    def run(
+        self, matrix: npt.NDArray[np.float32], weights: npt.NDArray[np.float64] | None = None, threads: int = 1
+    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def frame(
+        self,
+        image: npt.NDArray[np.uint8],
+        refs: npt.NDArray[np.uint8],
+        shifts: npt.NDArray[np.int32],
+        divisor: float,
+        enhance_radius: int,
+        min_texture: float,
+        threads: int,
+        row: npt.NDArray[np.float32],
+    ) -> tuple[int, float, float, float]: ...
+    def reset(self) -> None: ...
+    def set_state(self, belief: npt.NDArray[np.float64], off_route: float) -> None: ...
+    @property
+    def belief(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def off_route(self) -> float: ...
+    @property
+    def n_refs(self) -> int: ...
+
+def route_filter(
+    matrix: npt.NDArray[np.float32],
+    params: RouteFilterParams,
+    weights: npt.NDArray[np.float64] | None = None,
+    threads: int = 1,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+def motion_kernel(vmin: float, vmax: float, backward: float) -> tuple[int, npt.NDArray[np.float64]]: ...
+def texture_weights(images: npt.NDArray[np.uint8], min_texture: float) -> npt.NDArray[np.float64]: ...
+
 # Frame preparation and heat maps (cpp/bindings/register_localization.cpp; use
 # nightloc.prepare, nightloc.localization.sequence and nightloc.Localizer)
 def prepare_frame(

@@ -72,7 +72,7 @@ CASES = [
     ("route threads 0", "route {trav} {trav} --out {new} --threads 0", "threads"),
     ("route search too large", "route {trav} {trav} --out {new} --ds 100000 --vmax 1000", "too large a search"),
     ("route frame step 0", "route {trav} {trav} --out {new} --frame-step 0", "frame-step"),
-    ("route too few frames", "route {trav} {trav} --out {new} --ds 4", "uniqueness window"),
+    ("route too few frames", "route {trav} {trav} --out {new} --method seqslam --ds 4", "uniqueness window"),
     ("evaluate missing reference", "evaluate {root}/nope {trav} --out {new}", "does not exist"),
     ("evaluate reference without poses", "evaluate {no_poses} {trav} --out {new}", "no poses"),
     ("evaluate query without poses", "evaluate {trav} {no_poses} --out {new}", "no poses"),

@@ -78,6 +78,8 @@ def test_route_command_options(synthetic_traverses, tmp_path):
         str(night),
         "--out",
         str(out),
+        "--method",
+        "seqslam",
         "--mode",
         "causal",
         "--ds",
@@ -202,3 +204,52 @@ def test_route_command_on_videos(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["n_refs"] == 90 and summary["n_queries"] == 80
     assert summary["recall_at_100_precision"] > 0.7
+
+
+def test_route_command_compares_methods(synthetic_traverses, tmp_path, capsys):
+    """``--method seqslam,filter``: both sets from one difference matrix, a comparison summary and
+    table; the filter's set equals the default run's; a later single-method run into the same
+    folder removes the comparison's sets."""
+    day, night, _, _ = synthetic_traverses
+    out = tmp_path / "both"
+    assert main(["route", str(day), str(night), "--out", str(out), "--method", "seqslam,filter"]) == 0
+    printed = capsys.readouterr().out
+    assert "method" in printed and "R@100P" in printed
+    comparison = json.loads((out / "summary.json").read_text())
+    assert comparison["methods"] == ["seqslam", "filter"]
+    for method in ("seqslam", "filter"):
+        summary = json.loads((out / method / "summary.json").read_text())
+        assert summary["method"] == method and summary["method_params"]["method"] == method
+        assert comparison["results"][method]["best_f1"] == summary["best_f1"]
+        assert 0 <= summary["correct_any_score"] <= 1
+    filtered = read_csv(out / "filter" / "matches.csv")
+    assert filtered[0] == ["query", "ref", "score", "confidence", "off_route"]
+    assert read_csv(out / "seqslam" / "matches.csv")[0] == ["query", "ref", "score"]
+    # The filter from the comparison run equals a plain default run.
+    single = tmp_path / "single"
+    assert main(["route", str(day), str(night), "--out", str(single), "--no-figures"]) == 0
+    assert read_csv(single / "matches.csv") == filtered
+    summary = json.loads((single / "summary.json").read_text())
+    assert summary["method"] == "filter" and "filter_sharpness" in summary["method_params"]
+    assert "ds" not in summary["method_params"] and summary["preparation"]["equalize"] == "none"
+    if "pr_comparison.png" in comparison["figures"]:
+        assert cv2.imread(str(out / "pr_comparison.png")).shape[2] == 3
+        assert "filter_confidence.png" in json.loads((out / "filter" / "summary.json").read_text())["figures"]
+    assert main(["route", str(day), str(night), "--out", str(out), "--no-figures"]) == 0
+    assert not any((out / method / "matches.csv").exists() for method in ("seqslam", "filter"))
+    assert json.loads((out / "summary.json").read_text())["method"] == "filter"
+    assert main(["route", str(day), str(night), "--out", str(tmp_path / "bad"), "--method", "filter,magic"]) == 2
+    assert "unknown method 'magic'" in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists()
+
+
+def test_route_command_gardens_point_comparison(shared_data, tmp_path, capsys):
+    root = shared_data / "gardens_point"
+    if not (root / "day_right").is_dir():
+        pytest.skip(f"{root} not found")
+    out = tmp_path / "gp"
+    args = ["route", str(root / "day_right"), str(root / "night_right"), "--out", str(out)]
+    assert main([*args, "--method", "seqslam,filter", "--no-figures"]) == 0
+    results = json.loads((out / "summary.json").read_text())["results"]
+    assert results["filter"]["best_f1"] >= 0.85 and results["filter"]["recall_at_100_precision"] >= 0.30
+    assert results["seqslam"]["best_f1"] < 0.5

@@ -65,12 +65,18 @@ def test_route_writes_pdf_figures_and_lists_them(tmp_path):
     argv = ["route", str(tmp_path / "day"), str(tmp_path / "night"), "--out", str(out), "--ds", "6"]
     assert main([*argv, "--figure-format", "pdf"]) == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["figures"] == ["difference_matrix.pdf", "pr_curve.pdf", "correspondence.pdf"]
+    # The default method is the route filter: its confidence figure comes last.
+    assert summary["figures"] == [
+        "difference_matrix.pdf",
+        "pr_curve.pdf",
+        "correspondence.pdf",
+        "filter_confidence.pdf",
+    ]
     for name in summary["figures"]:
         width, height = pdf_size((out / name).read_bytes())
-        assert width > 300 and height > 300
+        assert width > 300 and height > 250
     assert main(argv) == 0
-    assert not list(out.glob("*.pdf")) and len(list(out.glob("*.png"))) == 3
+    assert not list(out.glob("*.pdf")) and len(list(out.glob("*.png"))) == 4
 
 
 @pytest.mark.parametrize("command", ["evaluate", "route", "demo"])

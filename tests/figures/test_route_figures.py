@@ -96,7 +96,7 @@ def test_caption_names_the_data_the_preset_and_what_changed(matched, tmp_path):
     assert "reference nordland/summer (90 frames) vs query winter (80 frames)" in text
     assert "preset openseqslam;" in text and "ds 10, speeds 0.8-1.2, centred" in text and "names, ±2 frames" in text
     changed = dataclasses.replace(result, params=dataclasses.replace(result.params, ds=6, mode="causal"))
-    assert "preset openseqslam with ds=6, mode=causal; ds 6" in route_caption(changed, preset="openseqslam")
+    assert "preset openseqslam with ds=6, mode=causal; SeqSLAM ds 6" in route_caption(changed, preset="openseqslam")
     # without a name, the closest preset
     assert "preset openseqslam;" in route_caption(result)
     nightloc_params = dataclasses.replace(result, params=route.RouteParams(vmax=1.5))

@@ -1,18 +1,26 @@
-"""``nightloc route``: 1D SeqSLAM between two traverses of the same route.
+"""``nightloc route``: 1D localization of a query traverse along a reference traverse of the same
+route, with the route filter (default) or SeqSLAM.
 
-    nightloc route REFERENCE QUERY --out OUT [--preset openseqslam] [--ds 10] [--vmin 0.8 --vmax 1.2]
-                   [--mode centred|causal] [--tolerance 2] [--ground-truth auto|names|frames|positions|none]
+    nightloc route REFERENCE QUERY --out OUT [--method filter|seqslam|seqslam,filter]
+                   [--preset openseqslam] [--ds 10] [--vmin 0.8 --vmax 1.2] [--mode centred|causal]
+                   [--tolerance 2] [--ground-truth auto|names|frames|positions|none]
 
 REFERENCE and QUERY are traverse folders (``images/`` with an optional ``poses.csv``, or a
 folder of images; order = sorted file names) or videos (``--frame-step``). Writes, atomically:
 
 * ``OUT/matches.csv``: ``query,ref,score`` (0-based positions in the traverse order; ``ref`` and
-  ``score`` empty where undefined; lower score = more confident);
+  ``score`` empty where undefined; lower score = more confident), and for the filter
+  ``confidence,off_route``;
 * ``OUT/pr.csv``: ``threshold,precision,recall`` when ground truth is available;
-* ``OUT/summary.json``: parameters, sizes, timings, recall at 100 % precision, best F1;
+* ``OUT/summary.json``: the method and its parameters, the preparation, sizes, timings, recall at
+  100 % precision, best F1, the fraction of queries matched correctly at any score;
 * figures ``difference_matrix.png`` and, with ground truth, ``pr_curve.png`` and
-  ``correspondence.png`` (the paper's Figure 23) unless ``--no-figures``; ``--figure-format
-  pdf|svg`` writes them as PDF or SVG instead.
+  ``correspondence.png`` (the paper's Figure 23), and for the filter ``filter_confidence.png``,
+  unless ``--no-figures``; ``--figure-format pdf|svg`` writes them as PDF or SVG instead.
+
+Several methods (``--method seqslam,filter``) share the prepared images and the difference
+matrix; each writes its set into ``OUT/<method>/``, and ``OUT/summary.json`` holds the
+comparison (also printed as a table) with ``OUT/pr_comparison.png``.
 
 Ground truth (``--ground-truth auto``): positions when both traverses have poses (tolerance in
 metres, default 3 as in the paper's creek experiment); otherwise, when the two traverses name
@@ -40,8 +48,9 @@ from ..io.atomic import check_output_path, write_text
 from ..io.traverse import Traverse, load_traverse
 from ..preparation.params import PreparationParams
 from ..route.evaluation import GroundTruth, RouteEvaluation, evaluate_matches
+from ..route.filter import texture_weights
 from ..route.params import PRESETS, RouteParams, resolve_params
-from ..route.pipeline import RouteResult, match_prepared
+from ..route.pipeline import RouteResult, match_difference, route_difference_matrix
 from ..route.preparation import RoutePreparer
 
 #: Default tolerances: frames for frame correspondence, metres for positions.
@@ -52,9 +61,9 @@ DEFAULT_METRE_TOLERANCE = 3.0
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "route",
-        help="1D SeqSLAM route matching between two traverses (OpenSeqSLAM-exact preset)",
-        description="Matches every frame of QUERY to a frame of REFERENCE with sequence matching "
-        "(difference matrix, contrast enhancement, trajectory search) and writes OUT/matches.csv, "
+        help="1D route localization between two traverses: route filter (default) or SeqSLAM",
+        description="Matches every frame of QUERY to a frame of REFERENCE (difference matrix, contrast "
+        "enhancement, then the causal route filter or SeqSLAM's trajectory search) and writes OUT/matches.csv, "
         "OUT/pr.csv (with ground truth), OUT/summary.json and figures.",
     )
     parser.add_argument("reference", help="reference traverse: folder or video")
@@ -65,6 +74,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         choices=sorted(PRESETS),
         default=None,
         help="parameter preset (default nightloc; openseqslam reproduces OpenSeqSLAM exactly)",
+    )
+    parser.add_argument(
+        "--method",
+        help="filter (causal Bayes filter, the nightloc preset's default), seqslam (the openseqslam preset's), "
+        "or a comma-separated list such as seqslam,filter to compare them in one run",
     )
     parser.add_argument("--params", help="TOML file with [route] and/or [preparation] tables")
     parser.add_argument("--ds", type=int, help="sequence length in frames (OpenSeqSLAM default 10)")
@@ -95,6 +109,19 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 # --------------------------------------------------------------------------------------------
 # parameters
+
+
+def methods_from_args(args: argparse.Namespace, params: RouteParams) -> list:
+    """The methods to run: ``--method`` (comma-separated, each once) or the parameters' own."""
+    if args.method is None:
+        return [params.method]
+    methods = [name.strip() for name in str(args.method).split(",")]
+    for name in methods:
+        if name not in ("filter", "seqslam"):
+            raise ValueError(f"--method {args.method!r}: unknown method {name!r}; choose filter, seqslam or both")
+    if len(set(methods)) != len(methods):
+        raise ValueError(f"--method {args.method!r} names a method twice")
+    return methods
 
 
 def route_params_from_args(args: argparse.Namespace) -> tuple:
@@ -172,13 +199,18 @@ def _number(value: float) -> str:
 
 
 def matches_csv(result: RouteResult) -> str:
-    """``query,ref,score`` rows; ``ref`` and ``score`` empty where undefined."""
+    """``query,ref,score`` rows (``ref`` and ``score`` empty where undefined), with
+    ``confidence,off_route`` for the filter."""
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["query", "ref", "score"])
+    filtered = result.confidence is not None
+    writer.writerow(["query", "ref", "score", *(["confidence", "off_route"] if filtered else [])])
     for q in range(result.n_queries):
         ref = int(result.refs[q])
-        writer.writerow([q, "" if ref < 0 else ref, "" if ref < 0 else _number(result.scores[q])])
+        row = [q, "" if ref < 0 else ref, "" if ref < 0 else _number(result.scores[q])]
+        if filtered:
+            row += [_number(result.confidence[q]), _number(result.off_route[q])]
+        writer.writerow(row)
     return buffer.getvalue()
 
 
@@ -196,10 +228,24 @@ def pr_csv(evaluation: RouteEvaluation) -> str:
 # --------------------------------------------------------------------------------------------
 
 
+#: Files one method's run writes (the stale ones of an earlier run are removed), figures in every format.
+METHOD_FILES = (
+    "matches.csv",
+    "pr.csv",
+    "summary.json",
+    *(
+        f"{stem}.{fmt}"
+        for stem in ("difference_matrix", "pr_curve", "correspondence", "filter_confidence")
+        for fmt in FIGURE_FORMATS
+    ),
+)
+
+
 def run(args: argparse.Namespace) -> int:
     if args.frame_step < 1:
         raise ValueError(f"--frame-step must be >= 1, got {args.frame_step}")
     params, preparation = route_params_from_args(args)
+    methods = methods_from_args(args, params)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} exists and is not a folder")
@@ -207,20 +253,60 @@ def run(args: argparse.Namespace) -> int:
     reference = load_traverse(args.reference, frame_step=args.frame_step)
     query = load_traverse(args.query, frame_step=args.frame_step)
     truth, truth_kind = ground_truth_for(args.ground_truth, reference, query, args.tolerance)
+    per_method = [resolve_params(params, method=method) for method in methods]
+    for p in per_method:
+        _check_route_length(p, len(reference))
 
     preparer = RoutePreparer(params, preparation)
     start = time.perf_counter()
     refs = preparer(reference)
     queries = preparer(query)
     preparation_s = time.perf_counter() - start
-    result = match_prepared(refs, queries, params, threads=args.threads, keep_difference=False)
-    result.timings["preparation"] = preparation_s
-    evaluation = evaluate_matches(result.refs, result.scores, truth) if truth is not None else None
+    start = time.perf_counter()
+    difference = route_difference_matrix(queries, refs, params, threads=args.threads)
+    difference_s = time.perf_counter() - start
+    weights = texture_weights(queries, params.filter_min_texture) if "filter" in methods else None
 
-    out.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(out / "matches.csv", matches_csv(result))
+    summaries = {}
+    evaluations = {}
+    for index, p in enumerate(per_method):
+        last = index == len(per_method) - 1
+        result = match_difference(
+            difference, p, args.threads, keep_difference=not last, weights=weights if p.method == "filter" else None
+        )
+        result.timings = {"preparation": preparation_s, "difference": difference_s, **result.timings}
+        folder = out if len(methods) == 1 else out / p.method
+        evaluation = evaluate_matches(result.refs, result.scores, truth) if truth is not None else None
+        evaluations[p.method] = (result, evaluation)
+        summaries[p.method] = _write_method(
+            folder, result, evaluation, args, reference, query, preparer, truth, truth_kind
+        )
+        _print_method(result, evaluation, truth, truth_kind, folder, summaries[p.method]["figures"])
+    if len(methods) > 1:
+        _write_comparison(out, summaries, evaluations, args, truth)
+    elif any((out / method).is_dir() for method in ("filter", "seqslam")):
+        for method in ("filter", "seqslam"):  # sets of an earlier comparison run into the same folder
+            _remove_stale(out / method, set())
+    return 0
+
+
+def _check_route_length(p: RouteParams, n_refs: int) -> None:
+    needed = 2 * p.uniqueness_radius + 2
+    if p.method == "seqslam" and n_refs < needed:
+        raise ValueError(
+            f"the reference route has {n_refs} frames; SeqSLAM's uniqueness window of +-{p.uniqueness_radius} "
+            f"needs at least {needed} (or use --method filter)"
+        )
+
+
+def _write_method(
+    folder: Path, result: RouteResult, evaluation, args, reference, query, preparer, truth, truth_kind
+) -> dict:
+    """Writes one method's set into ``folder``; returns its summary."""
+    folder.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(folder / "matches.csv", matches_csv(result))
     if evaluation is not None:
-        write_text_atomic(out / "pr.csv", pr_csv(evaluation))
+        write_text_atomic(folder / "pr.csv", pr_csv(evaluation))
     figures = []
     if not args.no_figures:
         from ..figures.route import save_route_figures
@@ -231,7 +317,7 @@ def run(args: argparse.Namespace) -> int:
         saved = save_route_figures(
             result,
             evaluation,
-            out,
+            folder,
             args.figure_format,
             reference=reference.root,
             query=query.root,
@@ -239,13 +325,16 @@ def run(args: argparse.Namespace) -> int:
             ground_truth=truth_text,
         )
         figures = [p.name for p in saved]
+    p = result.params
     summary = {
+        "method": p.method,
         "reference": str(reference.root),
         "query": str(query.root),
         "n_refs": result.n_refs,
         "n_queries": result.n_queries,
         "n_matched": int(result.defined.sum()),
-        "params": {field: getattr(params, field) for field in params.__dataclass_fields__},
+        "method_params": p.method_params(),
+        "params": {field: getattr(p, field) for field in p.__dataclass_fields__},
         "preparation": None
         if preparer.preparation is None
         else {field: getattr(preparer.preparation, field) for field in preparer.preparation.__dataclass_fields__},
@@ -255,29 +344,44 @@ def run(args: argparse.Namespace) -> int:
         "figures": figures,
     }
     if evaluation is not None:
-        summary.update(
-            recall_at_100_precision=evaluation.recall_at_100,
-            threshold_at_100_precision=_finite_or_none(evaluation.threshold_at_100),
-            best_f1=evaluation.best_f1,
-            best_f1_precision=evaluation.best_f1_precision,
-            best_f1_recall=evaluation.best_f1_recall,
-            best_f1_threshold=_finite_or_none(evaluation.best_f1_threshold),
-        )
-    write_text_atomic(out / "summary.json", json.dumps(summary, indent=1, default=_json_default) + "\n")
-    # Outputs of an earlier run into the same folder that this run did not produce would mislead.
-    produced = {"matches.csv", "summary.json", *figures} | ({"pr.csv"} if evaluation is not None else set())
-    figure_names = [
-        f"{stem}.{fmt}" for stem in ("difference_matrix", "pr_curve", "correspondence") for fmt in FIGURE_FORMATS
-    ]
-    for stale in ("pr.csv", *figure_names):
-        if stale not in produced and (out / stale).is_file():
-            (out / stale).unlink()
+        summary.update(_metrics(evaluation))
+    write_text_atomic(folder / "summary.json", json.dumps(summary, indent=1, default=_json_default) + "\n")
+    _remove_stale(folder, {"matches.csv", "summary.json", *figures} | ({"pr.csv"} if evaluation is not None else set()))
+    return summary
 
+
+def _metrics(evaluation: RouteEvaluation) -> dict:
+    positives = int(evaluation.positives.sum())
+    return {
+        "recall_at_100_precision": evaluation.recall_at_100,
+        "threshold_at_100_precision": _finite_or_none(evaluation.threshold_at_100),
+        "best_f1": evaluation.best_f1,
+        "best_f1_precision": evaluation.best_f1_precision,
+        "best_f1_recall": evaluation.best_f1_recall,
+        "best_f1_threshold": _finite_or_none(evaluation.best_f1_threshold),
+        "correct_any_score": int(evaluation.correct.sum()) / positives if positives else None,
+    }
+
+
+def _remove_stale(folder: Path, produced: set) -> None:
+    """Outputs of an earlier run into the same folder that this run did not produce would mislead."""
+    for stale in METHOD_FILES:
+        if stale not in produced and (folder / stale).is_file():
+            (folder / stale).unlink()
+
+
+def _print_method(result: RouteResult, evaluation, truth, truth_kind, folder: Path, figures: list) -> None:
+    p = result.params
     compute = sum(result.timings[k] for k in ("difference", "enhancement", "search"))
+    how = (
+        f"filter, sharpness {p.filter_sharpness:g}, v {p.vmin:g}..{p.vmax:g}"
+        if p.method == "filter"
+        else f"seqslam {p.mode}, ds {p.effective_ds}"
+    )
     print(
         f"{result.n_queries} query frames against {result.n_refs} reference frames: {int(result.defined.sum())} "
-        f"matched ({params.mode}, ds {params.effective_ds}); matching {compute:.2f} s, "
-        f"reading and preparing {preparation_s:.2f} s"
+        f"matched ({how}); matching {compute:.2f} s (search {result.timings['search']:.2f} s), "
+        f"reading and preparing {result.timings['preparation']:.2f} s"
     )
     if evaluation is not None:
         unit = "m" if truth.kind == "positions" else "frames"
@@ -285,12 +389,52 @@ def run(args: argparse.Namespace) -> int:
     else:
         print("no ground truth: pr.csv not written")
     print(
-        f"wrote {out}/matches.csv"
+        f"wrote {folder}/matches.csv"
         + (", pr.csv" if evaluation is not None else "")
         + ", summary.json"
         + ("".join(f", {name}" for name in figures))
     )
-    return 0
+
+
+def _write_comparison(out: Path, summaries: dict, evaluations: dict, args, truth) -> None:
+    """OUT/summary.json with every method's figures, OUT/pr_comparison.png, and a table on stdout."""
+    figures = []
+    if truth is not None and not args.no_figures:
+        from ..figures.route import pr_comparison_figure
+
+        name = f"pr_comparison.{args.figure_format}"
+        pr_comparison_figure(
+            {method: evaluation for method, (_, evaluation) in evaluations.items()},
+            out / name,
+            figure_format=args.figure_format,
+        )
+        figures.append(name)
+    for fmt in FIGURE_FORMATS:
+        if f"pr_comparison.{fmt}" not in figures and (out / f"pr_comparison.{fmt}").is_file():
+            (out / f"pr_comparison.{fmt}").unlink()
+    keys = ("best_f1", "recall_at_100_precision", "correct_any_score")
+    comparison = {
+        "methods": list(summaries),
+        "figures": figures,
+        "results": {
+            method: {
+                "folder": method,
+                **{key: summary.get(key) for key in keys},
+                "search_s": summary["timings_s"].get("search"),
+                "method_params": summary["method_params"],
+            }
+            for method, summary in summaries.items()
+        },
+    }
+    write_text_atomic(out / "summary.json", json.dumps(comparison, indent=1, default=_json_default) + "\n")
+    _remove_stale(out, {"summary.json"})
+    print()
+    print(f"{'method':<10} {'best F1':>8} {'R@100P':>8} {'correct':>8} {'search s':>9}")
+    for method, summary in summaries.items():
+        cells = [summary.get(key) for key in keys]
+        text = " ".join(f"{'-' if v is None else format(v, '.3f'):>8}" for v in cells)
+        print(f"{method:<10} {text} {summary['timings_s'].get('search', float('nan')):>9.3f}")
+    print(f"wrote {out}/summary.json" + "".join(f", {name}" for name in figures))
 
 
 def _finite_or_none(value: float) -> float | None:
