@@ -236,7 +236,7 @@ def params_from_dict(cls: type[T], table: Mapping[str, Any], where: str = "") ->
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise NightlocError(f"{prefix}unknown key {key!r} in [{section}]{hint}; known keys: {', '.join(names)}")
     try:
-        return cls(**table)  # type: ignore[call-arg]
+        return cls(**table)
     except (TypeError, ValueError) as error:
         raise NightlocError(f"{prefix}[{section}] {error}") from None
 
@@ -361,7 +361,7 @@ def load_params(path: str | os.PathLike[str], cls: type[T] | None = None) -> T:
     chosen: type = cls  # type: ignore[assignment]
     section = _section_of(chosen)
     found = load_params_file(path)
-    return found[section] if section in found else chosen()  # type: ignore[return-value]
+    return found[section] if section in found else chosen()
 
 
 def save_params(path: str | os.PathLike[str], params: Any | Iterable[Any]) -> None:

@@ -245,7 +245,7 @@ def dask_match_prepared(
             if b1 > lo and b0 < hi:
                 pieces.append(node[max(lo, b0) - b0 : min(hi, b1) - b0])
         results.append(dask.delayed(_search_task, pure=True, nout=2)(pieces, lo, start, stop, p, threads_per_task))
-    computed = client.compute(results, sync=True) if client is not None else dask.compute(*results)
+    computed = client.compute(results, sync=True) if client is not None else dask.compute(*results)  # type: ignore[attr-defined]
     matched = np.concatenate([pair[0] for pair in computed]).astype(np.int64)
     scores = np.concatenate([pair[1] for pair in computed]).astype(np.float64)
     timings: dict[str, float] = {"total": time.perf_counter() - start_time}

@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -100,7 +101,7 @@ class RouteLocalizer:
         preparation: PreparationParams | None = None,
         prepared: bool = False,
         threads: int | None = None,
-        channel_order: str = "bgr",
+        channel_order: Literal["bgr", "rgb"] = "bgr",
     ):
         if params is not None and preset is not None:
             raise TypeError("give params or preset, not both")

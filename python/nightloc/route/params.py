@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Literal
+from typing import Any, Literal
 
 from .. import _core
 from ..config import params_section
@@ -219,7 +219,7 @@ def resolve_params(params: RouteParams | str | None = None, **overrides: object)
         base = params
     else:
         raise TypeError(f"params must be a RouteParams or a preset name, got {type(params).__name__}")
-    changes = {key: value for key, value in overrides.items() if value is not None}
+    changes: dict[str, Any] = {key: value for key, value in overrides.items() if value is not None}
     unknown = set(changes) - {field.name for field in dataclasses.fields(RouteParams)}
     if unknown:
         raise TypeError(f"unknown route parameter(s): {', '.join(sorted(unknown))}")

@@ -337,7 +337,9 @@ def match_prepared(
 def _as_frames(source: TraverseInput, name: str, frame_step: int) -> Traverse | np.ndarray | Iterable[np.ndarray]:
     if isinstance(source, (str, os.PathLike)):
         return load_traverse(Path(source), frame_step=frame_step)
-    if isinstance(source, (Traverse, np.ndarray, Iterable)):
+    if isinstance(source, (Traverse, np.ndarray)):
+        return source
+    if isinstance(source, Iterable):
         return source
     raise TypeError(f"{name} must be a Traverse, a path, or frames, got {type(source).__name__}")
 

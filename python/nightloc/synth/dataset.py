@@ -135,7 +135,7 @@ class SynthScene:
                 "elevation_bottom_deg": self.camera.elevation_bottom_deg,
                 "column_azimuth": "heading - 2*pi*column/width",
             },
-            "sun_direction": [round(float(v), 6) for v in day.sun_direction],
+            "sun_direction": [round(float(v), 6) for v in day.sun_direction] if day.sun_direction is not None else None,
             "traverses": {p.name: {"condition": p.condition, "frames": int(len(p.positions))} for p in plans},
         }
 
