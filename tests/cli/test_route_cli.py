@@ -42,18 +42,21 @@ def read_csv(path):
 def test_route_command_writes_matches_pr_and_figures(synthetic_traverses, tmp_path, capsys):
     day, night, refs, queries = synthetic_traverses
     out = tmp_path / "out"
-    assert main(["route", str(day), str(night), "--out", str(out), "--preset", "openseqslam"]) == 0
+    # frame0000.png ... in both: positional names, taken as ground truth only when asked for
+    args = ["route", str(day), str(night), "--out", str(out), "--preset", "openseqslam", "--ground-truth", "names"]
+    assert main(args) == 0
     printed = capsys.readouterr().out
     assert "recall at 100% precision" in printed and "ground truth from names" in printed
     rows = read_csv(out / "matches.csv")
-    assert rows[0] == ["query", "ref", "score"] and len(rows) == 101
+    assert rows[0] == ["query", "ref", "score", "query_image", "ref_image"] and len(rows) == 101
     expected = route.match_prepared(nightloc.block_normalize(refs), nightloc.block_normalize(queries), "openseqslam")
-    for q, (query, ref, score) in enumerate(rows[1:]):
-        assert int(query) == q
+    for q, (query, ref, score, query_image, ref_image) in enumerate(rows[1:]):
+        assert int(query) == q and query_image == f"frame{q:04d}.png"
         if expected.refs[q] < 0:
-            assert ref == "" and score == ""
+            assert ref == "-1" and score == "nan" and ref_image == ""
         else:
             assert int(ref) == expected.refs[q] and float(score) == expected.scores[q]
+            assert ref_image == f"frame{expected.refs[q]:04d}.png"
     pr = read_csv(out / "pr.csv")
     assert pr[0] == ["threshold", "precision", "recall"] and len(pr) > 10
     thresholds = [float(row[0]) for row in pr[1:]]
@@ -75,8 +78,8 @@ def test_route_command_writes_matches_pr_and_figures(synthetic_traverses, tmp_pa
 def test_route_command_options(synthetic_traverses, tmp_path):
     day, night, _, _ = synthetic_traverses
     out = tmp_path / "causal"
-    out.mkdir()
-    (out / "pr.csv").write_text("stale output of an earlier run\n")
+    assert main(["route", str(day), str(night), "--out", str(out), "--ground-truth", "frames"]) == 0
+    assert (out / "pr.csv").is_file()  # an earlier run's output, which the next run must not leave behind
     args = [
         "route",
         str(day),
@@ -99,7 +102,7 @@ def test_route_command_options(synthetic_traverses, tmp_path):
     ]
     assert main(args) == 0
     rows = read_csv(out / "matches.csv")
-    assert [r[1] for r in rows[1:6]] == [""] * 5 and rows[6][1] != ""  # causal: ds-1 undefined
+    assert [r[1] for r in rows[1:6]] == ["-1"] * 5 and rows[6][1] != "-1"  # causal: ds-1 undefined
     assert not (out / "pr.csv").exists() and not (out / "difference_matrix.png").exists()
     summary = json.loads((out / "summary.json").read_text())
     assert summary["params"]["mode"] == "causal" and summary["params"]["ds"] == 6

@@ -4,20 +4,29 @@
                    [--mode centred|causal] [--tolerance 2] [--ground-truth auto|names|frames|positions|none]
 
 REFERENCE and QUERY are traverse folders (``images/`` with an optional ``poses.csv``, or a
-folder of images; order = sorted file names) or videos (``--frame-step``). Writes, atomically:
+folder of images; order = sorted file names) or videos (``--frame-step``). Writes the folder OUT
+as one set (:func:`nightloc.io.atomic.output_set`: complete or unchanged; a second run into OUT
+at the same time refuses; files in OUT that nightloc did not write are kept):
 
-* ``OUT/matches.csv``: ``query,ref,score`` (0-based positions in the traverse order; ``ref`` and
-  ``score`` empty where undefined; lower score = more confident);
+* ``OUT/matches.csv``: ``query,ref,score,query_image,ref_image`` (0-based positions in the
+  traverse order and the frames' names; ``ref`` -1, ``score`` nan and ``ref_image`` empty where a
+  query has no match; lower score = more confident);
 * ``OUT/pr.csv``: ``threshold,precision,recall`` when ground truth is available;
-* ``OUT/summary.json``: parameters, sizes, timings, recall at 100 % precision, best F1;
+* ``OUT/summary.json``: parameters, sizes, timings, recall at 100 % precision, best F1, and why
+  there is no ground truth when there is none;
 * figures ``difference_matrix.png`` and, with ground truth, ``pr_curve.png`` and
   ``correspondence.png`` (the paper's Figure 23) unless ``--no-figures``.
 
+A run that can match no query frame (e.g. ``--ds`` longer than the query traverse) fails with
+the reason, writing nothing.
+
 Ground truth (``--ground-truth auto``): positions when both traverses have poses (tolerance in
-metres, default 3 as in the paper's creek experiment); otherwise, when the two traverses name
-their frames alike (e.g. Nordland's ``images-NNNNN.png`` in both seasons), the reference with the
-query's file name (tolerance in frames, default 2); otherwise none. ``frames`` pairs query i with
-reference i.
+metres, default 3 as in the paper's creek experiment); otherwise, when the two traverses share
+distinctive file names (e.g. Nordland's ``images-NNNNN.png``, every 10th frame of one video, in
+both seasons), the reference with the query's file name (tolerance in frames, default 2). Names
+that are just each frame's position number in both traverses (``000000.png`` ... in two robot
+logs) say nothing about the place: then there is no ground truth, and the run says so; pass
+``names`` or ``frames`` to use them anyway. ``frames`` pairs query i with reference i.
 """
 
 from __future__ import annotations
@@ -27,13 +36,16 @@ import csv
 import io
 import json
 import math
+import re
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from .._validate import thread_count
 from ..config import load_params_file
-from ..io.atomic import check_output_path, write_text
+from ..io.atomic import check_output_path, output_set, write_text
 from ..io.traverse import Traverse, load_traverse
 from ..preparation.params import PreparationParams
 from ..route.evaluation import GroundTruth, RouteEvaluation, evaluate_matches
@@ -44,6 +56,8 @@ from ..route.preparation import RoutePreparer
 #: Default tolerances: frames for frame correspondence, metres for positions.
 DEFAULT_FRAME_TOLERANCE = 2
 DEFAULT_METRE_TOLERANCE = 3.0
+#: Largest frame tolerance (a tolerance as long as any traverse makes every match correct).
+MAX_FRAME_TOLERANCE = 1_000_000
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -121,30 +135,68 @@ def route_params_from_args(args: argparse.Namespace) -> tuple:
 
 
 def ground_truth_for(kind: str, reference: Traverse, query: Traverse, tolerance: float | None) -> tuple:
-    """(GroundTruth or None, the kind used) for the two traverses."""
+    """(GroundTruth or None, the kind used, why there is none or "") for the two traverses.
+
+    ``auto``: positions when both traverses have poses; names when the two traverses share file
+    names that are *distinctive* (:func:`names_are_positional`: not merely each frame's position
+    number in both); otherwise none, with the reason.
+    """
     same_names = _name_correspondence(reference, query)
     if kind == "auto":
         if reference.has_poses and query.has_poses:
             kind = "positions"
-        elif same_names is not None and (same_names >= 0).any():
-            kind = "names"
+        elif same_names is None or not (same_names >= 0).any():
+            return None, "none", "the traverses share no file names and have no poses"
+        elif names_are_positional(reference.names) and names_are_positional(query.names):
+            return (
+                None,
+                "none",
+                (
+                    f"both traverses name their frames by position ({query.names[0]}, {query.names[-1]}, ...), "
+                    f"which says nothing about where they were taken; pass --ground-truth names or frames if "
+                    f"frame i of one is frame i of the other, or add poses.csv"
+                ),
+            )
         else:
-            return None, "none"
+            kind = "names"
     if kind == "none":
-        return None, "none"
+        return None, "none", "--ground-truth none"
     if kind == "positions":
         if not (reference.has_poses and query.has_poses):
             raise ValueError("--ground-truth positions needs poses in both traverses (poses.csv or a video's CSV)")
-        metres = DEFAULT_METRE_TOLERANCE if tolerance is None else float(tolerance)
-        return GroundTruth.from_positions(query.positions, reference.positions, metres), "positions"
+        metres = DEFAULT_METRE_TOLERANCE if tolerance is None else tolerance
+        return GroundTruth.from_positions(query.positions, reference.positions, metres), "positions", ""
     frames = DEFAULT_FRAME_TOLERANCE if tolerance is None else tolerance
-    if float(frames) != int(frames) or frames < 0:
-        raise ValueError(f"--tolerance must be a whole number of frames >= 0 for frame ground truth, got {frames}")
+    if not math.isfinite(frames) or float(frames) != int(frames) or not 0 <= frames <= MAX_FRAME_TOLERANCE:
+        raise ValueError(
+            f"--tolerance must be a whole number of frames in 0..{MAX_FRAME_TOLERANCE} for frame ground truth, "
+            f"got {frames}"
+        )
     if kind == "names":
         if same_names is None or not (same_names >= 0).any():
             raise ValueError("--ground-truth names: no query frame has the file name of a reference frame")
-        return GroundTruth.from_frames(len(query), len(reference), int(frames), same_names), "names"
-    return GroundTruth.from_frames(len(query), len(reference), int(frames)), "frames"
+        return GroundTruth.from_frames(len(query), len(reference), int(frames), same_names), "names", ""
+    return GroundTruth.from_frames(len(query), len(reference), int(frames)), "frames", ""
+
+
+_LAST_NUMBER = re.compile(r"(\d+)(?!.*\d)")
+
+
+def names_are_positional(names: Sequence[str]) -> bool:
+    """True when every name's last number is its frame's position in the list, counted from 0
+    or from 1 (``000000.png``, ``frame0001.jpg``, ``Image000.jpg`` ...): such names number the
+    frames of any log alike and say nothing about the place. Nordland's ``images-00010.png``
+    (every 10th frame of one video) is not positional."""
+    for start in (0, 1):
+        ok = True
+        for index, name in enumerate(names):
+            found = _LAST_NUMBER.search(Path(name).stem)
+            if found is None or int(found.group(1)) != index + start:
+                ok = False
+                break
+        if ok:
+            return True
+    return False
 
 
 def _name_correspondence(reference: Traverse, query: Traverse) -> np.ndarray | None:
@@ -155,26 +207,20 @@ def _name_correspondence(reference: Traverse, query: Traverse) -> np.ndarray | N
 
 
 # --------------------------------------------------------------------------------------------
-# atomic output
+# output files
 
 
-def write_text_atomic(path: Path, text: str) -> None:
-    """Writes ``text`` to ``path`` through a temporary file in the same folder and os.replace."""
-    write_text(path, text, newline="")
-
-
-def _number(value: float) -> str:
-    return "" if math.isnan(value) else repr(float(value))
-
-
-def matches_csv(result: RouteResult) -> str:
-    """``query,ref,score`` rows; ``ref`` and ``score`` empty where undefined."""
+def matches_csv(result: RouteResult, query_names: Sequence[str], ref_names: Sequence[str]) -> str:
+    """``query,ref,score,query_image,ref_image`` rows: ``ref`` -1, ``score`` nan and
+    ``ref_image`` empty where a query has no match (so ``numpy.loadtxt(..., usecols=(0, 1, 2))``
+    reads the numbers)."""
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["query", "ref", "score"])
+    writer.writerow(["query", "ref", "score", "query_image", "ref_image"])
     for q in range(result.n_queries):
         ref = int(result.refs[q])
-        writer.writerow([q, "" if ref < 0 else ref, "" if ref < 0 else _number(result.scores[q])])
+        score = repr(float(result.scores[q])) if ref >= 0 else "nan"
+        writer.writerow([q, ref if ref >= 0 else -1, score, query_names[q], ref_names[ref] if ref >= 0 else ""])
     return buffer.getvalue()
 
 
@@ -192,73 +238,92 @@ def pr_csv(evaluation: RouteEvaluation) -> str:
 # --------------------------------------------------------------------------------------------
 
 
+def _check_can_match(params: RouteParams, n_refs: int, n_queries: int) -> None:
+    """Fails before the work when the sequence is longer than a traverse allows (no match possible)."""
+    ds = params.effective_ds
+    needed = ds + 1 if params.mode == "centred" else ds
+    if n_queries < needed:
+        raise ValueError(
+            f"the query traverse has {n_queries} frames, but a {params.mode} sequence of --ds {params.ds} needs at "
+            f"least {needed} to match any frame; shorten --ds (or use a longer traverse)"
+        )
+    if n_refs < 2:
+        raise ValueError(f"the reference traverse has {n_refs} frame; route matching needs at least 2")
+
+
 def run(args: argparse.Namespace) -> int:
     if args.frame_step < 1:
         raise ValueError(f"--frame-step must be >= 1, got {args.frame_step}")
+    if args.tolerance is not None and not math.isfinite(args.tolerance):
+        raise ValueError(f"--tolerance must be a finite number, got {args.tolerance}")
+    thread_count(args.threads)
     params, preparation = route_params_from_args(args)
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out} exists and is not a folder")
-    check_output_path(out, folder=True)  # a file in the way fails now, not after the matching
-    reference = load_traverse(args.reference, frame_step=args.frame_step)
+    inputs = (args.reference, args.query, args.params)
+    check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
+    reference = load_traverse(args.reference, frame_step=args.frame_step)  # names and poses only
     query = load_traverse(args.query, frame_step=args.frame_step)
-    truth, truth_kind = ground_truth_for(args.ground_truth, reference, query, args.tolerance)
+    truth, truth_kind, no_truth = ground_truth_for(args.ground_truth, reference, query, args.tolerance)
+    _check_can_match(params, len(reference), len(query))
+    # Checked and locked before the work; the files appear together at the end, or not at all.
+    with output_set(args.out, command="route", inputs=inputs) as out:
+        preparer = RoutePreparer(params, preparation)
+        start = time.perf_counter()
+        refs = preparer(reference)
+        queries = preparer(query)
+        preparation_s = time.perf_counter() - start
+        result = match_prepared(refs, queries, params, threads=args.threads, keep_difference=False)
+        result.timings["preparation"] = preparation_s
+        n_matched = int(result.defined.sum())
+        if n_matched == 0:
+            raise ValueError(
+                f"no query frame could be matched ({result.n_queries} queries, {result.n_refs} references, "
+                f"{params.mode} sequences of ds {params.effective_ds}, speeds {params.vmin:g}..{params.vmax:g}): "
+                f"every trajectory left the reference traverse or had no defined score; shorten --ds or widen "
+                f"the speeds"
+            )
+        evaluation = evaluate_matches(result.refs, result.scores, truth) if truth is not None else None
 
-    preparer = RoutePreparer(params, preparation)
-    start = time.perf_counter()
-    refs = preparer(reference)
-    queries = preparer(query)
-    preparation_s = time.perf_counter() - start
-    result = match_prepared(refs, queries, params, threads=args.threads, keep_difference=False)
-    result.timings["preparation"] = preparation_s
-    evaluation = evaluate_matches(result.refs, result.scores, truth) if truth is not None else None
+        write_text(out / "matches.csv", matches_csv(result, query.names, reference.names), newline="")
+        if evaluation is not None:
+            write_text(out / "pr.csv", pr_csv(evaluation), newline="")
+        figures = []
+        if not args.no_figures:
+            from ..figures.route import save_route_figures
 
-    out.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(out / "matches.csv", matches_csv(result))
-    if evaluation is not None:
-        write_text_atomic(out / "pr.csv", pr_csv(evaluation))
-    figures = []
-    if not args.no_figures:
-        from ..figures.route import save_route_figures
-
-        try:
-            figures = [Path(p).name for p in save_route_figures(result, evaluation, out)]
-        except ImportError as error:  # nightloc.figures.plotting missing from a partial install
-            print(f"figures skipped: {error}")
-    summary = {
-        "reference": str(reference.root),
-        "query": str(query.root),
-        "n_refs": result.n_refs,
-        "n_queries": result.n_queries,
-        "n_matched": int(result.defined.sum()),
-        "params": {field: getattr(params, field) for field in params.__dataclass_fields__},
-        "preparation": None
-        if preparer.preparation is None
-        else {field: getattr(preparer.preparation, field) for field in preparer.preparation.__dataclass_fields__},
-        "timings_s": {key: round(value, 4) for key, value in result.timings.items()},
-        "ground_truth": truth_kind,
-        "tolerance": None if truth is None else truth.tolerance,
-        "figures": figures,
-    }
-    if evaluation is not None:
-        summary.update(
-            recall_at_100_precision=evaluation.recall_at_100,
-            threshold_at_100_precision=_finite_or_none(evaluation.threshold_at_100),
-            best_f1=evaluation.best_f1,
-            best_f1_precision=evaluation.best_f1_precision,
-            best_f1_recall=evaluation.best_f1_recall,
-            best_f1_threshold=_finite_or_none(evaluation.best_f1_threshold),
-        )
-    write_text_atomic(out / "summary.json", json.dumps(summary, indent=1, default=_json_default) + "\n")
-    # Outputs of an earlier run into the same folder that this run did not produce would mislead.
-    produced = {"matches.csv", "summary.json", *figures} | ({"pr.csv"} if evaluation is not None else set())
-    for stale in ("pr.csv", "difference_matrix.png", "pr_curve.png", "correspondence.png"):
-        if stale not in produced and (out / stale).is_file():
-            (out / stale).unlink()
+            try:
+                figures = [Path(p).name for p in save_route_figures(result, evaluation, out.path)]
+            except ImportError as error:  # nightloc.figures.plotting missing from a partial install
+                print(f"figures skipped: {error}")
+        summary = {
+            "reference": str(reference.root),
+            "query": str(query.root),
+            "n_refs": result.n_refs,
+            "n_queries": result.n_queries,
+            "n_matched": n_matched,
+            "params": {field: getattr(params, field) for field in params.__dataclass_fields__},
+            "preparation": None
+            if preparer.preparation is None
+            else {field: getattr(preparer.preparation, field) for field in preparer.preparation.__dataclass_fields__},
+            "timings_s": {key: round(value, 4) for key, value in result.timings.items()},
+            "ground_truth": truth_kind,
+            "no_ground_truth_because": no_truth or None,
+            "tolerance": None if truth is None else truth.tolerance,
+            "figures": figures,
+        }
+        if evaluation is not None:
+            summary.update(
+                recall_at_100_precision=evaluation.recall_at_100,
+                threshold_at_100_precision=_finite_or_none(evaluation.threshold_at_100),
+                best_f1=evaluation.best_f1,
+                best_f1_precision=evaluation.best_f1_precision,
+                best_f1_recall=evaluation.best_f1_recall,
+                best_f1_threshold=_finite_or_none(evaluation.best_f1_threshold),
+            )
+        write_text(out / "summary.json", json.dumps(summary, indent=1, default=_json_default) + "\n")
 
     compute = sum(result.timings[k] for k in ("difference", "enhancement", "search"))
     print(
-        f"{result.n_queries} query frames against {result.n_refs} reference frames: {int(result.defined.sum())} "
+        f"{result.n_queries} query frames against {result.n_refs} reference frames: {n_matched} "
         f"matched ({params.mode}, ds {params.effective_ds}); matching {compute:.2f} s, "
         f"reading and preparing {preparation_s:.2f} s"
     )
@@ -266,9 +331,9 @@ def run(args: argparse.Namespace) -> int:
         unit = "m" if truth.kind == "positions" else "frames"
         print(f"ground truth from {truth_kind} (+-{truth.tolerance:g} {unit}): {evaluation.summary()}")
     else:
-        print("no ground truth: pr.csv not written")
+        print(f"no ground truth ({no_truth}): pr.csv not written")
     print(
-        f"wrote {out}/matches.csv"
+        f"wrote {args.out}/matches.csv"
         + (", pr.csv" if evaluation is not None else "")
         + ", summary.json"
         + ("".join(f", {name}" for name in figures))
