@@ -11,6 +11,7 @@ Bounds (each error message names its constant):
 ``MAX_SEQUENCE_CELLS``        a sequence's frames x grid cells (float32 each): 2**27 (512 MiB)
 ``MAX_CLAHE_TILES``           CLAHE tiles along each axis: 256
 ``MAX_CAMERA_RAYS``           synthetic panoramas: pixels x oversampling, 2**21 rays per frame
+``MAX_CAMERA_SIDE``           synthetic panoramas: at most 8192 pixels wide or high
 ``MAX_REPEATS``               noise draws per noise model in an evaluation: 1000
 ``MAX_THREADS``               worker threads of a call: 1024
 ``MAX_MAP_EXPANSION``         a map file's arrays: at most 16 x the file's size (+ 1 MiB)
@@ -44,6 +45,7 @@ MAX_GRID_CELLS = 4_000_000
 MAX_SEQUENCE_CELLS = 1 << 27
 MAX_CLAHE_TILES = 256
 MAX_CAMERA_RAYS = 1 << 21
+MAX_CAMERA_SIDE = 8192
 MAX_REPEATS = 1000
 MAX_MAP_EXPANSION = 16
 MAX_PARAMS_FILE_BYTES = 1 << 20

@@ -74,11 +74,11 @@ def _quiet_opencv() -> None:
 
 
 def _tolerant_streams() -> None:
-    """Lets stdout and stderr write file names that are not valid UTF-8 (held as lone
-    surrogates by Python) as their original bytes, as ``ls`` would, instead of failing."""
+    """Lets stdout and stderr print file names that are not valid UTF-8 (held by Python as lone
+    surrogates) as escapes (``caf\\udce9``) instead of failing after the work is done."""
     for stream in (sys.stdout, sys.stderr):
         with contextlib.suppress(AttributeError, ValueError, io.UnsupportedOperation):
-            stream.reconfigure(errors="surrogateescape")
+            stream.reconfigure(errors="backslashreplace")
 
 
 def _closed_pipe() -> int:

@@ -7,7 +7,7 @@ import math
 import time
 from pathlib import Path
 
-from .._validate import MAX_CAMERA_RAYS
+from .._validate import MAX_CAMERA_RAYS, MAX_CAMERA_SIDE
 from ..io.atomic import output_set
 from ..synth.dataset import DEFAULT_DARKNESS, DEFAULT_SEED, make_dataset
 from ..synth.render import Camera
@@ -48,6 +48,8 @@ def parse_size(text: str) -> tuple[int, int]:
     width, height = (int(p) for p in parts)
     if width < 8 or height < 4:
         raise ValueError(f"--size must be at least 8x4 pixels, got {text!r}")
+    if max(width, height) > MAX_CAMERA_SIDE:
+        raise ValueError(f"--size {text} is too large: at most {MAX_CAMERA_SIDE} pixels along a side (MAX_CAMERA_SIDE)")
     rays = width * height * Camera.oversample_x * Camera.oversample_y
     if rays > MAX_CAMERA_RAYS:
         raise ValueError(

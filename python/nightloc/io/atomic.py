@@ -300,7 +300,8 @@ def atomic_file(
 ) -> Iterator[IO]:
     """Context manager yielding a file object whose content replaces ``path`` on success.
 
-    ``mode`` is ``"wb"`` or ``"w"`` (text, ``encoding`` defaults to UTF-8). On an exception the
+    ``mode`` is ``"wb"`` or ``"w"`` (text, ``encoding`` defaults to UTF-8; text from file names
+    that are not valid UTF-8 is written as the names' own bytes). On an exception the
     temporary file is removed and ``path`` is left as it was. A second writer of the same path
     waits for the first. With ``overwrite=False`` an existing ``path`` raises FileExistsError
     (checked under the lock: of two writers of a new file, one succeeds).
@@ -318,8 +319,8 @@ def atomic_file(
         temporary = _temporary_name(target)
         handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # the umask applies
         try:
-            if mode == "w":
-                stream = os.fdopen(handle, "w", encoding=encoding or "utf-8", newline=newline)
+            if mode == "w":  # file names that are not UTF-8 are written back as their own bytes
+                stream = os.fdopen(handle, "w", encoding=encoding or "utf-8", errors="surrogateescape", newline=newline)
             else:
                 stream = os.fdopen(handle, "wb")
         except BaseException:

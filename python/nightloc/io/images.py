@@ -67,18 +67,20 @@ def list_images(folder: Path) -> list[str]:
     later, so it is named now. Sub-folders are not entries of the listing.
     """
     names = []
-    for entry in os.scandir(folder):
-        if entry.name.startswith(".") or Path(entry.name).suffix.lower() not in IMAGE_SUFFIXES:
-            continue
-        try:
-            if entry.is_dir():
+    odd = []
+    with os.scandir(folder) as entries:
+        for entry in entries:
+            if entry.name.startswith(".") or Path(entry.name).suffix.lower() not in IMAGE_SUFFIXES:
                 continue
-            regular = entry.is_file()
-        except OSError:  # a symbolic link loop
-            regular = False
-        if not regular:
-            check_regular(entry.path, "image", DatasetError)  # raises, naming what it is
-        names.append(entry.name)
+            try:
+                if entry.is_dir():
+                    continue
+                regular = entry.is_file()
+            except OSError:  # a symbolic link loop
+                regular = False
+            (names if regular else odd).append(entry.name)
+    for name in sorted(odd, key=natural_key):
+        check_regular(Path(folder) / name, "image", DatasetError)  # raises, naming what it is
     return sorted(names, key=natural_key)
 
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validate import MAX_CAMERA_RAYS
+from .._validate import MAX_CAMERA_RAYS, MAX_CAMERA_SIDE
 from .geometry import height_window, horizontal_intervals
 from .lighting import Lighting, shade_objects
 from .sensor import Exposure, capture
@@ -57,6 +57,11 @@ class Camera:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise ValueError(f"camera {name} must be a positive int, got {value!r}")
+        if max(self.width, self.height) > MAX_CAMERA_SIDE:
+            raise ValueError(
+                f"camera of {self.width}x{self.height} pixels is too large: at most {MAX_CAMERA_SIDE} pixels along a "
+                f"side (MAX_CAMERA_SIDE)"
+            )
         rays = self.width * self.oversample_x * self.height * self.oversample_y
         if rays > MAX_CAMERA_RAYS:
             raise ValueError(
