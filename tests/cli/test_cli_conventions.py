@@ -71,6 +71,7 @@ def test_positional_names_give_no_ground_truth_and_say_why(route_pair, tmp_path,
 
 
 def test_distinctive_names_are_ground_truth(route_pair, tmp_path, capsys):
+    """The control: names that are not positions (Nordland's) still give ground truth."""
     refs, queries = route_pair
     names = [f"images-{10 * (i + 5):05d}.png" for i in range(len(refs))]
     day = _folder(tmp_path / "day", refs, names)
@@ -125,6 +126,7 @@ def test_a_closed_pipe_ends_quietly():
 
 
 def test_python_dash_m_nightloc_runs_the_command_line():
+    """(This worked before this test was written; it keeps working.)"""
     done = subprocess.run([sys.executable, "-m", "nightloc", "--version"], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0 and done.stdout.startswith("nightloc ")
     done = subprocess.run([sys.executable, "-m", "nightloc", "info", "--refs", "0"], capture_output=True, text=True)

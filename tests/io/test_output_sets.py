@@ -181,6 +181,17 @@ def test_a_symbolic_link_is_followed_and_a_loop_refused(tmp_path):
         _write_set(tmp_path / "loop", {"a": "1"})
 
 
+def test_a_file_written_through_a_symbolic_link_replaces_its_target(tmp_path):
+    real = tmp_path / "maps" / "garden.map"
+    real.parent.mkdir()
+    real.write_text("old")
+    os.symlink(real, tmp_path / "current.map")
+    atomic.write_text(tmp_path / "current.map", "new")
+    assert (tmp_path / "current.map").is_symlink() and real.read_text() == "new"
+    with pytest.raises(FileExistsError):
+        atomic.write_text(tmp_path / "current.map", "newer", overwrite=False)
+
+
 def test_leftovers_of_killed_writes_are_cleaned_and_a_half_swap_is_repaired(tmp_path):
     """Old behaviour: ``.partial`` entries of killed saves piled up."""
     out = _write_set(tmp_path / "out", {"a": "1"})

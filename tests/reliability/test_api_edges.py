@@ -73,6 +73,7 @@ NOT_ODOMETRY = {
 
 @pytest.mark.parametrize("odometry", list(NOT_ODOMETRY))
 def test_odometry_must_be_real_numbers(ws, odometry):
+    """(Tuples of booleans or complex numbers were refused before; arrays and buffers were not.)"""
     localizer = nightloc.Localizer(ws.map, grid_width=30, grid_height=20)
     first = localizer.update(ws.frames[0])
     with pytest.raises(TypeError, match=r"odometry|dx|masked"):
@@ -85,6 +86,7 @@ def test_odometry_must_be_real_numbers(ws, odometry):
 
 
 def test_real_number_odometry_of_any_numeric_type_is_accepted(ws):
+    """The control: the stricter check still takes every real-number pair."""
     answers = []
     for pair in ((0.5, -0.25), np.array([0.5, -0.25]), np.array([1, -1], np.int8) / np.array([2, 4]), [0.5, -0.25]):
         localizer = nightloc.Localizer(ws.map, grid_width=30, grid_height=20)

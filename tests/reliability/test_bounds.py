@@ -160,7 +160,8 @@ def _brute_force_confidence(localizer, heat, cell):
 def test_a_confidence_radius_beyond_the_map_takes_bounded_memory_and_gives_exact_answers(ws, factor):
     """The disk around the peak is clipped to the grid's own size: offsets beyond it never meet a
     cell. Checked against the definition on every cell (radius 0.3 and 0.9 of the map's
-    diagonal, where the clipping starts, and 20x and 200x beyond it)."""
+    diagonal, where the clipping starts -- controls that held before -- and 20x and 200x beyond
+    it, which took hundreds of MiB to GiB before)."""
     radius = factor * _diagonal(ws.map)
     tracemalloc.start()
     try:

@@ -5,7 +5,9 @@ what it is, at once.
 Old behaviour: ``ReferenceMap.load`` on a FIFO and ``--params`` naming a FIFO blocked forever;
 ``/dev/zero`` as a parameter file or an image was read until memory ran out; a symbolic link
 loop or a FIFO was reported as "does not exist". Every call here runs under an alarm, so the old
-hang fails the test instead of hanging it.
+hang fails the test instead of hanging it. (Two rows of the matrix held before -- a folder given
+as a map or as the poses file -- and stay as its complete rows; a link to a regular file is the
+control: links are followed.)
 """
 
 from __future__ import annotations
