@@ -2,7 +2,7 @@
 exception with a message that names the problem, never a crash, a hang or a silent result.
 
 Each row of ``REJECTED`` is (id, call, exception type, words the message must contain). The
-exception types are the ones the README's "Reliability" section documents:
+exception types are the ones docs/reliability.md documents:
 
 * ``TypeError``: wrong type or dtype (a float image, a list where an array is needed);
 * ``ValueError``: wrong rank, size, range or value (empty stacks, NaN, too many threads);
@@ -1101,7 +1101,7 @@ def test_messages_name_the_file(ws):
 
 
 def test_case_counts_are_recorded_in_the_readme():
-    """The README's Reliability section states how many cases the matrix holds."""
+    """docs/reliability.md states how many cases the matrix holds."""
     section = reliability_section()
     assert f"{len(REJECTED)} rejected inputs" in section
     assert f"{len(ACCEPTED)} accepted" in section

@@ -1,7 +1,7 @@
 """Numerical edge cases at the matching level: constant, all-black and saturated frames, and
 identical references, on every SIMD path and thread count.
 
-Tie-breaking (documented in the README): among equal scores the lowest reference index wins;
+Tie-breaking (documented in docs/design.md): among equal scores the lowest reference index wins;
 among equal shifts of one reference the one listed first in ``shifts`` wins (the lowest shift
 by default). It must not depend on the SIMD path, the number of threads or how the references
 are split between threads.

@@ -7,7 +7,7 @@ lap must equal those of the first lap exactly.
 
 Size: ``NIGHTLOC_SOAK_FRAMES`` frames per localizer (the bounded CI run, by default: 20 000
 through the RouteLocalizer, 10 000 through the Localizer, whose heat maps cost more per frame;
-the README reports a 100 000-frame run of each). Measured: Python heap growth with tracemalloc (numpy
+docs/reliability.md reports a 100 000-frame run of each). Measured: Python heap growth with tracemalloc (numpy
 buffers included), resident set size from /proc (C++ allocations included), and the mean time
 per frame in windows of 1000 frames, first windows against last windows. Time is the process's
 CPU time, not wall time, and the bound is generous: the machine is shared, so only a real

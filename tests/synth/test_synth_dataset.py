@@ -7,7 +7,6 @@ import json
 import math
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pytest
 
@@ -172,18 +171,6 @@ def test_cli_bad_values_are_one_line_errors(tmp_path, capsys, argument):
     err = capsys.readouterr().err
     assert err.startswith("nightloc synth: error:") and err.count("\n") == 1
     assert not (tmp_path / "g").exists()
-
-
-def test_figures_are_drawn(tmp_path, capsys):
-    from nightloc.figures.synth import main as figures_main
-
-    assert figures_main([str(tmp_path)]) == 0
-    for world in ("garden", "living_room"):
-        pair = cv2.imread(str(tmp_path / f"synth_{world}_day_night.png"))
-        assert pair is not None and pair.shape[1] == 384 and pair.shape[0] > 3 * 96
-        top_view = cv2.imread(str(tmp_path / f"synth_{world}_map.png"))
-        assert top_view is not None and top_view.shape[0] > 150
-    assert figures_main([]) == 2
 
 
 # --- informative but hard ------------------------------------------------------------------------

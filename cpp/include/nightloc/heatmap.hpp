@@ -1,4 +1,4 @@
-// Heat maps over a regular grid and 2D sequence matching (the paper's section III-D/E, DESIGN.md
+// Heat maps over a regular grid and 2D sequence matching (the paper's section III-D/E, docs/design.md
 // steps 4-5) for robot firmware that links nightloc::core: interpolation of per-place values
 // with precomputed sparse weights, sub-cell translation of earlier heat maps by odometry, their
 // sum, and the hottest cell with the runner-up outside a radius (the confidence).

@@ -1,4 +1,4 @@
-// Camera-frame preparation (the paper's section III-A, DESIGN.md step 2) without OpenCV:
+// Camera-frame preparation (the paper's section III-A, docs/design.md step 2) without OpenCV:
 // crop -> grey -> global histogram equalization (or none) -> area downsample -> patch
 // normalization, in two passes over the full-resolution frame (grey + histogram, then the
 // equalization table + area sums), for robot firmware that links nightloc::core.

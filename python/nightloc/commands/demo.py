@@ -1,6 +1,7 @@
 """``nightloc demo``: the whole method on the embedded default data (the README's main command).
 
     nightloc demo [--out nightloc_demo] [--seed 0] [--repeats 1] [--cache DIR] [--no-figures]
+                  [--figure-format png|pdf|svg]
 
 The embedded default is the synthetic world of :mod:`nightloc.synth` (generated once into the
 user cache, about ten seconds): a garden and a living room, each with a day-time reference
@@ -18,6 +19,7 @@ import time
 from pathlib import Path
 
 from .._validate import MAX_REPEATS
+from ..figures import add_figure_format_option
 from ..io.atomic import make_folder, output_set
 from ..io.reference_map import ReferenceMap
 from ..localization.evaluation import EvaluationSettings, evaluate
@@ -54,6 +56,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="folder of the generated dataset (default ~/.cache/nightloc or $XDG_CACHE_HOME/nightloc)",
     )
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
+    add_figure_format_option(parser)
     parser.set_defaults(run=run)
 
 
@@ -92,7 +95,12 @@ def run(args: argparse.Namespace) -> int:
             if not args.no_figures:
                 from ..figures.evaluation import save_evaluation_figures
 
-                written += [p.name for p in save_evaluation_figures(evaluation, ref_map, target, params=params)]
+                written += [
+                    p.name
+                    for p in save_evaluation_figures(
+                        evaluation, ref_map, target, params=params, figure_format=args.figure_format
+                    )
+                ]
             frames = len(evaluation.matches[0].results)
             print()
             print(

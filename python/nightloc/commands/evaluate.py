@@ -2,7 +2,7 @@
 
     nightloc evaluate REFERENCE QUERY --out OUT [--seq-lengths 1-10] [--noise-models 0,1,2,3]
                       [--interpolation on,off] [--repeats 1] [--seed 0] [--odometry map|robot]
-                      [--params FILE.toml] [--heatmap-frames 12,30] [--no-figures]
+                      [--params FILE.toml] [--heatmap-frames 12,30] [--no-figures] [--figure-format png|pdf|svg]
 
 REFERENCE is a traverse folder with poses (``images/`` + ``poses.csv``) or a map file written
 by ``nightloc build-map``; QUERY is a traverse folder with poses (the ground truth). Writes the
@@ -14,7 +14,7 @@ into OUT at the same time refuses; files in OUT that nightloc did not write are 
 * ``OUT/summary.csv``: ``seq_len,noise_model,interpolation,n,median_m,mean_m,p90_m``;
 * figures (unless ``--no-figures``): ``error_vs_seq_len.png``, ``error_vs_noise.png``,
   ``error_vs_interpolation.png`` (the paper's Figures 10-12) and ``heatmap_frame<i>.png``
-  (Figure 9).
+  (Figure 9); ``.pdf`` or ``.svg`` with ``--figure-format``.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ from pathlib import Path
 
 from .._validate import MAX_REPEATS
 from ..config import load_params_file
+from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set
 from ..io.reference_map import ReferenceMap
 from ..io.traverse import load_traverse
@@ -60,6 +61,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--heatmap-frames", help="query frames (0-based) for heat-map figures (default: one, chosen)")
     parser.add_argument("--threads", type=int, help="matching threads (default all cores)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
+    add_figure_format_option(parser)
     parser.set_defaults(run=run)
 
 
@@ -161,7 +163,12 @@ def run(args: argparse.Namespace) -> int:
             written += [
                 p.name
                 for p in save_evaluation_figures(
-                    evaluation, ref_map, out.path, params=localization, heatmap_frames=heatmap_frames
+                    evaluation,
+                    ref_map,
+                    out.path,
+                    params=localization,
+                    heatmap_frames=heatmap_frames,
+                    figure_format=args.figure_format,
                 )
             ]
 

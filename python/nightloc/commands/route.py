@@ -15,7 +15,8 @@ at the same time refuses; files in OUT that nightloc did not write are kept):
 * ``OUT/summary.json``: parameters, sizes, timings, recall at 100 % precision, best F1, and why
   there is no ground truth when there is none;
 * figures ``difference_matrix.png`` and, with ground truth, ``pr_curve.png`` and
-  ``correspondence.png`` (the paper's Figure 23) unless ``--no-figures``.
+  ``correspondence.png`` (the paper's Figure 23) unless ``--no-figures``; ``--figure-format
+  pdf|svg`` writes them as PDF or SVG instead.
 
 A run that can match no query frame (e.g. ``--ds`` longer than the query traverse) fails with
 the reason, writing nothing.
@@ -45,6 +46,7 @@ import numpy as np
 
 from .._validate import thread_count
 from ..config import load_params_file
+from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set, write_text
 from ..io.traverse import Traverse, load_traverse
 from ..preparation.params import PreparationParams
@@ -100,6 +102,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--frame-step", type=int, default=1, help="keep every k-th frame of a video (default 1)")
     parser.add_argument("--threads", type=int, help="worker threads (default all cores)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
+    add_figure_format_option(parser)
     parser.set_defaults(run=run)
 
 
@@ -290,10 +293,20 @@ def run(args: argparse.Namespace) -> int:
         if not args.no_figures:
             from ..figures.route import save_route_figures
 
-            try:
-                figures = [Path(p).name for p in save_route_figures(result, evaluation, out.path)]
-            except ImportError as error:  # nightloc.figures.plotting missing from a partial install
-                print(f"figures skipped: {error}")
+            truth_text = None
+            if truth is not None:
+                truth_text = f"{truth_kind}, ±{truth.tolerance:g} {'m' if truth.kind == 'positions' else 'frames'}"
+            saved = save_route_figures(
+                result,
+                evaluation,
+                out.path,
+                args.figure_format,
+                reference=reference.root,
+                query=query.root,
+                preset=args.preset,
+                ground_truth=truth_text,
+            )
+            figures = [p.name for p in saved]
         summary = {
             "reference": str(reference.root),
             "query": str(query.root),

@@ -1,6 +1,6 @@
 """Heat maps: match scores over irregular reference positions, interpolated onto a regular grid.
 
-The paper's section III-D, DESIGN.md step 4. For one query frame, the minimum rotated scores of
+The paper's section III-D, docs/design.md step 4. For one query frame, the minimum rotated scores of
 all references (eq. 3, lower = more similar) are *inverted* (best = hottest, see
 :func:`invert_scores`) and linearly interpolated over the reference positions onto a regular
 grid; the position estimate is the hottest grid cell (eq. 4), and the closest reference to it is
@@ -16,7 +16,7 @@ Conventions:
 
 * A heat map is a float64 array ``(grid_height, grid_width)``; ``heat[j, i]`` is the value at
   ``x = grid.xs[i]``, ``y = grid.ys[j]`` (cell *centres*, metres): row 0 is the lowest y.
-  :meth:`HeatGrid.extent` gives the outer cell edges for :meth:`nightloc.figures.plotting.Axes.image`.
+  :meth:`HeatGrid.extent` gives the outer cell edges for matplotlib's ``imshow(heat, extent=..., origin="lower")``.
 * **Outside the reference hull** (``outside="lowest"``, the default) a cell holds the frame's
   lowest inverted score: no better than the worst-matching reference, so the estimate stays
   inside the mapped area. ``outside="nearest"`` gives such cells the value of their nearest

@@ -8,7 +8,7 @@
         est = loc.update(frame, (dx, dy))          # or nightloc.RobotMotion(forward, left, turn)
         print(est.x, est.y, est.heading, est.ref_index, est.confidence)
 
-Each update (the paper's pipeline, DESIGN.md steps 2-6):
+Each update (the paper's pipeline, docs/design.md steps 2-6):
 
 1. prepares the frame with the map's own parameters (skipped for a prepared image);
 2. matches it against every reference, all rotations (eqs. 2-3, the compiled core);

@@ -11,7 +11,7 @@ that pipeline over the compiled core:
   Octave) and ``"nightloc"`` (the paper's image preparation);
 * :class:`RouteLocalizer`: causal, frame-by-frame matching for a robot;
 * :mod:`~nightloc.route.evaluation`: ground truth from frames or positions, precision-recall,
-  recall at 100 % precision, best F1; :mod:`~nightloc.route.figures`: the figures;
+  recall at 100 % precision, best F1 (the figures are :mod:`nightloc.figures.route`'s);
 * :mod:`~nightloc.route.dask_backend`: the difference matrix and enhancement blocked on a Dask
   cluster (optional extra ``nightloc[dask]``).
 """

@@ -1,6 +1,6 @@
 """Cylindrical panoramas of a synthetic world, ray cast with numpy.
 
-Camera model (DESIGN.md conventions):
+Camera model (docs/design.md conventions):
 
 * The camera sits ``world.camera_height`` metres (0.3 m) above the robot's position ``(x, y)``.
 * Column ``c`` of a ``W``-column panorama looks along world azimuth ``heading - 2*pi*c/W``:
