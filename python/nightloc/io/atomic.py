@@ -197,7 +197,10 @@ def _acquire(target: Path, wait: float | None, shown: Path) -> int | None:
     path = _lock_path(target)
     deadline = None if wait is None else time.monotonic() + wait
     while True:
-        handle = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o666)
+        try:
+            handle = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o666)
+        except PermissionError as error:  # name the folder the user cannot write in, not the lock file
+            raise PermissionError(error.errno, error.strerror, str(target.parent)) from None
         try:
             if deadline is None:
                 fcntl.flock(handle, fcntl.LOCK_EX)
