@@ -43,8 +43,10 @@ from typing import Any, Literal, TypeVar, Union
 
 import numpy as np
 
+from ._validate import MAX_PARAMS_FILE_BYTES
 from .errors import NightlocError
 from .io.atomic import write_text
+from .io.files import open_regular
 
 __all__ = [
     "dumps_toml",
@@ -324,9 +326,15 @@ def load_params_file(path: str | os.PathLike[str]) -> dict[str, Any]:
     """
     file = Path(path)
     try:
-        data = file.read_bytes()
+        with open_regular(file, "parameter file", NightlocError) as stream:  # a FIFO must not block
+            data = stream.read(MAX_PARAMS_FILE_BYTES + 1)
     except OSError as error:
         raise NightlocError(f"parameter file {file} cannot be read: {error.strerror or error}") from error
+    if len(data) > MAX_PARAMS_FILE_BYTES:
+        raise NightlocError(
+            f"parameter file {file} is larger than {MAX_PARAMS_FILE_BYTES} bytes (MAX_PARAMS_FILE_BYTES); "
+            f"a parameter file holds a few tables of key = value lines"
+        )
     try:
         document = tomllib.loads(data.decode("utf-8-sig"))  # a byte-order mark (Windows editors) is fine
     except UnicodeDecodeError as error:

@@ -111,4 +111,5 @@ def test_save_route_figures_writes_each_format_with_the_caption(matched, tmp_pat
     assert [p.name for p in paths] == ["difference_matrix.svg", "pr_curve.svg", "correspondence.svg"]
     for path in paths:
         assert "reference day (90 frames) vs query night (80 frames)" in path.read_text()
+    (tmp_path / "none").mkdir()  # outputs never create their folder's parents
     assert [p.name for p in save_route_figures(result, None, tmp_path / "none")] == ["difference_matrix.png"]

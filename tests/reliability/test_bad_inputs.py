@@ -166,8 +166,8 @@ PREPARATION = [
 ]
 
 PARAMS_FILES = [
-    ("load_params missing", lambda ws: nightloc.load_params(ws.root / "missing.toml"), NightlocError, "cannot be read"),
-    ("load_params folder", lambda ws: nightloc.load_params(ws.root), NightlocError, "cannot be read"),
+    ("load_params missing", lambda ws: nightloc.load_params(ws.root / "missing.toml"), NightlocError, "does not exist"),
+    ("load_params folder", lambda ws: nightloc.load_params(ws.root), NightlocError, "is a folder"),
     (
         "load_params binary",
         lambda ws: nightloc.load_params(ws.write("b.toml", b"\x89PNG\x00\xff")),
@@ -626,7 +626,7 @@ MAPS = [
         "map object array",
         lambda ws: nightloc.ReferenceMap.load(ws.map_variant(arrays={"images": np.array([1, None])})),
         MapFormatError,
-        "allow_pickle",
+        "Python objects",
     ),
     ("map save to a folder", lambda ws: ws.map.save(ws.root), IsADirectoryError, "folder"),
     ("map save under a file", lambda ws: ws.map.save(ws.text_file / "m.map"), NotADirectoryError, "is a file"),

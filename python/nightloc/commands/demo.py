@@ -18,8 +18,9 @@ import argparse
 import time
 from pathlib import Path
 
+from .._validate import MAX_REPEATS
 from ..figures import add_figure_format_option
-from ..io.atomic import check_output_path, make_folder
+from ..io.atomic import make_folder, output_set
 from ..io.reference_map import ReferenceMap
 from ..localization.evaluation import EvaluationSettings, evaluate
 from ..localization.localizer import LocalizationParams
@@ -63,49 +64,53 @@ def run(args: argparse.Namespace) -> int:
     """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
     if args.seed < 0:
         raise ValueError(f"--seed must be non-negative, got {args.seed}")
-    if args.repeats < 1:
-        raise ValueError(f"--repeats must be >= 1, got {args.repeats}")
-    out = check_output_path(args.out, folder=True)
+    if not 1 <= args.repeats <= MAX_REPEATS:
+        raise ValueError(f"--repeats must be in 1..{MAX_REPEATS} (MAX_REPEATS), got {args.repeats}")
     from ..synth import default_cache_dir, default_dataset
 
     start = time.perf_counter()
     cache = args.cache if args.cache is not None else default_cache_dir()
-    print(f"synthetic dataset in {cache} (generated on first use, ~10 s)", flush=True)
-    folders = default_dataset(cache_dir=cache)
-    settings = EvaluationSettings(repeats=args.repeats, seed=args.seed)
-    params = LocalizationParams()
-    for world, reference, query in DEMO_PAIRS:
-        ref_map = ReferenceMap.build(folders[world][reference])
-        evaluation = evaluate(
-            ref_map,
-            folders[world][query],
-            settings,
-            params,
-            name=f"{world}/{query}",
-            progress_desc=f"{world}: evaluating",
-        )
-        target = make_folder(out / world)
-        written = [
-            evaluation.write_errors_csv(target / "errors.csv").name,
-            evaluation.write_summary_csv(target / "summary.csv").name,
-        ]
-        if not args.no_figures:
-            from ..figures.evaluation import save_evaluation_figures
-
-            written += [
-                p.name
-                for p in save_evaluation_figures(
-                    evaluation, ref_map, target, params=params, figure_format=args.figure_format
-                )
+    # The whole OUT folder is one set: both worlds appear together at the end, or nothing changes.
+    with output_set(args.out, command="demo", inputs=(cache,)) as out:
+        print(f"synthetic dataset in {cache} (generated on first use, ~10 s)", flush=True)
+        folders = default_dataset(cache_dir=cache)
+        settings = EvaluationSettings(repeats=args.repeats, seed=args.seed)
+        params = LocalizationParams()
+        reports = []
+        for world, reference, query in DEMO_PAIRS:
+            ref_map = ReferenceMap.build(folders[world][reference])
+            evaluation = evaluate(
+                ref_map,
+                folders[world][query],
+                settings,
+                params,
+                name=f"{world}/{query}",
+                progress_desc=f"{world}: evaluating",
+            )
+            target = make_folder(out / world)
+            written = [
+                evaluation.write_errors_csv(target / "errors.csv").name,
+                evaluation.write_summary_csv(target / "summary.csv").name,
             ]
-        frames = len(evaluation.matches[0].results)
-        print()
-        print(
-            f"{world}: {frames} night query frames against a day map of {len(ref_map)} images; "
-            f"median distance error (m), interpolation on unless noted:"
-        )
-        print(evaluation.table(off_column=True))
-        print(PAPER_RESULTS[world])
-        print(f"wrote {target}/" + ", ".join(written))
+            if not args.no_figures:
+                from ..figures.evaluation import save_evaluation_figures
+
+                written += [
+                    p.name
+                    for p in save_evaluation_figures(
+                        evaluation, ref_map, target, params=params, figure_format=args.figure_format
+                    )
+                ]
+            frames = len(evaluation.matches[0].results)
+            print()
+            print(
+                f"{world}: {frames} night query frames against a day map of {len(ref_map)} images; "
+                f"median distance error (m), interpolation on unless noted:"
+            )
+            print(evaluation.table(off_column=True))
+            print(PAPER_RESULTS[world])
+            reports.append(f"{args.out / world}/" + ", ".join(written))
+    for report in reports:
+        print(f"wrote {report}")
     print(f"\ndone in {time.perf_counter() - start:.1f} s")
     return 0

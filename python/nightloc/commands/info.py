@@ -11,6 +11,9 @@ from .. import __version__, _core
 from ..matching.sad import match
 from ..matching.simd import available_simd_backends, simd_backend, use_simd_backend
 
+#: Most references in the speed test (1152 bytes each: 115 MB).
+MAX_SPEED_TEST_REFS = 100_000
+
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser("info", help="version, SIMD paths and matching speed on this machine")
@@ -32,8 +35,10 @@ def kernel_speed(n_refs: int, threads: int = 1, repeats: int = 5) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.refs < 1:
-        raise ValueError("--refs must be >= 1")
+    if not 1 <= args.refs <= MAX_SPEED_TEST_REFS:
+        raise ValueError(
+            f"--refs must be in 1..{MAX_SPEED_TEST_REFS} (MAX_SPEED_TEST_REFS: 1152 bytes each), got {args.refs}"
+        )
     print(f"nightloc {__version__}")
     print(f"SIMD path in use: {simd_backend()}  (supported: {', '.join(available_simd_backends())})")
     variant = _core.avx512_sad_variant()

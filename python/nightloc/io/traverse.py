@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import concurrent.futures
 import os
-import shutil
 from collections import deque
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
@@ -35,7 +34,8 @@ from .. import _validate
 from .._validate import thread_count
 from ..errors import DatasetError
 from ..progress import progress
-from .atomic import replace_folder, staging_folder
+from .atomic import atomic_folder
+from .files import check_regular
 from .images import IMAGE_SUFFIXES, list_images, read_image_file, write_image_file
 from .poses import checked_poses, poses_from_rows, read_pose_csv, write_pose_csv
 from .video import VIDEO_SUFFIXES, read_video_frames, video_frame_count
@@ -318,15 +318,13 @@ def _inside(name: str) -> bool:
 def _load_folder(root: Path, frame_step: int, poses: Path | None) -> Traverse:
     image_dir = _image_folder(root)
     pose_file = poses if poses is not None else root / _POSE_FILE
-    if poses is None and not pose_file.exists():
+    if poses is None and not os.path.lexists(pose_file):
         names = list_images(image_dir)
         if not names:
             raise DatasetError(f"{image_dir} holds no image files ({', '.join(sorted(IMAGE_SUFFIXES))})")
         names = names[::frame_step]
         return Traverse(root=root, names=names, image_dir=image_dir)
-    if not pose_file.is_file():
-        what = "is a folder, not a CSV file" if pose_file.is_dir() else "does not exist"
-        raise DatasetError(f"poses file {pose_file} {what}")
+    check_regular(pose_file, "poses file", DatasetError)
     rows, has_heading = read_pose_csv(pose_file, "image")
     missing = []
     for row in rows:
@@ -337,6 +335,11 @@ def _load_folder(root: Path, frame_step: int, poses: Path | None) -> Traverse:
     if missing:
         first = missing[0]
         more = f" ({len(missing) - 1} more files named in it are missing too)" if len(missing) > 1 else ""
+        try:
+            check_regular(image_dir / first.key, "image", DatasetError)
+        except DatasetError as error:
+            if os.path.lexists(image_dir / first.key):  # there, but a folder, a FIFO, a link loop, ...
+                raise DatasetError(f"{pose_file} line {first.line}: {error}{more}") from None
         raise DatasetError(f"{pose_file} line {first.line}: image {first.key!r} does not exist in {image_dir}{more}")
     rows = rows[::frame_step]
     positions, headings = poses_from_rows(rows, has_heading)
@@ -357,9 +360,7 @@ def _load_video(file: Path, frame_step: int, poses: Path | None) -> Traverse:
     if poses is None:
         frames = list(range(0, count, frame_step))
         return Traverse(root=file, names=[label.format(f) for f in frames], video=file, frame_indices=frames)
-    if not poses.is_file():
-        what = "is a folder, not a CSV file" if poses.is_dir() else "does not exist"
-        raise DatasetError(f"poses file {poses} {what}")
+    check_regular(poses, "poses file", DatasetError)
     rows, has_heading = read_pose_csv(poses, "frame")
     for row in rows:
         if row.key >= count:
@@ -403,13 +404,10 @@ def load_traverse(path: PathLike, *, frame_step: int = 1, poses: PathLike | None
     pose_path = None if poses is None else Path(poses)
     if root.is_dir():
         return _load_folder(root, step, pose_path)
-    if root.is_file():
-        if root.suffix.lower() in IMAGE_SUFFIXES or root.suffix.lower() == ".csv":
-            raise DatasetError(
-                f"{root} is a single file; a traverse is a folder ({_IMAGE_DIR}/ + {_POSE_FILE}) or a video"
-            )
-        return _load_video(root, step, pose_path)
-    raise DatasetError(f"traverse {root} does not exist")
+    check_regular(root, "traverse", DatasetError)  # missing, a link loop, a FIFO, a device, ...
+    if root.suffix.lower() in IMAGE_SUFFIXES or root.suffix.lower() == ".csv":
+        raise DatasetError(f"{root} is a single file; a traverse is a folder ({_IMAGE_DIR}/ + {_POSE_FILE}) or a video")
+    return _load_video(root, step, pose_path)
 
 
 # --------------------------------------------------------------------------------------------
@@ -479,6 +477,10 @@ def save_traverse(
         overwrite: replace an existing traverse folder at ``path`` (a folder holding anything
             else than ``images/`` and ``poses.csv`` is never replaced).
 
+    The parent folder of ``path`` must exist (FileNotFoundError); a symbolic link at ``path`` is
+    followed; another process saving to the same ``path`` makes this call raise
+    BlockingIOError at once.
+
     Returns:
         The written :class:`Traverse`.
     """
@@ -495,15 +497,14 @@ def save_traverse(
     expected = len(pos) if pos is not None else (len(file_names) if file_names is not None else None)
     if pos is not None and file_names is not None and len(file_names) != len(pos):
         raise ValueError(f"{len(file_names)} names but {len(pos)} positions")
-    if target.exists():
-        if not overwrite:
-            raise FileExistsError(f"{target} exists; pass overwrite=True to replace it")
-        if not target.is_dir() or not _looks_like_traverse(target):
-            raise FileExistsError(
-                f"{target} exists and is not a traverse folder (only images/ and poses.csv); refusing to replace it"
-            )
-    staging = staging_folder(target)  # creates the parent folders
-    try:
+    with atomic_folder(target) as staging:  # one writer at a time; the parent folder must exist
+        if target.exists():
+            if not overwrite:
+                raise FileExistsError(f"{target} exists; pass overwrite=True to replace it")
+            if not target.is_dir() or not _looks_like_traverse(target):
+                raise FileExistsError(
+                    f"{target} exists and is not a traverse folder (only images/ and poses.csv); refusing to replace it"
+                )
         image_dir = staging / _IMAGE_DIR
         image_dir.mkdir()
         written: list = []
@@ -522,8 +523,4 @@ def save_traverse(
             raise ValueError(f"{len(written)} images but {expected} positions/names")
         if pos is not None:
             write_pose_csv(staging / _POSE_FILE, written, pos, head)
-        replace_folder(staging, target)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
     return load_traverse(target)

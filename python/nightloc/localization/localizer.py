@@ -27,6 +27,7 @@ At the start, or after a restart, the sequence holds the frames it has (fewer th
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 from collections import deque
@@ -35,7 +36,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .._validate import thread_count
+from .._validate import MAX_GRID_CELLS, MAX_SEQUENCE_CELLS, StreamGuard, metres, thread_count
 from ..config import params_section
 from ..io.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, match
@@ -83,14 +84,22 @@ class LocalizationParams:
         for name in ("grid_width", "grid_height"):
             if getattr(self, name) < 2:
                 raise ValueError(f"{name} must be >= 2 cells, got {getattr(self, name)}")
-        if self.grid_width * self.grid_height > 4_000_000:
-            raise ValueError(f"grid of {self.grid_width}x{self.grid_height} cells is too large (at most 4 million)")
-        if not (math.isfinite(self.margin) and self.margin >= 0):
-            raise ValueError(f"margin must be a finite number of metres >= 0, got {self.margin}")
+        if self.grid_width * self.grid_height > MAX_GRID_CELLS:
+            raise ValueError(
+                f"grid of {self.grid_width}x{self.grid_height} cells is too large (at most {MAX_GRID_CELLS} cells, "
+                f"MAX_GRID_CELLS)"
+            )
+        metres(self.margin, "margin", minimum=0.0)
         if not 1 <= self.seq_len <= MAX_SEQ_LEN:
             raise ValueError(f"seq_len must be 1..{MAX_SEQ_LEN} frames, got {self.seq_len}")
-        if not (math.isfinite(self.confidence_radius) and self.confidence_radius >= 0):
-            raise ValueError(f"confidence_radius must be a finite number of metres >= 0, got {self.confidence_radius}")
+        cells = self.seq_len * self.grid_height * (self.grid_width + 1)  # the sequence's padded float32 maps
+        if cells > MAX_SEQUENCE_CELLS:
+            raise ValueError(
+                f"seq_len {self.seq_len} over a {self.grid_width}x{self.grid_height} grid needs {cells} float32 "
+                f"cells, more than {MAX_SEQUENCE_CELLS} (MAX_SEQUENCE_CELLS, 512 MiB); shorten the sequence or "
+                f"coarsen the grid"
+            )
+        metres(self.confidence_radius, "confidence_radius", minimum=0.0)
 
 
 @dataclass(frozen=True)
@@ -135,6 +144,11 @@ class Localizer:
         **overrides: fields of ``params`` to replace, e.g. ``seq_len=10, interpolation=False``.
 
     The grid, triangulation and interpolation weights are computed here, once.
+
+    A localizer is one stream of frames: :meth:`update` from two threads at once raises
+    RuntimeError (the order of the frames would be a race); use one localizer per thread (they
+    may share the map). ``copy.copy`` gives an independent localizer with the same state that
+    shares the map and the grid; ``copy.deepcopy`` copies those too.
     """
 
     def __init__(
@@ -167,7 +181,17 @@ class Localizer:
         self._shifts = ref_map.params.shifts
         self._prepared_shape = (ref_map.params.height, ref_map.params.width)
         self._sequence = self.mapper.sequence(params.seq_len)
+        self._guard = StreamGuard("Localizer")  # one thread at a time (see the class docstring)
         self.reset()
+
+    def __copy__(self) -> Localizer:
+        with self._guard("copy"):
+            clone = object.__new__(Localizer)
+            clone.__dict__.update(self.__dict__)
+            clone._sequence = copy.deepcopy(self._sequence)  # the frames' heat maps: not shared
+            clone._motions = deque(self._motions, maxlen=self._motions.maxlen)
+            clone._guard = StreamGuard("Localizer")
+        return clone
 
     def with_seq_len(self, seq_len: int) -> Localizer:
         """A new localizer for the same map and parameters but another sequence length.
@@ -180,6 +204,7 @@ class Localizer:
         clone.__dict__.update(self.__dict__)
         clone.params = params
         clone._sequence = self.mapper.sequence(params.seq_len)
+        clone._guard = StreamGuard("Localizer")
         clone.reset()
         return clone
 
@@ -195,6 +220,10 @@ class Localizer:
 
     def reset(self) -> None:
         """Forgets the sequence and the heading (e.g. after the robot was carried elsewhere)."""
+        with self._guard("reset"):
+            self._reset()
+
+    def _reset(self) -> None:
         self._sequence.clear()  # the frames' excess heat maps and fill values (in the core)
         self._motions: deque[Motion] = deque(maxlen=max(self.params.seq_len - 1, 1))
         self._heading = math.nan
@@ -229,6 +258,10 @@ class Localizer:
 
     def update_match(self, result: MatchResult, odometry: object = None, *, return_heatmap: bool = False) -> Estimate:
         """Like :meth:`update`, from a frame already matched against the map (a MatchResult)."""
+        with self._guard("update"):
+            return self._update_match(result, odometry, return_heatmap)
+
+    def _update_match(self, result: MatchResult, odometry: object, return_heatmap: bool) -> Estimate:
         if not isinstance(result, MatchResult):
             raise TypeError(f"result must be a nightloc.MatchResult, got {type(result).__name__}")
         if result.scores.shape != (len(self.ref_map),):

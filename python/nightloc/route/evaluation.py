@@ -24,6 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .._validate import coordinates, metres
+
 __all__ = [
     "GroundTruth",
     "PRCurve",
@@ -98,12 +100,11 @@ class GroundTruth:
             array = np.asarray(value, dtype=np.float64)
             if array.ndim != 2 or array.shape[1] != 2 or array.shape[0] == 0:
                 raise ValueError(f"{name} must be a non-empty (n, 2) array of metres, got shape {array.shape}")
-            if not np.isfinite(array).all():
-                raise ValueError(f"{name} holds NaN or infinite values")
+            coordinates(array, name)
             array = array.copy()
             array.setflags(write=False)
             arrays.append(array)
-        if not (math.isfinite(tolerance) and tolerance > 0):
+        if metres(tolerance, "tolerance", minimum=0.0) <= 0:
             raise ValueError(f"tolerance must be a positive number of metres, got {tolerance!r}")
         return cls(
             "positions",
