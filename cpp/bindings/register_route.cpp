@@ -338,6 +338,10 @@ void register_route_filter(py::module_& m) {
              "One prepared frame: difference row, enhancement, texture weight and step; returns "
              "(best, confidence, off_route, weight).")
         .def("reset", &nightloc::RouteFilter::reset)
+        .def("__copy__", [](const nightloc::RouteFilter& f) { return nightloc::RouteFilter(f); })
+        .def(
+            "__deepcopy__", [](const nightloc::RouteFilter& f, const py::dict&) { return nightloc::RouteFilter(f); },
+            py::arg("memo"))
         .def(
             "set_state",
             [](nightloc::RouteFilter& f, const py::array& belief_in, double off_route) {

@@ -252,8 +252,72 @@ def test_a_folder_name_that_is_not_utf8_works_end_to_end(ws, tmp_path, capsys):
     capsys.readouterr()
 
 
-def test_case_count_is_recorded_in_the_readme():
+def test_case_count_is_recorded_in_the_reliability_guide():
     from reliability_support import reliability_section
 
-    count = 1 + len(NOT_ODOMETRY) + 1 + len(MASKED_CALLS) + 1 + 2 + 2
+    # aliasing, odometry types, grey+alpha, masked calls, non-UTF-8, Localizer copies and threads,
+    # RouteLocalizer copies (two methods) and threads
+    count = 1 + len(NOT_ODOMETRY) + 1 + len(MASKED_CALLS) + 1 + 2 + 2 + 3
     assert f"{count} API edges" in reliability_section()
+
+
+def _route_answers(localizer, frames):
+    return [(u.ref, u.score) for u in (localizer.update(f, prepared=True) for f in frames)]
+
+
+@pytest.mark.parametrize("method", ["filter", "seqslam"])
+def test_a_copied_route_localizer_is_independent(method):
+    """``copy.copy`` / ``copy.deepcopy`` of a RouteLocalizer mid-route: the copy goes its own way and
+    the original answers as if no copy had been made (before: the copy shared the window/belief)."""
+    rng = np.random.default_rng(3)
+    refs = rng.integers(0, 256, (30, 24, 48), dtype=np.uint8)
+    route = [refs[i] for i in range(8, 20)]
+    detour = [refs[i] for i in (27, 3, 15, 22, 9, 1, 28, 12, 5, 19, 2, 24)]
+    kwargs = {"method": method, "prepared": True, "threads": 1, "params": nightloc.RouteParams(ds=4)}
+    original = nightloc.RouteLocalizer(refs, **kwargs)
+    _route_answers(original, route[:6])
+    for clone in (copy.copy(original), copy.deepcopy(original)):
+        _route_answers(clone, detour)
+    oracle = nightloc.RouteLocalizer(refs, **kwargs)
+    _route_answers(oracle, route[:6])
+    assert _route_answers(original, route[6:]) == _route_answers(oracle, route[6:])
+    # a copy continues exactly like its original from the state it was copied in
+    first = nightloc.RouteLocalizer(refs, **kwargs)
+    _route_answers(first, route[:5])
+    second = copy.copy(first)
+    assert _route_answers(second, route[5:]) == _route_answers(first, route[5:])
+
+
+def test_a_route_localizer_used_from_two_threads_raises_one_clear_error(monkeypatch):
+    """An update running in one thread makes another thread's update (or reset) raise RuntimeError
+    at once; the localizer then goes on exactly as one never disturbed."""
+    rng = np.random.default_rng(4)
+    refs = rng.integers(0, 256, (20, 24, 48), dtype=np.uint8)
+    frames = [refs[i] for i in (5, 6, 7)]
+    localizer = nightloc.RouteLocalizer(refs, prepared=True, threads=1)
+    localizer.update(frames[0], prepared=True)
+    inside, release = threading.Event(), threading.Event()
+    real = localizer._update
+
+    def slow_update(frame, prepared):
+        inside.set()
+        release.wait(30)
+        return real(frame, prepared)
+
+    monkeypatch.setattr(localizer, "_update", slow_update)
+    answers = []
+    worker = threading.Thread(target=lambda: answers.append(localizer.update(frames[1], prepared=True)))
+    worker.start()
+    assert inside.wait(30)
+    with pytest.raises(RuntimeError, match="another thread") as info:
+        localizer.update(frames[2], prepared=True)
+    assert "\n" not in str(info.value)
+    with pytest.raises(RuntimeError, match="another thread"):
+        localizer.reset()
+    release.set()
+    worker.join(30)
+    monkeypatch.undo()
+    oracle = nightloc.RouteLocalizer(refs, prepared=True, threads=1)
+    expected = [oracle.update(f, prepared=True) for f in frames]
+    assert answers == [expected[1]]
+    assert localizer.update(frames[2], prepared=True) == expected[2]

@@ -22,6 +22,7 @@ doubles) or ``ds`` rows of ``n_ref`` float32 beyond the reference images.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 from dataclasses import dataclass
@@ -30,7 +31,7 @@ from typing import Literal
 import numpy as np
 
 from .. import _core
-from .._validate import shift_list, thread_count, uint8_array
+from .._validate import StreamGuard, shift_list, thread_count, uint8_array
 from ..preparation.params import PreparationParams
 from .params import RouteParams, resolve_params
 from .pipeline import TraverseInput, _as_frames, _divisor
@@ -89,6 +90,10 @@ class RouteLocalizer:
         prepared: the reference is already prepared.
         threads: worker threads for each frame (None: all cores).
         channel_order: colour order of the frames given, ``"bgr"`` or ``"rgb"``.
+
+    One localizer is one stream of frames: :meth:`update` or :meth:`reset` called while another
+    thread is inside one raises RuntimeError (use one localizer per thread); ``copy.copy`` gives
+    an independent localizer in the same state.
     """
 
     def __init__(
@@ -128,12 +133,27 @@ class RouteLocalizer:
         self._divisor = _divisor(self._params, self._refs)
         self._threads = thread_count(threads)
         self._seen = 0
+        self._guard = StreamGuard("RouteLocalizer")  # one thread at a time (see the class docstring)
         if self._params.method == "filter":
             self._filter = _core.RouteFilter(n_refs, self._params.core_filter_params())
             self._row = np.empty((1, n_refs), dtype=np.float32)
             return
         self._window = np.zeros((self._params.ds, n_refs), dtype=np.float32)
         self._row = np.empty((1, n_refs), dtype=np.float32)
+
+    def __copy__(self) -> RouteLocalizer:
+        """An independent localizer in the same state (its own window or belief; the prepared
+        references, read-only, are shared)."""
+        with self._guard("copy"):
+            clone = object.__new__(RouteLocalizer)
+            clone.__dict__.update(self.__dict__)
+            clone._row = self._row.copy()
+            if self._params.method == "filter":
+                clone._filter = copy.copy(self._filter)
+            else:
+                clone._window = self._window.copy()
+            clone._guard = StreamGuard("RouteLocalizer")
+        return clone
 
     @property
     def params(self) -> RouteParams:
@@ -165,11 +185,12 @@ class RouteLocalizer:
     def reset(self) -> None:
         """Forgets the frames seen (e.g. after the robot was moved): the filter's belief becomes
         uniform again."""
-        self._seen = 0
-        if self._params.method == "filter":
-            self._filter.reset()
-        else:
-            self._window.fill(0.0)
+        with self._guard("reset"):
+            self._seen = 0
+            if self._params.method == "filter":
+                self._filter.reset()
+            else:
+                self._window.fill(0.0)
 
     def prepare(self, frame: np.ndarray) -> np.ndarray:
         """The prepared ``(H, W)`` uint8 image of one camera frame."""
@@ -183,6 +204,10 @@ class RouteLocalizer:
             frame: a camera frame (grey ``(H, W)`` or BGR ``(H, W, 3)``), or with
                 ``prepared=True`` an ``(H, W)`` uint8 image prepared like the references.
         """
+        with self._guard("update"):
+            return self._update(frame, prepared)
+
+    def _update(self, frame: np.ndarray, prepared: bool) -> RouteUpdate:
         image = uint8_array(frame, 2, "frame") if prepared else self.prepare(frame)
         if image.ndim != 2:
             raise ValueError(f"update takes one frame, got a stack of {image.shape[0]} frames; loop over them")
