@@ -78,7 +78,7 @@ def _tolerant_streams() -> None:
     surrogates) as escapes (``caf\\udce9``) instead of failing after the work is done."""
     for stream in (sys.stdout, sys.stderr):
         with contextlib.suppress(AttributeError, ValueError, io.UnsupportedOperation):
-            stream.reconfigure(errors="backslashreplace")
+            stream.reconfigure(errors="backslashreplace")  # type: ignore[union-attr]  # a TextIOWrapper
 
 
 def _closed_pipe() -> int:

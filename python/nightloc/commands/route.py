@@ -191,7 +191,7 @@ def ground_truth_for(kind: str, reference: Traverse, query: Traverse, tolerance:
     if kind == "none":
         return None, "none", "--ground-truth none"
     if kind == "positions":
-        if not (reference.has_poses and query.has_poses):
+        if reference.positions is None or query.positions is None:
             raise ValueError("--ground-truth positions needs poses in both traverses (poses.csv or a video's CSV)")
         metres = DEFAULT_METRE_TOLERANCE if tolerance is None else tolerance
         return GroundTruth.from_positions(query.positions, reference.positions, metres), "positions", ""
@@ -249,7 +249,8 @@ def matches_csv(result: RouteResult, query_names: Sequence[str], ref_names: Sequ
     ``numpy.loadtxt(..., usecols=(0, 1, 2))`` reads the numbers)."""
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    filtered = result.confidence is not None and result.off_route is not None
+    confidence, off_route = result.confidence, result.off_route
+    filtered = confidence is not None and off_route is not None
     writer.writerow(
         ["query", "ref", "score", "query_image", "ref_image", *(["confidence", "off_route"] if filtered else [])]
     )
@@ -263,8 +264,8 @@ def matches_csv(result: RouteResult, query_names: Sequence[str], ref_names: Sequ
             query_names[q],
             ref_names[ref] if matched else "",
         ]
-        if filtered:
-            row += [_number(result.confidence[q]), _number(result.off_route[q])]
+        if confidence is not None and off_route is not None:
+            row += [_number(confidence[q]), _number(off_route[q])]
         writer.writerow(row)
     return buffer.getvalue()
 

@@ -322,6 +322,7 @@ def atomic_file(
         temporary = _temporary_name(target)
         handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # the umask applies
         try:
+            stream: IO
             if mode == "w":  # file names that are not UTF-8 are written back as their own bytes
                 stream = os.fdopen(handle, "w", encoding=encoding or "utf-8", errors="surrogateescape", newline=newline)
             else:

@@ -66,8 +66,8 @@ def list_images(folder: Path) -> list[str]:
     pipe, a device, a socket, a symbolic link loop or a dangling link): it could not be read
     later, so it is named now. Sub-folders are not entries of the listing.
     """
-    names = []
-    odd = []
+    names: list[str] = []
+    odd: list[str] = []
     with os.scandir(folder) as entries:
         for entry in entries:
             if entry.name.startswith(".") or Path(entry.name).suffix.lower() not in IMAGE_SUFFIXES:

@@ -39,7 +39,7 @@ class PoseRow:
 
     __slots__ = ("heading", "key", "line", "x", "y")
 
-    def __init__(self, line: int, key: object, x: float, y: float, heading: float | None):
+    def __init__(self, line: int, key: str | int, x: float, y: float, heading: float | None):
         self.line, self.key, self.x, self.y, self.heading = line, key, x, y, heading
 
 
@@ -91,8 +91,8 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
             reader = csv.reader(handle)
             header: list | None = None
             header_line = 0
-            rows = []
-            seen = {}
+            rows: list[PoseRow] = []
+            seen: dict[str | int, int] = {}
             for fields in reader:
                 line = reader.line_num
                 if not any(field.strip() for field in fields):
@@ -122,7 +122,7 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
                     )
                 raw_key = fields[index[key_column]]
                 if key_column == "frame":
-                    key: object = _parse_frame(raw_key, file, line)
+                    key: str | int = _parse_frame(raw_key, file, line)
                 else:
                     key = raw_key.strip()
                     if not key:

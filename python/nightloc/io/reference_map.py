@@ -339,7 +339,7 @@ class ReferenceMap:
         if self._headings is not None:
             arrays["headings"] = self._headings
         with atomic_file(target, "wb", overwrite=overwrite) as stream:
-            np.savez(stream, **arrays)
+            np.savez(stream, **arrays)  # type: ignore[arg-type]  # numpy's stub: allow_pickle
         return target
 
     @classmethod

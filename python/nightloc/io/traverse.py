@@ -328,24 +328,25 @@ def _load_folder(root: Path, frame_step: int, poses: Path | None) -> Traverse:
     rows, has_heading = read_pose_csv(pose_file, "image")
     missing = []
     for row in rows:
-        if not _inside(row.key):
-            raise DatasetError(f"{pose_file} line {row.line}: image {row.key!r} must be a file name inside {image_dir}")
-        if not (image_dir / row.key).is_file():
+        name = str(row.key)
+        if not _inside(name):
+            raise DatasetError(f"{pose_file} line {row.line}: image {name!r} must be a file name inside {image_dir}")
+        if not (image_dir / name).is_file():
             missing.append(row)
     if missing:
         first = missing[0]
         more = f" ({len(missing) - 1} more files named in it are missing too)" if len(missing) > 1 else ""
         try:
-            check_regular(image_dir / first.key, "image", DatasetError)
+            check_regular(image_dir / str(first.key), "image", DatasetError)
         except DatasetError as error:
-            if os.path.lexists(image_dir / first.key):  # there, but a folder, a FIFO, a link loop, ...
+            if os.path.lexists(image_dir / str(first.key)):  # there, but a folder, a FIFO, a link loop, ...
                 raise DatasetError(f"{pose_file} line {first.line}: {error}{more}") from None
         raise DatasetError(f"{pose_file} line {first.line}: image {first.key!r} does not exist in {image_dir}{more}")
     rows = rows[::frame_step]
     positions, headings = poses_from_rows(rows, has_heading)
     return Traverse(
         root=root,
-        names=[row.key for row in rows],
+        names=[str(row.key) for row in rows],
         positions=positions,
         headings=headings,
         image_dir=image_dir,
@@ -362,20 +363,21 @@ def _load_video(file: Path, frame_step: int, poses: Path | None) -> Traverse:
         return Traverse(root=file, names=[label.format(f) for f in frames], video=file, frame_indices=frames)
     check_regular(poses, "poses file", DatasetError)
     rows, has_heading = read_pose_csv(poses, "frame")
+    frame_of = {id(row): int(row.key) for row in rows}  # the key column of a video's CSV is the frame index
     for row in rows:
-        if row.key >= count:
+        if frame_of[id(row)] >= count:
             raise DatasetError(f"{poses} line {row.line}: frame {row.key} is past the end of {file} ({count} frames)")
-    rows = sorted((row for row in rows if row.key % frame_step == 0), key=lambda row: row.key)
+    rows = sorted((row for row in rows if frame_of[id(row)] % frame_step == 0), key=lambda row: frame_of[id(row)])
     if not rows:
         raise DatasetError(f"{poses}: no frame index is a multiple of frame_step={frame_step}")
     positions, headings = poses_from_rows(rows, has_heading)
     return Traverse(
         root=file,
-        names=[label.format(row.key) for row in rows],
+        names=[label.format(frame_of[id(row)]) for row in rows],
         positions=positions,
         headings=headings,
         video=file,
-        frame_indices=[row.key for row in rows],
+        frame_indices=[frame_of[id(row)] for row in rows],
         poses_file=poses,
         lines=[row.line for row in rows],
     )
