@@ -111,3 +111,59 @@ def test_core(benchmark, n, threads):
         assert round(evaluation.recall_at_100, 3) == (0.402 if n == 500 else 0.355)
     else:
         assert evaluation.recall_at_100 > 0.5
+
+
+# --------------------------------------------------------------------------------------------
+# The search alone over one enhanced 3576 x 3576 matrix: SeqSLAM's trajectory search against the
+# route filter (issue 14: the filter's whole search must cost less than SeqSLAM's). Nordland with
+# the default ("nightloc") preparation when present, else synthetic frames of the same size.
+
+_search_cache: dict = {}
+
+
+def nightloc_enhanced(n=3576):
+    """(enhanced matrix with the causal offset, texture weights, real) for the default preparation."""
+    if n in _search_cache:
+        return _search_cache[n]
+    root = shared_data_dir() / "nordland"
+    params = route.RouteParams()
+    preparer = route.RoutePreparer(params)
+    if (root / "summer").is_dir():
+        names = sorted(p.name for p in (root / "summer").iterdir() if p.suffix == ".png")[:n]
+
+        def load(season):
+            return preparer([cv2.imread(str(root / season / name), cv2.IMREAD_COLOR) for name in names])
+
+        refs, queries, real = load("summer"), load("winter"), len(names) == n
+    else:
+        refs, queries, _ = ro.synthetic_route(n, n, speed=1.0, seed=n, height=32, width=64)
+        refs, queries, real = preparer(refs), preparer(queries), False
+    difference = route.route_difference_matrix(queries, refs, params)
+    enhanced = route.enhance_contrast(difference, params, offset="bound")
+    _search_cache.clear()
+    _search_cache[n] = (enhanced, route.texture_weights(queries, params.filter_min_texture), real)
+    return _search_cache[n]
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_search_seqslam(benchmark, threads):
+    enhanced, _, _ = nightloc_enhanced()
+    benchmark.group = "route search only, 3576 x 3576 (enhanced matrix given)"
+    params = route.RouteParams(method="seqslam")
+    refs, scores = benchmark.pedantic(route.trajectory_search, args=(enhanced, params, threads), rounds=2)
+    truth = route.GroundTruth.from_frames(len(refs), enhanced.shape[1], 2)
+    benchmark.extra_info["recall_at_100"] = round(route.evaluate_matches(refs, scores, truth).recall_at_100, 4)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_search_filter(benchmark, threads):
+    enhanced, weights, real = nightloc_enhanced()
+    benchmark.group = "route search only, 3576 x 3576 (enhanced matrix given)"
+    refs, confidence, _ = benchmark.pedantic(
+        route.route_filter, args=(enhanced, route.RouteParams(), weights, threads), rounds=3
+    )
+    truth = route.GroundTruth.from_frames(len(refs), enhanced.shape[1], 2)
+    evaluation = route.evaluate_matches(refs, 1.0 - confidence, truth)
+    benchmark.extra_info["recall_at_100"] = round(evaluation.recall_at_100, 4)
+    if real:
+        assert evaluation.best_f1 >= 0.92 and evaluation.recall_at_100 >= 0.65  # issue-14 targets

@@ -2,7 +2,8 @@
 
 One 48x24 query against N references at all 48 shifts = N * 55 296 byte comparisons. Each
 group holds the best vectorized numpy formulation and the core (1 thread, 2 threads, every SIMD
-path); `extra_info["G_per_s"]` is byte comparisons per second (10^9). Results are asserted equal.
+path, both accumulations of the AVX-512 all-shift kernel beside the per-CPU default);
+`extra_info["G_per_s"]` is byte comparisons per second (10^9). Results are asserted equal.
 
     python -m pytest benchmarks --benchmark-only --benchmark-columns=min,median
 """
@@ -16,6 +17,8 @@ import numpy as np
 import pytest
 
 import nightloc
+from nightloc import _core
+from nightloc._core import ALL_SIMD_BACKENDS as ALL_BACKENDS  # every path the core knows
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import oracle
@@ -67,7 +70,7 @@ def test_core(benchmark, n, threads):
         np.testing.assert_array_equal(result.shifts, best)
 
 
-@pytest.mark.parametrize("backend", ["scalar", "sse2", "avx2", "avx512bw"])
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
 def test_core_simd_paths(benchmark, backend):
     if backend not in nightloc.available_simd_backends():
         pytest.skip(f"this CPU does not support {backend}")
@@ -76,6 +79,29 @@ def test_core_simd_paths(benchmark, backend):
     benchmark.group = f"rotational SAD by SIMD path, N={n}, 1 thread"
     with nightloc.use_simd_backend(backend):
         result = benchmark(nightloc.match, query, refs, threads=1)
+    record(benchmark, n)
+    np.testing.assert_array_equal(result.shifts, np.argmin(expected, axis=1))
+
+
+@pytest.mark.parametrize("variant", ["default", "vpaddw", "vnni"])
+@pytest.mark.parametrize("n", [500, 5000])
+def test_core_avx512_variants(benchmark, n, variant):
+    """The avx512bw all-shift kernel's accumulations, forced, beside the one chosen for this CPU."""
+    if "avx512bw" not in nightloc.available_simd_backends():
+        pytest.skip("this CPU does not support avx512bw")
+    if variant != "default" and variant not in _core.available_avx512_sad_variants():
+        pytest.skip(f"this CPU cannot run the {variant} variant")
+    query, refs, expected = problem(n)
+    chosen = _core.avx512_sad_variant()
+    benchmark.group = f"AVX-512 all-shift variants, N={n}, 1 thread"
+    benchmark.extra_info["variant"] = chosen[0] if variant == "default" else variant
+    benchmark.extra_info["default_reason"] = chosen[1]
+    _core.set_avx512_sad_variant(None if variant == "default" else variant)
+    try:
+        with nightloc.use_simd_backend("avx512bw"):
+            result = benchmark(nightloc.match, query, refs, threads=1)
+    finally:
+        _core.set_avx512_sad_variant(None)
     record(benchmark, n)
     np.testing.assert_array_equal(result.shifts, np.argmin(expected, axis=1))
 

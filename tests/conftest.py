@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 import nightloc
+from nightloc._core import ALL_SIMD_BACKENDS as ALL_BACKENDS  # every path the core knows
 
 sys.path.insert(0, str(Path(__file__).parent))  # tests/oracle.py
 
@@ -28,7 +29,7 @@ def shared_data() -> Path:
     return root
 
 
-@pytest.fixture(params=["scalar", "sse2", "avx2", "avx512bw"])
+@pytest.fixture(params=ALL_BACKENDS)
 def simd_path(request):
     """Runs the test once on every SIMD path; paths this CPU lacks are skipped with the reason."""
     if request.param not in nightloc.available_simd_backends():

@@ -99,7 +99,8 @@ def find_matches_centred(dd: np.ndarray, ds: int = 10, vmin: float = 0.8, vmax: 
             total = np.zeros(n_ref + 1, F32)
             for k in range(ds + 1):
                 rows = np.minimum(starts + off[k], n_ref)
-                total = (total + padded[columns[k], rows]).astype(F32)
+                with np.errstate(over="ignore", invalid="ignore"):  # inf and NaN propagate as in the core
+                    total = (total + padded[columns[k], rows]).astype(F32)
             per_velocity[vi] = total
         anchor = np.fmin.reduce(per_velocity, axis=0)  # min over speeds, NaN ignored
         index, ratio = _decide(anchor, rwindow // 2)
@@ -158,3 +159,107 @@ def synthetic_route(
         darker = 0.6 * source + 20 + rng.normal(0, noise, size=source.shape)
         queries[q] = np.clip(darker, 0, 255).astype(np.uint8)
     return refs, queries, truth
+
+
+# --------------------------------------------------------------------------------------------
+# the route filter (nightloc.route.filter), from its definition
+
+
+def _triangle_antiderivative(t: float) -> float:
+    """Integral of max(0, 1 - |u|) du from -inf to t."""
+    if t <= -1.0:
+        return 0.0
+    if t <= 0.0:
+        return 0.5 * (t + 1.0) ** 2
+    if t <= 1.0:
+        return 1.0 - 0.5 * (1.0 - t) ** 2
+    return 1.0
+
+
+def motion_kernel(vmin: float, vmax: float, backward: float) -> dict:
+    """{advance k: probability} of the filter's prediction. An advance floor(x + v), x ~ U[0, 1),
+    lands on k with probability max(0, 1 - |v - k|) (the overlap of [v, v+1) with [k, k+1)),
+    averaged over v ~ U[vmin, vmax] with the triangle's antiderivative; a step of -1 with
+    probability ``backward`` replaces it."""
+    kernel = {}
+    for k in range(math.floor(vmin) - 1, math.floor(vmax) + 3):
+        if vmax > vmin:
+            weight = (_triangle_antiderivative(vmax - k) - _triangle_antiderivative(vmin - k)) / (vmax - vmin)
+        else:
+            weight = max(0.0, 1.0 - abs(vmin - k))
+        if weight > 1e-15:
+            kernel[k] = weight * (1.0 - backward)
+    if backward > 0:
+        kernel[-1] = kernel.get(-1, 0.0) + backward
+    return kernel
+
+
+def filter_predict(belief: np.ndarray, off: float, p) -> tuple[np.ndarray, float]:
+    """The prediction of (belief over n references, off-route probability) by one frame, with a
+    RouteParams-like ``p`` (vmin, vmax, filter_backward, filter_floor, filter_leave,
+    filter_rejoin)."""
+    n = belief.size
+    on = belief.sum()
+    predicted = np.zeros(n)
+    for k, weight in sorted(motion_kernel(p.vmin, p.vmax, p.filter_backward).items()):
+        if k >= 0:
+            predicted[k:] += weight * belief[: n - k] if k < n else 0.0
+        else:
+            predicted[: n + k] += weight * belief[-k:]
+    moved = predicted.sum()
+    predicted = predicted * (on / moved) if moved > 0 else np.full(n, on / n)
+    predicted = (1 - p.filter_floor) * predicted + p.filter_floor * on / n
+    predicted = (1 - p.filter_leave) * predicted + off * p.filter_rejoin / n
+    off = off * (1 - p.filter_rejoin) + on * p.filter_leave
+    return predicted, off
+
+
+def filter_likelihood(row: np.ndarray, sharpness: float, clip: float) -> np.ndarray:
+    """exp(-sharpness * min(z, clip)) scaled to a maximum of 1, z the row standardized by the
+    mean and population standard deviation of its finite values (non-finite: z = 0); ones when
+    the row has no spread or sharpness is 0."""
+    x = np.asarray(row, dtype=np.float64)
+    finite = np.isfinite(x)
+    if not finite.any():
+        return np.ones(x.size)
+    mean = x[finite].mean()
+    sd = np.sqrt(np.mean((x[finite] - mean) ** 2))
+    if sharpness <= 0 or sd <= 0:
+        return np.ones(x.size)
+    with np.errstate(invalid="ignore"):
+        z = np.where(finite, (x - mean) / sd, 0.0)
+    log_l = -sharpness * np.minimum(z, clip)
+    return np.exp(log_l - log_l.max())
+
+
+def route_filter(matrix: np.ndarray, p, weights=None):
+    """The filter over the rows of ``matrix`` from the uniform belief.
+
+    Returns (refs int64, confidence, off_route, final belief)."""
+    n_query, n = matrix.shape
+    belief, off = np.full(n, 1.0 / n), 0.0
+    refs = np.empty(n_query, np.int64)
+    confidence = np.empty(n_query)
+    off_route = np.empty(n_query)
+    for q in range(n_query):
+        predicted, off = filter_predict(belief, off, p)
+        weight = 1.0 if weights is None else float(weights[q])
+        likelihood = filter_likelihood(matrix[q], p.filter_sharpness * weight, p.filter_clip)
+        off *= likelihood.mean()
+        belief = predicted * likelihood
+        total = belief.sum() + off
+        belief, off = belief / total, off / total
+        best = int(np.argmax(belief))
+        refs[q] = best
+        confidence[q] = belief[max(0, best - p.filter_window) : best + p.filter_window + 1].sum()
+        off_route[q] = off
+    return refs, confidence, off_route, belief
+
+
+def texture_weights(images: np.ndarray, min_texture: float) -> np.ndarray:
+    """min(1, mean |pixel - image mean| / min_texture) per image (1 when min_texture is 0)."""
+    if min_texture <= 0:
+        return np.ones(len(images))
+    flat = images.reshape(len(images), -1).astype(np.float64)
+    mad = np.abs(flat - flat.mean(axis=1, keepdims=True)).mean(axis=1)
+    return np.minimum(1.0, mad / min_texture)

@@ -1,125 +1,31 @@
-// pybind11 glue for the per-frame path of the robot: frame preparation (nightloc/prepare.hpp)
-// and the heat-map sequence kernels (nightloc/heatmap.hpp). Checks every input and releases the
-// GIL around the work. The documented API is python/nightloc (preparation.py, sequence.py,
-// localizer.py); this is their private engine (see _core.pyi).
-#include <pybind11/numpy.h>
-#include <pybind11/pybind11.h>
-#include <pybind11/stl.h>
-
+// pybind11 glue for localization (nightloc.localization): heat-map interpolation weights, the
+// translated sum of a frame sequence with its peak search (nightloc/heatmap.hpp), the
+// translation kernel itself, and the grid Bayes filter (nightloc/grid_filter.hpp).
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <memory>
-#include <stdexcept>
 #include <string>
-#include <tuple>
 #include <vector>
 
+#include "glue.hpp"
 #include "nightloc/grid_filter.hpp"
 #include "nightloc/heatmap.hpp"
-#include "nightloc/prepare.hpp"
-
-namespace py = pybind11;
 
 namespace {
 
-std::string shape_string(const py::array& a) {
-    std::string s = "(";
-    for (py::ssize_t d = 0; d < a.ndim(); ++d) s += (d ? ", " : "") + std::to_string(a.shape(d));
-    return s + (a.ndim() == 1 ? ",)" : ")");
-}
+using nightloc::glue::checked_array;
+using nightloc::glue::without_gil;
 
-nightloc::PixelOrder order_from_name(const std::string& name) {
-    if (name == "grey") return nightloc::PixelOrder::grey;
-    if (name == "bgr") return nightloc::PixelOrder::bgr;
-    if (name == "rgb") return nightloc::PixelOrder::rgb;
-    if (name == "bgra") return nightloc::PixelOrder::bgra;
-    if (name == "rgba") return nightloc::PixelOrder::rgba;
-    throw py::value_error("unknown pixel order '" + name + "'; expected grey, bgr, rgb, bgra or rgba");
-}
-
-nightloc::Equalization equalization_from_name(const std::string& name) {
-    if (name == "global") return nightloc::Equalization::global;
-    if (name == "none") return nightloc::Equalization::none;
-    throw py::value_error("the core equalizes 'global' or 'none', got '" + name + "' (CLAHE runs in OpenCV)");
-}
-
-const char* method_name(nightloc::DownsampleMethod method) {
-    switch (method) {
-        case nightloc::DownsampleMethod::copy: return "copy";
-        case nightloc::DownsampleMethod::integral: return "integral";
-        case nightloc::DownsampleMethod::blocks: return "blocks";
-        case nightloc::DownsampleMethod::weights: return "weights";
-        case nightloc::DownsampleMethod::unsupported: return "unsupported";
-    }
-    return "unsupported";
-}
-
-// A view of a uint8 (H, W) or (H, W, C) frame with packed pixels (any row stride).
-nightloc::FrameView frame_view(const py::array& frame, nightloc::PixelOrder order) {
-    if (!py::isinstance<py::array_t<std::uint8_t>>(frame)) {
-        throw py::type_error("frame must have dtype uint8, got " + std::string(py::str(frame.dtype())));
-    }
-    const std::size_t channels = nightloc::pixel_bytes(order);
-    const bool grey = order == nightloc::PixelOrder::grey;
-    if (grey ? frame.ndim() != 2 : (frame.ndim() != 3 || frame.shape(2) != static_cast<py::ssize_t>(channels))) {
-        throw py::value_error("frame of shape " + shape_string(frame) + " does not hold " +
-                              (grey ? std::string("grey (H, W)") : "(H, W, " + std::to_string(channels) + ")") +
-                              " pixels");
-    }
-    const auto height = static_cast<std::size_t>(frame.shape(0));
-    const auto width = static_cast<std::size_t>(frame.shape(1));
-    const bool packed = frame.strides(1) == static_cast<py::ssize_t>(channels) && (grey || frame.strides(2) == 1);
-    const py::ssize_t row_stride = height > 1 ? frame.strides(0) : static_cast<py::ssize_t>(width * channels);
-    if (!packed || row_stride < static_cast<py::ssize_t>(width * channels)) {
-        throw py::value_error("frame pixels must be packed row by row (use numpy.ascontiguousarray)");
-    }
-    return {static_cast<const std::uint8_t*>(frame.data()), height, width, static_cast<std::size_t>(row_stride), order};
-}
-
-using Crop = std::tuple<std::size_t, std::size_t, std::size_t, std::size_t>;  // top, bottom, left, right
-
-py::array prepare_frame(const py::array& frame, const std::string& order_name, const Crop& crop,
-                        const std::string& equalize, std::size_t width, std::size_t height, bool normalize, int radius,
-                        bool wrap, double scale) {
-    const nightloc::FrameView view = frame_view(frame, order_from_name(order_name));
-    nightloc::PrepareSettings settings;
-    std::tie(settings.crop_top, settings.crop_bottom, settings.crop_left, settings.crop_right) = crop;
-    settings.equalize = equalization_from_name(equalize);
-    settings.width = width;
-    settings.height = height;
-    settings.normalize = normalize;
-    settings.radius = radius;
-    settings.wrap = wrap;
-    settings.scale = scale;
-    py::array_t<std::uint8_t> out({static_cast<py::ssize_t>(height), static_cast<py::ssize_t>(width)});
-    std::uint8_t* o = out.mutable_data();
-    {
-        py::gil_scoped_release release;
-        // one workspace per thread: its buffers (a grey copy of the frame) are reused across frames
-        // (std::invalid_argument becomes ValueError)
-        thread_local nightloc::PrepareWorkspace workspace;
-        nightloc::prepare_frame(view, settings, o, workspace);
-    }
-    return std::move(out);
-}
-
-// ---------------------------------------------------------------------------------------------
-// heat maps
-
+// A C-contiguous 1-D array of T.
 template <class T>
-py::array_t<T, py::array::c_style> checked_vector(const py::array& a, const char* name, const char* dtype) {
-    if (!py::isinstance<py::array_t<T>>(a)) {
-        throw py::type_error(std::string(name) + " must have dtype " + dtype + ", got " +
-                             std::string(py::str(a.dtype())));
-    }
-    if (a.ndim() != 1) throw py::value_error(std::string(name) + " must be 1-D, got shape " + shape_string(a));
-    if (!(a.flags() & py::array::c_style)) throw py::value_error(std::string(name) + " must be C-contiguous");
-    return py::reinterpret_borrow<py::array_t<T, py::array::c_style>>(a);
+nightloc::glue::CArray<T> checked_vector(const py::array& a, const char* name) {
+    return checked_array<T>(a, name, 1);
 }
 
 template <class T>
-std::vector<T> vector_of(const py::array& a, const char* name, const char* dtype) {
-    const auto v = checked_vector<T>(a, name, dtype);
+std::vector<T> vector_of(const py::array& a, const char* name) {
+    const auto v = checked_vector<T>(a, name);
     return std::vector<T>(v.data(), v.data() + v.size());
 }
 
@@ -127,10 +33,9 @@ std::vector<T> vector_of(const py::array& a, const char* name, const char* dtype
 template <class T>
 void add_translated_typed(const py::array& out_in, const py::array& source_in, std::size_t height, std::size_t width,
                           std::size_t stride, double shift_x, double shift_y) {
-    const char* dtype = sizeof(T) == 4 ? "float32" : "float64";
-    const auto source = checked_vector<T>(source_in, "source", dtype);
-    const auto out = checked_vector<T>(out_in, "out", dtype);
-    if (!out_in.writeable()) throw py::value_error("out must be writable");
+    const auto source = checked_vector<T>(source_in, "source");
+    const auto out = checked_vector<T>(out_in, "out");
+    nightloc::glue::require_writable(out_in, "out");
     if (height == 0 || width == 0 || stride < width) throw py::value_error("invalid map layout");
     const std::size_t needed = (height - 1) * stride + width;
     if (static_cast<std::size_t>(source.size()) < needed || static_cast<std::size_t>(out.size()) < needed) {
@@ -139,18 +44,17 @@ void add_translated_typed(const py::array& out_in, const py::array& source_in, s
     const T* src = source.data();
     py::array writable = out_in;  // a second handle: mutable_data() is non-const
     T* dst = static_cast<T*>(writable.mutable_data());
-    py::gil_scoped_release release;
-    nightloc::add_translated(src, stride, dst, stride, height, width, shift_x, shift_y);
+    without_gil([&] { nightloc::add_translated(src, stride, dst, stride, height, width, shift_x, shift_y); });
 }
 
 void add_translated(const py::array& out, const py::array& source, std::size_t height, std::size_t width,
                     std::size_t stride, double shift_x, double shift_y) {
-    if (py::isinstance<py::array_t<float>>(out)) {
+    if (nightloc::glue::has_dtype<float>(out)) {
         add_translated_typed<float>(out, source, height, width, stride, shift_x, shift_y);
-    } else if (py::isinstance<py::array_t<double>>(out)) {
+    } else if (nightloc::glue::has_dtype<double>(out)) {
         add_translated_typed<double>(out, source, height, width, stride, shift_x, shift_y);
     } else {
-        throw py::type_error("out must have dtype float32 or float64, got " + std::string(py::str(out.dtype())));
+        throw py::type_error("out must have dtype float32 or float64, got " + nightloc::glue::dtype_text(out));
     }
 }
 
@@ -158,10 +62,9 @@ using Weights = std::shared_ptr<nightloc::HeatWeights>;  // pybind11 holders are
 
 Weights make_weights(std::size_t height, std::size_t width, std::size_t n_places, const py::array& indptr,
                      const py::array& indices, const py::array& data) {
-    return std::make_shared<nightloc::HeatWeights>(height, width, n_places,
-                                                         vector_of<std::int32_t>(indptr, "indptr", "int32"),
-                                                         vector_of<std::int32_t>(indices, "indices", "int32"),
-                                                         vector_of<float>(data, "data", "float32"));
+    return std::make_shared<nightloc::HeatWeights>(height, width, n_places, vector_of<std::int32_t>(indptr, "indptr"),
+                                                   vector_of<std::int32_t>(indices, "indices"),
+                                                   vector_of<float>(data, "data"));
 }
 
 py::array map_copy(const float* values, std::size_t height, std::size_t width) {
@@ -177,27 +80,26 @@ public:
         : weights_(weights), sequence_(std::move(weights), capacity) {
         exclusion_.rows = rows;
         exclusion_.cols = cols;
-        exclusion_.mask = vector_of<std::uint8_t>(mask, "mask", "uint8");
+        exclusion_.mask = vector_of<std::uint8_t>(mask, "mask");
         if (exclusion_.mask.size() != (2 * rows + 1) * (2 * cols + 1)) {
             throw py::value_error("mask must hold (2 rows + 1) x (2 cols + 1) flags");
         }
     }
 
     void push(const py::array& values_in, double fill) {
-        const auto values = checked_vector<float>(values_in, "place values", "float32");
+        const auto values = checked_vector<float>(values_in, "place values");
         if (static_cast<std::size_t>(values.size()) != sequence_.weights().places()) {
             throw py::value_error("place values must have " + std::to_string(sequence_.weights().places()) +
                                   " entries, got " + std::to_string(values.size()));
         }
         const float* v = values.data();
-        py::gil_scoped_release release;
-        sequence_.push(v, fill);
+        without_gil([&] { sequence_.push(v, fill); });
     }
 
     // (fill sum, cell, peak, floor, second or None) of the fused map.
     py::tuple fuse_peak(const py::array& offsets_in) {
         if (sequence_.size() == 0) throw py::value_error("the sequence is empty");
-        if (!py::isinstance<py::array_t<double>>(offsets_in) || offsets_in.ndim() != 2 || offsets_in.shape(1) != 2 ||
+        if (!nightloc::glue::has_dtype<double>(offsets_in) || offsets_in.ndim() != 2 || offsets_in.shape(1) != 2 ||
             !(offsets_in.flags() & py::array::c_style)) {
             throw py::type_error("offsets must be a C-contiguous float64 (k, 2) array");
         }
@@ -210,14 +112,13 @@ public:
         for (py::ssize_t i = 0; i < 2 * offsets_in.shape(0); ++i) {
             if (!std::isfinite(offsets[i])) throw py::value_error("offsets must be finite");
         }
-        double fill_sum;
+        double fill_sum = 0.0;
         nightloc::HeatPeak peak;
-        {
-            py::gil_scoped_release release;
+        without_gil([&] {
             fill_sum = sequence_.fuse(offsets);
             const auto& w = sequence_.weights();
             peak = nightloc::find_peak(sequence_.fused(), w.height(), w.width(), exclusion_);
-        }
+        });
         if (!peak.finite) throw py::value_error("heat map contains NaN or infinity");
         return py::make_tuple(fill_sum, peak.cell, peak.peak, peak.floor,
                               peak.has_second ? py::object(py::float_(peak.second)) : py::object(py::none()));
@@ -240,7 +141,7 @@ public:
 
     void restore(const py::array& frames_in, const std::vector<double>& fills) {
         const auto& w = sequence_.weights();
-        if (!py::isinstance<py::array_t<float>>(frames_in) || frames_in.ndim() != 3 ||
+        if (!nightloc::glue::has_dtype<float>(frames_in) || frames_in.ndim() != 3 ||
             static_cast<std::size_t>(frames_in.shape(0)) != fills.size() ||
             static_cast<std::size_t>(frames_in.shape(1)) != w.height() ||
             static_cast<std::size_t>(frames_in.shape(2)) != w.width()) {
@@ -290,7 +191,7 @@ py::array_t<float, py::array::c_style> checked_table(const py::array& a, std::si
     if (a.ndim() != 2 || static_cast<std::size_t>(a.shape(0)) != n_refs ||
         static_cast<std::size_t>(a.shape(1)) != n_shifts) {
         throw py::value_error("table must be (" + std::to_string(n_refs) + ", " + std::to_string(n_shifts) +
-                              ") (references, shifts), got shape " + shape_string(a));
+                              ") (references, shifts), got shape " + nightloc::glue::shape_text(a));
     }
     if (!(a.flags() & py::array::c_style)) throw py::value_error("table must be C-contiguous");
     const auto t = py::reinterpret_borrow<py::array_t<float, py::array::c_style>>(a);
@@ -333,7 +234,7 @@ public:
         }
         if (static_cast<std::size_t>(refs_in.shape(0)) != filter_.n_refs() || refs_in.shape(1) != query_in.shape(0) ||
             refs_in.shape(2) != query_in.shape(1)) {
-            throw py::value_error("refs " + shape_string(refs_in) + " do not fit the query " + shape_string(query_in) +
+            throw py::value_error("refs " + nightloc::glue::shape_text(refs_in) + " do not fit the query " + nightloc::glue::shape_text(query_in) +
                                   " and the filter's " + std::to_string(filter_.n_refs()) + " references");
         }
         check_motion(kind, a, b, c);
@@ -425,10 +326,10 @@ private:
         map.y0 = y0;
         map.dx = dx;
         map.dy = dy;
-        map.place_of_ref = vector_of<std::int32_t>(place_of_ref, "place_of_ref", "int32");
-        if (!ref_headings.is_none()) map.ref_headings = vector_of<double>(ref_headings.cast<py::array>(), "ref_headings", "float64");
+        map.place_of_ref = vector_of<std::int32_t>(place_of_ref, "place_of_ref");
+        if (!ref_headings.is_none()) map.ref_headings = vector_of<double>(ref_headings.cast<py::array>(), "ref_headings");
         map.columns = columns;
-        map.shifts = vector_of<std::int32_t>(shifts, "shifts", "int32");
+        map.shifts = vector_of<std::int32_t>(shifts, "shifts");
         return map;
     }
 
@@ -544,17 +445,14 @@ void register_localization(py::module_& m) {
         .def(
             "interpolate",
             [](const nightloc::HeatWeights& w, const py::array& values_in) {
-                const auto values = checked_vector<float>(values_in, "place values", "float32");
+                const auto values = checked_vector<float>(values_in, "place values");
                 if (static_cast<std::size_t>(values.size()) != w.places()) {
                     throw py::value_error("place values must have " + std::to_string(w.places()) + " entries");
                 }
                 py::array_t<float> out({static_cast<py::ssize_t>(w.height()), static_cast<py::ssize_t>(w.width())});
                 float* o = out.mutable_data();
                 const float* v = values.data();
-                {
-                    py::gil_scoped_release release;
-                    w.interpolate(v, o);
-                }
+                without_gil([&] { w.interpolate(v, o); });
                 return out;
             },
             py::arg("values"), "The (height, width) float32 map of per-place values.");
@@ -577,16 +475,4 @@ void register_localization(py::module_& m) {
                         }))
         .def_property_readonly("size", &Sequence::size)
         .def_property_readonly("capacity", &Sequence::capacity);
-
-    m.def("prepare_frame", &prepare_frame, py::arg("frame"), py::arg("order"), py::arg("crop"), py::arg("equalize"),
-          py::arg("width"), py::arg("height"), py::arg("normalize"), py::arg("radius"), py::arg("wrap"),
-          py::arg("scale"),
-          "Crop, grey, equalize, area-downsample and patch-normalize one uint8 frame (nightloc/prepare.hpp).");
-    m.def(
-        "downsample_method",
-        [](std::size_t in_height, std::size_t in_width, std::size_t out_height, std::size_t out_width) {
-            return std::string(method_name(nightloc::downsample_method(in_height, in_width, out_height, out_width)));
-        },
-        py::arg("in_height"), py::arg("in_width"), py::arg("out_height"), py::arg("out_width"),
-        "How prepare_frame downsamples: copy, integral, blocks, weights or unsupported (upsampling).");
 }

@@ -1,10 +1,6 @@
 // pybind11 glue for route mode (nightloc.route): contrast enhancement, trajectory search, and a
 // difference matrix written in place into a caller's array. Checks every input and releases the
 // GIL around the work. The documented API is python/nightloc/route.
-#include <pybind11/numpy.h>
-#include <pybind11/pybind11.h>
-#include <pybind11/stl.h>
-
 #include <algorithm>
 #include <cstdint>
 #include <limits>
@@ -12,48 +8,32 @@
 #include <string>
 #include <vector>
 
+#include "glue.hpp"
 #include "nightloc/sad.hpp"
+#include "nightloc/route_filter.hpp"
 #include "nightloc/seqslam.hpp"
-
-namespace py = pybind11;
 
 namespace {
 
-using F32Array = py::array_t<float, py::array::c_style>;
-using U8Array = py::array_t<std::uint8_t, py::array::c_style>;
+using nightloc::glue::checked_array;
+using nightloc::glue::extent;
+using nightloc::glue::shape_text;
+using nightloc::glue::without_gil;
 
-std::string shape_of(const py::array& a) {
-    std::string s = "(";
-    for (py::ssize_t d = 0; d < a.ndim(); ++d) s += (d ? ", " : "") + std::to_string(a.shape(d));
-    return s + (a.ndim() == 1 ? ",)" : ")");
-}
+using F32Array = nightloc::glue::CArray<float>;
 
-// A C-contiguous float32 matrix (rank 2), or TypeError/ValueError naming the problem.
+// A C-contiguous (n_query, n_ref) float32 matrix, writable if asked.
 F32Array checked_matrix(const py::array& a, const char* name, bool writable) {
-    // Equivalence, not identity: arrays rebuilt by pickle (e.g. on a Dask worker) may carry an
-    // equal dtype object that is not numpy's cached singleton.
-    if (!py::isinstance<py::array_t<float>>(a)) {
-        throw py::type_error(std::string(name) + " must have dtype float32, got " + std::string(py::str(a.dtype())) +
-                             " (convert with numpy.asarray(x, dtype=numpy.float32))");
-    }
-    if (a.ndim() != 2) {
-        throw py::value_error(std::string(name) + " must be 2-D (n_query, n_ref), got shape " + shape_of(a));
-    }
-    if (!(a.flags() & py::array::c_style)) {
-        throw py::value_error(std::string(name) + " must be C-contiguous (use numpy.ascontiguousarray)");
-    }
-    if (writable && !a.writeable()) throw py::value_error(std::string(name) + " must be writable");
-    return py::reinterpret_borrow<F32Array>(a);
+    F32Array matrix = checked_array<float>(a, name, 2, "(n_query, n_ref)");
+    if (writable) nightloc::glue::require_writable(a, name);
+    return matrix;
 }
 
-U8Array checked_stack(const py::array& a, const char* name) {
-    if (!py::isinstance<py::array_t<std::uint8_t>>(a)) {
-        throw py::type_error(std::string(name) + " must have dtype uint8, got " + std::string(py::str(a.dtype())));
-    }
-    if (a.ndim() != 3) throw py::value_error(std::string(name) + " must be 3-D, got shape " + shape_of(a));
-    if (!(a.flags() & py::array::c_style)) throw py::value_error(std::string(name) + " must be C-contiguous");
-    if (a.shape(0) == 0) throw py::value_error(std::string(name) + " is empty (no images)");
-    return py::reinterpret_borrow<U8Array>(a);
+// A C-contiguous, non-empty (n, h, w) uint8 image stack.
+nightloc::glue::CArray<std::uint8_t> checked_stack(const py::array& a, const char* name) {
+    auto stack = checked_array<std::uint8_t>(a, name, 3);
+    nightloc::glue::require_images(stack, name);
+    return stack;
 }
 
 nightloc::EnhanceOffset offset_from_name(const std::string& name) {
@@ -89,18 +69,15 @@ py::tuple enhance_contrast(const py::array& d_in, int radius, const std::string&
     } else {
         out = checked_matrix(out_in.cast<py::array>(), "out", true);
         if (out.shape(0) != d.shape(0) || out.shape(1) != d.shape(1)) {
-            throw py::value_error("out has shape " + shape_of(out) + " but d has shape " + shape_of(d));
+            throw py::value_error("out has shape " + shape_text(out) + " but d has shape " + shape_text(d));
         }
     }
     const float* src = d.data();
     float* dst = out.mutable_data();
-    float added = 0.0f;
-    {
-        py::gil_scoped_release release;
-        added = nightloc::enhance_contrast(src, dst, static_cast<std::size_t>(d.shape(0)),
-                                           static_cast<std::size_t>(d.shape(1)), static_cast<std::size_t>(radius),
-                                           offset, threads);
-    }
+    const float added = without_gil([&] {
+        return nightloc::enhance_contrast(src, dst, extent(d, 0), extent(d, 1), static_cast<std::size_t>(radius), offset,
+                                          threads);
+    });
     return py::make_tuple(std::move(out), added);
 }
 
@@ -122,13 +99,11 @@ py::tuple trajectory_search(const py::array& dd_in, int ds, double vmin, double 
         s[q] = std::numeric_limits<double>::quiet_NaN();
     }
     const float* m = dd.data();
-    {
-        py::gil_scoped_release release;
-        // std::invalid_argument (too few references) reaches Python as ValueError.
-        nightloc::trajectory_search(m, static_cast<std::size_t>(n_queries), static_cast<std::size_t>(dd.shape(1)),
-                                    plan, r, s, static_cast<std::size_t>(query_begin),
+    // std::invalid_argument (too few references) reaches Python as ValueError.
+    without_gil([&] {
+        nightloc::trajectory_search(m, extent(dd, 0), extent(dd, 1), plan, r, s, static_cast<std::size_t>(query_begin),
                                     static_cast<std::size_t>(query_end), threads);
-    }
+    });
     return py::make_tuple(std::move(refs), std::move(scores));
 }
 
@@ -148,38 +123,257 @@ py::dict trajectory_plan(int ds, double vmin, double vmax, int uniqueness_radius
 
 void difference_matrix_into(const py::array& queries_in, const py::array& refs_in, const py::array& shifts_in,
                             int threads, double divisor, const py::array& out_in) {
-    const U8Array queries = checked_stack(queries_in, "queries");
-    const U8Array refs = checked_stack(refs_in, "refs");
-    if (queries.shape(1) != refs.shape(1) || queries.shape(2) != refs.shape(2)) {
-        throw py::value_error("queries are " + std::to_string(queries.shape(1)) + " x " +
-                              std::to_string(queries.shape(2)) + " pixels but refs are " +
-                              std::to_string(refs.shape(1)) + " x " + std::to_string(refs.shape(2)));
-    }
-    if (!py::isinstance<py::array_t<std::int32_t>>(shifts_in) || shifts_in.ndim() != 1 || shifts_in.size() == 0) {
-        throw py::type_error("shifts must be a non-empty 1-D int32 array");
-    }
-    const auto shifts_view = py::reinterpret_borrow<py::array_t<std::int32_t>>(shifts_in).unchecked<1>();
-    std::vector<std::int32_t> shifts(static_cast<std::size_t>(shifts_view.shape(0)));
-    for (py::ssize_t i = 0; i < shifts_view.shape(0); ++i) shifts[static_cast<std::size_t>(i)] = shifts_view(i);
+    const auto queries = checked_stack(queries_in, "queries");
+    const auto refs = checked_stack(refs_in, "refs");
+    nightloc::glue::require_same_image_size(queries, 1, refs, "query");
+    const std::vector<std::int32_t> shifts = nightloc::glue::shift_list(shifts_in, true);
     F32Array out = checked_matrix(out_in, "out", true);
     if (out.shape(0) != queries.shape(0) || out.shape(1) != refs.shape(0)) {
-        throw py::value_error("out has shape " + shape_of(out) + ", expected (" + std::to_string(queries.shape(0)) +
+        throw py::value_error("out has shape " + shape_text(out) + ", expected (" + std::to_string(queries.shape(0)) +
                               ", " + std::to_string(refs.shape(0)) + ")");
     }
     if (!(divisor > 0.0)) throw py::value_error("divisor must be > 0");
     const std::uint8_t* q = queries.data();
     const std::uint8_t* r = refs.data();
     float* o = out.mutable_data();
+    without_gil([&] {
+        // Best shifts are not needed by route mode: a scratch buffer for this block of queries.
+        std::vector<std::int32_t> best_shifts(extent(queries, 0) * extent(refs, 0));
+        nightloc::difference_matrix(q, extent(queries, 0), r, extent(refs, 0), extent(refs, 1), extent(refs, 2),
+                                    shifts.data(), shifts.size(), o, best_shifts.data(), threads, divisor);
+    });
+}
+
+// ---- route filter (nightloc/route_filter.hpp) ----------------------------------------------
+
+// The filter's bindings use only checked_matrix / checked_stack / F32Array from above (kept the
+// same when the bindings moved to glue.hpp) and these two local helpers.
+std::string float_text(double value) { return std::to_string(value); }
+
+std::string filter_shape_text(const py::array& a) {
+    std::string s = "(";
+    for (py::ssize_t d = 0; d < a.ndim(); ++d) s += (d ? ", " : "") + std::to_string(a.shape(d));
+    return s + (a.ndim() == 1 ? ",)" : ")");
+}
+
+using FilterImage = py::array_t<std::uint8_t, py::array::c_style>;
+
+// A C-contiguous 1-D float32 row of n values.
+py::array_t<float, py::array::c_style> checked_row(const py::array& a, std::size_t n) {
+    if (!py::isinstance<py::array_t<float>>(a)) {
+        throw py::type_error("row must have dtype float32, got " + std::string(py::str(a.dtype())) +
+                             " (convert with numpy.asarray(x, dtype=numpy.float32))");
+    }
+    if (a.ndim() != 1 || static_cast<std::size_t>(a.shape(0)) != n) {
+        throw py::value_error("row must have shape (" + std::to_string(n) + ",) (one value per reference), got " +
+                              filter_shape_text(a));
+    }
+    if (!(a.flags() & py::array::c_style)) throw py::value_error("row must be C-contiguous");
+    return py::reinterpret_borrow<py::array_t<float, py::array::c_style>>(a);
+}
+
+py::tuple step_tuple(const nightloc::RouteFilterStep& s) {
+    return py::make_tuple(s.best, s.confidence, s.off_route);
+}
+
+nightloc::RouteFilter make_filter(std::size_t n_refs, const nightloc::RouteFilterParams& params) {
+    return nightloc::RouteFilter(n_refs, params);  // std::invalid_argument -> ValueError
+}
+
+// weights: None or n values in [0, 1] (copied), as a vector (empty for None).
+std::vector<double> checked_weights(const py::object& weights_in, std::size_t n) {
+    std::vector<double> weights;
+    if (weights_in.is_none()) return weights;
+    const auto w = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(weights_in);
+    if (!w || w.ndim() != 1 || static_cast<std::size_t>(w.shape(0)) != n) {
+        throw py::value_error("weights must be a 1-D array of " + std::to_string(n) +
+                              " values in [0, 1] (one per query)");
+    }
+    weights.assign(w.data(), w.data() + n);
+    for (double v : weights) {
+        if (!(v >= 0.0 && v <= 1.0)) throw py::value_error("weights must lie in [0, 1], got " + float_text(v));
+    }
+    return weights;
+}
+
+// Runs `filter` over the rows of `matrix` (continuing its state); returns (best, confidence, off_route).
+py::tuple run_rows(nightloc::RouteFilter& filter, const py::array& matrix_in, const py::object& weights_in,
+                   int threads) {
+    const F32Array matrix = checked_matrix(matrix_in, "matrix", false);
+    const auto n_queries = static_cast<std::size_t>(matrix.shape(0));
+    if (static_cast<std::size_t>(matrix.shape(1)) != filter.n_refs()) {
+        throw py::value_error("matrix has " + std::to_string(matrix.shape(1)) + " columns but the filter has " +
+                              std::to_string(filter.n_refs()) + " references");
+    }
+    const std::vector<double> weights = checked_weights(weights_in, n_queries);
+    py::array_t<std::int64_t> best(static_cast<py::ssize_t>(n_queries));
+    py::array_t<double> confidence(static_cast<py::ssize_t>(n_queries));
+    py::array_t<double> off_route(static_cast<py::ssize_t>(n_queries));
+    const float* m = matrix.data();
+    std::int64_t* b = best.mutable_data();
+    double* c = confidence.mutable_data();
+    double* o = off_route.mutable_data();
+    const double* w = weights.empty() ? nullptr : weights.data();
     {
         py::gil_scoped_release release;
-        // Best shifts are not needed by route mode: a scratch buffer for this block of queries.
-        std::vector<std::int32_t> best_shifts(static_cast<std::size_t>(queries.shape(0)) *
-                                              static_cast<std::size_t>(refs.shape(0)));
-        nightloc::difference_matrix(q, static_cast<std::size_t>(queries.shape(0)), r,
-                                    static_cast<std::size_t>(refs.shape(0)), static_cast<std::size_t>(refs.shape(1)),
-                                    static_cast<std::size_t>(refs.shape(2)), shifts.data(), shifts.size(), o,
-                                    best_shifts.data(), threads, divisor);
+        filter.run(m, n_queries, w, b, c, o, threads);
     }
+    return py::make_tuple(std::move(best), std::move(confidence), std::move(off_route));
+}
+
+py::tuple route_filter_matrix(const py::array& matrix_in, const nightloc::RouteFilterParams& params,
+                              const py::object& weights_in, int threads) {
+    const F32Array matrix = checked_matrix(matrix_in, "matrix", false);
+    if (matrix.shape(1) == 0) throw py::value_error("matrix has no references (shape " + filter_shape_text(matrix) + ")");
+    nightloc::RouteFilter filter(static_cast<std::size_t>(matrix.shape(1)), params);
+    return run_rows(filter, matrix, weights_in, threads);
+}
+
+py::array_t<double> texture_weights(const py::array& stack_in, double min_texture) {
+    const auto stack = checked_stack(stack_in, "images");
+    const auto n = static_cast<std::size_t>(stack.shape(0));
+    const auto pixels = static_cast<std::size_t>(stack.shape(1) * stack.shape(2));
+    py::array_t<double> out(static_cast<py::ssize_t>(n));
+    const std::uint8_t* data = stack.data();
+    double* o = out.mutable_data();
+    {
+        py::gil_scoped_release release;
+        for (std::size_t i = 0; i < n; ++i) o[i] = nightloc::texture_weight(data + i * pixels, pixels, min_texture);
+    }
+    return out;
+}
+
+// One camera frame's whole step in one crossing: difference row against the references, its
+// contrast enhancement (causal offset), the texture weight, the filter step. The row is kept in
+// `row_out` (the enhanced row, float32 (n_refs,)).
+py::tuple filter_frame(nightloc::RouteFilter& filter, const py::array& image_in, const py::array& refs_in,
+                       const py::array& shifts_in, double divisor, int enhance_radius, double min_texture,
+                       int threads, const py::array& row_in) {
+    const auto refs = checked_stack(refs_in, "refs");
+    if (!py::isinstance<py::array_t<std::uint8_t>>(image_in) || image_in.ndim() != 2 ||
+        !(image_in.flags() & py::array::c_style)) {
+        throw py::type_error("image must be a C-contiguous 2-D uint8 array (one prepared frame)");
+    }
+    const auto image = py::reinterpret_borrow<FilterImage>(image_in);
+    if (image.shape(0) != refs.shape(1) || image.shape(1) != refs.shape(2)) {
+        throw py::value_error("the image is " + std::to_string(image.shape(0)) + " x " + std::to_string(image.shape(1)) +
+                              " pixels but refs are " + std::to_string(refs.shape(1)) + " x " +
+                              std::to_string(refs.shape(2)));
+    }
+    const auto n_refs = static_cast<std::size_t>(refs.shape(0));
+    if (n_refs != filter.n_refs()) {
+        throw py::value_error("refs hold " + std::to_string(n_refs) + " images but the filter has " +
+                              std::to_string(filter.n_refs()) + " references");
+    }
+    if (n_refs < 2) throw py::value_error("enhancement needs at least 2 references");
+    if (enhance_radius < 1) throw py::value_error("enhance_radius must be >= 1, got " + std::to_string(enhance_radius));
+    if (!(divisor > 0.0)) throw py::value_error("divisor must be > 0");
+    if (!py::isinstance<py::array_t<std::int32_t>>(shifts_in) || shifts_in.ndim() != 1 || shifts_in.size() == 0) {
+        throw py::type_error("shifts must be a non-empty 1-D int32 array");
+    }
+    const auto shifts_view = py::reinterpret_borrow<py::array_t<std::int32_t>>(shifts_in).unchecked<1>();
+    std::vector<std::int32_t> shifts(static_cast<std::size_t>(shifts_view.shape(0)));
+    for (py::ssize_t i = 0; i < shifts_view.shape(0); ++i) shifts[static_cast<std::size_t>(i)] = shifts_view(i);
+    F32Array row = checked_matrix(row_in, "row", true);
+    if (row.shape(0) != 1 || static_cast<std::size_t>(row.shape(1)) != n_refs) {
+        throw py::value_error("row must have shape (1, " + std::to_string(n_refs) + "), got " + filter_shape_text(row));
+    }
+    const std::uint8_t* q = image.data();
+    const std::uint8_t* r = refs.data();
+    float* out = row.mutable_data();
+    const auto h = static_cast<std::size_t>(refs.shape(1));
+    const auto w = static_cast<std::size_t>(refs.shape(2));
+    nightloc::RouteFilterStep step;
+    double weight = 1.0;
+    {
+        py::gil_scoped_release release;
+        std::vector<std::int32_t> best_shifts(n_refs);
+        nightloc::difference_matrix(q, 1, r, n_refs, h, w, shifts.data(), shifts.size(), out, best_shifts.data(),
+                                    threads, divisor);
+        nightloc::enhance_contrast(out, out, 1, n_refs, static_cast<std::size_t>(enhance_radius),
+                                   nightloc::EnhanceOffset::kZscoreBound, 1);
+        weight = nightloc::texture_weight(q, h * w, min_texture);
+        step = filter.step(out, weight);
+    }
+    return py::make_tuple(step.best, step.confidence, step.off_route, weight);
+}
+
+void register_route_filter(py::module_& m) {
+    py::class_<nightloc::RouteFilterParams>(m, "RouteFilterParams",
+                                            "Parameters of the route filter (nightloc/route_filter.hpp).")
+        .def(py::init<>())
+        .def_readwrite("vmin", &nightloc::RouteFilterParams::vmin)
+        .def_readwrite("vmax", &nightloc::RouteFilterParams::vmax)
+        .def_readwrite("backward", &nightloc::RouteFilterParams::backward)
+        .def_readwrite("floor", &nightloc::RouteFilterParams::floor)
+        .def_readwrite("sharpness", &nightloc::RouteFilterParams::sharpness)
+        .def_readwrite("clip", &nightloc::RouteFilterParams::clip)
+        .def_readwrite("leave", &nightloc::RouteFilterParams::leave)
+        .def_readwrite("rejoin", &nightloc::RouteFilterParams::rejoin)
+        .def_readwrite("window", &nightloc::RouteFilterParams::window)
+        .def("validate", [](const nightloc::RouteFilterParams& p) { nightloc::validate(p); });
+
+    py::class_<nightloc::RouteFilter>(m, "RouteFilter", "The route filter's state and per-frame step.")
+        .def(py::init(&make_filter), py::arg("n_refs"), py::arg("params"))
+        .def(
+            "step",
+            [](nightloc::RouteFilter& f, const py::array& row_in, double weight) {
+                const auto row = checked_row(row_in, f.n_refs());
+                if (!(weight >= 0.0 && weight <= 1.0)) {
+                    throw py::value_error("weight must be in [0, 1], got " + float_text(weight));
+                }
+                const float* r = row.data();
+                nightloc::RouteFilterStep s;
+                {
+                    py::gil_scoped_release release;
+                    s = f.step(r, weight);
+                }
+                return step_tuple(s);
+            },
+            py::arg("row"), py::arg("weight") = 1.0, "One frame's row: returns (best, confidence, off_route).")
+        .def("run", &run_rows, py::arg("matrix"), py::arg("weights") = py::none(), py::arg("threads") = 1,
+             "Consecutive frames' rows (n, n_refs) float32: returns (best, confidence, off_route) arrays.")
+        .def("frame", &filter_frame, py::arg("image"), py::arg("refs"), py::arg("shifts"), py::arg("divisor"),
+             py::arg("enhance_radius"), py::arg("min_texture"), py::arg("threads"), py::arg("row"),
+             "One prepared frame: difference row, enhancement, texture weight and step; returns "
+             "(best, confidence, off_route, weight).")
+        .def("reset", &nightloc::RouteFilter::reset)
+        .def("__copy__", [](const nightloc::RouteFilter& f) { return nightloc::RouteFilter(f); })
+        .def(
+            "__deepcopy__", [](const nightloc::RouteFilter& f, const py::dict&) { return nightloc::RouteFilter(f); },
+            py::arg("memo"))
+        .def(
+            "set_state",
+            [](nightloc::RouteFilter& f, const py::array& belief_in, double off_route) {
+                const auto belief = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(belief_in);
+                if (!belief || belief.ndim() != 1 || static_cast<std::size_t>(belief.shape(0)) != f.n_refs()) {
+                    throw py::value_error("belief must be a 1-D array of " + std::to_string(f.n_refs()) + " values");
+                }
+                f.set_state(belief.data(), off_route);
+            },
+            py::arg("belief"), py::arg("off_route"))
+        .def_property_readonly("belief",
+                               [](const nightloc::RouteFilter& f) {
+                                   const auto& b = f.belief();
+                                   return py::array_t<double>(static_cast<py::ssize_t>(b.size()), b.data());
+                               })
+        .def_property_readonly("off_route", &nightloc::RouteFilter::off_route)
+        .def_property_readonly("n_refs", &nightloc::RouteFilter::n_refs);
+
+    m.def("route_filter", &route_filter_matrix, py::arg("matrix"), py::arg("params"), py::arg("weights") = py::none(),
+          py::arg("threads") = 1,
+          "The route filter over an (n_query, n_ref) float32 matrix; returns (best int64, confidence, off_route).");
+    m.def(
+        "motion_kernel",
+        [](double vmin, double vmax, double backward) {
+            const nightloc::MotionKernel k = nightloc::motion_kernel(vmin, vmax, backward);
+            return py::make_tuple(k.first, py::array_t<double>(static_cast<py::ssize_t>(k.weights.size()),
+                                                               k.weights.data()));
+        },
+        py::arg("vmin"), py::arg("vmax"), py::arg("backward"),
+        "The prediction kernel: (first advance, weights).");
+    m.def("texture_weights", &texture_weights, py::arg("images"), py::arg("min_texture"),
+          "Evidence weight min(1, mean absolute deviation / min_texture) of each prepared image.");
 }
 
 }  // namespace
@@ -199,4 +393,5 @@ void register_route(py::module_& m) {
     m.def("difference_matrix_into", &difference_matrix_into, py::arg("queries"), py::arg("refs"), py::arg("shifts"),
           py::arg("threads"), py::arg("divisor"), py::arg("out"),
           "Writes the (n_query, n_ref) float32 difference matrix into out (rows = queries).");
+    register_route_filter(m);
 }

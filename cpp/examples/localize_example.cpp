@@ -48,6 +48,8 @@ std::vector<std::uint8_t> panorama(double x, double y, double gain, std::mt19937
 }  // namespace
 
 int main() {
+    // every path gives the same results; NIGHTLOC_SIMD=<name> forces one (e.g. scalar, neon)
+    std::printf("SIMD path: %s\n", nightloc::simd_backend_name(nightloc::active_simd_backend()));
     std::mt19937 rng(7);
     // --- the map: 9 places, prepared once
     std::vector<std::pair<double, double>> places;

@@ -65,23 +65,16 @@ MatchResult match(const Eigen::Ref<const ImageU8>& query, const ImageStack& refs
                   const std::vector<std::int32_t>& shifts, int threads) {
     require_consistent(refs);
     require_same_geometry(query.rows(), query.cols(), refs);
-    if (refs.count() == 0) throw std::invalid_argument("the reference stack is empty");
     const ImageU8 q = contiguous(query);
     const std::vector<std::int32_t> shift_list = resolve_shifts(shifts, refs.width);
-    const auto n = static_cast<std::size_t>(refs.count());
-    std::vector<std::uint32_t> sums(n);
     MatchResult result;
-    result.shifts.resize(refs.count());
-    difference_matrix_sums(q.data(), 1, refs.data(), n, static_cast<std::size_t>(refs.height),
-                           static_cast<std::size_t>(refs.width), shift_list.data(), shift_list.size(), sums.data(),
-                           result.shifts.data(), threads);
-    const auto pixels = static_cast<double>(refs.height * refs.width);
     result.scores.resize(refs.count());
-    for (std::size_t i = 0; i < n; ++i) result.scores[static_cast<Index>(i)] = score_from_sum(sums[i], pixels);
-    // The first minimum of the integer sums: ties go to the lowest reference index.
-    std::size_t best = 0;
-    for (std::size_t i = 1; i < n; ++i)
-        if (sums[i] < sums[best]) best = i;
+    result.shifts.resize(refs.count());
+    result.headings.resize(refs.count());
+    const std::size_t best =
+        nightloc::match(q.data(), refs.data(), static_cast<std::size_t>(refs.count()),
+                        static_cast<std::size_t>(refs.height), static_cast<std::size_t>(refs.width), shift_list.data(),
+                        shift_list.size(), result.scores.data(), result.shifts.data(), result.headings.data(), threads);
     result.best = static_cast<Index>(best);
     return result;
 }

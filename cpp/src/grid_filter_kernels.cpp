@@ -409,11 +409,12 @@ const FilterKernels& filter_kernels(SimdBackend backend) noexcept {
         case SimdBackend::sse2: return kernels_baseline;
         case SimdBackend::avx2: return kernels_avx2;
         case SimdBackend::avx512bw: return kernels_avx512;
+        default: return kernels_scalar;  // another architecture's path: never active here
 #else
+        // AArch64: the baseline kernels are NEON (the vector types lower to 4-lane registers)
         default: return kernels_baseline;
 #endif
     }
-    return kernels_scalar;
 }
 
 }  // namespace nightloc::detail

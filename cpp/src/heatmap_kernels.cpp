@@ -1,6 +1,6 @@
 // Row kernels of heat-map translation and peak search, the same loops compiled for each SIMD
 // path with target attributes (see prepare_kernels.cpp for the pattern): scalar (no
-// auto-vectorization), the baseline (sse2), AVX2 and AVX-512F. No FMA contraction
+// auto-vectorization), the baseline (sse2 on x86-64, NEON on AArch64), AVX2 and AVX-512F. No FMA contraction
 // (-ffp-contract=off): each path rounds exactly like the scalar one.
 #include "heatmap_kernels.hpp"
 
@@ -214,11 +214,12 @@ const HeatKernels& heat_kernels(SimdBackend backend) noexcept {
         case SimdBackend::sse2: return kernels_baseline;
         case SimdBackend::avx2: return kernels_avx2;
         case SimdBackend::avx512bw: return kernels_avx512;
+        default: return kernels_scalar;  // another architecture's path: never active here
 #else
+        // AArch64: the baseline kernels are NEON (4-lane vectors; the dot product adds nothing)
         default: return kernels_baseline;
 #endif
     }
-    return kernels_scalar;
 }
 
 }  // namespace nightloc::detail

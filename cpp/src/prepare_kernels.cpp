@@ -2,7 +2,8 @@
 // compiled for the baseline (sse2), for AVX2 and for AVX-512 with target attributes (the rest of
 // the library keeps the baseline ISA), and once with auto-vectorization disabled (scalar). The
 // equalization table lookup has a hand-written AVX-512 VBMI kernel (vpermi2b: 64 lookups in a
-// 256-entry table per two instructions), used on the avx512bw path when the CPU has VBMI.
+// 256-entry table per two instructions), used on the avx512bw path when the CPU has VBMI. On
+// AArch64 the neon paths have NEON kernels for grey conversion, table lookup and prefix sums.
 // Integer arithmetic only: every path gives the same bytes.
 #include "prepare_kernels.hpp"
 
@@ -15,6 +16,9 @@
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // GCC bug 105593 in the AVX-512 headers
 #endif
 #include <immintrin.h>
+#endif
+#if NIGHTLOC_ARM_KERNELS
+#include <arm_neon.h>
 #endif
 
 #define NL_INLINE inline __attribute__((always_inline))
@@ -126,7 +130,7 @@ void histogram_row(const std::uint8_t* src, std::size_t n, std::uint32_t* counts
 #endif
 
 NL_DEFINE_ROW_KERNELS(scalar, NL_NO_VECTORIZE)
-NL_DEFINE_ROW_KERNELS(baseline, )
+NL_DEFINE_ROW_KERNELS(baseline, [[maybe_unused]])  // (AArch64 uses some of them)
 
 #if NIGHTLOC_X86_KERNELS
 // (grey and table lookups have their own kernels below; the plain add vectorizes well)
@@ -423,6 +427,97 @@ NL_TARGET_VBMI void accumulate_lut_row_vbmi(const std::uint8_t* src, std::size_t
 bool cpu_has_vbmi() noexcept { return __builtin_cpu_supports("avx512vbmi"); }
 #endif
 
+#if NIGHTLOC_ARM_KERNELS
+// NEON colour -> grey, 16 pixels per step: vld3q/vld4q split the channels, each weight is a
+// 16 x 16 -> 32-bit multiply(-accumulate) on the widened bytes, and vrshrn adds 2^14 and shifts
+// by 15 (the rounding of grey_body) while narrowing. Exact integer arithmetic: the same bytes.
+template <std::size_t Channels, std::size_t Blue>
+NL_INLINE void grey_row_neon_pixels(const std::uint8_t* src, std::size_t n, PixelOrder order, std::uint8_t* dst) {
+    std::size_t x = 0;
+    for (; x + 16 <= n; x += 16) {
+        uint8x16_t blue, green, red;
+        if constexpr (Channels == 3) {
+            const uint8x16x3_t p = vld3q_u8(src + 3 * x);
+            blue = p.val[Blue], green = p.val[1], red = p.val[2 - Blue];
+        } else {
+            const uint8x16x4_t p = vld4q_u8(src + 4 * x);
+            blue = p.val[Blue], green = p.val[1], red = p.val[2 - Blue];
+        }
+        const uint16x8_t halves[2][3] = {
+            {vmovl_u8(vget_low_u8(blue)), vmovl_u8(vget_low_u8(green)), vmovl_u8(vget_low_u8(red))},
+            {vmovl_high_u8(blue), vmovl_high_u8(green), vmovl_high_u8(red)}};
+        uint16x8_t grey[2];
+        for (std::size_t h = 0; h < 2; ++h) {
+            const uint16x8_t* c = halves[h];
+            uint32x4_t low = vmull_n_u16(vget_low_u16(c[0]), kBlueWeight);
+            low = vmlal_n_u16(low, vget_low_u16(c[1]), kGreenWeight);
+            low = vmlal_n_u16(low, vget_low_u16(c[2]), kRedWeight);
+            uint32x4_t high = vmull_high_n_u16(c[0], kBlueWeight);
+            high = vmlal_high_n_u16(high, c[1], kGreenWeight);
+            high = vmlal_high_n_u16(high, c[2], kRedWeight);
+            grey[h] = vcombine_u16(vrshrn_n_u32(low, kGreyShift), vrshrn_n_u32(high, kGreyShift));
+        }
+        vst1q_u8(dst + x, vcombine_u8(vmovn_u16(grey[0]), vmovn_u16(grey[1])));
+    }
+    grey_dispatch(src + Channels * x, n - x, order, dst + x);
+}
+
+void grey_row_neon(const std::uint8_t* src, std::size_t n, PixelOrder order, std::uint8_t* dst) {
+    switch (order) {
+        case PixelOrder::bgr: grey_row_neon_pixels<3, 0>(src, n, order, dst); break;
+        case PixelOrder::rgb: grey_row_neon_pixels<3, 2>(src, n, order, dst); break;
+        case PixelOrder::bgra: grey_row_neon_pixels<4, 0>(src, n, order, dst); break;
+        case PixelOrder::rgba: grey_row_neon_pixels<4, 2>(src, n, order, dst); break;
+        case PixelOrder::grey: std::memcpy(dst, src, n); break;
+    }
+}
+
+// band[x] += lut[src[x]], 16 pixels per step: the 256-entry table is four 64-byte quarters;
+// vqtbl4q looks an index up in the first, each vqtbx4q in the next one after subtracting 64
+// (indices outside a quarter leave the lane as it is), then the bytes are widened onto the band.
+void accumulate_lut_row_neon(const std::uint8_t* src, std::size_t n, const std::uint8_t* lut, std::uint16_t* band) {
+    const uint8x16x4_t quarter[4] = {vld1q_u8_x4(lut), vld1q_u8_x4(lut + 64), vld1q_u8_x4(lut + 128),
+                                     vld1q_u8_x4(lut + 192)};
+    const uint8x16_t step = vdupq_n_u8(64);
+    std::size_t x = 0;
+    for (; x + 16 <= n; x += 16) {
+        uint8x16_t index = vld1q_u8(src + x);
+        uint8x16_t value = vqtbl4q_u8(quarter[0], index);
+        index = vsubq_u8(index, step);
+        value = vqtbx4q_u8(value, quarter[1], index);
+        index = vsubq_u8(index, step);
+        value = vqtbx4q_u8(value, quarter[2], index);
+        index = vsubq_u8(index, step);
+        value = vqtbx4q_u8(value, quarter[3], index);
+        vst1q_u16(band + x, vaddw_u8(vld1q_u16(band + x), vget_low_u8(value)));
+        vst1q_u16(band + x + 8, vaddw_high_u8(vld1q_u16(band + x + 8), value));
+    }
+    for (; x < n; ++x) band[x] = static_cast<std::uint16_t>(band[x] + lut[src[x]]);
+}
+
+// Column prefix sums, 4 per step: two lane shifts (vextq against zero) and adds, plus the
+// running total of earlier steps.
+void prefix_row_neon(const std::uint16_t* band, std::size_t n, std::uint32_t* prefix) {
+    prefix[0] = 0;
+    const uint32x4_t zero = vdupq_n_u32(0);
+    uint32x4_t carry = zero;
+    std::size_t x = 0;
+    for (; x + 4 <= n; x += 4) {
+        uint32x4_t v = vmovl_u16(vld1_u16(band + x));
+        v = vaddq_u32(v, vextq_u32(zero, v, 3));
+        v = vaddq_u32(v, vextq_u32(zero, v, 2));
+        v = vaddq_u32(v, carry);
+        vst1q_u32(prefix + x + 1, v);
+        carry = vdupq_laneq_u32(v, 3);
+    }
+    std::uint32_t running = prefix[x];
+    for (; x < n; ++x) {
+        running += band[x];
+        prefix[x + 1] = running;
+    }
+}
+#endif
+
 }  // namespace
 
 const PrepareKernels& prepare_kernels(SimdBackend backend) noexcept {
@@ -442,8 +537,13 @@ const PrepareKernels& prepare_kernels(SimdBackend backend) noexcept {
         case SimdBackend::sse2: return sse2;
         case SimdBackend::avx2: return avx2;
         case SimdBackend::avx512bw: return cpu_has_vbmi() ? avx512_vbmi : avx512;
+        default: return scalar;  // another architecture's path: never active here
     }
-    return scalar;
+#elif NIGHTLOC_ARM_KERNELS
+    // (the plain band add is auto-vectorized; the dot product does not help these passes)
+    static const PrepareKernels neon{grey_row_neon, histogram_row, accumulate_row_baseline,
+                                     accumulate_lut_row_neon, prefix_row_neon, "neon"};
+    return backend == SimdBackend::scalar ? scalar : neon;
 #else
     static const PrepareKernels baseline{grey_row_baseline, histogram_row, accumulate_row_baseline,
                                          accumulate_lut_row_baseline, prefix_row_baseline, "baseline"};

@@ -34,6 +34,10 @@ CopiesKernel copies_kernel_for(SimdBackend backend) {
         case SimdBackend::avx2: return sad_copies_avx2;
         case SimdBackend::avx512bw: return sad_copies_avx512bw;
 #endif
+#if NIGHTLOC_ARM_KERNELS
+        case SimdBackend::neon: return sad_copies_neon;
+        case SimdBackend::neon_dotprod: return sad_copies_neon_dotprod;
+#endif
         default: return sad_copies_scalar;
     }
 }
@@ -93,6 +97,19 @@ std::size_t copies_per_block(const SearchShape& shape) {
 
 }  // namespace
 
+void interleave_query(const std::uint8_t* query, std::size_t height, std::size_t width, std::uint8_t* rolled,
+                      std::uint8_t* out) {
+    const std::size_t stride = round_up(height * width, kChunk);
+    const std::size_t n_chunks = stride / kChunk;
+    const std::size_t n_even = width / 2;
+    for (std::size_t m = 0; m < n_even; ++m) {
+        write_rolled(query, height, width, 2 * m, rolled, stride);
+        for (std::size_t c = 0; c < n_chunks; ++c) {
+            std::memcpy(out + (c * n_even + m) * kChunk, rolled + c * kChunk, kChunk);
+        }
+    }
+}
+
 std::size_t plan_bytes(SimdBackend backend, const SearchShape& shape) {
     const std::size_t stride = round_up(shape.pixels, kChunk);
     return use_all_shift_layout(backend, shape) ? stride * (shape.width / 2) : stride * copies_per_block(shape);
@@ -126,18 +143,10 @@ void QueryPlan::prepare(const std::uint8_t* queries, std::size_t count, std::siz
     slot_begin_ = slot_begin;
     slot_count_ = std::min(slots_per_block_, shape_.n_shifts - slot_begin);
     if (all_shifts_) {
-        const std::size_t n_chunks = stride_ / kChunk;
-        const std::size_t n_even = shape_.width / 2;
         buffer_.assign_zero(count * interleaved_bytes_);
-        std::uint8_t* rolled = rolled_temp_.get();
         for (std::size_t k = 0; k < count; ++k) {
-            std::uint8_t* interleaved = buffer_.data() + k * interleaved_bytes_;
-            for (std::size_t m = 0; m < n_even; ++m) {
-                write_rolled(queries + k * shape_.pixels, shape_.height, shape_.width, 2 * m, rolled, stride_);
-                for (std::size_t c = 0; c < n_chunks; ++c) {
-                    std::memcpy(interleaved + (c * n_even + m) * kChunk, rolled + c * kChunk, kChunk);
-                }
-            }
+            interleave_query(queries + k * shape_.pixels, shape_.height, shape_.width, rolled_temp_.get(),
+                             buffer_.data() + k * interleaved_bytes_);
         }
     } else {
         buffer_.assign_zero(count * slot_count_ * stride_);

@@ -38,6 +38,12 @@ struct SearchShape {
 SearchShape make_search_shape(std::size_t height, std::size_t width, const std::int32_t* shifts,
                               std::size_t n_shifts);
 
+/// Writes one query in the all-shift layout of sad_all_shifts_avx512bw into `out`
+/// (round_up(pixels, kChunk) * width / 2 bytes, 64-byte aligned, already zero); `rolled` is a
+/// scratch buffer of round_up(pixels, kChunk) bytes.
+void interleave_query(const std::uint8_t* query, std::size_t height, std::size_t width, std::uint8_t* rolled,
+                      std::uint8_t* out);
+
 /// Bytes one prepared query occupies (for sizing query blocks).
 std::size_t plan_bytes(SimdBackend backend, const SearchShape& shape);
 

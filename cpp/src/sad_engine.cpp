@@ -23,6 +23,8 @@ constexpr std::size_t kQueryBlockBytes = std::size_t{512} * 1024;
 constexpr std::size_t kMaxQueryBlock = 64;
 // References per task at most (bounds the per-task tile of results).
 constexpr std::size_t kMaxRefsPerTask = 1 << 15;
+// Smallest chunk of references of guided scheduling (~15 us of work at 48x24, all shifts).
+constexpr std::size_t kMinGuidedChunk = 64;
 // Below this many byte comparisons a second thread costs more than it saves (~50 us of work).
 constexpr double kMinComparisonsPerThread = 1e7;
 
@@ -48,8 +50,69 @@ struct Tile {
     const std::int32_t* shifts;  // q_count x r_count
 };
 
+// One task: queries [q_first, q_first + q_count) against references [r_first, r_first + r_count),
+// with `plan` prepared for those queries and the first shift block when `prepared`, else
+// prepared here (block by block). Returns the tile through sink.
+template <class Sink>
+void compute_tile(Tile tile, QueryPlan& plan, bool prepared, const std::uint8_t* queries, const std::uint8_t* refs,
+                  const SearchShape& shape, Sink&& sink) {
+    const std::size_t pixels = shape.pixels, n_shifts = shape.n_shifts;
+    const std::size_t r_block = ref_block_size(pixels);
+    std::vector<std::uint32_t> best(tile.q_count * tile.r_count, std::numeric_limits<std::uint32_t>::max());
+    std::vector<std::int32_t> best_shift(tile.q_count * tile.r_count, shape.shifts[0]);
+    // Per-(reference, query, slot) sums are only materialised when the kernel cannot take the
+    // minimum itself.
+    std::vector<std::uint32_t> slot_sums, scratch;
+    if (!plan.fused_min()) {
+        const std::size_t r_max = std::min(r_block, tile.r_count);
+        slot_sums.resize(r_max * tile.q_count * plan.slots_per_block());
+        scratch.resize(plan.scratch_size(r_max));
+    }
+    for (std::size_t slot = 0; slot < n_shifts; slot += plan.slots_per_block()) {
+        if (!prepared) plan.prepare(queries + tile.q_first * pixels, tile.q_count, slot);
+        const std::size_t n_slots = plan.slot_count();
+        const std::size_t row_width = tile.q_count * n_slots;
+        for (std::size_t r0 = 0; r0 < tile.r_count; r0 += r_block) {
+            const std::size_t r_count = std::min(r_block, tile.r_count - r0);
+            const std::uint8_t* block = refs + (tile.r_first + r0) * pixels;
+            if (plan.fused_min()) {  // a single shift block: the kernel takes the minimum itself
+                for (std::size_t k = 0; k < tile.q_count; ++k) {
+                    plan.evaluate_min(k, block, r_count, best.data() + k * tile.r_count + r0,
+                                      best_shift.data() + k * tile.r_count + r0);
+                }
+                continue;
+            }
+            plan.evaluate(block, r_count, slot_sums.data(), row_width, scratch.data());
+            for (std::size_t k = 0; k < tile.q_count; ++k) {
+                std::uint32_t* row_best = best.data() + k * tile.r_count + r0;
+                std::int32_t* row_shift = best_shift.data() + k * tile.r_count + r0;
+                for (std::size_t i = 0; i < r_count; ++i) {
+                    const std::uint32_t* s = slot_sums.data() + i * row_width + k * n_slots;
+                    for (std::size_t j = 0; j < n_slots; ++j) {
+                        if (s[j] < row_best[i]) {  // strict: the earliest slot wins ties
+                            row_best[i] = s[j];
+                            row_shift[i] = shape.shifts[slot + j];
+                        }
+                    }
+                }
+            }
+        }
+    }
+    tile.sums = best.data();
+    tile.shifts = best_shift.data();
+    sink(tile);
+}
+
 // The difference matrix as a set of tiles computed in parallel; sink(tile) is called once per
 // tile, from the thread that computed it (tiles never overlap).
+//
+// Work split: blocks of queries (their prepared copies share L2 with a block of references) times
+// chunks of references, handed out dynamically. A single query block (the per-frame match) is
+// prepared once, before the threads start, and shared (evaluation is const); its references are
+// cut into shrinking chunks (guided scheduling: each a quarter of what is left for two threads,
+// down to 64 references, ~15 us), so that threads that start late (thread creation, another
+// process on the core) or run slower still finish together: with equal chunks one thread could
+// idle for up to a chunk at the end. Several query blocks: 4 equal chunks per thread and block.
 template <class Sink>
 void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs,
                               std::size_t n_refs, const SearchShape& shape, int threads, Sink&& sink) {
@@ -58,77 +121,56 @@ void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries
     const std::size_t pixels = shape.pixels;
     const std::size_t n_shifts = shape.n_shifts;
 
-    // Query blocks: their prepared copies share L2 with one block of references.
     const std::size_t q_block =
         std::clamp<std::size_t>(kQueryBlockBytes / detail::plan_bytes(backend, shape), 1, kMaxQueryBlock);
     const std::size_t n_q_blocks = (n_queries + q_block - 1) / q_block;
     const int n_threads = useful_threads(threads, static_cast<double>(n_queries) * static_cast<double>(n_refs) *
                                                       static_cast<double>(n_shifts) * static_cast<double>(pixels));
+    const auto n_workers = static_cast<std::size_t>(n_threads);
 
-    // Reference chunks: with few query blocks, split the references so every thread has work.
-    const std::size_t r_block = ref_block_size(pixels);
-    const std::size_t n_r_blocks = (n_refs + r_block - 1) / r_block;
-    std::size_t n_r_chunks = (n_refs + kMaxRefsPerTask - 1) / kMaxRefsPerTask;
-    if (n_threads > 1 && n_q_blocks < 4 * static_cast<std::size_t>(n_threads)) {
-        const std::size_t wanted = (4 * static_cast<std::size_t>(n_threads) + n_q_blocks - 1) / n_q_blocks;
-        n_r_chunks = std::max(n_r_chunks, wanted);
+    // Chunk c of the references is [bounds[c], bounds[c + 1]), multiples of 8 but the last.
+    std::vector<std::size_t> bounds{0};
+    if (n_workers > 1 && n_q_blocks == 1) {
+        while (bounds.back() < n_refs) {
+            const std::size_t left = n_refs - bounds.back();
+            const std::size_t size = (std::max(kMinGuidedChunk, left / (2 * n_workers)) + 7) / 8 * 8;
+            bounds.push_back(bounds.back() + std::min({size, left, kMaxRefsPerTask}));
+        }
+    } else {
+        std::size_t n_chunks = (n_refs + kMaxRefsPerTask - 1) / kMaxRefsPerTask;
+        if (n_workers > 1 && n_q_blocks < 4 * n_workers) {
+            n_chunks = std::max(n_chunks, (4 * n_workers + n_q_blocks - 1) / n_q_blocks);
+        }
+        n_chunks = std::clamp<std::size_t>(n_chunks, 1, (n_refs + 7) / 8);
+        for (std::size_t c = 1; c < n_chunks; ++c) bounds.push_back(std::max(bounds.back(), c * n_refs / n_chunks / 8 * 8));
+        bounds.push_back(n_refs);
     }
-    n_r_chunks = std::clamp<std::size_t>(n_r_chunks, 1, n_r_blocks);
-    const std::size_t r_blocks_per_chunk = (n_r_blocks + n_r_chunks - 1) / n_r_chunks;
-    n_r_chunks = (n_r_blocks + r_blocks_per_chunk - 1) / r_blocks_per_chunk;
-
-    detail::parallel_for(n_q_blocks * n_r_chunks, n_threads, [&](std::size_t task) {
+    const std::size_t n_r_chunks = bounds.size() - 1;
+    auto tile_of = [&](std::size_t task) {
         Tile tile{};
         tile.q_first = task / n_r_chunks * q_block;
         tile.q_count = std::min(q_block, n_queries - tile.q_first);
-        tile.r_first = task % n_r_chunks * r_blocks_per_chunk * r_block;
-        tile.r_count = std::min(n_refs, tile.r_first + r_blocks_per_chunk * r_block) - tile.r_first;
+        tile.r_first = bounds[task % n_r_chunks];
+        tile.r_count = bounds[task % n_r_chunks + 1] - tile.r_first;
+        return tile;
+    };
 
-        std::vector<std::uint32_t> best(tile.q_count * tile.r_count, std::numeric_limits<std::uint32_t>::max());
-        std::vector<std::int32_t> best_shift(tile.q_count * tile.r_count, shape.shifts[0]);
+    if (n_q_blocks == 1) {
+        QueryPlan shared(backend, shape);
+        if (shared.slots_per_block() >= n_shifts) {
+            shared.prepare(queries, n_queries, 0);
+            detail::parallel_for(n_r_chunks, n_threads, [&](std::size_t task) {
+                const Tile tile = tile_of(task);
+                if (tile.r_count > 0) compute_tile(tile, shared, true, queries, refs, shape, sink);
+            });
+            return;
+        }
+    }
+    detail::parallel_for(n_q_blocks * n_r_chunks, n_threads, [&](std::size_t task) {
+        const Tile tile = tile_of(task);
+        if (tile.r_count == 0) return;
         QueryPlan plan(backend, shape);
-        // Per-(reference, query, slot) sums are only materialised when the kernel cannot take
-        // the minimum itself.
-        std::vector<std::uint32_t> slot_sums, scratch;
-        if (!plan.fused_min()) {
-            const std::size_t r_max = std::min(r_block, tile.r_count);
-            slot_sums.resize(r_max * tile.q_count * plan.slots_per_block());
-            scratch.resize(plan.scratch_size(r_max));
-        }
-
-        for (std::size_t slot = 0; slot < n_shifts; slot += plan.slots_per_block()) {
-            plan.prepare(queries + tile.q_first * pixels, tile.q_count, slot);
-            const std::size_t n_slots = plan.slot_count();
-            const std::size_t row_width = tile.q_count * n_slots;
-            for (std::size_t r0 = 0; r0 < tile.r_count; r0 += r_block) {
-                const std::size_t r_count = std::min(r_block, tile.r_count - r0);
-                const std::uint8_t* block = refs + (tile.r_first + r0) * pixels;
-                if (plan.fused_min()) {  // a single shift block: the kernel takes the minimum itself
-                    for (std::size_t k = 0; k < tile.q_count; ++k) {
-                        plan.evaluate_min(k, block, r_count, best.data() + k * tile.r_count + r0,
-                                          best_shift.data() + k * tile.r_count + r0);
-                    }
-                    continue;
-                }
-                plan.evaluate(block, r_count, slot_sums.data(), row_width, scratch.data());
-                for (std::size_t k = 0; k < tile.q_count; ++k) {
-                    std::uint32_t* row_best = best.data() + k * tile.r_count + r0;
-                    std::int32_t* row_shift = best_shift.data() + k * tile.r_count + r0;
-                    for (std::size_t i = 0; i < r_count; ++i) {
-                        const std::uint32_t* s = slot_sums.data() + i * row_width + k * n_slots;
-                        for (std::size_t j = 0; j < n_slots; ++j) {
-                            if (s[j] < row_best[i]) {  // strict: the earliest slot wins ties
-                                row_best[i] = s[j];
-                                row_shift[i] = shape.shifts[slot + j];
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        tile.sums = best.data();
-        tile.shifts = best_shift.data();
-        sink(tile);
+        compute_tile(tile, plan, false, queries, refs, shape, sink);
     });
 }
 
@@ -201,6 +243,30 @@ void difference_matrix(const std::uint8_t* queries, std::size_t n_queries, const
             std::memcpy(best_shifts + offset, tile.shifts + k * tile.r_count, tile.r_count * sizeof(std::int32_t));
         }
     });
+}
+
+std::size_t match(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
+                  std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, float* scores,
+                  std::int32_t* best_shifts, double* headings, int threads) {
+    if (n_refs == 0) throw std::invalid_argument("the reference stack is empty");
+    std::vector<std::uint32_t> sums(n_refs);
+    difference_matrix_sums(query, 1, refs, n_refs, height, width, shifts, n_shifts, sums.data(), best_shifts, threads);
+    const auto pixels = static_cast<double>(height * width);
+    std::size_t best = 0;
+    for (std::size_t i = 0; i < n_refs; ++i) {
+        scores[i] = score_from_sum(sums[i], pixels);
+        if (sums[i] < sums[best]) best = i;  // the first minimum: ties go to the lowest index
+    }
+    if (headings != nullptr) {
+        for (std::size_t i = 0; i < n_refs; ++i) headings[i] = shift_heading(best_shifts[i], width);
+    }
+    return best;
+}
+
+double shift_heading(std::int32_t shift, std::size_t width) noexcept {
+    const double two_pi = 6.283185307179586476925286766559;
+    const double angle = two_pi * static_cast<double>(shift) / static_cast<double>(width);
+    return angle > 0.5 * two_pi ? angle - two_pi : angle;
 }
 
 }  // namespace nightloc

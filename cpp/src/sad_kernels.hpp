@@ -10,6 +10,14 @@
 #define NIGHTLOC_X86_KERNELS 0
 #endif
 
+// AArch64: NEON is part of the baseline; the dot-product kernel's file compiles it for
+// armv8.2-a+dotprod with a target pragma (sad_neon_dotprod.cpp).
+#if defined(__aarch64__) && (defined(__GNUC__) || defined(__clang__))
+#define NIGHTLOC_ARM_KERNELS 1
+#else
+#define NIGHTLOC_ARM_KERNELS 0
+#endif
+
 namespace nightloc::detail {
 
 /// Byte alignment and padding granule of the query copies (one zmm register).
@@ -28,6 +36,17 @@ using CopiesKernel = void (*)(const std::uint8_t* copies, std::size_t stride, st
 void sad_copies_scalar(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
                        const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
                        std::size_t out_stride);
+
+#if NIGHTLOC_ARM_KERNELS
+/// NEON: vabdq_u8 + vpadalq_u8 into 16-bit lanes (flushed to 32 bits before they can overflow).
+void sad_copies_neon(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
+                     const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                     std::size_t out_stride);
+/// NEON with the dot-product extension (ARMv8.2 udot): vabdq_u8 + vdotq_u32 against ones.
+void sad_copies_neon_dotprod(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
+                             const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                             std::size_t out_stride);
+#endif
 
 #if NIGHTLOC_X86_KERNELS
 void sad_copies_sse2(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
@@ -64,9 +83,12 @@ void sad_all_shifts_avx512vnni(const std::uint8_t* interleaved, std::size_t widt
 using AllShiftKernel = void (*)(const std::uint8_t*, std::size_t, const std::uint8_t*, std::size_t, std::size_t,
                                 std::uint32_t*, std::size_t, const std::uint16_t*, std::uint32_t*, std::int32_t*);
 
-/// The all-shift kernel for this CPU: the VNNI variant where the CPU has avx512vnni, unless the
-/// environment variable NIGHTLOC_AVX512_VNNI is "0" (read once).
-AllShiftKernel all_shift_kernel() noexcept;
+/// The all-shift kernel of the variant in use (nightloc::avx512_sad_variant(), avx512_variant.cpp).
+AllShiftKernel all_shift_kernel();
+
+/// The CPU family table of the variant choice: the Avx512SadVariant value for a CPUID vendor
+/// string and family, or -1 (not listed: measure); `why` receives the table's reason.
+int avx512_sad_variant_of_family(const char* vendor, unsigned family, const char** why) noexcept;
 #endif
 
 }  // namespace nightloc::detail

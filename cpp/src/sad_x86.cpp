@@ -2,6 +2,7 @@
 // run time (simd_dispatch.cpp): the rest of the library keeps the baseline ISA, so the same
 // binary runs on any x86-64 CPU. See sad_kernels.hpp for the data layouts.
 #include "sad_kernels.hpp"
+#include "ref_pass.hpp"
 
 #if NIGHTLOC_X86_KERNELS
 
@@ -25,10 +26,6 @@
 namespace nightloc::detail {
 namespace {
 
-// References per pass of the copies kernels: each query chunk loaded is compared with this many
-// references before the next one is loaded.
-constexpr std::size_t kRefsPerPass = 8;
-
 // --------------------------------------------------------------------------------------------
 // SSE2: psadbw on 16-byte chunks.
 
@@ -50,56 +47,6 @@ NL_TARGET_AVX512 NL_INLINE std::uint32_t hsum_avx512(__m512i v) {
     t = _mm_add_epi32(t, _mm_unpackhi_epi64(t, t));
     return static_cast<std::uint32_t>(_mm_cvtsi128_si32(t));
 }
-
-// The references of one pass of a copies kernel. A short last pass repeats its last reference
-// (the duplicate sums are computed and discarded). Full chunks are read from row[k], the last
-// partial chunk from tail[k], zero-padded, so that no load reads past a reference. When the pass
-// is reused for many shifts, the references are first copied into aligned, zero-padded rows:
-// unaligned vector loads that straddle cache lines cost up to a third of the speed.
-template <std::size_t V>
-class RefPass {
-public:
-    const std::uint8_t* row[kRefsPerPass];
-    const std::uint8_t* tail[kRefsPerPass];
-    std::size_t count = 0;
-
-    RefPass(std::size_t pixels, std::size_t n_copies)
-        : pixels_(pixels), padded_(round_up(pixels, V)),
-          staged_(n_copies >= kStageMinCopies && padded_ * kRefsPerPass <= kStageMaxBytes) {
-        const std::size_t bytes = staged_ ? padded_ * kRefsPerPass : V * kRefsPerPass;
-        storage_.reset(new std::uint8_t[bytes + 64]);
-        const auto address = reinterpret_cast<std::uintptr_t>(storage_.get());
-        base_ = storage_.get() + (64 - address % 64) % 64;
-        std::memset(base_, 0, bytes);
-    }
-
-    void load(const std::uint8_t* refs, std::size_t first, std::size_t n_refs) {
-        count = n_refs - first < kRefsPerPass ? n_refs - first : kRefsPerPass;
-        const std::size_t full = pixels_ / V * V;
-        for (std::size_t k = 0; k < kRefsPerPass; ++k) {
-            const std::uint8_t* src = refs + (first + (k < count ? k : count - 1)) * pixels_;
-            if (staged_) {
-                std::uint8_t* dst = base_ + k * padded_;
-                std::memcpy(dst, src, pixels_);
-                row[k] = dst;
-                tail[k] = dst + full;
-            } else {
-                std::uint8_t* dst = base_ + k * V;
-                std::memcpy(dst, src + full, pixels_ - full);
-                row[k] = src;
-                tail[k] = dst;
-            }
-        }
-    }
-
-private:
-    static constexpr std::size_t kStageMinCopies = 4;
-    static constexpr std::size_t kStageMaxBytes = std::size_t{256} * 1024;
-    std::size_t pixels_, padded_;
-    bool staged_;
-    std::unique_ptr<std::uint8_t[]> storage_;
-    std::uint8_t* base_ = nullptr;
-};
 
 }  // namespace
 
@@ -353,16 +300,6 @@ void sad_all_shifts_avx512vnni(const std::uint8_t* interleaved, std::size_t widt
                                std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride,
                                const std::uint16_t* selected, std::uint32_t* best_sums, std::int32_t* best_shifts) {
     sad_all_shifts<true>(interleaved, width, refs, n_refs, pixels, out, out_stride, selected, best_sums, best_shifts);
-}
-
-AllShiftKernel all_shift_kernel() noexcept {
-    static const AllShiftKernel chosen = [] {
-        const char* env = std::getenv("NIGHTLOC_AVX512_VNNI");
-        const bool disabled = env != nullptr && std::strcmp(env, "0") == 0;
-        return __builtin_cpu_supports("avx512vnni") && !disabled ? sad_all_shifts_avx512vnni
-                                                                 : sad_all_shifts_avx512bw;
-    }();
-    return chosen;
 }
 
 }  // namespace nightloc::detail

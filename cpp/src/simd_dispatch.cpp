@@ -4,14 +4,35 @@
 #include <atomic>
 #include <cstdlib>
 #include <stdexcept>
+#include <string>
 
 #include "sad_kernels.hpp"
+
+#if NIGHTLOC_ARM_KERNELS && defined(__linux__)
+#include <sys/auxv.h>
+#endif
 
 namespace nightloc {
 namespace {
 
+#if NIGHTLOC_ARM_KERNELS && defined(__linux__)
+constexpr unsigned long kHwcapAsimdDotProduct = 1ul << 20;  // HWCAP_ASIMDDP (asm/hwcap.h)
+#endif
+
 constexpr int kUnset = -1;
 std::atomic<int> g_active{kUnset};
+
+#if NIGHTLOC_ARM_KERNELS
+// The dot-product extension (udot), from the kernel's hardware capabilities: never from compile
+// flags, so one binary serves Cortex-A53/A72 (without) and A55/A76 and later (with).
+bool arm_has_dotprod() noexcept {
+#if defined(__linux__)
+    return (getauxval(AT_HWCAP) & kHwcapAsimdDotProduct) != 0;
+#else
+    return false;
+#endif
+}
+#endif
 
 bool cpu_supports(SimdBackend backend) noexcept {
     switch (backend) {
@@ -24,12 +45,16 @@ bool cpu_supports(SimdBackend backend) noexcept {
             return __builtin_cpu_supports("avx2");
         case SimdBackend::avx512bw:
             return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw");
-#else
+#endif
+#if NIGHTLOC_ARM_KERNELS
+        case SimdBackend::neon:
+            return true;  // part of the AArch64 baseline
+        case SimdBackend::neon_dotprod:
+            return arm_has_dotprod();
+#endif
         default:
             return false;
-#endif
     }
-    return false;
 }
 
 SimdBackend default_backend() noexcept {
@@ -43,19 +68,22 @@ SimdBackend default_backend() noexcept {
 }  // namespace
 
 const char* simd_backend_name(SimdBackend backend) noexcept {
-    switch (backend) {
-        case SimdBackend::scalar: return "scalar";
-        case SimdBackend::sse2: return "sse2";
-        case SimdBackend::avx2: return "avx2";
-        case SimdBackend::avx512bw: return "avx512bw";
+    for (const SimdBackendName& entry : kSimdBackendNames) {
+        if (entry.backend == backend) return entry.name;
     }
     return "unknown";
 }
 
+std::string simd_backend_names() {
+    std::string out;
+    for (const SimdBackendName& entry : kSimdBackendNames) out += (out.empty() ? "" : ", ") + std::string(entry.name);
+    return out;
+}
+
 bool parse_simd_backend(const std::string& name, SimdBackend& backend) noexcept {
-    for (SimdBackend b : {SimdBackend::scalar, SimdBackend::sse2, SimdBackend::avx2, SimdBackend::avx512bw}) {
-        if (name == simd_backend_name(b)) {
-            backend = b;
+    for (const SimdBackendName& entry : kSimdBackendNames) {
+        if (name == entry.name) {
+            backend = entry.backend;
             return true;
         }
     }
@@ -66,17 +94,19 @@ bool simd_backend_supported(SimdBackend backend) noexcept { return cpu_supports(
 
 std::vector<SimdBackend> supported_simd_backends() {
     std::vector<SimdBackend> out;
-    for (SimdBackend b : {SimdBackend::scalar, SimdBackend::sse2, SimdBackend::avx2, SimdBackend::avx512bw}) {
-        if (cpu_supports(b)) out.push_back(b);
+    for (const SimdBackendName& entry : kSimdBackendNames) {
+        if (cpu_supports(entry.backend)) out.push_back(entry.backend);
     }
     return out;
 }
 
 SimdBackend best_simd_backend() noexcept {
-    for (SimdBackend b : {SimdBackend::avx512bw, SimdBackend::avx2, SimdBackend::sse2}) {
-        if (cpu_supports(b)) return b;
+    // the last supported entry: the table lists each architecture's paths slowest first
+    SimdBackend best = SimdBackend::scalar;
+    for (const SimdBackendName& entry : kSimdBackendNames) {
+        if (cpu_supports(entry.backend)) best = entry.backend;
     }
-    return SimdBackend::scalar;
+    return best;
 }
 
 SimdBackend active_simd_backend() noexcept {

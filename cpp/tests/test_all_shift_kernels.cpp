@@ -5,11 +5,15 @@
 // counts that are not a multiple of 64 take the masked tail.
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "check.hpp"
+#include "nightloc/sad.hpp"
+#include "nightloc/simd.hpp"
 #include "sad_kernels.hpp"
 
 #if NIGHTLOC_X86_KERNELS
@@ -89,9 +93,58 @@ void check_kernel(nightloc::detail::AllShiftKernel kernel, const char* name, con
     CHECK(same);
 }
 
+// The CPU family table: AMD Zen 4 (family 19h) takes vpaddw; Intel, Zen 5 and others are measured.
+void test_family_table() {
+    const char* why = nullptr;
+    CHECK(nightloc::detail::avx512_sad_variant_of_family("GenuineIntel", 0x6, &why) == -1);
+    CHECK(nightloc::detail::avx512_sad_variant_of_family("AuthenticAMD", 0x19, &why) ==
+          static_cast<int>(nightloc::Avx512SadVariant::vpaddw));
+    CHECK(std::string(why).find("Zen 4") != std::string::npos);
+    CHECK(nightloc::detail::avx512_sad_variant_of_family("AuthenticAMD", 0x1a, &why) == -1);  // Zen 5: measure
+    CHECK(nightloc::detail::avx512_sad_variant_of_family("HygonGenuine", 0x18, &why) == -1);
+}
+
+// The whole engine (min mode and table) on the avx512bw path with each variant forced, against
+// the plain loop; and the choice made at first use (this process: the start-up measurement).
+void test_engine_with_each_variant(std::mt19937& rng) {
+    const std::string reason = nightloc::avx512_sad_variant_reason();
+    std::printf("default variant: %s (%s)\n", nightloc::avx512_sad_variant_name(nightloc::avx512_sad_variant()),
+                reason.c_str());
+    CHECK(reason.rfind("measured at first use", 0) == 0 || reason.rfind("this CPU has no AVX-512 VNNI", 0) == 0);
+    const std::size_t h = 24, w = 48, px = h * w, n = 21;
+    std::vector<std::uint8_t> query(px), refs(n * px);
+    for (auto& v : query) v = static_cast<std::uint8_t>(rng());
+    for (auto& v : refs) v = static_cast<std::uint8_t>(rng());
+    std::vector<std::int32_t> shifts(w);
+    for (std::size_t k = 0; k < w; ++k) shifts[k] = static_cast<std::int32_t>(k);
+    nightloc::set_simd_backend(nightloc::SimdBackend::avx512bw);
+    for (auto variant : {nightloc::Avx512SadVariant::vpaddw, nightloc::Avx512SadVariant::vnni}) {
+        if (!nightloc::avx512_sad_variant_supported(variant)) continue;
+        nightloc::set_avx512_sad_variant(variant);
+        CHECK(nightloc::avx512_sad_variant() == variant);
+        std::vector<std::uint32_t> best(n), table(n * w);
+        std::vector<std::int32_t> best_shift(n);
+        nightloc::difference_matrix_sums(query.data(), 1, refs.data(), n, h, w, shifts.data(), w, best.data(),
+                                         best_shift.data(), 1);
+        nightloc::rotational_sad_sums(query.data(), refs.data(), n, h, w, shifts.data(), w, table.data(), 1);
+        bool same = true;
+        for (std::size_t i = 0; i < n; ++i) {
+            const std::vector<std::uint32_t> sums = plain_sums(query, refs.data() + i * px, h, w);
+            std::size_t at = 0;
+            for (std::size_t k = 1; k < w; ++k) at = sums[k] < sums[at] ? k : at;
+            same = same && best[i] == sums[at] && best_shift[i] == static_cast<std::int32_t>(at);
+            for (std::size_t k = 0; k < w; ++k) same = same && table[i * w + k] == sums[k];
+        }
+        CHECK(same);
+    }
+    nightloc::reset_avx512_sad_variant();
+    nightloc::reset_simd_backend();
+}
+
 }  // namespace
 
 int main() {
+    test_family_table();
     if (!__builtin_cpu_supports("avx512f") || !__builtin_cpu_supports("avx512bw")) {
         std::printf("no AVX-512BW on this CPU: nothing to check\n");
         return nightloc_test::check_summary();
@@ -110,6 +163,8 @@ int main() {
         if (vnni) check_kernel(nightloc::detail::sad_all_shifts_avx512vnni, "avx512vnni", c, rng);
     }
     std::printf("checked the vpaddw kernel%s\n", vnni ? " and the VNNI kernel" : " (no VNNI on this CPU)");
+    setenv("NIGHTLOC_AVX512_VNNI", "measure", 1);  // before the first use: exercise the measurement
+    test_engine_with_each_variant(rng);
     return nightloc_test::check_summary();
 }
 #else

@@ -192,6 +192,25 @@ void test_eigen_api() {
         for (nightloc::Index c = 0; c < 16; ++c) query(r, (c + 3) % 16) = refs.image(2)(r, c);
     const auto result = nightloc::match(query, refs);
     CHECK(result.best == 2 && result.shifts[2] == 3 && result.scores[2] == 0.0f);
+    // headings: 3 of 16 columns = +3/8 pi; shifts past the half turn wrap to negative headings
+    CHECK(result.headings.size() == 4 && std::fabs(result.headings[2] - 3.0 * M_PI / 8.0) < 1e-12);
+    CHECK(nightloc::shift_heading(8, 16) == M_PI && std::fabs(nightloc::shift_heading(12, 16) + M_PI / 2) < 1e-12);
+    CHECK(nightloc::shift_heading(0, 16) == 0.0);
+    // the pointer-level per-frame call gives the same as the Eigen one, and refuses an empty stack
+    std::vector<float> scores(4);
+    std::vector<std::int32_t> shifts(4);
+    const std::vector<std::int32_t> all = nightloc::all_shifts(16);
+    const std::size_t best = nightloc::match(query.data(), refs.data(), 4, 6, 16, all.data(), all.size(),
+                                             scores.data(), shifts.data());
+    bool same = best == 2;
+    for (std::size_t i = 0; i < 4; ++i) {
+        same = same && scores[i] == result.scores[static_cast<nightloc::Index>(i)] &&
+               shifts[i] == result.shifts[static_cast<nightloc::Index>(i)];
+    }
+    CHECK(same);
+    CHECK_THROWS(nightloc::match(query.data(), refs.data(), 0, 6, 16, all.data(), all.size(), scores.data(),
+                                 shifts.data()),
+                 std::invalid_argument);
     const auto table = nightloc::rotational_sad(query, refs);
     CHECK(table.rows() == 4 && table.cols() == 16 && table(2, 3) == 0.0f);
     const auto dm = nightloc::difference_matrix(refs, refs, {0}, 2);

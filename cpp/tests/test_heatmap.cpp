@@ -114,6 +114,48 @@ void test_documented_float32_rounding() {
     CHECK(out == expected);
 }
 
+// Fails if a*b + c is contracted into a fused multiply-add anywhere in the translation kernels
+// (GCC does so by default on AArch64, and on x86 inside AVX2/AVX-512 code): the expected values
+// round every product (volatile stores, whatever this file's own flags), the data is checked to
+// tell the two roundings apart, and every SIMD path must give the twice-rounded values.
+void test_no_fma_contraction() {
+    std::mt19937 rng(12);
+    std::uniform_real_distribution<float> value(0.f, 1.f);
+    const std::size_t h = 16, w = 37;
+    std::vector<float> src(h * w), start(h * w);
+    for (auto& v : src) v = value(rng);
+    for (auto& v : start) v = value(rng);
+    const double sx = 0.3, sy = 0.7;  // ix = iy = 0: output (j, i) reads source rows j, j - 1, columns i, i - 1
+    const auto a = static_cast<float>(1.0 - sx), b = static_cast<float>(sx);
+    const auto wy0 = static_cast<float>(1.0 - sy), wy1 = static_cast<float>(sy);
+    auto s = [&](long r, long c) { return r < 0 || c < 0 ? 0.f : src[r * long(w) + c]; };
+    auto rounded = [](float x) {  // a product rounded to float and stored: it cannot be fused
+        volatile float stored = x;
+        return float(stored);
+    };
+    std::vector<float> twice(h * w), fused(h * w);
+    for (long j = 0; j < long(h); ++j) {
+        for (long i = 0; i < long(w); ++i) {
+            const float r0 = rounded(a * s(j, i)) + rounded(b * s(j, i - 1));
+            const float r1 = rounded(a * s(j - 1, i)) + rounded(b * s(j - 1, i - 1));
+            const float e = start[j * long(w) + i];
+            twice[j * long(w) + i] = (e + rounded(wy0 * r0)) + rounded(wy1 * r1);
+            const float f0 = std::fma(a, s(j, i), rounded(b * s(j, i - 1)));
+            const float f1 = std::fma(a, s(j - 1, i), rounded(b * s(j - 1, i - 1)));
+            fused[j * long(w) + i] = std::fma(wy1, f1, std::fma(wy0, f0, e));
+        }
+    }
+    CHECK(twice != fused);  // the data tells a contracted kernel from an exact one
+    for (auto backend : nightloc::supported_simd_backends()) {
+        nightloc::set_simd_backend(backend);
+        std::vector<float> out = start;
+        nightloc::add_translated(src.data(), w, out.data(), w, h, w, sx, sy);
+        CHECK(out == twice);
+        if (out != twice) std::fprintf(stderr, "  contraction on path %s\n", nightloc::simd_backend_name(backend));
+    }
+    nightloc::reset_simd_backend();
+}
+
 std::shared_ptr<HeatWeights> random_weights(std::mt19937& rng, std::size_t h, std::size_t w, std::size_t places) {
     std::vector<std::int32_t> indptr{0}, indices;
     std::vector<float> data;
@@ -326,6 +368,7 @@ void test_every_simd_path_gives_the_same_values() {
 }  // namespace
 
 int main() {
+    test_no_fma_contraction();
     test_translation_against_bilinear_oracle();
     test_documented_float32_rounding();
     test_weights_interpolate_like_the_csr_definition();

@@ -43,7 +43,7 @@ float oracle_zscore(const Matrix& d, std::size_t cols, std::size_t q, std::size_
     float squares = 0.0f;
     for (std::size_t j = lo; j <= hi; ++j) {
         const float dev = d[q * cols + j] - mean;
-        const float sq = dev * dev;
+        const volatile float sq = dev * dev;  // rounded on its own: never fused with the sum
         squares = squares + sq;
     }
     const float var = squares / (n - 1.0f);

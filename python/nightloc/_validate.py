@@ -1,14 +1,92 @@
-"""Input checks shared by the public API: clear errors, never a silent cast or copy."""
+"""Input checks shared by the public API: clear errors, never a silent cast or copy; and the
+bounds on every size and number that enters nightloc.
+
+Bounds (each error message names its constant):
+
+============================  =================================================================
+``MAX_COORDINATE_M``          positions, margins, odometry steps, radii and tolerances: finite
+                              and below 1e8 m in magnitude (UTM northings reach 1e7 m, Web
+                              Mercator 2e7 m; at 1e8 m float64 still resolves 15 nm)
+``MAX_GRID_CELLS``            heat-map and belief grids: at most 4 million cells
+``MAX_SEQUENCE_CELLS``        a sequence's frames x grid cells (float32 each): 2**27 (512 MiB)
+``MAX_CLAHE_TILES``           CLAHE tiles along each axis: 256
+``MAX_CAMERA_RAYS``           synthetic panoramas: pixels x oversampling, 2**21 rays per frame
+``MAX_CAMERA_SIDE``           synthetic panoramas: at most 8192 pixels wide or high
+``MAX_REPEATS``               noise draws per noise model in an evaluation: 1000
+``MAX_THREADS``               worker threads of a call: 1024
+``MAX_MAP_EXPANSION``         a map file's arrays: at most 16 x the file's size (+ 1 MiB)
+``MAX_PARAMS_FILE_BYTES``     a TOML parameter file: 1 MiB
+============================  =================================================================
+
+Defined elsewhere: ``nightloc.localization.localizer.MAX_SEQ_LEN`` (1000 frames),
+``nightloc.preparation.MAX_PATCH_RADIUS`` and ``nightloc._core.MAX_IMAGE_PIXELS`` (prepared
+images), ``nightloc._core.MAX_TRAJECTORY_PLAN_ENTRIES`` (route-mode search).
+"""
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import math
 import os
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 
 ShiftSpec = None | int | Sequence[int] | np.ndarray
+
+# --------------------------------------------------------------------------------------------
+# bounds (see the module docstring)
+
+MAX_COORDINATE_M = 1e8
+_COORDINATE_TEXT = "1e8"  # MAX_COORDINATE_M as messages write it
+MAX_GRID_CELLS = 4_000_000
+MAX_SEQUENCE_CELLS = 1 << 27
+MAX_CLAHE_TILES = 256
+MAX_CAMERA_RAYS = 1 << 21
+MAX_CAMERA_SIDE = 8192
+MAX_REPEATS = 1000
+MAX_MAP_EXPANSION = 16
+MAX_PARAMS_FILE_BYTES = 1 << 20
+
+
+def not_masked(value: object, name: str) -> None:
+    """Raises TypeError for a numpy masked array: its mask would be silently ignored."""
+    if isinstance(value, np.ma.MaskedArray):
+        raise TypeError(
+            f"{name} is a numpy masked array; nightloc would ignore its mask: pass numpy.ma.filled({name}, value) "
+            f"or the rows without masked entries"
+        )
+
+
+def metres(value: object, name: str, *, minimum: float = -MAX_COORDINATE_M) -> float:
+    """A distance or coordinate in metres: a real number, finite, at least ``minimum`` and below
+    :data:`MAX_COORDINATE_M` in magnitude; raises TypeError/ValueError naming ``name``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a number of metres, got {type(value).__name__}")
+    number = float(value)
+    if not math.isfinite(number):
+        raise ValueError(f"{name} must be a finite number of metres, got {number}")
+    if not (minimum <= number and abs(number) < MAX_COORDINATE_M):
+        low = f"-{_COORDINATE_TEXT}" if minimum == -MAX_COORDINATE_M else f"{minimum:g}"
+        raise ValueError(f"{name} = {number:g} m is outside [{low}, {_COORDINATE_TEXT}) m (MAX_COORDINATE_M)")
+    return number
+
+
+def coordinates(values: np.ndarray, name: str) -> None:
+    """Raises ValueError naming the first row of ``values`` (float64, any shape ``(N, ...)``)
+    that is NaN, infinite or reaches :data:`MAX_COORDINATE_M` in magnitude."""
+    bad = ~np.isfinite(values) | (np.abs(values) >= MAX_COORDINATE_M)
+    if bad.any():
+        row = int(np.argwhere(bad)[0, 0]) if values.ndim else 0
+        shown = values[row].tolist() if values.ndim else float(values)
+        finite = np.isfinite(values[row] if values.ndim else values).all()
+        what = f"beyond {_COORDINATE_TEXT} m" if finite else "not finite (NaN or infinite)"
+        raise ValueError(
+            f"{name}[{row}] = {shown} is {what}; coordinates must be finite metres within {_COORDINATE_TEXT} m "
+            f"of the origin (MAX_COORDINATE_M)"
+        )
 
 
 def _describe(array: np.ndarray) -> str:
@@ -21,6 +99,7 @@ def uint8_array(value: object, ndim: int, name: str) -> np.ndarray:
     Raises TypeError for a non-array or another dtype and ValueError for another rank, an empty
     axis or a non-contiguous array, each naming what was expected and how to convert.
     """
+    not_masked(value, name)
     if not isinstance(value, np.ndarray):
         raise TypeError(
             f"{name} must be a numpy.ndarray of dtype uint8, got {type(value).__name__}; "
@@ -115,18 +194,44 @@ def thread_count(threads: int | None) -> int:
 def camera_frame(image: object, name: str, dtype_hint: str, shape_hint: str) -> np.ndarray:
     """A camera frame: uint8/uint16 ndarray, (H, W) grey or (H, W, 3|4) colour, not empty.
 
-    An (H, W, 1) frame is returned as (H, W). Raises TypeError (not an array, another dtype) or
-    ValueError (another shape, an empty axis) naming ``name``; ``dtype_hint`` and ``shape_hint``
-    end the messages with how to fix the input for the calling function.
+    An (H, W, 1) frame is returned as (H, W), and so is an (H, W, 2) grey + alpha frame (the
+    alpha channel dropped, as for BGRA). Raises TypeError (not an array, a masked array, another
+    dtype) or ValueError (another shape, an empty axis) naming ``name``; ``dtype_hint`` and
+    ``shape_hint`` end the messages with how to fix the input for the calling function.
     """
+    not_masked(image, name)
     if not isinstance(image, np.ndarray):
         raise TypeError(f"{name} must be a numpy.ndarray (uint8 or uint16), got {type(image).__name__}")
     if image.dtype not in (np.uint8, np.uint16):
         raise TypeError(f"{name} has dtype {image.dtype}; {dtype_hint}")
-    if image.ndim == 3 and image.shape[2] == 1:
+    if image.ndim == 3 and image.shape[2] in (1, 2):  # grey, or grey + alpha
         image = image[:, :, 0]
     if not (image.ndim == 2 or (image.ndim == 3 and image.shape[2] in (3, 4))):
         raise ValueError(f"{name} must be grey (H, W) or colour (H, W, 3|4), got shape {image.shape}{shape_hint}")
     if 0 in image.shape:
         raise ValueError(f"{name} is empty (shape {image.shape})")
     return image
+
+
+class StreamGuard:
+    """Refuses concurrent calls into a stateful stream (a localizer): ``with guard("update"):``
+    raises RuntimeError when another thread is inside. Copies and pickles get a fresh lock."""
+
+    def __init__(self, owner: str):
+        self._owner = owner
+        self._lock = threading.Lock()
+
+    def __reduce__(self) -> tuple:
+        return (StreamGuard, (self._owner,))
+
+    @contextlib.contextmanager
+    def __call__(self, what: str) -> Iterator[None]:
+        if not self._lock.acquire(blocking=False):
+            raise RuntimeError(
+                f"{self._owner}.{what} was called while another thread is using this {self._owner}; it is one "
+                f"stream of frames, so the order of the frames would be a race: use one {self._owner} per thread"
+            )
+        try:
+            yield
+        finally:
+            self._lock.release()

@@ -9,7 +9,9 @@ own log messages, which are otherwise limited to errors).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import io
 import os
 import sys
 
@@ -72,17 +74,44 @@ def _quiet_opencv() -> None:
         pass
 
 
+def _tolerant_streams() -> None:
+    """Lets stdout and stderr print file names that are not valid UTF-8 (held by Python as lone
+    surrogates) as escapes (``caf\\udce9``) instead of failing after the work is done."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(AttributeError, ValueError, io.UnsupportedOperation):
+            stream.reconfigure(errors="backslashreplace")  # type: ignore[union-attr]  # a TextIOWrapper
+
+
+def _closed_pipe() -> int:
+    """The reader of stdout went away (``nightloc info | head -1``): stop quietly, like a
+    command killed by SIGPIPE (exit status 141), without Python's "Broken pipe" complaints."""
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # the interpreter's last flush then goes nowhere
+        os.close(devnull)
+    return EXIT_CLOSED_PIPE
+
+
+#: Exit status when the reader of stdout closed the pipe (128 + SIGPIPE, as the shell reports).
+EXIT_CLOSED_PIPE = 141
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``nightloc`` script; returns the exit status.
 
     0: success; 2: bad input (usage, values, files; one line on stderr); 1: internal error;
-    130: interrupted.
+    130: interrupted; 141: the reader of stdout went away (a closed pipe; nothing is printed).
     """
     parser = build_parser()
     args = parser.parse_args(argv)
     _quiet_opencv()
+    _tolerant_streams()
     try:
-        return int(args.run(args) or 0)
+        status = int(args.run(args) or 0)
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's last flush
+        return status
+    except BrokenPipeError:
+        return _closed_pipe()
     except KeyboardInterrupt:
         print(f"nightloc {args.command}: interrupted", file=sys.stderr)
         return 130

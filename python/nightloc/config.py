@@ -43,8 +43,10 @@ from typing import Any, Literal, TypeVar, Union
 
 import numpy as np
 
+from ._validate import MAX_PARAMS_FILE_BYTES
 from .errors import NightlocError
 from .io.atomic import write_text
+from .io.files import open_regular
 
 __all__ = [
     "dumps_toml",
@@ -236,7 +238,7 @@ def params_from_dict(cls: type[T], table: Mapping[str, Any], where: str = "") ->
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise NightlocError(f"{prefix}unknown key {key!r} in [{section}]{hint}; known keys: {', '.join(names)}")
     try:
-        return cls(**table)  # type: ignore[call-arg]
+        return cls(**table)
     except (TypeError, ValueError) as error:
         raise NightlocError(f"{prefix}[{section}] {error}") from None
 
@@ -324,9 +326,15 @@ def load_params_file(path: str | os.PathLike[str]) -> dict[str, Any]:
     """
     file = Path(path)
     try:
-        data = file.read_bytes()
+        with open_regular(file, "parameter file", NightlocError) as stream:  # a FIFO must not block
+            data = stream.read(MAX_PARAMS_FILE_BYTES + 1)
     except OSError as error:
         raise NightlocError(f"parameter file {file} cannot be read: {error.strerror or error}") from error
+    if len(data) > MAX_PARAMS_FILE_BYTES:
+        raise NightlocError(
+            f"parameter file {file} is larger than {MAX_PARAMS_FILE_BYTES} bytes (MAX_PARAMS_FILE_BYTES); "
+            f"a parameter file holds a few tables of key = value lines"
+        )
     try:
         document = tomllib.loads(data.decode("utf-8-sig"))  # a byte-order mark (Windows editors) is fine
     except UnicodeDecodeError as error:
@@ -361,7 +369,7 @@ def load_params(path: str | os.PathLike[str], cls: type[T] | None = None) -> T:
     chosen: type = cls  # type: ignore[assignment]
     section = _section_of(chosen)
     found = load_params_file(path)
-    return found[section] if section in found else chosen()  # type: ignore[return-value]
+    return found[section] if section in found else chosen()
 
 
 def save_params(path: str | os.PathLike[str], params: Any | Iterable[Any]) -> None:

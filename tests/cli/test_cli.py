@@ -5,6 +5,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import nightloc
 from nightloc.cli import main
 
 
@@ -41,6 +42,8 @@ def test_info_reports_paths(capsys):
     assert main(["info", "--refs", "200"]) == 0
     out = capsys.readouterr().out
     assert "SIMD path in use" in out and "scalar" in out
+    if "avx512bw" in nightloc.available_simd_backends():  # which all-shift variant runs, and why
+        assert "avx512bw all-shift kernel: " in out and "avx512bw vpaddw" in out
 
 
 def test_bad_value_is_one_line_error(capsys):

@@ -56,7 +56,7 @@ CASES = [
     ("build-map output under a file", "build-map {trav} {text}/x.map", "is a file"),
     ("build-map output is a folder", "build-map {trav} {out}", "is a folder"),
     ("build-map bad params key", "build-map {trav} {new}.map --params {bad_toml}", "unknown key 'widht'"),
-    ("build-map missing params file", "build-map {trav} {new}.map --params {root}/nope.toml", "cannot be read"),
+    ("build-map missing params file", "build-map {trav} {new}.map --params {root}/nope.toml", "does not exist"),
     ("build-map params file is a map", "build-map {trav} {new}.map --params {map}", "UTF-8"),
     ("build-map frame step 0", "build-map {trav} {new}.map --frame-step 0", "frame_step"),
     ("build-map missing poses", "build-map {trav} {new}.map --poses {root}/nope.csv", "does not exist"),
@@ -72,7 +72,7 @@ CASES = [
     ("route threads 0", "route {trav} {trav} --out {new} --threads 0", "threads"),
     ("route search too large", "route {trav} {trav} --out {new} --ds 100000 --vmax 1000", "too large a search"),
     ("route frame step 0", "route {trav} {trav} --out {new} --frame-step 0", "frame-step"),
-    ("route too few frames", "route {trav} {trav} --out {new} --ds 4", "uniqueness window"),
+    ("route too few frames", "route {trav} {trav} --out {new} --method seqslam --ds 4", "uniqueness window"),
     ("evaluate missing reference", "evaluate {root}/nope {trav} --out {new}", "does not exist"),
     ("evaluate reference without poses", "evaluate {no_poses} {trav} --out {new}", "no poses"),
     ("evaluate query without poses", "evaluate {trav} {no_poses} --out {new}", "no poses"),
@@ -176,7 +176,7 @@ def test_existing_output_survives_a_failed_build(ws, capsys):
     shutil.copy(ws.map_file, target)
     before = target.read_bytes()
     broken = ws.traverse_variant(images={ws.names[4]: b"\x89PNG\r\n\x1a\n truncated"})
-    assert cli.main(["build-map", str(broken), str(target)]) == 2
+    assert cli.main(["build-map", str(broken), str(target), "--overwrite"]) == 2
     assert ws.names[4] in capsys.readouterr().err
     assert target.read_bytes() == before
     assert sorted(p.name for p in ws.root.iterdir() if p.name.startswith(".")) == []

@@ -42,18 +42,21 @@ def read_csv(path):
 def test_route_command_writes_matches_pr_and_figures(synthetic_traverses, tmp_path, capsys):
     day, night, refs, queries = synthetic_traverses
     out = tmp_path / "out"
-    assert main(["route", str(day), str(night), "--out", str(out), "--preset", "openseqslam"]) == 0
+    # frame0000.png ... in both: positional names, taken as ground truth only when asked for
+    args = ["route", str(day), str(night), "--out", str(out), "--preset", "openseqslam", "--ground-truth", "names"]
+    assert main(args) == 0
     printed = capsys.readouterr().out
     assert "recall at 100% precision" in printed and "ground truth from names" in printed
     rows = read_csv(out / "matches.csv")
-    assert rows[0] == ["query", "ref", "score"] and len(rows) == 101
+    assert rows[0] == ["query", "ref", "score", "query_image", "ref_image"] and len(rows) == 101
     expected = route.match_prepared(nightloc.block_normalize(refs), nightloc.block_normalize(queries), "openseqslam")
-    for q, (query, ref, score) in enumerate(rows[1:]):
-        assert int(query) == q
+    for q, (query, ref, score, query_image, ref_image) in enumerate(rows[1:]):
+        assert int(query) == q and query_image == f"frame{q:04d}.png"
         if expected.refs[q] < 0:
-            assert ref == "" and score == ""
+            assert ref == "-1" and score == "nan" and ref_image == ""
         else:
             assert int(ref) == expected.refs[q] and float(score) == expected.scores[q]
+            assert ref_image == f"frame{expected.refs[q]:04d}.png"
     pr = read_csv(out / "pr.csv")
     assert pr[0] == ["threshold", "precision", "recall"] and len(pr) > 10
     thresholds = [float(row[0]) for row in pr[1:]]
@@ -70,14 +73,16 @@ def test_route_command_writes_matches_pr_and_figures(synthetic_traverses, tmp_pa
 def test_route_command_options(synthetic_traverses, tmp_path):
     day, night, _, _ = synthetic_traverses
     out = tmp_path / "causal"
-    out.mkdir()
-    (out / "pr.csv").write_text("stale output of an earlier run\n")
+    assert main(["route", str(day), str(night), "--out", str(out), "--ground-truth", "frames"]) == 0
+    assert (out / "pr.csv").is_file()  # an earlier run's output, which the next run must not leave behind
     args = [
         "route",
         str(day),
         str(night),
         "--out",
         str(out),
+        "--method",
+        "seqslam",
         "--mode",
         "causal",
         "--ds",
@@ -94,7 +99,7 @@ def test_route_command_options(synthetic_traverses, tmp_path):
     ]
     assert main(args) == 0
     rows = read_csv(out / "matches.csv")
-    assert [r[1] for r in rows[1:6]] == [""] * 5 and rows[6][1] != ""  # causal: ds-1 undefined
+    assert [r[1] for r in rows[1:6]] == ["-1"] * 5 and rows[6][1] != "-1"  # causal: ds-1 undefined
     assert not (out / "pr.csv").exists() and not (out / "difference_matrix.png").exists()
     summary = json.loads((out / "summary.json").read_text())
     assert summary["params"]["mode"] == "causal" and summary["params"]["ds"] == 6
@@ -202,3 +207,54 @@ def test_route_command_on_videos(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["n_refs"] == 90 and summary["n_queries"] == 80
     assert summary["recall_at_100_precision"] > 0.7
+
+
+def test_route_command_compares_methods(synthetic_traverses, tmp_path, capsys):
+    """``--method seqslam,filter``: both sets from one difference matrix, a comparison summary and
+    table; the filter's set equals the default run's; a later single-method run into the same
+    folder removes the comparison's sets."""
+    day, night, _, _ = synthetic_traverses
+    out = tmp_path / "both"
+    both = ["--method", "seqslam,filter", "--ground-truth", "names"]  # the names number the frames alike
+    assert main(["route", str(day), str(night), "--out", str(out), *both]) == 0
+    printed = capsys.readouterr().out
+    assert "method" in printed and "R@100P" in printed
+    comparison = json.loads((out / "summary.json").read_text())
+    assert comparison["methods"] == ["seqslam", "filter"]
+    for method in ("seqslam", "filter"):
+        summary = json.loads((out / method / "summary.json").read_text())
+        assert summary["method"] == method and summary["method_params"]["method"] == method
+        assert comparison["results"][method]["best_f1"] == summary["best_f1"]
+        assert 0 <= summary["correct_any_score"] <= 1
+    filtered = read_csv(out / "filter" / "matches.csv")
+    assert filtered[0] == ["query", "ref", "score", "query_image", "ref_image", "confidence", "off_route"]
+    assert read_csv(out / "seqslam" / "matches.csv")[0] == ["query", "ref", "score", "query_image", "ref_image"]
+    # The filter from the comparison run equals a plain default run.
+    single = tmp_path / "single"
+    assert main(["route", str(day), str(night), "--out", str(single), "--no-figures"]) == 0
+    assert read_csv(single / "matches.csv") == filtered
+    summary = json.loads((single / "summary.json").read_text())
+    assert summary["method"] == "filter" and "filter_sharpness" in summary["method_params"]
+    assert "ds" not in summary["method_params"] and summary["preparation"]["equalize"] == "none"
+    if "pr_comparison.png" in comparison["figures"]:
+        assert cv2.imread(str(out / "pr_comparison.png")).shape[2] == 3
+        assert "filter_confidence.png" in json.loads((out / "filter" / "summary.json").read_text())["figures"]
+    assert main(["route", str(day), str(night), "--out", str(out), "--no-figures"]) == 0
+    assert not any((out / method / "matches.csv").exists() for method in ("seqslam", "filter"))
+    assert json.loads((out / "summary.json").read_text())["method"] == "filter"
+    assert main(["route", str(day), str(night), "--out", str(tmp_path / "bad"), "--method", "filter,magic"]) == 2
+    assert "unknown method 'magic'" in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists()
+
+
+def test_route_command_gardens_point_comparison(shared_data, tmp_path, capsys):
+    root = shared_data / "gardens_point"
+    if not (root / "day_right").is_dir():
+        pytest.skip(f"{root} not found")
+    out = tmp_path / "gp"
+    args = ["route", str(root / "day_right"), str(root / "night_right"), "--out", str(out)]
+    # ImageNNN.jpg in both folders: frame-aligned, but positional names give no ground truth unless asked.
+    assert main([*args, "--method", "seqslam,filter", "--no-figures", "--ground-truth", "names"]) == 0
+    results = json.loads((out / "summary.json").read_text())["results"]
+    assert results["filter"]["best_f1"] >= 0.85 and results["filter"]["recall_at_100_precision"] >= 0.30
+    assert results["seqslam"]["best_f1"] < 0.5

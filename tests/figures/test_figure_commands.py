@@ -39,7 +39,7 @@ def test_evaluate_writes_svg_then_png_and_drops_the_other_format(tmp_path, capsy
     assert _evaluate(folders, out, "--figure-format", "svg") == 0
     figures = ["error_vs_seq_len", "error_vs_noise", "error_vs_interpolation", "heatmap_frame9"]
     assert sorted(p.name for p in out.iterdir()) == sorted(
-        ["errors.csv", "summary.csv", *(f"{f}.svg" for f in figures)]
+        [".nightloc-output.json", "errors.csv", "summary.csv", *(f"{f}.svg" for f in figures)]
     )
     for name in figures:
         width, height = svg_size((out / f"{name}.svg").read_bytes())
@@ -48,7 +48,7 @@ def test_evaluate_writes_svg_then_png_and_drops_the_other_format(tmp_path, capsy
     assert ".svg" in capsys.readouterr().out
     assert _evaluate(folders, out) == 0  # png by default
     assert sorted(p.name for p in out.iterdir()) == sorted(
-        ["errors.csv", "summary.csv", *(f"{f}.png" for f in figures)]
+        [".nightloc-output.json", "errors.csv", "summary.csv", *(f"{f}.png" for f in figures)]
     )
     assert png_size((out / "heatmap_frame9.png").read_bytes())[0] == 1100
 
@@ -63,14 +63,21 @@ def test_route_writes_pdf_figures_and_lists_them(tmp_path):
             assert cv2.imwrite(str(tmp_path / name / "images" / f"f{i:04d}.png"), image)
     out = tmp_path / "out"
     argv = ["route", str(tmp_path / "day"), str(tmp_path / "night"), "--out", str(out), "--ds", "6"]
+    argv += ["--ground-truth", "names"]  # f0000.png ... in both: positional names, used when asked for
     assert main([*argv, "--figure-format", "pdf"]) == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["figures"] == ["difference_matrix.pdf", "pr_curve.pdf", "correspondence.pdf"]
+    # The default method is the route filter: its confidence figure comes last.
+    assert summary["figures"] == [
+        "difference_matrix.pdf",
+        "pr_curve.pdf",
+        "correspondence.pdf",
+        "filter_confidence.pdf",
+    ]
     for name in summary["figures"]:
         width, height = pdf_size((out / name).read_bytes())
-        assert width > 300 and height > 300
+        assert width > 300 and height > 250
     assert main(argv) == 0
-    assert not list(out.glob("*.pdf")) and len(list(out.glob("*.png"))) == 3
+    assert not list(out.glob("*.pdf")) and len(list(out.glob("*.png"))) == 4
 
 
 @pytest.mark.parametrize("command", ["evaluate", "route", "demo"])

@@ -96,7 +96,7 @@ def test_caption_names_the_data_the_preset_and_what_changed(matched, tmp_path):
     assert "reference nordland/summer (90 frames) vs query winter (80 frames)" in text
     assert "preset openseqslam;" in text and "ds 10, speeds 0.8-1.2, centred" in text and "names, ±2 frames" in text
     changed = dataclasses.replace(result, params=dataclasses.replace(result.params, ds=6, mode="causal"))
-    assert "preset openseqslam with ds=6, mode=causal; ds 6" in route_caption(changed, preset="openseqslam")
+    assert "preset openseqslam with ds=6, mode=causal; SeqSLAM ds 6" in route_caption(changed, preset="openseqslam")
     # without a name, the closest preset
     assert "preset openseqslam;" in route_caption(result)
     nightloc_params = dataclasses.replace(result, params=route.RouteParams(vmax=1.5))
@@ -111,4 +111,5 @@ def test_save_route_figures_writes_each_format_with_the_caption(matched, tmp_pat
     assert [p.name for p in paths] == ["difference_matrix.svg", "pr_curve.svg", "correspondence.svg"]
     for path in paths:
         assert "reference day (90 frames) vs query night (80 frames)" in path.read_text()
+    (tmp_path / "none").mkdir()  # outputs never create their folder's parents
     assert [p.name for p in save_route_figures(result, None, tmp_path / "none")] == ["difference_matrix.png"]

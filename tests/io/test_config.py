@@ -148,7 +148,7 @@ def test_bad_files_name_file_and_key(tmp_path, text, fragments):
 
 
 def test_unreadable_files(tmp_path):
-    with pytest.raises(NightlocError, match="cannot be read"):
+    with pytest.raises(NightlocError, match="does not exist"):
         load_params(tmp_path / "missing.toml")
     (tmp_path / "latin.toml").write_bytes(b"[preparation]\nchannel_order = '\xe9'\n")
     with pytest.raises(NightlocError, match="UTF-8"):

@@ -212,7 +212,7 @@ def test_interrupted_save_keeps_the_old_map(garden_map, saved, monkeypatch):
 
     monkeypatch.setattr(np, "savez", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        garden_map.save(saved)
+        garden_map.save(saved, overwrite=True)
     assert saved.read_bytes() == before
     assert os.listdir(saved.parent) == [saved.name]
 

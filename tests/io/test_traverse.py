@@ -199,7 +199,7 @@ def test_save_rejects_empty_and_bad_images(tmp_path):
     with pytest.raises(ValueError, match="empty"):
         save_traverse(tmp_path / "t", [])
     with pytest.raises(ValueError, match="shape"):
-        save_traverse(tmp_path / "t", [np.zeros((4, 4, 2), np.uint8)])
+        save_traverse(tmp_path / "t", [np.zeros((4, 4, 5), np.uint8)])
     with pytest.raises(TypeError, match="ndarray"):
         save_traverse(tmp_path / "t", [[1, 2, 3]])
     assert os.listdir(tmp_path) == []

@@ -158,7 +158,7 @@ def test_cli_writes_errors_summary_and_figures(tmp_path, capsys):
         assert image is not None and image.shape[2] == 3, name
     # a second run without figures leaves no stale figure behind
     assert main([*argv[:5], "--seq-lengths", "1", "--no-figures"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["errors.csv", "summary.csv"]
+    assert sorted(p.name for p in out.iterdir()) == [".nightloc-output.json", "errors.csv", "summary.csv"]
 
 
 def test_cli_accepts_a_map_file_and_parameter_file(tmp_path, capsys):

@@ -171,7 +171,7 @@ for h, w in ((24, 48), (64, 64), (7, 400), (33, 96)):
         exp_scores, exp_shifts = oracle.difference_matrix(q[None], refs, np.arange(w))
         np.testing.assert_array_equal(scores, exp_scores)
         np.testing.assert_array_equal(shifts, exp_shifts)
-print("ok", nightloc.simd_backend())
+print("ok", nightloc.simd_backend(), nightloc._core.avx512_sad_variant()[0])
 """
 
 
@@ -187,4 +187,44 @@ def test_avx512_kernel_without_vnni_matches_oracle():
         timeout=300,
     )
     assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ["ok", "avx512bw"]
+    assert done.stdout.split() == ["ok", "avx512bw", "vpaddw"]
+
+
+@pytest.mark.skipif("avx512bw" not in nightloc.available_simd_backends(), reason="needs a CPU with AVX-512BW")
+@pytest.mark.parametrize("variant", ["vpaddw", "vnni"])
+def test_each_avx512_variant_matches_oracle(variant):
+    """Both accumulations of the all-shift kernel, forced in this process, give the oracle's sums."""
+    from nightloc import _core
+
+    if variant not in _core.available_avx512_sad_variants():
+        pytest.skip(f"this CPU cannot run the {variant} variant")
+    rng = np.random.default_rng(11)
+    refs = random_stack(rng, 13, 24, 48)
+    refs[0] = 255
+    query = rng.integers(0, 256, size=(24, 48), dtype=np.uint8)
+    _core.set_avx512_sad_variant(variant)
+    try:
+        with nightloc.use_simd_backend("avx512bw"):
+            assert _core.avx512_sad_variant() == (variant, "forced by set_avx512_sad_variant")
+            table = nightloc.rotational_sad(query, refs)
+            scores, shifts = nightloc.difference_matrix(query[None], refs, threads=2)
+    finally:
+        _core.set_avx512_sad_variant(None)
+    np.testing.assert_array_equal(table, oracle.rotational_sad(query, refs, range(48)))
+    exp_scores, exp_shifts = oracle.difference_matrix(query[None], refs, np.arange(48))
+    np.testing.assert_array_equal(scores, exp_scores)
+    np.testing.assert_array_equal(shifts, exp_shifts)
+
+
+def test_avx512_variant_says_why():
+    from nightloc import _core
+
+    found = _core.avx512_sad_variant()
+    if "avx512bw" not in nightloc.available_simd_backends():
+        assert found is None
+        return
+    name, reason = found
+    assert name in _core.available_avx512_sad_variants()
+    assert reason.startswith(("measured at first use", "CPU table", "NIGHTLOC_AVX512_VNNI", "this CPU has no"))
+    with pytest.raises(ValueError, match="expected vpaddw or vnni"):
+        _core.set_avx512_sad_variant("fast")

@@ -221,7 +221,7 @@ def test_preparing_a_traverse_holds_few_frames(tmp_path):
     ("images", "error", "text"),
     [
         (np.zeros((10, 10), np.float32), TypeError, "uint8 or uint16"),
-        (np.zeros((5, 10, 10, 2), np.uint8), ValueError, r"images\[0\].*\(H, W, 3\|4\)"),
+        (np.zeros((5, 10, 10, 5), np.uint8), ValueError, r"images\[0\].*\(H, W, 3\|4\)"),
         (np.zeros((0, 10), np.uint8), ValueError, "empty"),
         (np.zeros((2, 3, 10, 10, 3), np.uint8), ValueError, "stack"),
         ([], ValueError, "empty"),

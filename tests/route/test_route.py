@@ -280,7 +280,7 @@ def test_bad_inputs_are_clear_errors():
     with pytest.raises(ValueError, match="8x8"):
         route.match_prepared(refs, rng.integers(0, 256, (30, 8, 9), dtype=np.uint8))
     with pytest.raises(ValueError, match="too few"):
-        route.match_prepared(refs[:8], refs)  # 8 references, uniqueness window 11
+        route.match_prepared(refs[:8], refs, RouteParams(method="seqslam"))  # 8 references, uniqueness window 11
     d = random_matrix(rng, 10, 20)
     with pytest.raises(TypeError, match="float32"):
         route.enhance_contrast(d.astype(np.float64))

@@ -23,10 +23,13 @@ def client():
     cluster.close()
 
 
-@pytest.mark.parametrize(("preset", "mode"), [("openseqslam", "centred"), ("nightloc", "causal")])
-def test_dask_equals_in_process(client, preset, mode):
+@pytest.mark.parametrize(
+    ("preset", "mode", "method"),
+    [("openseqslam", "centred", "seqslam"), ("nightloc", "causal", "seqslam"), ("nightloc", "centred", "filter")],
+)
+def test_dask_equals_in_process(client, preset, mode, method):
     refs, queries, _ = ro.synthetic_route(140, 130, speed=1.05, seed=21)
-    params = route.resolve_params(preset, mode=mode)
+    params = route.resolve_params(preset, mode=mode, method=method)
     expected = route.match_prepared(refs, queries, params)
     # Blocks smaller than the trajectories' reach, and uneven: the halo logic is exercised.
     result = dask_match_prepared(refs, queries, params, rows_per_block=17, keep_difference=True, client=client)
@@ -34,6 +37,9 @@ def test_dask_equals_in_process(client, preset, mode):
     np.testing.assert_array_equal(result.scores, expected.scores)
     np.testing.assert_array_equal(result.enhanced.compute(), expected.enhanced)
     np.testing.assert_array_equal(result.difference.compute(), expected.difference)
+    if method == "filter":  # the filter continued over the blocks brought to the client in order
+        np.testing.assert_array_equal(result.confidence, expected.confidence)
+        np.testing.assert_array_equal(result.off_route, expected.off_route)
 
 
 def test_dask_matrices_without_difference(client):
@@ -45,4 +51,4 @@ def test_dask_matrices_without_difference(client):
     with pytest.raises(ValueError, match="rows_per_block"):
         dask_route_matrices(refs, queries, rows_per_block=0)
     with pytest.raises(ValueError, match="too few"):
-        dask_match_prepared(refs[:5], queries)
+        dask_match_prepared(refs[:5], queries, route.RouteParams(method="seqslam"))

@@ -26,7 +26,7 @@ def stream(localizer, frames, prepared=True):
 @pytest.mark.parametrize("ds", [3, 8, 10])
 def test_streaming_equals_batch_causal_and_oracle(ds):
     refs, queries, truth = ro.synthetic_route(150, 120, speed=0.9, seed=ds)
-    params = RouteParams(mode="causal", ds=ds)
+    params = RouteParams(method="seqslam", mode="causal", ds=ds)
     batch = route.match_prepared(refs, queries, params)
     localizer = nightloc.RouteLocalizer(refs, params, prepared=True)
     updates, stream_refs, stream_scores = stream(localizer, queries)
@@ -78,7 +78,7 @@ def test_localizer_errors():
     with pytest.raises(TypeError, match="uint8"):
         localizer.update(queries[0].astype(np.float32), prepared=True)
     with pytest.raises(ValueError, match="needs at least"):
-        nightloc.RouteLocalizer(refs[:10], prepared=True)
+        nightloc.RouteLocalizer(refs[:10], method="seqslam", prepared=True)
     with pytest.raises(TypeError, match="not both"):
         nightloc.RouteLocalizer(refs, RouteParams(), preset="nightloc", prepared=True)
 

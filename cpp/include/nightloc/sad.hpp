@@ -51,6 +51,19 @@ void difference_matrix(const std::uint8_t* queries, std::size_t n_queries, const
                        std::size_t n_shifts, float* scores, std::int32_t* best_shifts, int threads = 1,
                        double divisor = 0.0);
 
+/// The per-frame call: one query against all references. For every reference i, scores[i] is
+/// the mean absolute difference (grey levels, float32) at its best shift and best_shifts[i] that
+/// shift; headings[i] (optional, nullptr skips it) the query's heading relative to the reference
+/// in radians (shift_heading). Returns the index of the reference with the lowest sum, ties going
+/// to the lowest index. Throws std::invalid_argument when n_refs is 0 or as difference_matrix_sums.
+std::size_t match(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
+                  std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, float* scores,
+                  std::int32_t* best_shifts, double* headings = nullptr, int threads = 1);
+
+/// The query's heading relative to the reference for a best shift of `shift` columns of a
+/// `width`-column panorama: 2*pi*shift/width, wrapped to (-pi, pi].
+double shift_heading(std::int32_t shift, std::size_t width) noexcept;
+
 /// The score of a sum, as the functions above compute it.
 inline float score_from_sum(std::uint32_t sum, double divisor) noexcept {
     return static_cast<float>(static_cast<double>(sum) / divisor);

@@ -1,11 +1,18 @@
-// Run-time selection of the SIMD path used by the SAD kernels.
+// Run-time selection of the SIMD path used by the kernels.
 //
 // Every path computes bit-identical results; they differ only in speed. The active path is the
-// best one the CPU supports, unless the environment variable NIGHTLOC_SIMD (scalar, sse2, avx2,
-// avx512bw) names another supported one when the path is first queried, or set_simd_backend()
-// forces one (tests use this to check every path on one machine). Within the avx512bw path, CPUs
-// with AVX-512 VNNI accumulate the all-shift kernel with vpdpwssd (same results, faster); the
-// environment variable NIGHTLOC_AVX512_VNNI=0, read once, keeps the vpaddw variant.
+// best one the CPU supports, unless the environment variable NIGHTLOC_SIMD (a name of
+// kSimdBackendNames) names another supported one when the path is first queried, or
+// set_simd_backend() forces one (tests use this to check every path on one machine).
+//
+// Within the avx512bw path, the all-shift SAD kernel accumulates either with vpaddw or, on CPUs
+// with AVX-512 VNNI, with vpdpwssd (same results). Which one is faster depends on the CPU (and on
+// the host): on AMD Zen 4 vpaddw by 20 % (234-239 vs 189 G/s); on Intel Sapphire Rapids the two
+// were within a few per cent, either way round. The variant is chosen once per process
+// (avx512_sad_variant_reason() says how): NIGHTLOC_AVX512_VNNI=0 or 1 forces it; AMD family 19h
+// (Zen 4) takes vpaddw from a table; on every other CPU with VNNI (or with
+// NIGHTLOC_AVX512_VNNI=measure) both are timed at first use (about 2 ms: 3.5 M byte comparisons
+// each, best of 15 alternating rounds) and vnni is kept only if it is at least 2 % faster.
 #pragma once
 
 #include <string>
@@ -13,10 +20,30 @@
 
 namespace nightloc {
 
-enum class SimdBackend : int { scalar = 0, sse2 = 1, avx2 = 2, avx512bw = 3 };
+enum class SimdBackend : int { scalar = 0, sse2 = 1, avx2 = 2, avx512bw = 3, neon = 4, neon_dotprod = 5 };
 
-/// Lower-case name of a path: "scalar", "sse2", "avx2" or "avx512bw".
+/// A path and its name: the one place the names are written (the bindings and Python read them).
+struct SimdBackendName {
+    SimdBackend backend;
+    const char* name;
+};
+
+/// Every path the library knows (compiled into this build or not), slowest first per
+/// architecture: x86-64 (sse2, avx2, avx512bw) and AArch64 (neon, neon-dotprod).
+inline constexpr SimdBackendName kSimdBackendNames[] = {
+    {SimdBackend::scalar, "scalar"},
+    {SimdBackend::sse2, "sse2"},
+    {SimdBackend::avx2, "avx2"},
+    {SimdBackend::avx512bw, "avx512bw"},
+    {SimdBackend::neon, "neon"},
+    {SimdBackend::neon_dotprod, "neon-dotprod"},
+};
+
+/// Lower-case name of a path (see kSimdBackendNames).
 const char* simd_backend_name(SimdBackend backend) noexcept;
+
+/// All names of kSimdBackendNames, comma-separated (for messages).
+std::string simd_backend_names();
 
 /// Parses a name as returned by simd_backend_name(); false when the name is unknown.
 bool parse_simd_backend(const std::string& name, SimdBackend& backend) noexcept;
@@ -39,5 +66,28 @@ void set_simd_backend(SimdBackend backend);
 
 /// Returns to the default choice (NIGHTLOC_SIMD if valid, else the best path).
 void reset_simd_backend() noexcept;
+
+/// How the avx512bw path's all-shift SAD kernel accumulates (bit-identical results).
+enum class Avx512SadVariant : int { vpaddw = 0, vnni = 1 };
+
+/// "vpaddw" or "vnni".
+const char* avx512_sad_variant_name(Avx512SadVariant variant) noexcept;
+
+/// Whether the variant can run here (vpaddw: AVX-512BW; vnni: also AVX-512 VNNI).
+bool avx512_sad_variant_supported(Avx512SadVariant variant) noexcept;
+
+/// The variant the avx512bw path uses (decided at the first call; see above). Only meaningful
+/// where avx512bw is supported.
+Avx512SadVariant avx512_sad_variant();
+
+/// Why that variant: the override, the CPU family table entry, or the measured times.
+std::string avx512_sad_variant_reason();
+
+/// Forces a variant for the whole process (tests, benchmarks). Throws std::invalid_argument
+/// when the CPU cannot run it.
+void set_avx512_sad_variant(Avx512SadVariant variant);
+
+/// Returns to the per-CPU choice.
+void reset_avx512_sad_variant() noexcept;
 
 }  // namespace nightloc

@@ -20,7 +20,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         description=(
             "Reads TRAVERSE (a folder with images/ and poses.csv, or a video with --poses), prepares "
             "every frame (crop, greyscale, equalization, 48x24 area downsample, patch normalization) "
-            "and writes one reference map file that nightloc.ReferenceMap.load reads on the robot."
+            "and writes one reference map file that nightloc.ReferenceMap.load reads on the robot. An existing "
+            "map is replaced only with --overwrite; the map may not lie inside the traverse."
         ),
     )
     parser.add_argument("traverse", type=Path, help="traverse folder, or a video file")
@@ -28,17 +29,20 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--params", type=Path, help="TOML file with a [preparation] table (default: paper values)")
     parser.add_argument("--poses", type=Path, help="poses CSV (for a video: frame,x,y[,heading])")
     parser.add_argument("--frame-step", type=int, default=1, help="keep every k-th frame (default 1)")
+    parser.add_argument("--overwrite", action="store_true", help="replace OUT.map when it exists")
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    check_output_path(args.output)  # fail before preparing every frame
     params = load_params(args.params, PreparationParams) if args.params is not None else PreparationParams()
-    traverse = load_traverse(args.traverse, frame_step=args.frame_step, poses=args.poses)
+    traverse = load_traverse(args.traverse, frame_step=args.frame_step, poses=args.poses)  # names and poses only
+    # Fail before preparing every frame: a folder, a missing parent, an existing map without
+    # --overwrite, or a map that would land on or inside an input (a frame of the traverse).
+    check_output_path(args.output, overwrite=args.overwrite, inputs=(args.traverse, args.poses, args.params))
     start = time.perf_counter()
     reference_map = ReferenceMap.build(traverse, params)
     elapsed = time.perf_counter() - start
-    written = reference_map.save(args.output)
+    written = reference_map.save(args.output, overwrite=args.overwrite)
     kind = "360-degree panoramas" if params.wrap else "forward camera"
     print(
         f"{len(reference_map)} frames of {traverse.root} prepared to {params.width}x{params.height} "

@@ -24,8 +24,9 @@ import argparse
 import time
 from pathlib import Path
 
+from .._validate import MAX_REPEATS
 from ..figures import add_figure_format_option
-from ..io.atomic import check_output_path, make_folder
+from ..io.atomic import make_folder, output_set
 from ..io.reference_map import ReferenceMap
 from ..localization.evaluation import Evaluation, EvaluationSettings, evaluate, match_traverse
 from ..localization.localizer import LocalizationParams
@@ -118,71 +119,74 @@ def run(args: argparse.Namespace) -> int:
     """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
     if args.seed < 0:
         raise ValueError(f"--seed must be non-negative, got {args.seed}")
-    if args.repeats < 1:
-        raise ValueError(f"--repeats must be >= 1, got {args.repeats}")
-    out = check_output_path(args.out, folder=True)
+    if not 1 <= args.repeats <= MAX_REPEATS:
+        raise ValueError(f"--repeats must be in 1..{MAX_REPEATS} (MAX_REPEATS), got {args.repeats}")
     from ..synth import default_cache_dir, default_dataset
 
     start = time.perf_counter()
     cache = args.cache if args.cache is not None else default_cache_dir()
-    print(f"synthetic dataset in {cache} (generated on first use, ~10 s)", flush=True)
-    folders = default_dataset(cache_dir=cache)
-    settings = EvaluationSettings(repeats=args.repeats, seed=args.seed, methods=("paper", "filter"))
-    wheel = EvaluationSettings(
-        seq_lengths=(COMPARE_SEQ_LEN,),
-        interpolation=(True,),
-        repeats=args.repeats,
-        seed=args.seed,
-        odometry="robot",
-        methods=("paper", "filter"),
-    )
-    params = LocalizationParams()
-    for world, reference, query in DEMO_PAIRS:
-        ref_map = ReferenceMap.build(folders[world][reference])
-        matches = match_traverse(ref_map, folders[world][query], f"{world}/{query}", tables=True)
-        evaluation = evaluate(ref_map, matches, settings, params, progress_desc=f"{world}: evaluating")
-        wheel_evaluation = evaluate(ref_map, matches, wheel, params, progress_desc=f"{world}: wheel odometry")
-        target = make_folder(out / world)
-        written = [
-            evaluation.write_errors_csv(target / "errors.csv").name,
-            evaluation.write_summary_csv(target / "summary.csv").name,
-            wheel_evaluation.write_errors_csv(target / "errors_wheel.csv").name,
-        ]
-        if not args.no_figures:
-            from ..figures.evaluation import save_evaluation_figures
-
-            written += [
-                p.name
-                for p in save_evaluation_figures(
-                    evaluation, ref_map, target, params=params, figure_format=args.figure_format
-                )
+    # The whole OUT folder is one set: both worlds appear together at the end, or nothing changes.
+    with output_set(args.out, command="demo", inputs=(cache,)) as out:
+        print(f"synthetic dataset in {cache} (generated on first use, ~10 s)", flush=True)
+        folders = default_dataset(cache_dir=cache)
+        settings = EvaluationSettings(repeats=args.repeats, seed=args.seed, methods=("paper", "filter"))
+        wheel = EvaluationSettings(
+            seq_lengths=(COMPARE_SEQ_LEN,),
+            interpolation=(True,),
+            repeats=args.repeats,
+            seed=args.seed,
+            odometry="robot",
+            methods=("paper", "filter"),
+        )
+        params = LocalizationParams()
+        reports = []
+        for world, reference, query in DEMO_PAIRS:
+            ref_map = ReferenceMap.build(folders[world][reference])
+            matches = match_traverse(ref_map, folders[world][query], f"{world}/{query}", tables=True)
+            evaluation = evaluate(ref_map, matches, settings, params, progress_desc=f"{world}: evaluating")
+            wheel_evaluation = evaluate(ref_map, matches, wheel, params, progress_desc=f"{world}: wheel odometry")
+            target = make_folder(out / world)
+            written = [
+                evaluation.write_errors_csv(target / "errors.csv").name,
+                evaluation.write_summary_csv(target / "summary.csv").name,
+                wheel_evaluation.write_errors_csv(target / "errors_wheel.csv").name,
             ]
-        frames = len(evaluation.matches[0].results)
-        print()
-        print(
-            f"{world}: {frames} night query frames against a day map of {len(ref_map)} images; "
-            f"median distance error (m), interpolation on unless noted:"
-        )
-        print(evaluation.table(off_column=True))
-        print(PAPER_RESULTS[world])
-        print()
-        print(
-            f"{world}: the Bayes filter beside the paper's method (n = {COMPARE_SEQ_LEN}), median distance error (m) "
-            f"over frames {COMPARE_FROM}-{frames}, {args.repeats} noise draw(s):"
-        )
-        print(comparison_table(evaluation, wheel_evaluation))
-        if not args.no_figures:
-            from ..figures._common import figure_path
-            from ..figures.filter import comparison_figure
+            if not args.no_figures:
+                from ..figures._common import figure_path
+                from ..figures.evaluation import save_evaluation_figures
+                from ..figures.filter import comparison_figure
 
-            figure = figure_path(target, "filter_vs_paper", args.figure_format)
-            comparison_figure(
-                comparison_errors(evaluation, wheel_evaluation),
-                f"{world}: night query frames {COMPARE_FROM}-{frames}, {args.repeats} noise draw(s) per model",
-                figure,
-                args.figure_format,
+                written += [
+                    p.name
+                    for p in save_evaluation_figures(
+                        evaluation, ref_map, target, params=params, figure_format=args.figure_format
+                    )
+                ]
+                frames = len(matches.results)
+                figure = figure_path(target, "filter_vs_paper", args.figure_format)
+                comparison_figure(
+                    comparison_errors(evaluation, wheel_evaluation),
+                    f"{world}: night query frames {COMPARE_FROM}-{frames}, {args.repeats} noise draw(s) per model",
+                    figure,
+                    args.figure_format,
+                )
+                written.append(figure.name)
+            frames = len(matches.results)
+            print()
+            print(
+                f"{world}: {frames} night query frames against a day map of {len(ref_map)} images; "
+                f"median distance error (m), interpolation on unless noted:"
             )
-            written.append(figure.name)
-        print(f"wrote {target}/" + ", ".join(written))
+            print(evaluation.table(off_column=True))
+            print(PAPER_RESULTS[world])
+            print()
+            print(
+                f"{world}: the Bayes filter beside the paper's method (n = {COMPARE_SEQ_LEN}), median distance "
+                f"error (m) over frames {COMPARE_FROM}-{frames}, {args.repeats} noise draw(s):"
+            )
+            print(comparison_table(evaluation, wheel_evaluation))
+            reports.append(f"{args.out / world}/" + ", ".join(written))
+    for report in reports:
+        print(f"wrote {report}")
     print(f"\ndone in {time.perf_counter() - start:.1f} s")
     return 0

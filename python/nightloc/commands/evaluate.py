@@ -6,8 +6,9 @@
                       [--params FILE.toml] [--heatmap-frames 12,30] [--no-figures] [--figure-format png|pdf|svg]
 
 REFERENCE is a traverse folder with poses (``images/`` + ``poses.csv``) or a map file written
-by ``nightloc build-map``; QUERY is a traverse folder with poses (the ground truth). Writes,
-atomically:
+by ``nightloc build-map``; QUERY is a traverse folder with poses (the ground truth). Writes the
+folder OUT as one set (:func:`nightloc.io.atomic.output_set`: complete or unchanged; a second run
+into OUT at the same time refuses; files in OUT that nightloc did not write are kept):
 
 * ``OUT/errors.csv``: one row per query frame and configuration, columns
   ``query,image,seq_len,noise_model,interpolation,repeat,x_est,y_est,x_true,y_true,error_m,ref_index,method``
@@ -33,23 +34,16 @@ import re
 import time
 from pathlib import Path
 
+from .._validate import MAX_REPEATS
 from ..config import load_params_file
-from ..figures import FORMATS as FIGURE_FORMATS
 from ..figures import add_figure_format_option
-from ..io.atomic import check_output_path, make_folder
+from ..io.atomic import check_output_path, output_set
 from ..io.reference_map import ReferenceMap
 from ..io.traverse import load_traverse
 from ..localization.evaluation import EVALUATION_METHODS, EvaluationSettings, evaluate, match_traverse
 from ..localization.localizer import MAX_SEQ_LEN, LocalizationParams
 from ..localization.odometry import NoiseModel, noise_model
 from ..preparation.params import PreparationParams
-
-#: Figure files this command may write (removed when a later run into the same folder does not).
-FIGURE_NAMES = tuple(
-    f"{stem}.{fmt}"
-    for stem in ("error_vs_seq_len", "error_vs_noise", "error_vs_interpolation")
-    for fmt in FIGURE_FORMATS
-)
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -162,8 +156,8 @@ def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
     """The :class:`EvaluationSettings` of the command-line options (checked)."""
     if args.seed < 0:
         raise ValueError(f"--seed must be non-negative, got {args.seed}")
-    if args.repeats < 1:
-        raise ValueError(f"--repeats must be >= 1, got {args.repeats}")
+    if not 1 <= args.repeats <= MAX_REPEATS:
+        raise ValueError(f"--repeats must be in 1..{MAX_REPEATS} (MAX_REPEATS), got {args.repeats}")
     seq_lengths = parse_int_list(args.seq_lengths, "--seq-lengths")
     if min(seq_lengths) < 1 or max(seq_lengths) > MAX_SEQ_LEN:
         raise ValueError(f"--seq-lengths must be in 1..{MAX_SEQ_LEN}, got {min(seq_lengths)}..{max(seq_lengths)}")
@@ -184,9 +178,10 @@ def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
 
 
 def _load_reference(path: Path, preparation: PreparationParams | None) -> ReferenceMap:
-    if path.is_file():
-        return ReferenceMap.load(path, preparation) if preparation is not None else ReferenceMap.load(path)
-    return ReferenceMap.build(load_traverse(path), preparation)
+    if path.is_dir():
+        return ReferenceMap.build(load_traverse(path), preparation)
+    # a map file (anything but a regular file is refused, naming what it is)
+    return ReferenceMap.load(path, preparation) if preparation is not None else ReferenceMap.load(path)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -201,51 +196,48 @@ def run(args: argparse.Namespace) -> int:
     localization = sections.get("localization", LocalizationParams())
     filter_params = sections.get("filter")
     preparation = sections.get("preparation")
-    out = check_output_path(args.out, folder=True)  # fail before the work
-    query = load_traverse(args.query)
+    inputs = (args.reference, args.query, args.params)
+    check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
+    query = load_traverse(args.query)  # names and poses only
     if query.positions is None:
         raise ValueError(
             f"query {args.query} has no poses: evaluation needs poses.csv with columns image,x,y[,heading]"
         )
     if heatmap_frames is not None and (min(heatmap_frames) < 0 or max(heatmap_frames) >= len(query)):
         raise ValueError(f"--heatmap-frames must be in 0..{len(query) - 1} for {len(query)} query frames")
+    # Checked and locked before the work; the files appear together at the end, or not at all.
+    with output_set(args.out, command="evaluate", inputs=inputs) as out:
+        start = time.perf_counter()
+        ref_map = _load_reference(args.reference, preparation)
+        matches = match_traverse(
+            ref_map,
+            query,
+            threads=args.threads,
+            tables="filter" in settings.methods,
+            odometry=settings.odometry == "log",
+        )
+        matching_s = time.perf_counter() - start
+        evaluation = evaluate(ref_map, matches, settings, localization, filter_params=filter_params)
+        total_s = time.perf_counter() - start
 
-    start = time.perf_counter()
-    ref_map = _load_reference(args.reference, preparation)
-    matches = match_traverse(
-        ref_map,
-        query,
-        threads=args.threads,
-        tables="filter" in settings.methods,
-        odometry=settings.odometry == "log",
-    )
-    matching_s = time.perf_counter() - start
-    evaluation = evaluate(ref_map, matches, settings, localization, filter_params=filter_params)
-    total_s = time.perf_counter() - start
-
-    make_folder(out)
-    written = [
-        evaluation.write_errors_csv(out / "errors.csv").name,
-        evaluation.write_summary_csv(out / "summary.csv").name,
-    ]
-    if not args.no_figures:
-        from ..figures.evaluation import save_evaluation_figures
-
-        written += [
-            p.name
-            for p in save_evaluation_figures(
-                evaluation,
-                ref_map,
-                out,
-                params=localization,
-                heatmap_frames=heatmap_frames,
-                figure_format=args.figure_format,
-            )
+        written = [
+            evaluation.write_errors_csv(out / "errors.csv").name,
+            evaluation.write_summary_csv(out / "summary.csv").name,
         ]
-    heatmaps = [p.name for fmt in FIGURE_FORMATS for p in out.glob(f"heatmap_frame*.{fmt}")]
-    for stale in [*FIGURE_NAMES, *heatmaps]:
-        if stale not in written and (out / stale).is_file():
-            (out / stale).unlink()
+        if not args.no_figures:
+            from ..figures.evaluation import save_evaluation_figures
+
+            written += [
+                p.name
+                for p in save_evaluation_figures(
+                    evaluation,
+                    ref_map,
+                    out.path,
+                    params=localization,
+                    heatmap_frames=heatmap_frames,
+                    figure_format=args.figure_format,
+                )
+            ]
 
     configs = len(evaluation) // max(len(matches.results), 1)
     print(
@@ -260,5 +252,5 @@ def run(args: argparse.Namespace) -> int:
         first = min(10, len(matches.results))
         print(f"the Bayes filter beside the paper's method: median distance error (m) over frames {first} on:")
         print(evaluation.compare_table(first_frame=first))
-    print(f"wrote {out}/" + ", ".join(written))
+    print(f"wrote {args.out}/" + ", ".join(written))
     return 0

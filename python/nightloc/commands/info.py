@@ -7,9 +7,12 @@ import time
 
 import numpy as np
 
-from .. import __version__
+from .. import __version__, _core
 from ..matching.sad import match
 from ..matching.simd import available_simd_backends, simd_backend, use_simd_backend
+
+#: Most references in the speed test (1152 bytes each: 115 MB).
+MAX_SPEED_TEST_REFS = 100_000
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -32,13 +35,25 @@ def kernel_speed(n_refs: int, threads: int = 1, repeats: int = 5) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.refs < 1:
-        raise ValueError("--refs must be >= 1")
+    if not 1 <= args.refs <= MAX_SPEED_TEST_REFS:
+        raise ValueError(
+            f"--refs must be in 1..{MAX_SPEED_TEST_REFS} (MAX_SPEED_TEST_REFS: 1152 bytes each), got {args.refs}"
+        )
     print(f"nightloc {__version__}")
     print(f"SIMD path in use: {simd_backend()}  (supported: {', '.join(available_simd_backends())})")
+    variant = _core.avx512_sad_variant()
+    if variant is not None:
+        print(f"avx512bw all-shift kernel: {variant[0]}  ({variant[1]})")
     print(f"rotation-invariant SAD, 48x24 images, 48 shifts, {args.refs} references, 1 thread:")
     for backend in available_simd_backends():
-        with use_simd_backend(backend):
-            speed = kernel_speed(args.refs, repeats=1 if backend == "scalar" else 5)
-        print(f"  {backend:9s} {speed / 1e9:8.1f} G byte comparisons/s")
+        variants = _core.available_avx512_sad_variants() if backend == "avx512bw" else [None]
+        for name in variants:
+            _core.set_avx512_sad_variant(name)
+            try:
+                with use_simd_backend(backend):
+                    speed = kernel_speed(args.refs, repeats=1 if backend == "scalar" else 5)
+            finally:
+                _core.set_avx512_sad_variant(None)
+            label = backend if name is None else f"{backend} {name}"
+            print(f"  {label:16s} {speed / 1e9:8.1f} G byte comparisons/s")
     return 0

@@ -34,7 +34,7 @@ import numpy as np
 from ..config import load_params_file
 from ..errors import DatasetError
 from ..figures import add_figure_format_option
-from ..io.atomic import atomic_file, check_output_path, make_folder
+from ..io.atomic import atomic_file, check_output_path, output_set
 from ..io.reference_map import ReferenceMap
 from ..io.traverse import load_traverse
 from ..localization.localizer import LocalizationParams, Localizer
@@ -108,7 +108,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
     sections = load_params_file(args.params) if args.params is not None else {}
     params = sections.get("localization", LocalizationParams())
-    out = check_output_path(args.out, folder=True)  # fail before the work
+    inputs = (args.map, args.log, args.params, args.odometry if args.odometry not in (None, "none") else None)
+    check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
     log = load_traverse(args.log)
     if args.odometry is not None and args.odometry.strip().lower() == "none":
         odometry: list = [None] * len(log)
@@ -118,37 +119,37 @@ def run(args: argparse.Namespace) -> int:
     localizer = Localizer(
         ref_map, params, odometry_noise=noise, filter_params=sections.get("filter"), threads=args.threads
     )
-    start = time.perf_counter()
-    estimates = [
-        localizer.update(frame, odometry[i]) for i, frame in log.frames(progress_desc=f"localizing {log.root.name}")
-    ]
-    seconds = time.perf_counter() - start
+    # Checked and locked before the work; the files appear together at the end, or not at all.
+    with output_set(args.out, command="localize", inputs=inputs) as out:
+        start = time.perf_counter()
+        estimates = [
+            localizer.update(frame, odometry[i]) for i, frame in log.frames(progress_desc=f"localizing {log.root.name}")
+        ]
+        seconds = time.perf_counter() - start
+        written = [write_trajectory_csv(out / "trajectory.csv", log.names, estimates).name]
+        positions = np.array([(e.x, e.y) for e in estimates])
+        truth = None if log.positions is None else np.asarray(log.positions, dtype=np.float64)
+        if not args.no_figures:
+            from ..figures._common import figure_path
+            from ..figures.trajectory import trajectory_figure
 
-    make_folder(out)
-    written = [write_trajectory_csv(out / "trajectory.csv", log.names, estimates).name]
-    positions = np.array([(e.x, e.y) for e in estimates])
-    truth = None if log.positions is None else np.asarray(log.positions, dtype=np.float64)
-    if not args.no_figures:
-        from ..figures._common import figure_path
-        from ..figures.trajectory import trajectory_figure
-
-        caption = (
-            f"{len(estimates)} frames of {log.root.name} against {len(ref_map)} references; odometry "
-            f"{'none' if args.odometry is not None and args.odometry.strip().lower() == 'none' else 'from the log'}, "
-            f"noise {args.odometry_noise}; disks: credible radius ({localizer.filter_params.credibility:.0%})"
-        )
-        figure = figure_path(out, "trajectory", args.figure_format)
-        trajectory_figure(
-            ref_map.positions,
-            positions,
-            truth,
-            credible_radius=np.array([e.credible_radius for e in estimates]),
-            title="nightloc localize: the Bayes filter's trajectory",
-            caption=caption,
-            path=figure,
-            figure_format=args.figure_format,
-        )
-        written.append(figure.name)
+            caption = (
+                f"{len(estimates)} frames of {log.root.name} against {len(ref_map)} references; odometry "
+                f"{'none' if args.odometry is not None and args.odometry.strip().lower() == 'none' else 'from the log'}, "
+                f"noise {args.odometry_noise}; disks: credible radius ({localizer.filter_params.credibility:.0%})"
+            )
+            figure = figure_path(out.path, "trajectory", args.figure_format)
+            trajectory_figure(
+                ref_map.positions,
+                positions,
+                truth,
+                credible_radius=np.array([e.credible_radius for e in estimates]),
+                title="nightloc localize: the Bayes filter's trajectory",
+                caption=caption,
+                path=figure,
+                figure_format=args.figure_format,
+            )
+            written.append(figure.name)
     print(
         f"{len(estimates)} frames of {log.root} localized against {len(ref_map)} references in {seconds:.1f} s "
         f"({1000 * seconds / max(len(estimates), 1):.1f} ms per frame)"
@@ -159,5 +160,5 @@ def run(args: argparse.Namespace) -> int:
             f"distance error against {log.root.name}'s poses: median {np.median(errors):.2f} m, "
             f"90th percentile {np.percentile(errors, 90):.2f} m"
         )
-    print(f"wrote {out}/" + ", ".join(written))
+    print(f"wrote {args.out}/" + ", ".join(written))
     return 0

@@ -7,6 +7,8 @@ import math
 import time
 from pathlib import Path
 
+from .._validate import MAX_CAMERA_RAYS, MAX_CAMERA_SIDE
+from ..io.atomic import output_set
 from ..synth.dataset import DEFAULT_DARKNESS, DEFAULT_SEED, make_dataset
 from ..synth.render import Camera
 from ..synth.world import WORLD_NAMES
@@ -18,8 +20,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="render the synthetic garden / living-room traverses (day reference, night queries)",
         description=(
             "Renders the synthetic world's traverses (the paper's Table I) as traverse folders "
-            "OUT/<traverse>/images + poses.csv, and OUT/dataset.json. With --world all, each "
-            "world goes to OUT/<world>/. Same seed -> byte-identical images."
+            "OUT/<traverse>/images + poses.csv, and OUT/dataset.json, as one set (all or nothing). With "
+            "--world all, each world goes to OUT/<world>/. Same seed -> byte-identical images."
         ),
     )
     parser.add_argument("--world", choices=(*WORLD_NAMES, "all"), default="garden", help="which world (default garden)")
@@ -33,7 +35,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         f"(default {DEFAULT_DARKNESS})",
     )
     parser.add_argument("--size", default="192x96", help="panorama WIDTHxHEIGHT in pixels (default 192x96)")
-    parser.add_argument("--overwrite", action="store_true", help="replace traverse folders that exist")
+    parser.add_argument("--overwrite", action="store_true", help="replace a dataset that exists at OUT")
     parser.add_argument("--threads", type=int, default=None, help="render threads (default all cores)")
     parser.set_defaults(run=run)
 
@@ -46,6 +48,14 @@ def parse_size(text: str) -> tuple[int, int]:
     width, height = (int(p) for p in parts)
     if width < 8 or height < 4:
         raise ValueError(f"--size must be at least 8x4 pixels, got {text!r}")
+    if max(width, height) > MAX_CAMERA_SIDE:
+        raise ValueError(f"--size {text} is too large: at most {MAX_CAMERA_SIDE} pixels along a side (MAX_CAMERA_SIDE)")
+    rays = width * height * Camera.oversample_x * Camera.oversample_y
+    if rays > MAX_CAMERA_RAYS:
+        raise ValueError(
+            f"--size {text} is too large: {rays} rays per frame with the default oversampling, at most "
+            f"{MAX_CAMERA_RAYS} (MAX_CAMERA_RAYS, about 180 bytes each while a frame renders)"
+        )
     return width, height
 
 
@@ -55,13 +65,27 @@ def run(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.darkness) and 0.0 <= args.darkness <= 3.0):
         raise ValueError(f"--darkness must be in [0, 3], got {args.darkness}")
     camera = Camera(*parse_size(args.size))
-    worlds = WORLD_NAMES if args.world == "all" else (args.world,)
     start = time.perf_counter()
-    for world in worlds:
-        out = args.out / world if args.world == "all" else args.out
-        folders = make_dataset(
-            world, out, args.seed, args.darkness, camera=camera, overwrite=args.overwrite, threads=args.threads
-        )
+    if args.world == "all":  # one set holding every world: all appear together, or none changes
+        with output_set(args.out, command="synth", overwrite=args.overwrite) as out:
+            written = {
+                world: make_dataset(world, out / world, args.seed, args.darkness, camera=camera, threads=args.threads)
+                for world in WORLD_NAMES
+            }
+        written = {world: {n: args.out / world / n for n in folders} for world, folders in written.items()}
+    else:
+        written = {
+            args.world: make_dataset(
+                args.world,
+                args.out,
+                args.seed,
+                args.darkness,
+                camera=camera,
+                overwrite=args.overwrite,
+                threads=args.threads,
+            )
+        }
+    for world, folders in written.items():
         for name, folder in folders.items():
             frames = sum(1 for _ in (folder / "images").iterdir())
             print(f"{world}/{name}: {frames} frames -> {folder}")

@@ -32,7 +32,7 @@ F = TypeVar("F", bound=Callable[..., Any])
 DPI = 100
 
 #: The house style (matplotlib rcParams), applied while a figure is drawn and saved.
-STYLE: dict[str, Any] = {
+STYLE: dict[Any, Any] = {  # keys: matplotlib rc names (its stubs type them as a Literal)
     "font.size": 9,
     "axes.titlesize": 10,
     "axes.labelsize": 9,

@@ -4,7 +4,11 @@
 * :func:`pr_curve_figure`: precision against recall, with recall at 100 % precision and the best
   F1 point marked;
 * :func:`correspondence_figure`: the paper's Figure 23, matched reference frame against query
-  frame, with the true positives accepted at 100 % precision highlighted.
+  frame, with the true positives accepted at 100 % precision highlighted;
+* :func:`filter_confidence_figure`: the route filter's confidence and off-route probability per
+  query frame, correct and wrong matches marked;
+* :func:`pr_comparison_figure`: the precision-recall curves of several methods on one plot
+  (``nightloc route --method seqslam,filter``).
 
 Each names its data and parameters under the title (:func:`route_caption`: the two traverses,
 their sizes, the preset and what was changed from it, the ground truth), returns the matplotlib
@@ -32,6 +36,8 @@ from ._common import figure_path, new_figure, save_figure, styled
 __all__ = [
     "correspondence_figure",
     "difference_matrix_figure",
+    "filter_confidence_figure",
+    "pr_comparison_figure",
     "pr_curve_figure",
     "route_caption",
     "save_route_figures",
@@ -70,7 +76,8 @@ def route_caption(
     ground_truth: str | None = None,
 ) -> str:
     """What a route figure shows, in two lines: the traverses (names and frame counts), the
-    preset with any parameter changed from it, the search (ds, speeds, mode) and the ground truth.
+    preset with any parameter changed from it, the search (the filter's sharpness and speeds, or
+    SeqSLAM's ds, speeds and mode) and the ground truth.
 
     ``reference`` and ``query`` are names, or paths (shown by their last two parts); ``preset``
     defaults to the preset closest to ``result.params`` (fewest fields changed).
@@ -81,7 +88,10 @@ def route_caption(
     changed = _changes(params, preset)
     data = f"reference {_name(reference)} ({result.n_refs} frames) vs query {_name(query)} ({result.n_queries} frames)"
     setting = f"preset {preset}" + (f" with {', '.join(changed)}" if changed else "")
-    search = f"ds {params.effective_ds}, speeds {params.vmin:g}-{params.vmax:g}, {params.mode}"
+    if params.method == "filter":
+        search = f"route filter, sharpness {params.filter_sharpness:g}, speeds {params.vmin:g}-{params.vmax:g}"
+    else:
+        search = f"SeqSLAM ds {params.effective_ds}, speeds {params.vmin:g}-{params.vmax:g}, {params.mode}"
     lines = [data, f"{setting}; {search}" + (f"; ground truth: {ground_truth}" if ground_truth else "")]
     return "\n".join(lines)
 
@@ -272,8 +282,9 @@ def save_route_figures(
     """Writes the figures that apply into ``folder``; returns their paths.
 
     ``difference_matrix.<fmt>`` always; ``pr_curve.<fmt>`` and ``correspondence.<fmt>`` with
-    ground truth (``fmt`` = ``figure_format``: png, pdf or svg). ``reference``, ``query``,
-    ``preset`` and ``ground_truth`` go into each figure's caption (:func:`route_caption`).
+    ground truth; ``filter_confidence.<fmt>`` for the route filter (``fmt`` = ``figure_format``:
+    png, pdf or svg). ``reference``, ``query``, ``preset`` and ``ground_truth`` go into each
+    figure's caption (:func:`route_caption`).
     """
     caption = route_caption(result, reference, query, preset, ground_truth)
     paths = [figure_path(folder, "difference_matrix", figure_format)]
@@ -283,4 +294,91 @@ def save_route_figures(
         pr_curve_figure(evaluation, paths[-1], caption=caption, figure_format=figure_format)
         paths.append(figure_path(folder, "correspondence", figure_format))
         correspondence_figure(result, evaluation, paths[-1], caption=caption, figure_format=figure_format)
+    if result.confidence is not None:
+        paths.append(figure_path(folder, "filter_confidence", figure_format))
+        filter_confidence_figure(result, evaluation, paths[-1], caption=caption, figure_format=figure_format)
     return paths
+
+
+@styled
+def filter_confidence_figure(
+    result: RouteResult,
+    evaluation: RouteEvaluation | None = None,
+    path: PathLike | None = None,
+    caption: str | None = None,
+    figure_format: str | None = None,
+) -> Figure:
+    """The route filter's confidence (belief within ``filter_window`` of the match) and off-route
+    probability per query frame; with ground truth, correct matches in blue and wrong ones in red,
+    and the level above which every match is right (100 % precision) as a dashed line."""
+    if result.confidence is None:
+        raise ValueError("filter_confidence_figure needs a route filter result (params.method == 'filter')")
+    fig, ax = new_figure(12.0, 3.8)
+    queries = np.arange(result.n_queries)
+    if evaluation is not None:
+        good = evaluation.correct
+        ax.scatter(
+            queries[good],
+            result.confidence[good],
+            s=4,
+            color="tab:blue",
+            linewidths=0,
+            label=f"confidence, correct match ({int(good.sum())})",
+        )
+        ax.scatter(
+            queries[~good],
+            result.confidence[~good],
+            s=7,
+            color="tab:red",
+            linewidths=0,
+            label=f"confidence, wrong match ({int((~good).sum())})",
+        )
+        if math.isfinite(evaluation.threshold_at_100):
+            level = 1.0 - evaluation.threshold_at_100
+            ax.axhline(level, color="tab:blue", lw=0.8, ls="--", label=f"100% precision above {level:.3f}")
+    else:
+        ax.scatter(queries, result.confidence, s=4, color="tab:blue", linewidths=0, label="confidence")
+    ax.plot(queries, result.off_route, color="tab:orange", lw=0.8, label="off-route probability")
+    ax.set_xlim(0, max(1, result.n_queries))
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_xlabel("query frame")
+    ax.set_ylabel("probability")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), markerscale=2.0)
+    _titled(
+        fig,
+        ax,
+        "Route filter: confidence of each match, off-route probability",
+        caption if caption is not None else route_caption(result),
+    )
+    if path is not None:
+        save_figure(fig, path, figure_format)
+    return fig
+
+
+@styled
+def pr_comparison_figure(
+    evaluations: dict,
+    path: PathLike | None = None,
+    caption: str | None = None,
+    figure_format: str | None = None,
+) -> Figure:
+    """Precision against recall of several methods on the same data (``{name: RouteEvaluation}``),
+    each labelled with its best F1 and recall at 100 % precision."""
+    fig, ax = new_figure(6.4, 5.4)
+    for name, evaluation in evaluations.items():
+        curve = evaluation.curve
+        ax.plot(
+            np.concatenate([[0.0], curve.recall]),
+            np.concatenate([[1.0], curve.precision]),
+            lw=1.5,
+            label=f"{name}: best F1 {evaluation.best_f1:.3f}, R@100P {evaluation.recall_at_100:.3f}",
+        )
+    ax.set_xlim(0.0, 1.0)
+    ax.set_ylim(0.0, 1.02)
+    ax.set_xlabel("recall")
+    ax.set_ylabel("precision")
+    ax.legend(loc="lower left")
+    _titled(fig, ax, "Route: precision-recall by method", caption)
+    if path is not None:
+        save_figure(fig, path, figure_format)
+    return fig

@@ -16,12 +16,15 @@ import cv2
 import numpy as np
 
 from ..errors import DatasetError
+from .files import check_regular, open_regular
 
 __all__ = ["IMAGE_SUFFIXES", "list_images", "natural_key", "read_image_file", "write_image_file"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
-#: File suffixes (lower case) treated as images when a folder is listed.
+#: File suffixes (lower case) treated as images when a folder is listed: every format OpenCV
+#: decodes to 8- or 16-bit pixels (whether a given build has the codec, e.g. AVIF, shows when a
+#: file is read). Frames named in ``poses.csv`` are decoded by content, whatever their suffix.
 IMAGE_SUFFIXES = frozenset(
     {
         ".png",
@@ -41,6 +44,10 @@ IMAGE_SUFFIXES = frozenset(
         ".sr",
         ".ras",
         ".jp2",
+        ".gif",
+        ".apng",
+        ".avif",
+        ".pam",
     }
 )
 
@@ -53,12 +60,27 @@ def natural_key(name: str) -> tuple[object, ...]:
 
 def list_images(folder: Path) -> list[str]:
     """Names of the image files in ``folder`` (not hidden, suffix in :data:`IMAGE_SUFFIXES`), in
-    natural order."""
-    names = [
-        entry.name
-        for entry in os.scandir(folder)
-        if not entry.name.startswith(".") and Path(entry.name).suffix.lower() in IMAGE_SUFFIXES and entry.is_file()
-    ]
+    natural order.
+
+    Raises DatasetError for an entry with an image suffix that is not a regular file (a named
+    pipe, a device, a socket, a symbolic link loop or a dangling link): it could not be read
+    later, so it is named now. Sub-folders are not entries of the listing.
+    """
+    names: list[str] = []
+    odd: list[str] = []
+    with os.scandir(folder) as entries:
+        for entry in entries:
+            if entry.name.startswith(".") or Path(entry.name).suffix.lower() not in IMAGE_SUFFIXES:
+                continue
+            try:
+                if entry.is_dir():
+                    continue
+                regular = entry.is_file()
+            except OSError:  # a symbolic link loop
+                regular = False
+            (names if regular else odd).append(entry.name)
+    for name in sorted(odd, key=natural_key):
+        check_regular(Path(folder) / name, "image", DatasetError)  # raises, naming what it is
     return sorted(names, key=natural_key)
 
 
@@ -95,7 +117,10 @@ def read_image_file(path: PathLike, context: str = "") -> np.ndarray:
     file = Path(path)
     where = f" ({context})" if context else ""
     try:
-        data = np.fromfile(file, dtype=np.uint8)
+        with open_regular(file, "image", DatasetError) as stream:
+            data = np.frombuffer(stream.read(), dtype=np.uint8)
+    except DatasetError as error:
+        raise DatasetError(f"{error}{where}") from None
     except OSError as error:
         raise DatasetError(f"image {file}{where} cannot be read: {error.strerror or error}") from error
     image = cv2.imdecode(data, cv2.IMREAD_ANYCOLOR | cv2.IMREAD_ANYDEPTH) if data.size else None
@@ -110,12 +135,12 @@ def read_image_file(path: PathLike, context: str = "") -> np.ndarray:
         )
     if image.ndim == 3:
         channels = image.shape[2]
-        if channels == 1:
+        if channels in (1, 2):  # grey, grey + alpha
             image = image[:, :, 0]
         elif channels == 4:
             image = cv2.cvtColor(image, cv2.COLOR_BGRA2BGR)
         elif channels != 3:
-            raise DatasetError(f"image {file}{where} has {channels} channels; expected 1, 3 or 4")
+            raise DatasetError(f"image {file}{where} has {channels} channels; expected 1 to 4")
     return np.ascontiguousarray(image)
 
 

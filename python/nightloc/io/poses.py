@@ -9,13 +9,16 @@ file and the line.
 from __future__ import annotations
 
 import csv
+import io
 import math
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from .._validate import MAX_COORDINATE_M, coordinates, not_masked
 from ..errors import DatasetError
+from .files import open_regular
 
 __all__ = ["PoseRow", "checked_poses", "poses_from_rows", "read_pose_csv", "wrap_headings", "write_pose_csv"]
 
@@ -36,7 +39,7 @@ class PoseRow:
 
     __slots__ = ("heading", "key", "line", "x", "y")
 
-    def __init__(self, line: int, key: object, x: float, y: float, heading: float | None):
+    def __init__(self, line: int, key: str | int, x: float, y: float, heading: float | None):
         self.line, self.key, self.x, self.y, self.heading = line, key, x, y, heading
 
 
@@ -51,6 +54,11 @@ def _parse_number(text: str, column: str, file: Path, line: int) -> float:
     if not math.isfinite(value):
         raise DatasetError(
             f"{file} line {line}: column '{column}' is {cell!r}; positions and headings must be finite numbers"
+        )
+    if column != "heading" and abs(value) >= MAX_COORDINATE_M:
+        raise DatasetError(
+            f"{file} line {line}: column '{column}' is {cell!r}; positions must lie within {MAX_COORDINATE_M:.0e} m of "
+            f"the origin (MAX_COORDINATE_M): subtract a local origin"
         )
     return value
 
@@ -77,12 +85,14 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
     lines are skipped. Keys must be unique.
     """
     try:
-        with open(file, newline="", encoding="utf-8-sig") as handle:
+        with io.TextIOWrapper(
+            open_regular(file, "poses file", DatasetError), newline="", encoding="utf-8-sig"
+        ) as handle:
             reader = csv.reader(handle)
             header: list | None = None
             header_line = 0
-            rows = []
-            seen = {}
+            rows: list[PoseRow] = []
+            seen: dict[str | int, int] = {}
             for fields in reader:
                 line = reader.line_num
                 if not any(field.strip() for field in fields):
@@ -112,7 +122,7 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
                     )
                 raw_key = fields[index[key_column]]
                 if key_column == "frame":
-                    key: object = _parse_frame(raw_key, file, line)
+                    key: str | int = _parse_frame(raw_key, file, line)
                 else:
                     key = raw_key.strip()
                     if not key:
@@ -153,14 +163,14 @@ def checked_poses(positions: object | None, headings: object | None) -> tuple[np
         if headings is not None:
             raise ValueError("headings need positions: pass positions too, or neither")
         return None, None
+    not_masked(positions, "positions")
     pos = np.asarray(positions, dtype=np.float64)
     if pos.ndim != 2 or pos.shape[1] != 2:
         raise ValueError(f"positions must be (N, 2) metres, got shape {pos.shape}")
-    if not np.isfinite(pos).all():
-        row = int(np.argwhere(~np.isfinite(pos))[0, 0])
-        raise ValueError(f"positions[{row}] is {pos[row].tolist()}; positions must be finite")
+    coordinates(pos, "positions")
     head = None
     if headings is not None:
+        not_masked(headings, "headings")
         head = np.asarray(headings, dtype=np.float64)
         if head.shape != (len(pos),):
             raise ValueError(f"headings must be ({len(pos)},) radians to match positions, got shape {head.shape}")

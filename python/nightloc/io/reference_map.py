@@ -26,22 +26,29 @@ from typing import Any, Union
 import numpy as np
 
 from .._core import __version__
-from .._validate import uint8_array
+from .._validate import MAX_MAP_EXPANSION as _MAX_MAP_EXPANSION
+from .._validate import coordinates, not_masked, uint8_array
 from ..config import params_from_dict, params_to_dict
 from ..errors import DatasetError, MapFormatError
 from ..matching.sad import MatchResult, match
 from ..preparation.params import PreparationParams
 from ..preparation.preparer import Preparer
 from .atomic import atomic_file
+from .files import open_regular
 from .poses import wrap_headings
 from .traverse import Traverse, load_traverse
 
-__all__ = ["MAP_FORMAT", "MAP_FORMAT_VERSION", "ReferenceMap"]
+__all__ = ["MAP_FORMAT", "MAP_FORMAT_VERSION", "MAX_MAP_EXPANSION", "ReferenceMap"]
 
 #: The ``format`` string in every map file's header.
 MAP_FORMAT = "nightloc-reference-map"
 #: The newest map format version this nightloc reads and the one it writes.
 MAP_FORMAT_VERSION = 1
+#: A map file is refused when its arrays declare more than this many times the file's size (plus
+#: 1 MiB): a small file that would decompress to gigabytes is refused before anything is read.
+#: ``np.savez`` stores arrays uncompressed (1x); ``np.savez_compressed`` maps of prepared images
+#: compress about 1.1-2x. (Defined with the other bounds in ``nightloc._validate``.)
+MAX_MAP_EXPANSION = _MAX_MAP_EXPANSION
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -56,6 +63,54 @@ def _frozen(array: np.ndarray) -> np.ndarray:
     handed to callers) cannot be changed under them."""
     contiguous = np.ascontiguousarray(array)
     return np.frombuffer(contiguous.tobytes(), dtype=contiguous.dtype).reshape(contiguous.shape)
+
+
+_MEMBERS = ("header", "images", "positions", "headings")
+
+
+def _read_member(file: Path, archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> np.ndarray:
+    """One ``.npy`` member, its declared size checked against the member's before reading."""
+    with archive.open(info) as member:
+        version = np.lib.format.read_magic(member)
+        if version == (1, 0):
+            shape, fortran, dtype = np.lib.format.read_array_header_1_0(member)
+        elif version == (2, 0):
+            shape, fortran, dtype = np.lib.format.read_array_header_2_0(member)
+        else:
+            raise MapFormatError(f"{file}: array {info.filename} has .npy format version {version}, not 1.0 or 2.0")
+        if dtype.hasobject:
+            raise MapFormatError(f"{file}: array {info.filename} holds Python objects (never in a nightloc map)")
+        nbytes = int(np.prod(shape, dtype=np.float64)) * dtype.itemsize
+        if nbytes > info.file_size:
+            raise MapFormatError(
+                f"{file}: array {info.filename} declares shape {shape} ({nbytes} bytes) but its member holds "
+                f"{info.file_size} bytes (corrupt file)"
+            )
+        data = member.read(nbytes)
+        if len(data) != nbytes:
+            raise MapFormatError(f"{file}: array {info.filename} is truncated ({len(data)} of {nbytes} bytes)")
+    return np.frombuffer(data, dtype=dtype).reshape(shape, order="F" if fortran else "C").copy()
+
+
+def _read_archive(file: Path, stream: Any, size: int) -> tuple[Any, dict[str, np.ndarray]]:
+    """The header (parsed JSON) and the arrays of an open map file of ``size`` bytes."""
+    with zipfile.ZipFile(stream) as archive:
+        infos = {info.filename: info for info in archive.infolist()}
+        declared = sum(info.file_size for info in infos.values())
+        if declared > MAX_MAP_EXPANSION * size + (1 << 20):
+            raise MapFormatError(
+                f"{file}: its arrays would take {declared} bytes, more than {MAX_MAP_EXPANSION} times the file's "
+                f"{size} bytes (MAX_MAP_EXPANSION); a nightloc map is not compressed that far, so the file is "
+                f"damaged or not a map"
+            )
+        if "header.npy" not in infos:
+            raise MapFormatError(f"{file} is an .npz archive but not a nightloc reference map (no header)")
+        raw_header = _read_member(file, archive, infos["header.npy"])
+        header = json.loads(raw_header.tobytes().decode("utf-8"))
+        arrays = {
+            name: _read_member(file, archive, infos[f"{name}.npy"]) for name in _MEMBERS[1:] if f"{name}.npy" in infos
+        }
+    return header, arrays
 
 
 class ReferenceMap:
@@ -99,14 +154,15 @@ class ReferenceMap:
                 f"{params.width}x{params.height}: prepare them with these params"
             )
         n = stack.shape[0]
+        not_masked(positions, "positions")
+        not_masked(headings, "headings")
         try:
             pos = np.array(positions, dtype=np.float64)
         except (TypeError, ValueError) as error:
             raise ValueError(f"positions must be ({n}, 2) numbers (metres): {error}") from None
         if pos.shape != (n, 2):
             raise ValueError(f"positions must be ({n}, 2) metres for {n} images, got shape {pos.shape}")
-        if not np.isfinite(pos).all():
-            raise ValueError(f"positions[{int(np.argwhere(~np.isfinite(pos))[0, 0])}] is not finite")
+        coordinates(pos, "positions")
         head = None
         if headings is not None:
             try:
@@ -265,25 +321,35 @@ class ReferenceMap:
             "checksums": checksums,
         }
 
-    def save(self, path: PathLike) -> Path:
+    def save(self, path: PathLike, *, overwrite: bool = False) -> Path:
         """Writes the map to one file atomically (temporary file in the same folder, then rename).
 
-        Returns the path written. Any suffix works; ``.map`` or ``.npz`` are customary.
+        Returns the path written. Any suffix works; ``.map`` or ``.npz`` are customary. An
+        existing file is replaced only with ``overwrite=True`` (else FileExistsError); the parent
+        folder must exist; a symbolic link at ``path`` is followed (the file it points to is
+        replaced). Saves of the same path from several threads or processes take turns.
         """
         target = Path(path)
         if target.is_dir():
             raise IsADirectoryError(f"{target} is a folder; give a file name such as {target / 'reference.map'}")
-        header = np.frombuffer(json.dumps(self._header(), ensure_ascii=False).encode("utf-8"), dtype=np.uint8)
+        # ASCII JSON: names and paths that are not valid UTF-8 (undecodable bytes of a file name,
+        # held as lone surrogates) round-trip as \udcXX escapes instead of failing to encode.
+        header = np.frombuffer(json.dumps(self._header()).encode("ascii"), dtype=np.uint8)
         arrays = {"header": header, "images": self._images, "positions": self._positions}
         if self._headings is not None:
             arrays["headings"] = self._headings
-        with atomic_file(target, "wb") as stream:
-            np.savez(stream, **arrays)
+        with atomic_file(target, "wb", overwrite=overwrite) as stream:
+            np.savez(stream, **arrays)  # type: ignore[arg-type]  # numpy's stub: allow_pickle
         return target
 
     @classmethod
     def load(cls, path: PathLike, params: PreparationParams | None = None) -> ReferenceMap:
         """Reads a map written by :meth:`save`, checking format, version, shapes and checksums.
+
+        Only a regular file is read (a FIFO, a device, a folder or a link loop is refused at
+        once), and its arrays are checked against the file's size before any memory is taken:
+        their declared sizes may add up to at most :data:`MAX_MAP_EXPANSION` times the file's
+        size (``np.savez`` stores them uncompressed: about 1x).
 
         Args:
             path: the map file.
@@ -293,46 +359,39 @@ class ReferenceMap:
         Raises:
             FileNotFoundError: no such file.
             PermissionError: the file cannot be read.
-            MapFormatError: not a nightloc map, truncated or corrupt, a newer format version,
-                checksum mismatch, or other parameters than ``params``.
+            MapFormatError: not a regular file, not a nightloc map, truncated or corrupt, arrays
+                larger than the file allows, a newer format version, checksum mismatch, or other
+                parameters than ``params``.
         """
         file = Path(path)
-        if not file.exists():
+        if not os.path.lexists(file):
             raise FileNotFoundError(f"reference map {file} does not exist")
         if file.is_dir():
             raise MapFormatError(f"{file} is a folder, not a reference map file (build one with nightloc build-map)")
-        with open(file, "rb") as stream:  # an unreadable file raises its own OSError (e.g. PermissionError)
+        # An unreadable file raises its own PermissionError; anything but a regular file a MapFormatError.
+        with open_regular(file, "reference map", MapFormatError) as stream:
             magic = stream.read(6)
-        if magic.startswith(b"\x93NUMPY"):
-            raise MapFormatError(f"{file} is a single numpy array, not a nightloc reference map")
-        if not magic.startswith(b"PK\x03\x04"):
-            what = "an empty file" if not magic else f"not an .npz (zip) archive; it starts with {magic!r}"
-            raise MapFormatError(f"{file} is not a nightloc reference map ({what})")
-        try:
-            # The file is opened here (not by np.load) so that it is closed on every error path.
-            with open(file, "rb") as stream:
-                loaded = np.load(stream, allow_pickle=False)
-                if not isinstance(loaded, np.lib.npyio.NpzFile):
-                    raise MapFormatError(f"{file} is a single numpy array, not a nightloc reference map")
-                with loaded as archive:
-                    members = set(archive.files)
-                    if "header" not in members:
-                        raise MapFormatError(f"{file} is an .npz archive but not a nightloc reference map (no header)")
-                    header = json.loads(archive["header"].tobytes().decode("utf-8"))
-                    arrays = {name: archive[name] for name in ("images", "positions", "headings") if name in members}
-        except MapFormatError:
-            raise
-        except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as error:
-            raise MapFormatError(
-                f"{file} is not a readable nightloc reference map (truncated or corrupt?): {error}"
-            ) from None
-        except Exception as error:
-            # Damaged bytes reach numpy's and zipfile's parsers, which raise many other types: a
-            # SyntaxError from an array header (ast.literal_eval), NotImplementedError for zip
-            # flag bits, MemoryError for an absurd shape, ...
-            raise MapFormatError(
-                f"{file} is not a readable nightloc reference map (damaged: {type(error).__name__}: {error})"
-            ) from None
+            if magic.startswith(b"\x93NUMPY"):
+                raise MapFormatError(f"{file} is a single numpy array, not a nightloc reference map")
+            if not magic.startswith(b"PK\x03\x04"):
+                what = "an empty file" if not magic else f"not an .npz (zip) archive; it starts with {magic!r}"
+                raise MapFormatError(f"{file} is not a nightloc reference map ({what})")
+            stream.seek(0)
+            try:
+                header, arrays = _read_archive(file, stream, os.fstat(stream.fileno()).st_size)
+            except MapFormatError:
+                raise
+            except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as error:
+                raise MapFormatError(
+                    f"{file} is not a readable nightloc reference map (truncated or corrupt?): {error}"
+                ) from None
+            except Exception as error:
+                # Damaged bytes reach numpy's and zipfile's parsers, which raise many other types: a
+                # SyntaxError from an array header (ast.literal_eval), NotImplementedError for zip
+                # flag bits, MemoryError for an absurd shape, ...
+                raise MapFormatError(
+                    f"{file} is not a readable nightloc reference map (damaged: {type(error).__name__}: {error})"
+                ) from None
         return cls._from_parts(file, header, arrays, params)
 
     @classmethod

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import concurrent.futures
 import os
-import shutil
 from collections import deque
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
@@ -35,7 +34,8 @@ from .. import _validate
 from .._validate import thread_count
 from ..errors import DatasetError
 from ..progress import progress
-from .atomic import replace_folder, staging_folder
+from .atomic import atomic_folder
+from .files import check_regular
 from .images import IMAGE_SUFFIXES, list_images, read_image_file, write_image_file
 from .odometry_csv import ODOMETRY_FILE, odometry_values, write_odometry_csv
 from .poses import checked_poses, poses_from_rows, read_pose_csv, write_pose_csv
@@ -319,31 +319,35 @@ def _inside(name: str) -> bool:
 def _load_folder(root: Path, frame_step: int, poses: Path | None) -> Traverse:
     image_dir = _image_folder(root)
     pose_file = poses if poses is not None else root / _POSE_FILE
-    if poses is None and not pose_file.exists():
+    if poses is None and not os.path.lexists(pose_file):
         names = list_images(image_dir)
         if not names:
             raise DatasetError(f"{image_dir} holds no image files ({', '.join(sorted(IMAGE_SUFFIXES))})")
         names = names[::frame_step]
         return Traverse(root=root, names=names, image_dir=image_dir)
-    if not pose_file.is_file():
-        what = "is a folder, not a CSV file" if pose_file.is_dir() else "does not exist"
-        raise DatasetError(f"poses file {pose_file} {what}")
+    check_regular(pose_file, "poses file", DatasetError)
     rows, has_heading = read_pose_csv(pose_file, "image")
     missing = []
     for row in rows:
-        if not _inside(row.key):
-            raise DatasetError(f"{pose_file} line {row.line}: image {row.key!r} must be a file name inside {image_dir}")
-        if not (image_dir / row.key).is_file():
+        name = str(row.key)
+        if not _inside(name):
+            raise DatasetError(f"{pose_file} line {row.line}: image {name!r} must be a file name inside {image_dir}")
+        if not (image_dir / name).is_file():
             missing.append(row)
     if missing:
         first = missing[0]
         more = f" ({len(missing) - 1} more files named in it are missing too)" if len(missing) > 1 else ""
+        try:
+            check_regular(image_dir / str(first.key), "image", DatasetError)
+        except DatasetError as error:
+            if os.path.lexists(image_dir / str(first.key)):  # there, but a folder, a FIFO, a link loop, ...
+                raise DatasetError(f"{pose_file} line {first.line}: {error}{more}") from None
         raise DatasetError(f"{pose_file} line {first.line}: image {first.key!r} does not exist in {image_dir}{more}")
     rows = rows[::frame_step]
     positions, headings = poses_from_rows(rows, has_heading)
     return Traverse(
         root=root,
-        names=[row.key for row in rows],
+        names=[str(row.key) for row in rows],
         positions=positions,
         headings=headings,
         image_dir=image_dir,
@@ -358,24 +362,23 @@ def _load_video(file: Path, frame_step: int, poses: Path | None) -> Traverse:
     if poses is None:
         frames = list(range(0, count, frame_step))
         return Traverse(root=file, names=[label.format(f) for f in frames], video=file, frame_indices=frames)
-    if not poses.is_file():
-        what = "is a folder, not a CSV file" if poses.is_dir() else "does not exist"
-        raise DatasetError(f"poses file {poses} {what}")
+    check_regular(poses, "poses file", DatasetError)
     rows, has_heading = read_pose_csv(poses, "frame")
+    frame_of = {id(row): int(row.key) for row in rows}  # the key column of a video's CSV is the frame index
     for row in rows:
-        if row.key >= count:
+        if frame_of[id(row)] >= count:
             raise DatasetError(f"{poses} line {row.line}: frame {row.key} is past the end of {file} ({count} frames)")
-    rows = sorted((row for row in rows if row.key % frame_step == 0), key=lambda row: row.key)
+    rows = sorted((row for row in rows if frame_of[id(row)] % frame_step == 0), key=lambda row: frame_of[id(row)])
     if not rows:
         raise DatasetError(f"{poses}: no frame index is a multiple of frame_step={frame_step}")
     positions, headings = poses_from_rows(rows, has_heading)
     return Traverse(
         root=file,
-        names=[label.format(row.key) for row in rows],
+        names=[label.format(frame_of[id(row)]) for row in rows],
         positions=positions,
         headings=headings,
         video=file,
-        frame_indices=[row.key for row in rows],
+        frame_indices=[frame_of[id(row)] for row in rows],
         poses_file=poses,
         lines=[row.line for row in rows],
     )
@@ -404,13 +407,10 @@ def load_traverse(path: PathLike, *, frame_step: int = 1, poses: PathLike | None
     pose_path = None if poses is None else Path(poses)
     if root.is_dir():
         return _load_folder(root, step, pose_path)
-    if root.is_file():
-        if root.suffix.lower() in IMAGE_SUFFIXES or root.suffix.lower() == ".csv":
-            raise DatasetError(
-                f"{root} is a single file; a traverse is a folder ({_IMAGE_DIR}/ + {_POSE_FILE}) or a video"
-            )
-        return _load_video(root, step, pose_path)
-    raise DatasetError(f"traverse {root} does not exist")
+    check_regular(root, "traverse", DatasetError)  # missing, a link loop, a FIFO, a device, ...
+    if root.suffix.lower() in IMAGE_SUFFIXES or root.suffix.lower() == ".csv":
+        raise DatasetError(f"{root} is a single file; a traverse is a folder ({_IMAGE_DIR}/ + {_POSE_FILE}) or a video")
+    return _load_video(root, step, pose_path)
 
 
 # --------------------------------------------------------------------------------------------
@@ -485,6 +485,10 @@ def save_traverse(
         overwrite: replace an existing traverse folder at ``path`` (a folder holding anything
             else than ``images/``, ``poses.csv`` and ``odometry.csv`` is never replaced).
 
+    The parent folder of ``path`` must exist (FileNotFoundError); a symbolic link at ``path`` is
+    followed; another process saving to the same ``path`` makes this call raise
+    BlockingIOError at once.
+
     Returns:
         The written :class:`Traverse`.
     """
@@ -511,15 +515,15 @@ def save_traverse(
     expected = len(pos) if pos is not None else (len(file_names) if file_names is not None else None)
     if pos is not None and file_names is not None and len(file_names) != len(pos):
         raise ValueError(f"{len(file_names)} names but {len(pos)} positions")
-    if target.exists():
-        if not overwrite:
-            raise FileExistsError(f"{target} exists; pass overwrite=True to replace it")
-        if not target.is_dir() or not _looks_like_traverse(target):
-            raise FileExistsError(
-                f"{target} exists and is not a traverse folder (only images/ and poses.csv); refusing to replace it"
-            )
-    staging = staging_folder(target)  # creates the parent folders
-    try:
+    with atomic_folder(target) as staging:  # one writer at a time; the parent folder must exist
+        if target.exists():
+            if not overwrite:
+                raise FileExistsError(f"{target} exists; pass overwrite=True to replace it")
+            if not target.is_dir() or not _looks_like_traverse(target):
+                raise FileExistsError(
+                    f"{target} exists and is not a traverse folder (only images/, poses.csv and odometry.csv); "
+                    f"refusing to replace it"
+                )
         image_dir = staging / _IMAGE_DIR
         image_dir.mkdir()
         written: list = []
@@ -542,8 +546,4 @@ def save_traverse(
             if len(motions) != len(written):
                 raise ValueError(f"{len(motions)} odometry rows but {len(written)} images")
             write_odometry_csv(staging / ODOMETRY_FILE, written, motions)
-        replace_folder(staging, target)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
     return load_traverse(target)

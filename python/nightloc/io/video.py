@@ -13,6 +13,7 @@ import cv2
 import numpy as np
 
 from ..errors import DatasetError
+from .files import check_regular
 
 __all__ = ["VIDEO_SUFFIXES", "open_video", "read_video_frames", "video_frame_count"]
 
@@ -21,7 +22,9 @@ VIDEO_SUFFIXES = frozenset({".mp4", ".avi", ".mov", ".mkv", ".m4v", ".mpg", ".mp
 
 
 def open_video(file: Path) -> cv2.VideoCapture:
-    """An opened capture of ``file``; DatasetError when OpenCV cannot open it."""
+    """An opened capture of ``file``; DatasetError when it is not a regular file (a FIFO would
+    block the decoder) or OpenCV cannot open it."""
+    check_regular(file, "video", DatasetError)
     capture = cv2.VideoCapture(str(file))
     if not capture.isOpened():
         capture.release()

@@ -42,6 +42,7 @@ from typing import Literal, Union
 
 import numpy as np
 
+from .._validate import MAX_REPEATS
 from ..errors import DatasetError
 from ..io.atomic import atomic_file
 from ..io.reference_map import ReferenceMap
@@ -150,8 +151,12 @@ class EvaluationSettings:
         if not modes:
             raise ValueError("interpolation needs at least one setting (True and/or False)")
         object.__setattr__(self, "interpolation", modes)
-        if isinstance(self.repeats, bool) or not isinstance(self.repeats, (int, np.integer)) or self.repeats < 1:
-            raise ValueError(f"repeats must be an int >= 1, got {self.repeats!r}")
+        if (
+            isinstance(self.repeats, bool)
+            or not isinstance(self.repeats, (int, np.integer))
+            or not 1 <= self.repeats <= MAX_REPEATS
+        ):
+            raise ValueError(f"repeats must be an int in 1..{MAX_REPEATS} (MAX_REPEATS), got {self.repeats!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
             raise ValueError(f"seed must be a non-negative int, got {self.seed!r}")
         if self.odometry not in ("map", "robot", "log"):

@@ -28,6 +28,7 @@ the GIL released; ``tests/localization/filter_oracle.py`` is the same filter in 
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 
@@ -176,6 +177,12 @@ class GridFilter:
             "estimate_window": params.estimate_window,
         }
         self.settings = settings  # what the core was given (tests build their oracle from it)
+        self._map_arguments = (
+            place_of_ref,
+            None if headings is None else np.ascontiguousarray(headings, dtype=np.float64),
+            int(columns),
+            self.shifts,
+        )
         self.core = _core.GridFilter(
             mapper._core_weights,
             grid.x0,
@@ -188,6 +195,28 @@ class GridFilter:
             self.shifts,
             settings,
         )
+
+    def __copy__(self) -> GridFilter:
+        return self._copy(self.mapper)
+
+    def __deepcopy__(self, memo: dict) -> GridFilter:
+        return self._copy(copy.deepcopy(self.mapper, memo))
+
+    def _copy(self, mapper: HeatMapper) -> GridFilter:
+        """A filter over ``mapper`` (this one's or a copy) with this one's state (belief, heading
+        offset, mode; float32 as the core keeps it)."""
+        clone = object.__new__(GridFilter)
+        clone.__dict__.update(self.__dict__)
+        clone.mapper = mapper
+        clone.core = _core.GridFilter(
+            mapper._core_weights, mapper.grid.x0, mapper.grid.y0, mapper.grid.dx, mapper.grid.dy,
+            *self._map_arguments, self.settings,
+        )  # fmt: skip
+        pose = bool(self.core.pose_mode)
+        clone.core.set_belief(
+            np.ascontiguousarray(self.core.belief(), dtype=np.float32), pose, self.offset if pose else 0.0
+        )
+        return clone
 
     @property
     def pose_mode(self) -> bool:

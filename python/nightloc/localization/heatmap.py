@@ -44,6 +44,7 @@ import scipy.sparse
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
 from .. import _core
+from .._validate import MAX_GRID_CELLS, MAX_SEQUENCE_CELLS, coordinates, metres, not_masked
 from .sequence import PaddedLayout
 
 __all__ = [
@@ -126,8 +127,11 @@ class HeatGrid:
         for name, value in (("width", width), ("height", height)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 2:
                 raise ValueError(f"grid {name} must be an int >= 2 cells, got {value!r}")
-        if not (math.isfinite(margin) and margin >= 0):
-            raise ValueError(f"margin must be a finite number of metres >= 0, got {margin!r}")
+        if int(width) * int(height) > MAX_GRID_CELLS:
+            raise ValueError(
+                f"grid of {width}x{height} cells is too large (at most {MAX_GRID_CELLS} cells, MAX_GRID_CELLS)"
+            )
+        metres(margin, "margin", minimum=0.0)
         lo = pos.min(axis=0) - margin
         hi = pos.max(axis=0) + margin
         for axis in range(2):
@@ -208,11 +212,11 @@ class HeatEstimate:
 
 
 def _positions(positions: object) -> np.ndarray:
+    not_masked(positions, "positions")
     pos = np.asarray(positions, dtype=np.float64)
     if pos.ndim != 2 or pos.shape[1] != 2 or pos.shape[0] == 0:
         raise ValueError(f"positions must be (n_refs, 2) metres with n_refs >= 1, got shape {pos.shape}")
-    if not np.isfinite(pos).all():
-        raise ValueError("positions contain NaN or infinity")
+    coordinates(pos, "positions")
     return pos
 
 
@@ -251,8 +255,7 @@ class HeatMapper:
             raise ValueError(f"outside must be one of {OUTSIDE_MODES}, got {outside!r}")
         if inversion not in INVERSIONS:
             raise ValueError(f"inversion must be one of {INVERSIONS}, got {inversion!r}")
-        if not (math.isfinite(confidence_radius) and confidence_radius >= 0):
-            raise ValueError(f"confidence_radius must be a finite number of metres >= 0, got {confidence_radius!r}")
+        metres(confidence_radius, "confidence_radius", minimum=0.0)
         self.positions = pos
         self.grid = HeatGrid.spanning(pos, grid_width, grid_height, margin)
         self.interpolation = bool(interpolation)
@@ -398,6 +401,14 @@ class HeatMapper:
         ``frame(k)`` and ``fill(k)`` give the maps (float32 copies); ``clear()``; ``size``.
         The weights are shared by every sequence of this mapper.
         """
+        if isinstance(capacity, bool) or not isinstance(capacity, (int, np.integer)) or capacity < 1:
+            raise ValueError(f"capacity must be an int >= 1 frames, got {capacity!r}")
+        if int(capacity) * self.layout.size > MAX_SEQUENCE_CELLS:
+            raise ValueError(
+                f"a sequence of {capacity} frames over a {self.grid.width}x{self.grid.height} grid holds "
+                f"{int(capacity) * self.layout.size} float32 cells, more than {MAX_SEQUENCE_CELLS} "
+                f"(MAX_SEQUENCE_CELLS, 512 MiB); shorten the sequence or coarsen the grid"
+            )
         rj, ri, disk = self._disk
         return _core.HeatSequence(self._core_weights, int(capacity), rj, ri, disk.astype(np.uint8).ravel())
 
@@ -492,9 +503,14 @@ class HeatMapper:
 
 
 def _disk_offsets(grid: HeatGrid, radius: float) -> tuple[int, int, np.ndarray]:
-    """Half-sizes (rows, cols) of the box around ``radius`` metres and the disk mask inside it."""
-    rj = int(math.floor(radius / grid.dy))
-    ri = int(math.floor(radius / grid.dx))
+    """Half-sizes (rows, cols) of the box around ``radius`` metres and the disk mask inside it.
+
+    The box is clipped to the grid's own size: an offset of ``height`` rows or ``width`` columns
+    leaves the grid from any cell, so a radius wider than the map gives the same answers with a
+    mask of at most ``(2 height - 1) x (2 width - 1)`` cells (not gigabytes).
+    """
+    rj = int(min(math.floor(radius / grid.dy), grid.height - 1))
+    ri = int(min(math.floor(radius / grid.dx), grid.width - 1))
     dj, di = np.mgrid[-rj : rj + 1, -ri : ri + 1]
     return rj, ri, (dj * grid.dy) ** 2 + (di * grid.dx) ** 2 <= radius**2 + 1e-12
 

@@ -33,6 +33,7 @@ ignored on the first frame (and after :meth:`Localizer.reset`).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 from collections import deque
@@ -41,7 +42,15 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .._validate import same_image_size, thread_count, uint8_array
+from .._validate import (
+    MAX_GRID_CELLS,
+    MAX_SEQUENCE_CELLS,
+    StreamGuard,
+    metres,
+    same_image_size,
+    thread_count,
+    uint8_array,
+)
 from ..config import params_section
 from ..io.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, match
@@ -93,14 +102,22 @@ class LocalizationParams:
         for name in ("grid_width", "grid_height"):
             if getattr(self, name) < 2:
                 raise ValueError(f"{name} must be >= 2 cells, got {getattr(self, name)}")
-        if self.grid_width * self.grid_height > 4_000_000:
-            raise ValueError(f"grid of {self.grid_width}x{self.grid_height} cells is too large (at most 4 million)")
-        if not (math.isfinite(self.margin) and self.margin >= 0):
-            raise ValueError(f"margin must be a finite number of metres >= 0, got {self.margin}")
+        if self.grid_width * self.grid_height > MAX_GRID_CELLS:
+            raise ValueError(
+                f"grid of {self.grid_width}x{self.grid_height} cells is too large (at most {MAX_GRID_CELLS} cells, "
+                f"MAX_GRID_CELLS)"
+            )
+        metres(self.margin, "margin", minimum=0.0)
         if not 1 <= self.seq_len <= MAX_SEQ_LEN:
             raise ValueError(f"seq_len must be 1..{MAX_SEQ_LEN} frames, got {self.seq_len}")
-        if not (math.isfinite(self.confidence_radius) and self.confidence_radius >= 0):
-            raise ValueError(f"confidence_radius must be a finite number of metres >= 0, got {self.confidence_radius}")
+        cells = self.seq_len * self.grid_height * (self.grid_width + 1)  # the sequence's padded float32 maps
+        if cells > MAX_SEQUENCE_CELLS:
+            raise ValueError(
+                f"seq_len {self.seq_len} over a {self.grid_width}x{self.grid_height} grid needs {cells} float32 "
+                f"cells, more than {MAX_SEQUENCE_CELLS} (MAX_SEQUENCE_CELLS, 512 MiB); shorten the sequence or "
+                f"coarsen the grid"
+            )
+        metres(self.confidence_radius, "confidence_radius", minimum=0.0)
 
 
 @dataclass(frozen=True)
@@ -169,6 +186,11 @@ class Localizer:
             ``grid_width=80, likelihood_gain=2.5``; ``seq_len`` only with ``method="paper"``.
 
     The grid, triangulation and interpolation weights are computed here, once.
+
+    A localizer is one stream of frames: :meth:`update` from two threads at once raises
+    RuntimeError (the order of the frames would be a race); use one localizer per thread (they
+    may share the map). ``copy.copy`` gives an independent localizer with the same state that
+    shares the map and the grid; ``copy.deepcopy`` copies those too.
     """
 
     def __init__(
@@ -240,7 +262,20 @@ class Localizer:
         else:
             self._filter = None
             self._sequence = self.mapper.sequence(params.seq_len)
+        self._guard = StreamGuard("Localizer")  # one thread at a time (see the class docstring)
         self.reset()
+
+    def __copy__(self) -> Localizer:
+        with self._guard("copy"):
+            clone = object.__new__(Localizer)
+            clone.__dict__.update(self.__dict__)
+            if self._filter is not None:
+                clone._filter = copy.copy(self._filter)  # the belief: not shared
+            else:
+                clone._sequence = copy.deepcopy(self._sequence)  # the frames' heat maps: not shared
+                clone._motions = deque(self._motions, maxlen=self._motions.maxlen)
+            clone._guard = StreamGuard("Localizer")
+        return clone
 
     def fresh(self) -> Localizer:
         """A new localizer for the same map, method and parameters, sharing this one's grid and
@@ -261,6 +296,7 @@ class Localizer:
             )
         else:
             clone._sequence = self.mapper.sequence(self.params.seq_len)
+        clone._guard = StreamGuard("Localizer")
         clone.reset()
         return clone
 
@@ -277,6 +313,7 @@ class Localizer:
         clone.__dict__.update(self.__dict__)
         clone.params = params
         clone._sequence = self.mapper.sequence(params.seq_len)
+        clone._guard = StreamGuard("Localizer")
         clone.reset()
         return clone
 
@@ -326,6 +363,10 @@ class Localizer:
     def reset(self) -> None:
         """Forgets everything seen (e.g. after the robot was carried elsewhere): the paper's
         sequence, or the filter's belief (uniform again); and the heading."""
+        with self._guard("reset"):
+            self._reset()
+
+    def _reset(self) -> None:
         self._heading = math.nan
         self._frames = 0
         if self._filter is not None:
@@ -362,9 +403,10 @@ class Localizer:
         if self._filter is not None:
             query = uint8_array(query, 2, "frame")
             same_image_size(query, self.ref_map.images, "the prepared frame's", "the map's")
-            motion = self._motion(odometry)
-            state = self._filter.step_image(np.ascontiguousarray(query), self.ref_map.images, motion, self.threads)
-            return self._filter_estimate(state, return_heatmap)
+            with self._guard("update"):
+                motion = self._motion(odometry)
+                state = self._filter.step_image(np.ascontiguousarray(query), self.ref_map.images, motion, self.threads)
+                return self._filter_estimate(state, return_heatmap)
         result = match(query, self.ref_map.images, shifts=self._shifts, threads=self.threads)
         return self.update_match(result, odometry, return_heatmap=return_heatmap)
 
@@ -380,17 +422,19 @@ class Localizer:
         shape = (len(self.ref_map), len(flt.shifts))
         if t.shape != shape:
             raise ValueError(f"table must be {shape} (references, shifts), got shape {t.shape}")
-        motion = self._motion(odometry)
-        state = flt.step_table(np.ascontiguousarray(t), motion)
-        return self._filter_estimate(state, return_heatmap)
+        with self._guard("update"):
+            motion = self._motion(odometry)
+            state = flt.step_table(np.ascontiguousarray(t), motion)
+            return self._filter_estimate(state, return_heatmap)
 
     def predict(self, odometry: object = None, *, return_heatmap: bool = False) -> Estimate:
         """The filter's prediction alone: the robot moved by ``odometry`` (None: unknown) but there
         is no usable frame; the belief moves and spreads. ``best_ref`` is -1 and ``score`` NaN."""
         flt = self._require_filter("predict")
         motion = self._checked_motion(as_motion(odometry))
-        state = flt.predict(motion_code(motion))
-        return self._filter_estimate(state, return_heatmap, frame=False)
+        with self._guard("predict"):
+            state = flt.predict(motion_code(motion))
+            return self._filter_estimate(state, return_heatmap, frame=False)
 
     def _motion(self, odometry: object) -> tuple:
         motion = as_motion(odometry)
@@ -450,6 +494,10 @@ class Localizer:
                 "reference): call update(frame) or update_table(nightloc.rotational_sad(prepared, ref_map.images)), "
                 "or use method='paper'"
             )
+        with self._guard("update"):
+            return self._update_match(result, odometry, return_heatmap)
+
+    def _update_match(self, result: MatchResult, odometry: object, return_heatmap: bool) -> Estimate:
         if not isinstance(result, MatchResult):
             raise TypeError(f"result must be a nightloc.MatchResult, got {type(result).__name__}")
         if result.scores.shape != (len(self.ref_map),):

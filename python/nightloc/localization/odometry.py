@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._validate import coordinates, metres, not_masked
+
 __all__ = [
     "NOISE_MODELS",
     "MapDisplacement",
@@ -52,11 +54,13 @@ def wrap_angle(angle: float | np.ndarray) -> float | np.ndarray:
 
 
 def _finite(value: object, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise TypeError(f"{name} must be a number, got {type(value).__name__}")
     number = float(value)
     if not math.isfinite(number):
         raise ValueError(f"{name} must be finite, got {number}")
+    if name != "turn":
+        metres(number, name)
     return number
 
 
@@ -108,16 +112,21 @@ def as_motion(odometry: object) -> Motion | None:
         return odometry
     if isinstance(odometry, tuple) and len(odometry) == 2:  # the common case, without numpy
         return MapDisplacement(*odometry)
-    if isinstance(odometry, (str, bytes, dict)):
+    if isinstance(odometry, (str, bytes, bytearray, memoryview, dict)):  # bytes are not metres
         raise TypeError(
             f"odometry must be MapDisplacement, RobotMotion or a (dx, dy) pair, got {type(odometry).__name__}"
         )
+    not_masked(odometry, "odometry")
     try:
-        pair = np.asarray(odometry, dtype=np.float64)
+        raw = np.asarray(odometry)
     except (TypeError, ValueError):
+        raw = np.asarray(None)
+    if raw.dtype.kind not in "iuf":  # bool, complex, strings, objects: not a pair of real numbers
         raise TypeError(
-            f"odometry must be MapDisplacement, RobotMotion or a (dx, dy) pair, got {type(odometry).__name__}"
-        ) from None
+            f"odometry must be MapDisplacement, RobotMotion or a (dx, dy) pair of real numbers, got "
+            f"{type(odometry).__name__}" + (f" of dtype {raw.dtype}" if raw.dtype.kind != "O" else "")
+        )
+    pair = raw.astype(np.float64)
     if pair.shape != (2,):
         raise ValueError(
             f"odometry as a plain sequence must be a (dx, dy) pair in the map frame, got shape {pair.shape}; "
@@ -167,11 +176,11 @@ def noise_model(model: int | NoiseModel) -> NoiseModel:
 
 
 def _poses(positions: object, headings: object | None = None):
+    not_masked(positions, "positions")
     pos = np.asarray(positions, dtype=np.float64)
     if pos.ndim != 2 or pos.shape[1] != 2 or pos.shape[0] == 0:
         raise ValueError(f"positions must be (n_frames, 2) metres, got shape {pos.shape}")
-    if not np.isfinite(pos).all():
-        raise ValueError("positions contain NaN or infinity")
+    coordinates(pos, "positions")
     if headings is None:
         return pos, None
     head = np.asarray(headings, dtype=np.float64)

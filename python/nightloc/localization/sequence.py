@@ -83,6 +83,11 @@ def add_translated(layout: PaddedLayout, out: np.ndarray, source: np.ndarray, sh
         raise ValueError(f"shifts must be finite, got ({shift_x}, {shift_y})")
     if not (isinstance(out, np.ndarray) and out.flags.c_contiguous):
         raise ValueError("out must be a C-contiguous numpy buffer of the layout (PaddedLayout.zeros())")
+    if isinstance(source, np.ndarray) and np.shares_memory(out, source):
+        raise ValueError(
+            "out and source share memory: the translation would read cells it has already written; "
+            "pass a copy of source"
+        )
     _core.add_translated(
         out.reshape(-1),
         np.ascontiguousarray(source).reshape(-1),

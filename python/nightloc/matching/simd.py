@@ -1,12 +1,15 @@
 """Which SIMD path the compiled kernels use, and a way to force one (tests run every path).
 
 The paths give bit-identical results; only their speed differs. The default is the fastest the
-CPU supports, or the one named by the environment variable ``NIGHTLOC_SIMD`` (``scalar``,
-``sse2``, ``avx2``, ``avx512bw``) when it is set to a supported path.
+CPU supports, or the one named by the environment variable ``NIGHTLOC_SIMD`` (one of
+``ALL_BACKENDS``: ``scalar``, ``sse2``, ``avx2``, ``avx512bw``) when it is set to a supported path.
 
-On CPUs with AVX-512 VNNI, the ``avx512bw`` path's all-shift kernel accumulates with
-``vpdpwssd`` instead of ``vpaddw`` (same results, about 15 % faster); the environment variable
-``NIGHTLOC_AVX512_VNNI=0``, read once at start-up, keeps the ``vpaddw`` kernel.
+On CPUs with AVX-512 VNNI, the ``avx512bw`` path's all-shift kernel can accumulate with
+``vpdpwssd`` (``"vnni"``) or ``vpaddw`` (same results); which is faster depends on the CPU
+(``vpaddw`` by 20 % on AMD Zen 4, within a few per cent either way on Intel Sapphire Rapids).
+The choice is made once per process — a table for AMD Zen 4, otherwise both are timed at first
+use (about 2 ms; vnni must win by 2 %) — and ``avx512_sad_variant()`` says which and why;
+``NIGHTLOC_AVX512_VNNI=0`` or ``1`` forces it.
 """
 
 from __future__ import annotations
@@ -18,13 +21,21 @@ from collections.abc import Iterator
 
 from .. import _core
 
-__all__ = ["available_simd_backends", "set_simd_backend", "simd_backend", "use_simd_backend"]
+__all__ = [
+    "ALL_BACKENDS",
+    "available_simd_backends",
+    "avx512_sad_variant",
+    "set_simd_backend",
+    "simd_backend",
+    "use_simd_backend",
+]
 
-ALL_BACKENDS: tuple[str, ...] = ("scalar", "sse2", "avx2", "avx512bw")
+#: Every path the core knows (named once, in the C++ core), whether or not this CPU has it.
+ALL_BACKENDS: tuple[str, ...] = tuple(_core.ALL_SIMD_BACKENDS)
 
 
 def simd_backend() -> str:
-    """Name of the SIMD path in use: ``"scalar"``, ``"sse2"``, ``"avx2"`` or ``"avx512bw"``."""
+    """Name of the SIMD path in use, one of ``ALL_BACKENDS``."""
     return _core.simd_backend()
 
 
@@ -56,6 +67,16 @@ def use_simd_backend(name: str) -> Iterator[None]:
         yield
     finally:
         _core.set_simd_backend(previous)
+
+
+def avx512_sad_variant() -> tuple[str, str] | None:
+    """``(variant, reason)`` of the ``avx512bw`` path's all-shift SAD kernel, e.g.
+    ``("vpaddw", "CPU table: AuthenticAMD family 19h ...")``; None on CPUs without AVX-512BW.
+
+    The first call may time both variants (about 2 ms, once per process).
+    """
+    found = _core.avx512_sad_variant()
+    return None if found is None else (str(found[0]), str(found[1]))
 
 
 def _check_environment() -> None:

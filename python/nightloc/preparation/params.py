@@ -7,6 +7,7 @@ import math
 from typing import Any, Literal
 
 from .. import _core
+from .._validate import MAX_CLAHE_TILES
 from ..config import params_section
 from .normalize import DEFAULT_PATCH_SCALE, MAX_PATCH_RADIUS
 
@@ -31,7 +32,7 @@ class PreparationParams:
         equalize: histogram equalization of the full-resolution grey image: ``"global"``
             (``cv2.equalizeHist``), ``"clahe"`` (contrast-limited adaptive) or ``"none"``.
         clahe_clip_limit: CLAHE contrast limit (OpenCV's clipLimit).
-        clahe_tiles: CLAHE tile grid (columns, rows).
+        clahe_tiles: CLAHE tile grid (columns, rows), 1..256 each (``MAX_CLAHE_TILES``).
         crop: (top, bottom, left, right) removed before anything else; ints are pixels, floats
             in [0, 1) fractions of the frame's height (top, bottom) or width (left, right).
         patch_normalize: apply patch normalization (eq. 1); False keeps the downsampled grey.
@@ -65,8 +66,11 @@ class PreparationParams:
             raise ValueError(f"radius must be in [0, {MAX_PATCH_RADIUS}], got {self.radius}")
         if not (math.isfinite(self.clahe_clip_limit) and self.clahe_clip_limit > 0):
             raise ValueError(f"clahe_clip_limit must be a positive number, got {self.clahe_clip_limit}")
-        if min(self.clahe_tiles) < 1:
-            raise ValueError(f"clahe_tiles must be >= 1 in both directions, got {self.clahe_tiles}")
+        if min(self.clahe_tiles) < 1 or max(self.clahe_tiles) > MAX_CLAHE_TILES:
+            raise ValueError(
+                f"clahe_tiles must be 1..{MAX_CLAHE_TILES} in both directions (MAX_CLAHE_TILES; OpenCV keeps a "
+                f"histogram per tile), got {self.clahe_tiles}"
+            )
         if not (math.isfinite(self.scale) and self.scale > 0):
             raise ValueError(f"scale must be a positive number, got {self.scale}")
         for side, value in zip(("top", "bottom", "left", "right"), self.crop):

@@ -233,15 +233,19 @@ class Preparer:
         """Prepares one frame or many.
 
         Args:
-            images: one frame (grey ``(H, W)`` or ``(H, W, 1)``, colour ``(H, W, 3|4)``; uint8 or
-                uint16), a stack ``(N, H, W)`` / ``(N, H, W, 3|4)`` (a 3-D array whose last axis is
-                1, 3 or 4 long is one frame), any iterable of frames (lists, generators; the
-                frames may differ in size), or a :class:`Traverse` (read lazily with a progress bar).
+            images: one frame (grey ``(H, W)`` or ``(H, W, 1)``, grey + alpha ``(H, W, 2)``,
+                colour ``(H, W, 3|4)``; uint8 or uint16; alpha is ignored), a stack ``(N, H, W)``
+                / ``(N, H, W, 2|3|4)`` (a 3-D array whose last axis is 1 to 4 long is one frame),
+                any iterable of frames (lists, generators; the frames may differ in size), or a
+                :class:`Traverse` (read lazily with a progress bar). Masked arrays are refused.
 
         Returns:
             ``(height, width)`` uint8 for one frame, ``(N, height, width)`` uint8 otherwise.
         """
-        if isinstance(images, np.ndarray) and (images.ndim == 2 or (images.ndim == 3 and images.shape[2] in (1, 3, 4))):
+        _validate.not_masked(images, "images")
+        if isinstance(images, np.ndarray) and (
+            images.ndim == 2 or (images.ndim == 3 and images.shape[2] in (1, 2, 3, 4))
+        ):
             frame = _checked_frame(images, "image")
             prepared = self._core_prepare(frame, normalize=True)
             if prepared is not None:

@@ -8,6 +8,9 @@ minimum needs every block: one small reduction of the block minima. The trajecto
 per block too, each task reading its rows plus the ds/2 (centred) or ds-1 (causal) rows its
 trajectories reach into the neighbouring blocks. Nothing is gathered on the client except the
 matches (two vectors of n_query values); the matrices stay on the workers as Dask arrays.
+The route filter (``method="filter"``) is sequential over the queries: the enhanced blocks are
+brought to the client one at a time, in order, and the filter continues over each (memory: one
+block).
 
 Results are bit-identical to the in-process :func:`~nightloc.route.match_prepared` (the same
 kernels on the same rows; the offset is one float32 subtraction or addition per cell either way).
@@ -36,6 +39,7 @@ import numpy as np
 
 from .. import _core
 from .._validate import same_image_size, shift_list, uint8_array
+from .filter import texture_weights
 from .params import RouteParams, resolve_params
 from .pipeline import RouteResult, _divisor
 
@@ -155,7 +159,7 @@ def dask_route_matrices(
         raise ValueError(f"rows_per_block must be an int >= 1, got {rows_per_block!r}")
     shifts = shift_list(p.shifts, r.shape[2])
     divisor = _divisor(p, r)
-    block_offset = "none" if p.enhance_offset == "global_min" else "bound"
+    block_offset = "none" if p.search_offset == "global_min" else "bound"
     delayed = dask.delayed
     refs_node = delayed(r, pure=True, traverse=False)
     shifts_node = delayed(shifts, pure=True, traverse=False)
@@ -174,7 +178,7 @@ def dask_route_matrices(
         )
         for start, stop in blocks
     ]
-    if p.enhance_offset == "global_min":
+    if p.search_offset == "global_min":
         minimum = delayed(_global_minimum, pure=True)(*[task[2] for task in tasks])
         enhanced_nodes = [delayed(_subtract, pure=True)(task[1], minimum) for task in tasks]
     else:
@@ -216,6 +220,8 @@ def dask_match_prepared(
     """
     dask, _da = _require_dask()
     p = resolve_params(params)
+    if p.method == "filter":
+        return _dask_filter(refs, queries, p, rows_per_block, keep_difference, threads_per_task, client)
     n_refs = refs.shape[0] if isinstance(refs, np.ndarray) and refs.ndim == 3 else 0
     needed = 2 * p.uniqueness_radius + (1 if p.mode == "centred" else 2)
     if n_refs and n_refs < needed:
@@ -239,8 +245,37 @@ def dask_match_prepared(
             if b1 > lo and b0 < hi:
                 pieces.append(node[max(lo, b0) - b0 : min(hi, b1) - b0])
         results.append(dask.delayed(_search_task, pure=True, nout=2)(pieces, lo, start, stop, p, threads_per_task))
-    computed = client.compute(results, sync=True) if client is not None else dask.compute(*results)
+    computed = client.compute(results, sync=True) if client is not None else dask.compute(*results)  # type: ignore[attr-defined]
     matched = np.concatenate([pair[0] for pair in computed]).astype(np.int64)
     scores = np.concatenate([pair[1] for pair in computed]).astype(np.float64)
     timings: dict[str, float] = {"total": time.perf_counter() - start_time}
     return RouteResult(refs=matched, scores=scores, enhanced=enhanced, difference=difference, params=p, timings=timings)
+
+
+def _dask_filter(refs, queries, p, rows_per_block, keep_difference, threads_per_task, client) -> RouteResult:
+    dask, _da = _require_dask()
+    start_time = time.perf_counter()
+    difference, enhanced, blocks = dask_route_matrices(
+        refs, queries, p, rows_per_block, keep_difference, threads_per_task
+    )
+    weights = texture_weights(queries, p.filter_min_texture)
+    state = _core.RouteFilter(enhanced.shape[1], p.core_filter_params())
+    pieces = []
+    for node, (start, stop) in zip(enhanced.to_delayed().ravel().tolist(), blocks):
+        block = client.compute(node, sync=True) if client is not None else dask.compute(node)[0]
+        pieces.append(state.run(np.ascontiguousarray(block), weights[start:stop]))
+    matched = np.concatenate([piece[0] for piece in pieces]).astype(np.int64)
+    confidence = np.concatenate([piece[1] for piece in pieces])
+    off_route = np.concatenate([piece[2] for piece in pieces])
+    timings: dict[str, float] = {"total": time.perf_counter() - start_time}
+    return RouteResult(
+        refs=matched,
+        scores=1.0 - confidence,
+        enhanced=enhanced,
+        difference=difference,
+        params=p,
+        timings=timings,
+        confidence=confidence,
+        off_route=off_route,
+        weights=weights,
+    )

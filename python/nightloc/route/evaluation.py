@@ -24,6 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .._validate import coordinates, metres
+
 __all__ = [
     "GroundTruth",
     "PRCurve",
@@ -98,12 +100,11 @@ class GroundTruth:
             array = np.asarray(value, dtype=np.float64)
             if array.ndim != 2 or array.shape[1] != 2 or array.shape[0] == 0:
                 raise ValueError(f"{name} must be a non-empty (n, 2) array of metres, got shape {array.shape}")
-            if not np.isfinite(array).all():
-                raise ValueError(f"{name} holds NaN or infinite values")
+            coordinates(array, name)
             array = array.copy()
             array.setflags(write=False)
             arrays.append(array)
-        if not (math.isfinite(tolerance) and tolerance > 0):
+        if metres(tolerance, "tolerance", minimum=0.0) <= 0:
             raise ValueError(f"tolerance must be a positive number of metres, got {tolerance!r}")
         return cls(
             "positions",
@@ -113,6 +114,17 @@ class GroundTruth:
             query_positions=arrays[0],
             ref_positions=arrays[1],
         )
+
+    def _correspondence(self) -> np.ndarray:
+        if self.correspondence is None:
+            raise ValueError("this ground truth has no frame correspondence")
+        return self.correspondence
+
+    def _positions(self) -> tuple[np.ndarray, np.ndarray]:
+        """(reference positions, query positions) of a positions ground truth."""
+        if self.ref_positions is None or self.query_positions is None:
+            raise ValueError("this ground truth has no positions")
+        return self.ref_positions, self.query_positions
 
     def correct(self, refs: np.ndarray) -> np.ndarray:
         """``(n_query,)`` bool: the match ``refs[q]`` (-1 = none) is correct."""
@@ -124,31 +136,31 @@ class GroundTruth:
             raise ValueError(f"refs must lie in -1 .. {self.n_refs - 1}")
         defined = matched >= 0
         if self.kind == "frames":
-            truth = self.correspondence
+            truth = self._correspondence()
             return defined & (truth >= 0) & (np.abs(matched - truth) <= self.tolerance)
         out = np.zeros(self.n_queries, dtype=bool)
         index = np.flatnonzero(defined)
-        gap = self.ref_positions[matched[index]] - self.query_positions[index]
+        refs_xy, queries_xy = self._positions()
+        gap = refs_xy[matched[index]] - queries_xy[index]
         out[index] = np.hypot(gap[:, 0], gap[:, 1]) <= self.tolerance
         return out
 
     def positives(self) -> np.ndarray:
         """``(n_query,)`` bool: some reference is a correct match for the query."""
         if self.kind == "frames":
-            truth = self.correspondence
             # Every reference within the tolerance of an existing correspondence exists.
-            return truth >= 0
-        tree = cKDTree(self.ref_positions)
-        distance, _ = tree.query(self.query_positions, k=1)
-        return distance <= self.tolerance
+            return np.asarray(self._correspondence() >= 0)
+        refs_xy, queries_xy = self._positions()
+        distance, _ = cKDTree(refs_xy).query(queries_xy, k=1)
+        return np.asarray(distance <= self.tolerance)
 
     def true_refs(self) -> np.ndarray:
         """``(n_query,)`` int64 best true reference per query (the correspondence, or the
         nearest reference by position), -1 where none is within the tolerance."""
         if self.kind == "frames":
-            return self.correspondence.copy()
-        tree = cKDTree(self.ref_positions)
-        distance, nearest = tree.query(self.query_positions, k=1)
+            return self._correspondence().copy()
+        refs_xy, queries_xy = self._positions()
+        distance, nearest = cKDTree(refs_xy).query(queries_xy, k=1)
         return np.where(distance <= self.tolerance, nearest, -1).astype(np.int64)
 
 

@@ -1,26 +1,37 @@
-"""Online route localization: causal SeqSLAM, one camera frame at a time.
+"""Online route localization, one camera frame at a time: the route filter (default) or causal
+SeqSLAM.
 
-:class:`RouteLocalizer` holds the prepared reference route and the enhanced difference rows of
-the last ``ds`` query frames. Each :meth:`RouteLocalizer.update` prepares the new frame, compares
-it with every reference (one row of the difference matrix, in the compiled core), enhances that
-row on its own (the causal offset needs no other frame), and searches the trajectories that *end*
-at this frame. Its results are bit-identical to the batch computation
-``match_prepared(refs, queries, mode="causal")`` on the same frames.
+:class:`RouteLocalizer` holds the prepared reference route. Each :meth:`RouteLocalizer.update`
+prepares the new frame and compares it with every reference (one row of the difference matrix,
+in the compiled core), enhances that row on its own (the causal offset needs no other frame),
+then
 
-Cost per frame: ``n_ref * H * W`` byte comparisons plus ``n_ref * n_speeds * ds`` additions;
-memory: ``ds`` rows of ``n_ref`` float32 beyond the reference images.
+* ``method="filter"`` (default): one step of the route filter (:mod:`nightloc.route.filter`) --
+  the difference row, its enhancement, the frame's texture weight and the filter step are one
+  call into the core; the answer exists from the first frame;
+* ``method="seqslam"``: searches the trajectories that *end* at this frame over the enhanced rows
+  of the last ``ds`` frames.
+
+Results are bit-identical to the batch computation ``match_prepared(refs, queries, params)`` on
+the same frames (with ``mode="causal"`` for SeqSLAM).
+
+Cost per frame: ``n_ref * H * W`` byte comparisons, plus a few passes over ``n_ref`` values
+(filter) or ``n_ref * n_speeds * ds`` additions (SeqSLAM); memory: the belief (``n_ref``
+doubles) or ``ds`` rows of ``n_ref`` float32 beyond the reference images.
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from .. import _core
-from .._validate import shift_list, thread_count, uint8_array
+from .._validate import StreamGuard, shift_list, thread_count, uint8_array
 from ..preparation.params import PreparationParams
 from .params import RouteParams, resolve_params
 from .pipeline import TraverseInput, _as_frames, _divisor
@@ -35,13 +46,18 @@ class RouteUpdate:
 
     Attributes:
         index: 0-based position of this frame in the query stream (since the last reset).
-        ref: the matched reference (0-based), or None until ``ds`` frames have been seen.
-        score: uniqueness ratio, lower = more confident (NaN while ``ref`` is None).
+        ref: the matched reference (0-based); SeqSLAM: None until ``ds`` frames have been seen.
+        score: lower = more confident: ``1 - confidence`` (filter) or the uniqueness ratio
+            (SeqSLAM; NaN while ``ref`` is None).
+        confidence: filter: belief within ``filter_window`` references of ``ref``; NaN for SeqSLAM.
+        off_route: filter: probability that the frame shows no reference; NaN for SeqSLAM.
     """
 
     index: int
     ref: int | None
     score: float
+    confidence: float = math.nan
+    off_route: float = math.nan
 
     @property
     def matched(self) -> bool:
@@ -54,14 +70,14 @@ class RouteUpdate:
 
 
 class RouteLocalizer:
-    """Streaming route localizer (causal SeqSLAM).
+    """Streaming route localizer: the route filter (default) or causal SeqSLAM.
 
     Example::
 
-        localizer = nightloc.RouteLocalizer(nightloc.load_traverse("day_route"), preset="openseqslam")
+        localizer = nightloc.RouteLocalizer(nightloc.load_traverse("day_route"))
         for frame in camera:
             update = localizer.update(frame)
-            if update.accepted(0.8):
+            if update.confidence > 0.9:
                 print(update.index, "->", update.ref)
 
     Args:
@@ -69,10 +85,15 @@ class RouteLocalizer:
             ``prepared=True``, an ``(N, H, W)`` uint8 stack of prepared images.
         params: :class:`RouteParams` or a preset name; ``mode`` is always ``"causal"`` here.
         preset: a preset name (alternative to ``params``).
+        method: ``"filter"`` or ``"seqslam"``, replacing ``params.method``.
         preparation: :class:`PreparationParams` for the ``"nightloc"`` preparation.
         prepared: the reference is already prepared.
         threads: worker threads for each frame (None: all cores).
         channel_order: colour order of the frames given, ``"bgr"`` or ``"rgb"``.
+
+    One localizer is one stream of frames: :meth:`update` or :meth:`reset` called while another
+    thread is inside one raises RuntimeError (use one localizer per thread); ``copy.copy`` gives
+    an independent localizer in the same state.
     """
 
     def __init__(
@@ -81,14 +102,15 @@ class RouteLocalizer:
         params: RouteParams | str | None = None,
         *,
         preset: str | None = None,
+        method: str | None = None,
         preparation: PreparationParams | None = None,
         prepared: bool = False,
         threads: int | None = None,
-        channel_order: str = "bgr",
+        channel_order: Literal["bgr", "rgb"] = "bgr",
     ):
         if params is not None and preset is not None:
             raise TypeError("give params or preset, not both")
-        chosen = resolve_params(preset if preset is not None else params)
+        chosen = resolve_params(preset if preset is not None else params, method=method)
         self._params = dataclasses.replace(chosen, mode="causal")
         self._preparer = RoutePreparer(self._params, preparation, channel_order)
         if prepared:
@@ -99,7 +121,7 @@ class RouteLocalizer:
                 raise ValueError("the reference route must hold several frames, not a single image")
         n_refs = refs.shape[0]
         needed = 2 * self._params.uniqueness_radius + 2
-        if n_refs < needed:
+        if self._params.method == "seqslam" and n_refs < needed:
             raise ValueError(
                 f"the reference route has {n_refs} frames; a uniqueness window of +-{self._params.uniqueness_radius} "
                 f"needs at least {needed}"
@@ -110,9 +132,28 @@ class RouteLocalizer:
         self._shifts = shift_list(self._params.shifts, refs.shape[2])
         self._divisor = _divisor(self._params, self._refs)
         self._threads = thread_count(threads)
+        self._seen = 0
+        self._guard = StreamGuard("RouteLocalizer")  # one thread at a time (see the class docstring)
+        if self._params.method == "filter":
+            self._filter = _core.RouteFilter(n_refs, self._params.core_filter_params())
+            self._row = np.empty((1, n_refs), dtype=np.float32)
+            return
         self._window = np.zeros((self._params.ds, n_refs), dtype=np.float32)
         self._row = np.empty((1, n_refs), dtype=np.float32)
-        self._seen = 0
+
+    def __copy__(self) -> RouteLocalizer:
+        """An independent localizer in the same state (its own window or belief; the prepared
+        references, read-only, are shared)."""
+        with self._guard("copy"):
+            clone = object.__new__(RouteLocalizer)
+            clone.__dict__.update(self.__dict__)
+            clone._row = self._row.copy()
+            if self._params.method == "filter":
+                clone._filter = copy.copy(self._filter)
+            else:
+                clone._window = self._window.copy()
+            clone._guard = StreamGuard("RouteLocalizer")
+        return clone
 
     @property
     def params(self) -> RouteParams:
@@ -129,22 +170,44 @@ class RouteLocalizer:
         """Frames given to :meth:`update` since the last :meth:`reset`."""
         return self._seen
 
+    @property
+    def belief(self) -> np.ndarray | None:
+        """Filter: ``(N,)`` float64 copy of the belief over the references (sums to
+        ``1 - off_route``); None for SeqSLAM."""
+        return self._filter.belief if self._params.method == "filter" else None
+
+    @property
+    def last_row(self) -> np.ndarray:
+        """``(N,)`` float32 enhanced difference row of the last frame (a view, overwritten by the
+        next update)."""
+        return self._row[0] if self._params.method == "filter" else self._window[-1]
+
     def reset(self) -> None:
-        """Forgets the frames seen (e.g. after the robot was moved)."""
-        self._seen = 0
-        self._window.fill(0.0)
+        """Forgets the frames seen (e.g. after the robot was moved): the filter's belief becomes
+        uniform again."""
+        with self._guard("reset"):
+            self._seen = 0
+            if self._params.method == "filter":
+                self._filter.reset()
+            else:
+                self._window.fill(0.0)
 
     def prepare(self, frame: np.ndarray) -> np.ndarray:
         """The prepared ``(H, W)`` uint8 image of one camera frame."""
         return self._preparer(frame)
 
     def update(self, frame: np.ndarray, prepared: bool = False) -> RouteUpdate:
-        """Adds one frame; returns the match of this frame once ``ds`` frames exist.
+        """Adds one frame; returns its match (filter: from the first frame; SeqSLAM: once ``ds``
+        frames exist).
 
         Args:
             frame: a camera frame (grey ``(H, W)`` or BGR ``(H, W, 3)``), or with
                 ``prepared=True`` an ``(H, W)`` uint8 image prepared like the references.
         """
+        with self._guard("update"):
+            return self._update(frame, prepared)
+
+    def _update(self, frame: np.ndarray, prepared: bool) -> RouteUpdate:
         image = uint8_array(frame, 2, "frame") if prepared else self.prepare(frame)
         if image.ndim != 2:
             raise ValueError(f"update takes one frame, got a stack of {image.shape[0]} frames; loop over them")
@@ -154,6 +217,20 @@ class RouteLocalizer:
                 f"{self._refs.shape[1]}x{self._refs.shape[2]} (height x width)"
             )
         p = self._params
+        if p.method == "filter":
+            ref, confidence, off_route, _ = self._filter.frame(
+                np.ascontiguousarray(image),
+                self._refs,
+                self._shifts,
+                self._divisor,
+                p.enhance_radius,
+                p.filter_min_texture,
+                self._threads,
+                self._row,
+            )
+            index = self._seen
+            self._seen += 1
+            return RouteUpdate(index, int(ref), 1.0 - confidence, confidence, off_route)
         _core.difference_matrix_into(
             np.ascontiguousarray(image)[np.newaxis], self._refs, self._shifts, self._threads, self._divisor, self._row
         )

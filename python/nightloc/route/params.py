@@ -1,22 +1,30 @@
 """Parameters of route mode and its presets.
 
-:class:`RouteParams` is the TOML table ``[route]`` (see :mod:`nightloc.params`); OpenSeqSLAM's
-parameter names are given in brackets. Two presets:
+:class:`RouteParams` is the TOML table ``[route]`` (see :mod:`nightloc.config`); OpenSeqSLAM's
+parameter names are given in brackets. Two methods search the difference matrix:
+
+* ``method = "filter"`` (the default): a causal Bayes filter over the reference frames
+  (:mod:`nightloc.route.filter`), fields ``filter_*``;
+* ``method = "seqslam"``: OpenSeqSLAM's straight-line trajectory search, fields ``ds``, ``vmin``,
+  ``vmax``, ``uniqueness_radius``, ``mode`` (the speed window ``vmin .. vmax`` is shared with the
+  filter's prediction).
+
+Two presets:
 
 * ``"openseqslam"`` reproduces OpenSeqSLAM's defaults bit for bit (images used at their own size,
   Octave's ``rgb2gray``, 8x8 block normalization, D divided by the number of references,
-  enhancement R = 10, ds = 10, v = 0.8 ... 1.2, Rwindow = 10, centred trajectories);
-* ``"nightloc"`` (the default) prepares images the paper's way (grey, histogram equalization,
-  area downsample to 48x24, patch normalization with radius 4, no wrap for a forward camera,
-  see :class:`~nightloc.params.PreparationParams`) and scores mean absolute differences per
-  pixel; enhancement and search as OpenSeqSLAM.
+  enhancement R = 10, ds = 10, v = 0.8 ... 1.2, Rwindow = 10, centred trajectories, SeqSLAM);
+* ``"nightloc"`` (the default) prepares images the paper's way without histogram equalization
+  (grey, area downsample to 48x24, patch normalization with radius 4, no wrap for a forward
+  camera: :func:`default_preparation`, chosen by the sweep in ``docs/route_mode.md``), scores
+  mean absolute differences per pixel, enhances as OpenSeqSLAM and runs the filter.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Literal
+from typing import Any, Literal
 
 from .. import _core
 from ..config import params_section
@@ -28,9 +36,11 @@ __all__ = ["PRESETS", "RouteParams", "default_preparation", "resolve_params", "r
 @params_section("route")
 @dataclasses.dataclass(frozen=True)
 class RouteParams:
-    """Route mode (1D SeqSLAM) parameters.
+    """Route mode parameters.
 
     Attributes:
+        method: ``"filter"`` (causal Bayes filter, the default) or ``"seqslam"`` (trajectory
+            search).
         preparation: ``"openseqslam"``: grey with Octave's ``rgb2gray`` (BT.601, rounded half away
             from zero), images kept at their own size, ``block_side`` block normalization;
             ``"nightloc"``: the paper's preparation with a :class:`PreparationParams`.
@@ -48,9 +58,29 @@ class RouteParams:
         uniqueness_radius: the second-best trajectory excludes anchors within this many
             references of the best [Rwindow/2].
         mode: ``"centred"`` (OpenSeqSLAM: needs ds/2 future frames) or ``"causal"``
-            (trajectories end at the current frame; usable online).
+            (trajectories end at the current frame; usable online). SeqSLAM only: the filter
+            is always causal.
+        filter_sharpness: lambda of the filter's likelihood ``exp(-lambda * min(z, clip))``, z the
+            frame's (enhanced) difference row standardized by its own mean and standard
+            deviation: the evidence one frame carries, per standard deviation of its row.
+        filter_clip: z-scores above this count as no evidence against a place (0: a place that
+            looks worse than the row's mean is not penalized, so one bad frame cannot rule
+            out the true place); ``inf`` disables the clip.
+        filter_floor: fraction of the belief spread uniformly over the route each frame, so a
+            lost filter finds the route again.
+        filter_backward: probability per frame of stepping one reference back (a robot that
+            reverses or jitters); the forward advance follows the speed window ``vmin .. vmax``.
+        filter_leave, filter_rejoin: per-frame probabilities of leaving the route (to the
+            off-route state, whose likelihood is that of a random place) and of rejoining it
+            (uniformly).
+        filter_window: the confidence of a match is the belief within +-filter_window
+            references of it (use the evaluation tolerance).
+        filter_min_texture: a prepared query frame whose mean absolute deviation from its own
+            mean is below this many grey levels carries proportionally less evidence (a flat
+            frame: none, the belief is only predicted); 0 disables the weight.
     """
 
+    method: Literal["filter", "seqslam"] = "filter"
     preparation: Literal["nightloc", "openseqslam"] = "nightloc"
     block_side: int = 8
     divisor: Literal["pixels", "references"] = "pixels"
@@ -61,6 +91,14 @@ class RouteParams:
     vmax: float = 1.2
     uniqueness_radius: int = 5
     mode: Literal["centred", "causal"] = "centred"
+    filter_sharpness: float = 0.7
+    filter_clip: float = 0.0
+    filter_floor: float = 3e-3
+    filter_backward: float = 0.0
+    filter_leave: float = 1e-2
+    filter_rejoin: float = 1e-2
+    filter_window: int = 2
+    filter_min_texture: float = 1.0
 
     def validate(self) -> None:
         """Checks ranges (called on construction); raises ValueError naming the field."""
@@ -70,12 +108,18 @@ class RouteParams:
             raise ValueError(f"enhance_radius must be >= 1 reference, got {self.enhance_radius}")
         if not 2 <= self.ds <= 100000:
             raise ValueError(f"ds must be a sequence length in [2, 100000] frames, got {self.ds}")
-        for name in ("vmin", "vmax"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and 0 < value <= 1000):
-                raise ValueError(f"{name} must be a speed in (0, 1000] references per frame, got {value}")
+        if not (math.isfinite(self.vmax) and 0 < self.vmax <= 1000):
+            raise ValueError(f"vmax must be a speed in (0, 1000] references per frame, got {self.vmax}")
+        if self.method == "seqslam" and not (math.isfinite(self.vmin) and 0 < self.vmin <= 1000):
+            raise ValueError(
+                f"vmin must be a speed in (0, 1000] references per frame for SeqSLAM, got {self.vmin} "
+                f"(the filter accepts vmin = 0: a robot that stops)"
+            )
+        if not (math.isfinite(self.vmin) and 0 <= self.vmin <= 1000):
+            raise ValueError(f"vmin must be a speed in [0, 1000] references per frame, got {self.vmin}")
         if self.vmin > self.vmax:
             raise ValueError(f"vmin ({self.vmin}) must not exceed vmax ({self.vmax})")
+        self._validate_filter()
         ds = self.effective_ds
         speeds = math.floor(self.vmax * ds - self.vmin * ds) + 1
         frames = ds + 1 if self.mode == "centred" else ds
@@ -86,6 +130,43 @@ class RouteParams:
             )
         if self.uniqueness_radius < 0:
             raise ValueError(f"uniqueness_radius must be >= 0, got {self.uniqueness_radius}")
+
+    def _validate_filter(self) -> None:
+        if not (math.isfinite(self.filter_sharpness) and self.filter_sharpness >= 0):
+            raise ValueError(f"filter_sharpness must be a finite number >= 0, got {self.filter_sharpness}")
+        if math.isnan(self.filter_clip) or self.filter_clip == -math.inf:
+            raise ValueError(f"filter_clip must be a number or inf, got {self.filter_clip}")
+        for name in ("filter_floor", "filter_leave", "filter_rejoin"):
+            value = getattr(self, name)
+            if not 0 <= value <= 1:
+                raise ValueError(f"{name} must be a probability in [0, 1] per frame, got {value}")
+        if not 0 <= self.filter_backward < 1:
+            raise ValueError(f"filter_backward must be a probability in [0, 1) per frame, got {self.filter_backward}")
+        if self.filter_window < 0:
+            raise ValueError(f"filter_window must be >= 0 references, got {self.filter_window}")
+        if not (math.isfinite(self.filter_min_texture) and self.filter_min_texture >= 0):
+            raise ValueError(f"filter_min_texture must be >= 0 grey levels, got {self.filter_min_texture}")
+
+    def core_filter_params(self) -> _core.RouteFilterParams:
+        """The filter's parameters as the compiled core takes them."""
+        core = _core.RouteFilterParams()
+        core.vmin, core.vmax = self.vmin, self.vmax
+        core.backward, core.floor = self.filter_backward, self.filter_floor
+        core.sharpness, core.clip = self.filter_sharpness, self.filter_clip
+        core.leave, core.rejoin, core.window = self.filter_leave, self.filter_rejoin, self.filter_window
+        return core
+
+    def method_params(self) -> dict:
+        """The fields that the chosen method uses (for summaries): the shared ones, then the
+        method's own."""
+        shared = ("method", "preparation", "divisor", "circular_shifts", "enhance_radius", "vmin", "vmax")
+        own = (
+            tuple(f.name for f in dataclasses.fields(self) if f.name.startswith("filter_"))
+            if self.method == "filter"
+            else ("ds", "uniqueness_radius", "mode")
+        )
+        extra = ("block_side",) if self.preparation == "openseqslam" else ()
+        return {name: getattr(self, name) for name in shared + extra + own}
 
     @property
     def effective_ds(self) -> int:
@@ -101,14 +182,22 @@ class RouteParams:
     def enhance_offset(self) -> str:
         """What follows the z-scores: ``"global_min"`` (centred, OpenSeqSLAM: minus the minimum
         of the whole matrix) or ``"bound"`` (causal: plus the largest possible |z|,
-        ``2r/sqrt(2r+1)``, which needs no future frames)."""
+        ``2r/sqrt(2r+1)``, which needs no future frames). The filter always uses ``"bound"``
+        (:attr:`search_offset`)."""
         return "global_min" if self.mode == "centred" else "bound"
+
+    @property
+    def search_offset(self) -> str:
+        """The enhancement offset the chosen method runs with: ``"bound"`` for the filter (causal,
+        frame by frame; the filter standardizes each row, so the offset only fixes the rounding),
+        :attr:`enhance_offset` for SeqSLAM."""
+        return "bound" if self.method == "filter" else self.enhance_offset
 
 
 #: Preset name -> parameters.
 PRESETS = {
     "nightloc": RouteParams(),
-    "openseqslam": RouteParams(preparation="openseqslam", divisor="references"),
+    "openseqslam": RouteParams(method="seqslam", preparation="openseqslam", divisor="references"),
 }
 
 
@@ -130,7 +219,7 @@ def resolve_params(params: RouteParams | str | None = None, **overrides: object)
         base = params
     else:
         raise TypeError(f"params must be a RouteParams or a preset name, got {type(params).__name__}")
-    changes = {key: value for key, value in overrides.items() if value is not None}
+    changes: dict[str, Any] = {key: value for key, value in overrides.items() if value is not None}
     unknown = set(changes) - {field.name for field in dataclasses.fields(RouteParams)}
     if unknown:
         raise TypeError(f"unknown route parameter(s): {', '.join(sorted(unknown))}")
@@ -138,6 +227,11 @@ def resolve_params(params: RouteParams | str | None = None, **overrides: object)
 
 
 def default_preparation(params: RouteParams) -> PreparationParams:
-    """The paper's preparation for the ``"nightloc"`` preset: 48x24, global equalization, patch
-    normalization with radius 4, the window wrapping only when circular shifts are searched."""
-    return PreparationParams(wrap=params.circular_shifts)
+    """The preparation of the ``"nightloc"`` preset: grey, 48x24, no histogram equalization,
+    patch normalization with radius 4, the window wrapping only when circular shifts are
+    searched. Equalization is off because patch normalization already removes the local gain
+    and offset, and equalization amplifies sensor noise in dark frames; the sweep over
+    equalization, radius and resolution on Nordland and Gardens Point that chose it is in
+    ``docs/route_mode.md``. (A ``[preparation]`` table given by the user starts from
+    :class:`PreparationParams`' own defaults, which equalize.)"""
+    return PreparationParams(wrap=params.circular_shifts, equalize="none")

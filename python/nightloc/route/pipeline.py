@@ -1,12 +1,14 @@
-"""Route mode (1D SeqSLAM) in batch: difference matrix, contrast enhancement, trajectory search.
+"""Route mode in batch: difference matrix, contrast enhancement, then the route filter (default)
+or SeqSLAM's trajectory search.
 
 Orientation: matrices are ``(n_query, n_ref)`` float32, row = query, column = reference (like
 ``scipy.spatial.distance.cdist``; OpenSeqSLAM stores the transpose), lower = more similar.
 Matches are 0-based positions in each traverse's order: ``refs[q]`` is the reference matched to
-query ``q`` (-1 where undefined) and ``scores[q]`` OpenSeqSLAM's uniqueness ratio (best
-trajectory sum / best sum outside the uniqueness window; lower = more confident; NaN where
-undefined). Every heavy step runs in the compiled core with the GIL released; Python loops only
-over blocks of rows (for the progress bar), never over queries.
+query ``q`` (-1 where undefined) and ``scores[q]`` its score, lower = more confident: for the
+filter ``1 - confidence`` (:mod:`nightloc.route.filter`), for SeqSLAM the uniqueness ratio (best
+trajectory sum / best sum outside the uniqueness window; NaN where undefined). Every heavy step
+runs in the compiled core with the GIL released; Python loops only over blocks of rows (for the
+progress bar), never over queries.
 
 Memory: the two ``(n_query, n_ref)`` float32 matrices (the difference matrix and the enhanced
 one; ``keep_difference=False`` enhances in place and holds one) plus a scratch block of about
@@ -30,6 +32,7 @@ from .._validate import same_image_size, shift_list, thread_count, uint8_array
 from ..io.traverse import Traverse, load_traverse
 from ..preparation.params import PreparationParams
 from ..progress import progress
+from .filter import route_filter, texture_weights
 from .params import RouteParams, resolve_params
 from .preparation import RoutePreparer
 
@@ -37,6 +40,7 @@ __all__ = [
     "RouteResult",
     "block_rows",
     "enhance_contrast",
+    "match_difference",
     "match_prepared",
     "match_route",
     "route_difference_matrix",
@@ -54,16 +58,24 @@ class RouteResult:
     """Matches of a query traverse against a reference traverse.
 
     Attributes:
-        refs: ``(n_query,)`` int64 matched reference per query, -1 where undefined (the first
-            and last ds/2 queries in centred mode, the first ds-1 in causal mode).
-        scores: ``(n_query,)`` float64 uniqueness ratio, lower = more confident; NaN where
-            undefined.
+        refs: ``(n_query,)`` int64 matched reference per query, -1 where undefined (SeqSLAM: the
+            first and last ds/2 queries in centred mode, the first ds-1 in causal mode; the
+            filter answers every query).
+        scores: ``(n_query,)`` float64, lower = more confident: ``1 - confidence`` (filter) or
+            the uniqueness ratio (SeqSLAM); NaN where undefined.
         enhanced: ``(n_query, n_ref)`` float32 contrast-enhanced difference matrix.
         difference: ``(n_query, n_ref)`` float32 difference matrix, or None when it was
             enhanced in place.
-        params: the parameters used.
-        timings: seconds per stage (``difference``, ``enhancement``, ``search``, and
-            ``preparation`` when :func:`match_route` prepared the images).
+        params: the parameters used (``params.method`` says which search ran).
+        timings: seconds per stage (``difference``, ``enhancement``, ``search`` (the filter or
+            the trajectory search), and ``preparation`` when :func:`match_route` prepared the
+            images).
+        confidence: filter only, ``(n_query,)`` float64 belief within ``filter_window`` of the
+            match; None for SeqSLAM.
+        off_route: filter only, ``(n_query,)`` float64 probability that the query shows no
+            reference; None for SeqSLAM.
+        weights: filter only, ``(n_query,)`` float64 evidence weight of each query frame (its
+            texture), or None.
     """
 
     refs: np.ndarray
@@ -72,6 +84,14 @@ class RouteResult:
     difference: np.ndarray | None
     params: RouteParams
     timings: dict[str, float] = field(default_factory=dict)
+    confidence: np.ndarray | None = None
+    off_route: np.ndarray | None = None
+    weights: np.ndarray | None = None
+
+    @property
+    def method(self) -> str:
+        """``"filter"`` or ``"seqslam"``."""
+        return self.params.method
 
     @property
     def n_queries(self) -> int:
@@ -242,6 +262,50 @@ def trajectory_search(
     return refs, scores
 
 
+def match_difference(
+    difference: np.ndarray,
+    params: RouteParams | str | None = None,
+    threads: int | None = None,
+    keep_difference: bool = True,
+    weights: np.ndarray | None = None,
+) -> RouteResult:
+    """Route matching from a difference matrix: enhancement, then the filter or SeqSLAM.
+
+    Args:
+        difference: ``(M, N)`` float32 difference matrix (:func:`route_difference_matrix`).
+        params: :class:`RouteParams` or a preset name (default ``"nightloc"``).
+        threads: worker threads (None: all cores); the filter's updates run in order on one.
+        keep_difference: False enhances ``difference`` in place (``result.difference`` None).
+        weights: filter only: ``(M,)`` evidence weights in [0, 1]
+            (:func:`~nightloc.route.filter.texture_weights` of the prepared queries); None: 1.
+    """
+    p = resolve_params(params)
+    timings: dict[str, float] = {}
+    start = time.perf_counter()
+    out = None if keep_difference else difference
+    enhanced = enhance_contrast(difference, p, threads, out=out, offset=p.search_offset)
+    timings["enhancement"] = time.perf_counter() - start
+    start = time.perf_counter()
+    confidence = off_route = None
+    if p.method == "filter":
+        matched, confidence, off_route = route_filter(enhanced, p, weights, threads)
+        scores = 1.0 - confidence
+    else:
+        matched, scores = trajectory_search(enhanced, p, threads)
+    timings["search"] = time.perf_counter() - start
+    return RouteResult(
+        refs=matched,
+        scores=scores,
+        enhanced=enhanced,
+        difference=difference if keep_difference else None,
+        params=p,
+        timings=timings,
+        confidence=confidence,
+        off_route=off_route,
+        weights=weights if p.method == "filter" else None,
+    )
+
+
 def match_prepared(
     refs: np.ndarray,
     queries: np.ndarray,
@@ -249,7 +313,8 @@ def match_prepared(
     threads: int | None = None,
     keep_difference: bool = True,
 ) -> RouteResult:
-    """Route matching of prepared images: difference matrix, enhancement, trajectory search.
+    """Route matching of prepared images: difference matrix, enhancement, then the route filter
+    (``params.method = "filter"``, the default) or SeqSLAM's trajectory search.
 
     Args:
         refs: ``(N, H, W)`` uint8 prepared reference images, in route order.
@@ -260,30 +325,21 @@ def match_prepared(
             False enhances it in place (one matrix; ``result.difference`` is None).
     """
     p = resolve_params(params)
-    timings: dict[str, float] = {}
     start = time.perf_counter()
     difference = route_difference_matrix(queries, refs, p, threads)
-    timings["difference"] = time.perf_counter() - start
-    start = time.perf_counter()
-    enhanced = enhance_contrast(difference, p, threads, out=None if keep_difference else difference)
-    timings["enhancement"] = time.perf_counter() - start
-    start = time.perf_counter()
-    matched, scores = trajectory_search(enhanced, p, threads)
-    timings["search"] = time.perf_counter() - start
-    return RouteResult(
-        refs=matched,
-        scores=scores,
-        enhanced=enhanced,
-        difference=difference if keep_difference else None,
-        params=p,
-        timings=timings,
-    )
+    elapsed = time.perf_counter() - start
+    weights = texture_weights(queries, p.filter_min_texture) if p.method == "filter" else None
+    result = match_difference(difference, p, threads, keep_difference, weights)
+    result.timings = {"difference": elapsed, **result.timings}
+    return result
 
 
 def _as_frames(source: TraverseInput, name: str, frame_step: int) -> Traverse | np.ndarray | Iterable[np.ndarray]:
     if isinstance(source, (str, os.PathLike)):
         return load_traverse(Path(source), frame_step=frame_step)
-    if isinstance(source, (Traverse, np.ndarray, Iterable)):
+    if isinstance(source, (Traverse, np.ndarray)):
+        return source
+    if isinstance(source, Iterable):
         return source
     raise TypeError(f"{name} must be a Traverse, a path, or frames, got {type(source).__name__}")
 

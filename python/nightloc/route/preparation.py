@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Iterable, Iterator
+from typing import Literal
 
 import numpy as np
 
@@ -87,7 +88,7 @@ class RoutePreparer:
         self,
         params: RouteParams,
         preparation: PreparationParams | None = None,
-        channel_order: str = "bgr",
+        channel_order: Literal["bgr", "rgb"] = "bgr",
     ):
         if not isinstance(params, RouteParams):
             raise TypeError(f"params must be a RouteParams, got {type(params).__name__}")
@@ -116,7 +117,7 @@ class RoutePreparer:
         return _to_uint8(octave_rgb2gray(array, self.channel_order))
 
     def _openseqslam_stack(self, frames: Iterator[np.ndarray]) -> np.ndarray:
-        greys = []
+        greys: list[np.ndarray] = []
         for index, frame in enumerate(frames):
             try:
                 grey = self.grey(frame)

@@ -22,7 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from .._validate import thread_count
-from ..io.atomic import make_folder, staging_folder, write_text
+from ..io.atomic import locked_target, make_folder, output_set, replace_folder, staging_folder, write_text
+from ..io.files import open_regular
 from ..io.traverse import save_traverse
 from ..localization.odometry import true_robot_motions
 from ..progress import progress
@@ -136,7 +137,7 @@ class SynthScene:
                 "elevation_bottom_deg": self.camera.elevation_bottom_deg,
                 "column_azimuth": "heading - 2*pi*column/width",
             },
-            "sun_direction": [round(float(v), 6) for v in day.sun_direction],
+            "sun_direction": [round(float(v), 6) for v in day.sun_direction] if day.sun_direction is not None else None,
             "traverses": {p.name: {"condition": p.condition, "frames": int(len(p.positions))} for p in plans},
         }
 
@@ -160,45 +161,36 @@ def make_dataset(
     Args:
         world: ``"garden"`` (day_reference, night_reference, night_query) or ``"living_room"``
             (day_reference, night_query).
-        out_dir: folder to write into (created if missing); each traverse goes to
+        out_dir: the dataset folder (its parent must exist); each traverse goes to
             ``out_dir/<traverse>`` (``images/`` + ``poses.csv`` + ``odometry.csv``, the exact
             wheel odometry between consecutive frames), the description to
             ``out_dir/dataset.json``.
         seed: same seed -> byte-identical images.
         darkness: night darkness in [0, 3] (default 1.0; see :mod:`nightloc.synth.sensor`).
         camera: panorama size and optics (default 192 x 96, elevations +50..-30 degrees).
-        overwrite: replace traverse folders that already exist (else FileExistsError).
+        overwrite: replace a dataset that exists at ``out_dir`` (else FileExistsError).
         threads: render threads (default all cores; the images do not depend on it).
 
-    Each traverse is written atomically (temporary folder, then rename).
+    The dataset is written as one set (:func:`nightloc.io.atomic.output_set`): the traverses and
+    ``dataset.json`` appear together, or -- on an error or an interruption -- the previous
+    dataset stays whole. A folder holding files nightloc did not write is refused, and another
+    process writing the same ``out_dir`` makes this call raise BlockingIOError.
     """
     if world not in WORLD_NAMES:
         raise ValueError(f"unknown world {world!r}; choose one of {', '.join(WORLD_NAMES)}")
-    out = Path(out_dir)
     scene = SynthScene(world, seed, darkness, camera)
     plans = plan_traverses(world, scene.seed)
-    if not overwrite:
+    with output_set(
+        out_dir, command="synth", overwrite=overwrite, overwrite_hint="overwrite=True (--overwrite)"
+    ) as out:
         for plan in plans:
-            if (out / plan.name).exists():
-                raise FileExistsError(f"{out / plan.name} exists; pass overwrite=True (--overwrite) to replace it")
-    make_folder(out)  # names a file in the way
-    written: dict[str, Path] = {}
-    for plan in plans:
-        frames = progress(
-            scene.render_plan(plan, threads), total=len(plan.positions), desc=f"{world}/{plan.name}", unit="frame"
-        )
-        odometry = true_robot_motions(plan.positions, plan.headings)  # the exact wheel odometry
-        save_traverse(
-            out / plan.name,
-            frames,
-            positions=plan.positions,
-            headings=plan.headings,
-            odometry=odometry,
-            overwrite=overwrite,
-        )
-        written[plan.name] = out / plan.name
-    _write_json_atomic(out / "dataset.json", scene.describe(plans))
-    return written
+            frames = progress(
+                scene.render_plan(plan, threads), total=len(plan.positions), desc=f"{world}/{plan.name}", unit="frame"
+            )
+            odometry = true_robot_motions(plan.positions, plan.headings)  # the exact wheel odometry
+            save_traverse(out / plan.name, frames, positions=plan.positions, headings=plan.headings, odometry=odometry)
+        _write_json_atomic(out / "dataset.json", scene.describe(plans))
+    return {plan.name: Path(out_dir) / plan.name for plan in plans}
 
 
 def default_cache_dir() -> Path:
@@ -208,22 +200,26 @@ def default_cache_dir() -> Path:
 
 
 def _complete(folder: Path) -> bool:
+    """True when ``folder`` holds every world's dataset.json and traverses, whole; False for
+    anything missing or damaged (then the cache is rebuilt)."""
     for world in WORLD_NAMES:
-        description = folder / world / "dataset.json"
-        if not description.is_file():
-            return False
         try:
-            content = json.loads(description.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
+            with open_regular(folder / world / "dataset.json", "dataset description", ValueError) as stream:
+                content = json.loads(stream.read(1 << 20).decode("utf-8"))
+            traverses = content["traverses"]
+            expected = {p.name for p in plan_traverses(world, DEFAULT_SEED)}
+            if not isinstance(traverses, dict) or set(traverses) != expected:
+                return False
+            for name, info in traverses.items():
+                images = folder / world / name / "images"
+                if not (folder / world / name / "poses.csv").is_file() or not images.is_dir():
+                    return False
+                if not (folder / world / name / "odometry.csv").is_file():  # caches written before odometry.csv
+                    return False
+                if not isinstance(info, dict) or len(os.listdir(images)) != info.get("frames"):
+                    return False
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):
             return False
-        for name, info in content.get("traverses", {}).items():
-            images = folder / world / name / "images"
-            if not (folder / world / name / "poses.csv").is_file() or not images.is_dir():
-                return False
-            if not (folder / world / name / "odometry.csv").is_file():  # caches written before odometry.csv
-                return False
-            if len(list(images.iterdir())) != info.get("frames"):
-                return False
     return True
 
 
@@ -234,26 +230,25 @@ def default_dataset(cache_dir: str | os.PathLike | None = None) -> dict[str, dic
     "living_room": {"day_reference": Path, "night_query": Path}}``, generated with
     :data:`DEFAULT_SEED` and :data:`DEFAULT_DARKNESS` into
     ``<cache_dir>/synth-v<GENERATOR_VERSION>-seed<DEFAULT_SEED>/<world>/`` (``cache_dir``
-    defaults to :func:`default_cache_dir`). The folder appears atomically: a half-generated
-    dataset (interrupted, or being generated by another process) is never returned.
+    defaults to :func:`default_cache_dir`, created when missing). The folder appears atomically:
+    a half-generated dataset (interrupted, or being generated by another process, which this
+    call waits for) is never returned, and a damaged one (a file missing or garbled) is
+    generated again.
     """
     root = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     folder = root / f"synth-v{GENERATOR_VERSION}-seed{DEFAULT_SEED}"
     if not _complete(folder):
-        root.mkdir(parents=True, exist_ok=True)
-        staging = staging_folder(folder)
-        try:
-            for world in WORLD_NAMES:
-                make_dataset(world, staging / world, DEFAULT_SEED, DEFAULT_DARKNESS)
-            if folder.exists() and not _complete(folder):
-                shutil.rmtree(folder)  # left by an older, interrupted layout
-            try:
-                os.replace(staging, folder)
-            except OSError:
-                if not _complete(folder):  # not someone else's finished copy: a real error
+        make_folder(root)  # the cache is nightloc's own: its parents may be created
+        with locked_target(folder, wait=None) as target:  # one generator at a time; others wait
+            if not _complete(target):  # not finished by another process meanwhile
+                staging = staging_folder(target)
+                try:
+                    for world in WORLD_NAMES:
+                        make_dataset(world, staging / world, DEFAULT_SEED, DEFAULT_DARKNESS)
+                    replace_folder(staging, target)  # a damaged cache is replaced whole
+                except BaseException:
+                    shutil.rmtree(staging, ignore_errors=True)
                     raise
-        finally:
-            shutil.rmtree(staging, ignore_errors=True)
     return {
         world: {p.name: folder / world / p.name for p in plan_traverses(world, DEFAULT_SEED)} for world in WORLD_NAMES
     }

@@ -120,6 +120,10 @@ def panel(
     return Prism(np.array(corners), bottom, top, material, **kw)
 
 
+#: A solid of the world: a vertical prism or a vertical cylinder.
+Solid = Prism | Cylinder
+
+
 @dataclass
 class PackedGeometry:
     """All prisms and cylinders of a world as flat arrays, for vectorized ray casting.
@@ -128,7 +132,7 @@ class PackedGeometry:
     the last vertex, which adds zero-length edges that no ray hits), the rest the cylinders.
     """
 
-    objects: list[object]
+    objects: list[Solid]
     vertices: np.ndarray = field(init=False)  # (P, Vmax, 2) edge start points
     edge_vectors: np.ndarray = field(init=False)  # (P, Vmax, 2) edge end - start
     edge_u0: np.ndarray = field(init=False)  # (P, Vmax) perimeter coordinate of edge starts + offset
@@ -291,7 +295,7 @@ def slab_hits(
     return np.where(lo <= hi, lo, np.inf)
 
 
-def polygon_of(obj: object) -> np.ndarray:
+def polygon_of(obj: Solid) -> np.ndarray:
     """The footprint polygon of a prism, or a circumscribed polygon of a cylinder, ``(V, 2)``."""
     if isinstance(obj, Prism):
         return obj.footprint
@@ -299,7 +303,7 @@ def polygon_of(obj: object) -> np.ndarray:
 
 
 def check_free(
-    geometry: PackedGeometry, points: Sequence[tuple[float, float]], height: float, clearance: float = 0.0
+    geometry: PackedGeometry, points: Sequence[tuple[float, float]] | np.ndarray, height: float, clearance: float = 0.0
 ) -> None:
     """Raises ValueError if a camera at ``height`` at one of ``points`` would be inside a solid."""
     for x, y in points:

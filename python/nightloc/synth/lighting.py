@@ -157,6 +157,7 @@ def _shadow_mask(
             offset = -sun_direction[:2] / sun_direction[2]
             points = np.concatenate([footprint + bottom * offset, footprint + top * offset])
         else:
+            assert light_point is not None, "a shadow needs the sun's direction or the light's position"
             lx, ly, lz = light_point
             if isinstance(obj, Cylinder):
                 contains = (lx - obj.center[0]) ** 2 + (ly - obj.center[1]) ** 2 <= obj.radius**2

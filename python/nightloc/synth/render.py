@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._validate import MAX_CAMERA_RAYS, MAX_CAMERA_SIDE
 from .geometry import height_window, horizontal_intervals
 from .lighting import Lighting, shade_objects
 from .sensor import Exposure, capture
@@ -56,6 +57,18 @@ class Camera:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise ValueError(f"camera {name} must be a positive int, got {value!r}")
+        if max(self.width, self.height) > MAX_CAMERA_SIDE:
+            raise ValueError(
+                f"camera of {self.width}x{self.height} pixels is too large: at most {MAX_CAMERA_SIDE} pixels along a "
+                f"side (MAX_CAMERA_SIDE)"
+            )
+        rays = self.width * self.oversample_x * self.height * self.oversample_y
+        if rays > MAX_CAMERA_RAYS:
+            raise ValueError(
+                f"camera of {self.width}x{self.height} pixels at {self.oversample_x}x{self.oversample_y} oversampling "
+                f"casts {rays} rays per frame, more than {MAX_CAMERA_RAYS} (MAX_CAMERA_RAYS; each takes about 180 "
+                f"bytes while a frame renders)"
+            )
         if not (-90.0 < self.elevation_bottom_deg < self.elevation_top_deg < 90.0):
             raise ValueError("camera elevations must satisfy -90 < bottom < top < 90 degrees")
 

@@ -358,4 +358,5 @@ def jitter_colour(
     rng: np.random.Generator, colour: Sequence[float], amount: float = 0.15
 ) -> tuple[float, float, float]:
     """``colour`` with each channel scaled by a random factor in ``1 +- amount``."""
-    return tuple(float(c) for c in _jitter(rng, tuple(colour), amount))
+    red, green, blue = _jitter(rng, (float(colour[0]), float(colour[1]), float(colour[2])), amount)
+    return float(red), float(green), float(blue)

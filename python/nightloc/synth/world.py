@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from .geometry import Cylinder, PackedGeometry, Prism, box, check_free, panel
+from .geometry import Cylinder, PackedGeometry, Prism, Solid, box, check_free, panel
 from .textures import Texture, fbm, jitter_colour, make_texture, value_noise
 
 __all__ = ["WORLD_NAMES", "GroundMap", "LightSource", "World", "build_world"]
@@ -83,7 +83,7 @@ class World:
     """
 
     name: str
-    objects: list[object]
+    objects: list[Solid]
     materials: dict[str, Texture]
     ground: GroundMap
     mapped_area: tuple[float, float, float, float]
@@ -196,7 +196,7 @@ def _garden(seed: int) -> World:
     ]
     windows = [material(f"window_{i}", "window", 1.2, 1.2, panes=(2, 2) if i % 2 else (3, 2)) for i in range(3)]
 
-    objects: list[object] = []
+    objects: list[Solid] = []
     # Fences (west, south, east) with posts every ~2 m; the house closes the north side.
     objects.append(box(-1.56, -1.5, -1.5, 6.8, 0.0, 1.8, fence_a))
     objects.append(box(-1.5, -1.56, 8.5, -1.5, 0.0, 1.8, fence_a, u_offset=1.3))
@@ -347,7 +347,7 @@ def _living_room(seed: int) -> World:
     H = 2.5  # ceiling height
     xw, xe, ys_, yn = -1.0, 7.0, -0.9, 3.9  # inner faces of the walls
     t = 0.15  # wall thickness
-    objects: list[object] = []
+    objects: list[Solid] = []
     # Ceiling slab over the whole room (its underside is what the camera sees).
     objects.append(box(xw - t, ys_ - t, xe + t, yn + t, H, H + 0.2, ceiling))
     # North, west and east walls; the south wall has two window openings.

@@ -1,0 +1,184 @@
+// pybind11 glue for matching (nightloc.matching): rotation-invariant SAD tables, the per-frame
+// match, difference matrices (nightloc/sad.hpp) and the choice of SIMD path (nightloc/simd.hpp).
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "glue.hpp"
+#include "nightloc/sad.hpp"
+#include "nightloc/simd.hpp"
+
+namespace {
+
+using nightloc::glue::checked_array;
+using nightloc::glue::extent;
+using nightloc::glue::require_images;
+using nightloc::glue::require_same_image_size;
+using nightloc::glue::shift_list;
+using nightloc::glue::without_gil;
+
+nightloc::SimdBackend backend_from_name(const std::string& name) {
+    nightloc::SimdBackend backend;
+    if (!nightloc::parse_simd_backend(name, backend)) {
+        throw py::value_error("unknown SIMD path '" + name + "'; expected one of " + nightloc::simd_backend_names());
+    }
+    return backend;
+}
+
+py::array rotational_sad(const py::array& query_in, const py::array& refs_in, const py::array& shifts_in, int threads,
+                         double divisor) {
+    const auto query = checked_array<std::uint8_t>(query_in, "query", 2);
+    const auto refs = checked_array<std::uint8_t>(refs_in, "refs", 3);
+    require_images(refs, "refs");
+    require_same_image_size(query, 0, refs, "query");
+    const std::vector<std::int32_t> shifts = shift_list(shifts_in);
+    py::array_t<float> out({refs.shape(0), static_cast<py::ssize_t>(shifts.size())});
+    const std::uint8_t* q = query.data();
+    const std::uint8_t* r = refs.data();
+    float* o = out.mutable_data();
+    without_gil([&] {
+        nightloc::rotational_sad(q, r, extent(refs, 0), extent(refs, 1), extent(refs, 2), shifts.data(), shifts.size(),
+                                 o, threads, divisor);
+    });
+    return std::move(out);
+}
+
+// (n_query, n_ref) best sums or scores (Out) and best shifts, by
+// compute(queries, n_queries, refs, n_refs, height, width, shifts, values, best_shifts).
+template <class Out, class Compute>
+py::tuple difference_table(const py::array& queries_in, const py::array& refs_in, const py::array& shifts_in,
+                           Compute&& compute) {
+    const auto queries = checked_array<std::uint8_t>(queries_in, "queries", 3);
+    const auto refs = checked_array<std::uint8_t>(refs_in, "refs", 3);
+    require_images(queries, "queries");
+    require_images(refs, "refs");
+    require_same_image_size(queries, 1, refs, "query");
+    const std::vector<std::int32_t> shifts = shift_list(shifts_in);
+    py::array_t<Out> values({queries.shape(0), refs.shape(0)});
+    py::array_t<std::int32_t> best_shifts({queries.shape(0), refs.shape(0)});
+    const std::uint8_t* q = queries.data();
+    const std::uint8_t* r = refs.data();
+    Out* v = values.mutable_data();
+    std::int32_t* b = best_shifts.mutable_data();
+    without_gil([&] { compute(q, extent(queries, 0), r, extent(refs, 0), extent(refs, 1), extent(refs, 2), shifts, v, b); });
+    return py::make_tuple(std::move(values), std::move(best_shifts));
+}
+
+using Shifts = std::vector<std::int32_t>;
+
+py::tuple difference_matrix(const py::array& queries, const py::array& refs, const py::array& shifts, int threads,
+                            double divisor) {
+    return difference_table<float>(queries, refs, shifts,
+                                   [&](const std::uint8_t* q, std::size_t n_q, const std::uint8_t* r, std::size_t n_r,
+                                       std::size_t h, std::size_t w, const Shifts& s, float* scores, std::int32_t* b) {
+                                       nightloc::difference_matrix(q, n_q, r, n_r, h, w, s.data(), s.size(), scores, b,
+                                                                   threads, divisor);
+                                   });
+}
+
+py::tuple difference_matrix_sums(const py::array& queries, const py::array& refs, const py::array& shifts,
+                                 int threads) {
+    return difference_table<std::uint32_t>(
+        queries, refs, shifts,
+        [&](const std::uint8_t* q, std::size_t n_q, const std::uint8_t* r, std::size_t n_r, std::size_t h,
+            std::size_t w, const Shifts& s, std::uint32_t* sums, std::int32_t* b) {
+            nightloc::difference_matrix_sums(q, n_q, r, n_r, h, w, s.data(), s.size(), sums, b, threads);
+        });
+}
+
+// One query against all references, the core's per-frame call (nightloc::match): (best index,
+// float32 scores, int32 shifts, float64 headings) in one crossing of the binding.
+py::tuple match(const py::array& query_in, const py::array& refs_in, const py::array& shifts_in, int threads) {
+    const auto query = checked_array<std::uint8_t>(query_in, "query", 2);
+    const auto refs = checked_array<std::uint8_t>(refs_in, "refs", 3);
+    require_images(refs, "refs");
+    require_same_image_size(query, 0, refs, "query");
+    const std::vector<std::int32_t> shifts = shift_list(shifts_in);
+    py::array_t<float> scores(refs.shape(0));
+    py::array_t<std::int32_t> best_shifts(refs.shape(0));
+    py::array_t<double> headings(refs.shape(0));
+    const std::uint8_t* q = query.data();
+    const std::uint8_t* r = refs.data();
+    float* s = scores.mutable_data();
+    std::int32_t* b = best_shifts.mutable_data();
+    double* hd = headings.mutable_data();
+    const std::size_t best = without_gil([&] {
+        return nightloc::match(q, r, extent(refs, 0), extent(refs, 1), extent(refs, 2), shifts.data(), shifts.size(),
+                               s, b, hd, threads);
+    });
+    return py::make_tuple(best, std::move(scores), std::move(best_shifts), std::move(headings));
+}
+
+std::vector<std::string> names_of(const std::vector<nightloc::SimdBackend>& backends) {
+    std::vector<std::string> names;
+    for (auto b : backends) names.emplace_back(nightloc::simd_backend_name(b));
+    return names;
+}
+
+}  // namespace
+
+void register_matching(py::module_& m) {
+    m.attr("MAX_IMAGE_PIXELS") = nightloc::kMaxImagePixels;
+
+    std::vector<std::string> all_names;
+    for (const auto& entry : nightloc::kSimdBackendNames) all_names.emplace_back(entry.name);
+    m.attr("ALL_SIMD_BACKENDS") = py::tuple(py::cast(all_names));
+    m.def("simd_backend", [] { return std::string(nightloc::simd_backend_name(nightloc::active_simd_backend())); },
+          "Name of the SIMD path the kernels use now.");
+    m.def("best_simd_backend", [] { return std::string(nightloc::simd_backend_name(nightloc::best_simd_backend())); },
+          "Name of the fastest SIMD path this CPU supports.");
+    m.def(
+        "available_simd_backends", [] { return names_of(nightloc::supported_simd_backends()); },
+        "SIMD paths this CPU supports, slowest first.");
+    m.def(
+        "set_simd_backend",
+        [](const std::string& name) {
+            const nightloc::SimdBackend backend = backend_from_name(name);
+            if (!nightloc::simd_backend_supported(backend)) {
+                throw py::value_error("SIMD path '" + name + "' is not supported on this CPU");
+            }
+            nightloc::set_simd_backend(backend);
+        },
+        py::arg("name"), "Forces a SIMD path for the whole process.");
+    m.def("reset_simd_backend", &nightloc::reset_simd_backend,
+          "Returns to the default SIMD path (NIGHTLOC_SIMD if valid, else the best).");
+
+    m.def(
+        "available_avx512_sad_variants",
+        [] {
+            std::vector<std::string> names;
+            for (auto v : {nightloc::Avx512SadVariant::vpaddw, nightloc::Avx512SadVariant::vnni}) {
+                if (nightloc::avx512_sad_variant_supported(v)) names.emplace_back(nightloc::avx512_sad_variant_name(v));
+            }
+            return names;
+        },
+        "Accumulations of the avx512bw all-shift SAD kernel this CPU can run (vpaddw, vnni).");
+    m.def(
+        "avx512_sad_variant",
+        []() -> py::object {
+            if (!nightloc::avx512_sad_variant_supported(nightloc::Avx512SadVariant::vpaddw)) return py::none();
+            const auto variant = nightloc::avx512_sad_variant();  // may time both variants, once per process
+            return py::make_tuple(nightloc::avx512_sad_variant_name(variant), nightloc::avx512_sad_variant_reason());
+        },
+        "(variant, reason) of the avx512bw path's all-shift SAD kernel; None without AVX-512BW.");
+    m.def(
+        "set_avx512_sad_variant",
+        [](const std::optional<std::string>& name) {
+            if (!name) return nightloc::reset_avx512_sad_variant();
+            if (*name != "vpaddw" && *name != "vnni") {
+                throw py::value_error("unknown AVX-512 SAD variant '" + *name + "'; expected vpaddw or vnni");
+            }
+            nightloc::set_avx512_sad_variant(*name == "vnni" ? nightloc::Avx512SadVariant::vnni
+                                                             : nightloc::Avx512SadVariant::vpaddw);
+        },
+        py::arg("name"), "Forces the avx512bw all-shift SAD variant process-wide (None: the per-CPU choice).");
+
+    m.def("rotational_sad", &rotational_sad, py::arg("query"), py::arg("refs"), py::arg("shifts"), py::arg("threads"),
+          py::arg("divisor") = 0.0);
+    m.def("difference_matrix", &difference_matrix, py::arg("queries"), py::arg("refs"), py::arg("shifts"),
+          py::arg("threads"), py::arg("divisor") = 0.0);
+    m.def("match", &match, py::arg("query"), py::arg("refs"), py::arg("shifts"), py::arg("threads"));
+    m.def("difference_matrix_sums", &difference_matrix_sums, py::arg("queries"), py::arg("refs"), py::arg("shifts"),
+          py::arg("threads"));
+}

@@ -1,0 +1,67 @@
+// Internal: the references of one pass of a "copies" SAD kernel (sad_x86.cpp, sad_neon.cpp).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+
+#include "sad_kernels.hpp"
+
+namespace nightloc::detail {
+
+/// References per pass of the copies kernels: each query chunk loaded is compared with this many
+/// references before the next one is loaded.
+inline constexpr std::size_t kRefsPerPass = 8;
+
+/// The references of one pass, read in chunks of V bytes. A short last pass repeats its last
+/// reference (the duplicate sums are computed and discarded). Full chunks are read from row[k],
+/// the last partial chunk from tail[k], zero-padded, so that no load reads past a reference. When
+/// the pass is reused for many shifts, the references are first copied into aligned, zero-padded
+/// rows: unaligned vector loads that straddle cache lines cost up to a third of the speed.
+template <std::size_t V>
+class RefPass {
+public:
+    const std::uint8_t* row[kRefsPerPass];
+    const std::uint8_t* tail[kRefsPerPass];
+    std::size_t count = 0;
+
+    RefPass(std::size_t pixels, std::size_t n_copies)
+        : pixels_(pixels), padded_(round_up(pixels, V)),
+          staged_(n_copies >= kStageMinCopies && padded_ * kRefsPerPass <= kStageMaxBytes) {
+        const std::size_t bytes = staged_ ? padded_ * kRefsPerPass : V * kRefsPerPass;
+        storage_.reset(new std::uint8_t[bytes + 64]);
+        const auto address = reinterpret_cast<std::uintptr_t>(storage_.get());
+        base_ = storage_.get() + (64 - address % 64) % 64;
+        std::memset(base_, 0, bytes);
+    }
+
+    void load(const std::uint8_t* refs, std::size_t first, std::size_t n_refs) {
+        count = n_refs - first < kRefsPerPass ? n_refs - first : kRefsPerPass;
+        const std::size_t full = pixels_ / V * V;
+        for (std::size_t k = 0; k < kRefsPerPass; ++k) {
+            const std::uint8_t* src = refs + (first + (k < count ? k : count - 1)) * pixels_;
+            if (staged_) {
+                std::uint8_t* dst = base_ + k * padded_;
+                std::memcpy(dst, src, pixels_);
+                row[k] = dst;
+                tail[k] = dst + full;
+            } else {
+                std::uint8_t* dst = base_ + k * V;
+                std::memcpy(dst, src + full, pixels_ - full);
+                row[k] = src;
+                tail[k] = dst;
+            }
+        }
+    }
+
+private:
+    static constexpr std::size_t kStageMinCopies = 4;
+    static constexpr std::size_t kStageMaxBytes = std::size_t{256} * 1024;
+    std::size_t pixels_, padded_;
+    bool staged_;
+    std::unique_ptr<std::uint8_t[]> storage_;
+    std::uint8_t* base_ = nullptr;
+};
+
+}  // namespace nightloc::detail
