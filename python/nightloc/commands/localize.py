@@ -133,10 +133,11 @@ def run(args: argparse.Namespace) -> int:
             from ..figures._common import figure_path
             from ..figures.trajectory import trajectory_figure
 
+            source = "none" if args.odometry is not None and args.odometry.strip().lower() == "none" else "the log's"
             caption = (
-                f"{len(estimates)} frames of {log.root.name} against {len(ref_map)} references; odometry "
-                f"{'none' if args.odometry is not None and args.odometry.strip().lower() == 'none' else 'from the log'}, "
-                f"noise {args.odometry_noise}; disks: credible radius ({localizer.filter_params.credibility:.0%})"
+                f"{len(estimates)} frames of {log.root.name} against {len(ref_map)} references; odometry: "
+                f"{source}, noise {args.odometry_noise}; disks: credible radius "
+                f"({localizer.filter_params.credibility:.0%})"
             )
             figure = figure_path(out.path, "trajectory", args.figure_format)
             trajectory_figure(
