@@ -400,6 +400,8 @@ void register_localization(py::module_& m) {
              py::arg("weights"), py::arg("x0"), py::arg("y0"), py::arg("dx"), py::arg("dy"), py::arg("place_of_ref"),
              py::arg("ref_headings"), py::arg("columns"), py::arg("shifts"), py::arg("settings"))
         .def("reset", &GridFilterPy::reset)
+        .def("__copy__", [](const GridFilterPy& f) { return GridFilterPy(f); },
+             "An independent filter in the same state, bit for bit (the map's weights are shared: immutable).")
         .def("set_noise", &GridFilterPy::set_noise, py::arg("distance_std"), py::arg("heading_std"))
         .def("predict", &GridFilterPy::predict, py::arg("kind"), py::arg("a"), py::arg("b"), py::arg("c"))
         .def("step_image", &GridFilterPy::step_image, py::arg("query"), py::arg("refs"), py::arg("kind"), py::arg("a"),

@@ -177,12 +177,6 @@ class GridFilter:
             "estimate_window": params.estimate_window,
         }
         self.settings = settings  # what the core was given (tests build their oracle from it)
-        self._map_arguments = (
-            place_of_ref,
-            None if headings is None else np.ascontiguousarray(headings, dtype=np.float64),
-            int(columns),
-            self.shifts,
-        )
         self.core = _core.GridFilter(
             mapper._core_weights,
             grid.x0,
@@ -203,19 +197,12 @@ class GridFilter:
         return self._copy(copy.deepcopy(self.mapper, memo))
 
     def _copy(self, mapper: HeatMapper) -> GridFilter:
-        """A filter over ``mapper`` (this one's or a copy) with this one's state (belief, heading
-        offset, mode; float32 as the core keeps it)."""
+        """A filter over ``mapper`` (this one's or a copy) in this one's state, bit for bit (the
+        core's copy; the interpolation weights it shares are immutable)."""
         clone = object.__new__(GridFilter)
         clone.__dict__.update(self.__dict__)
         clone.mapper = mapper
-        clone.core = _core.GridFilter(
-            mapper._core_weights, mapper.grid.x0, mapper.grid.y0, mapper.grid.dx, mapper.grid.dy,
-            *self._map_arguments, self.settings,
-        )  # fmt: skip
-        pose = bool(self.core.pose_mode)
-        clone.core.set_belief(
-            np.ascontiguousarray(self.core.belief(), dtype=np.float32), pose, self.offset if pose else 0.0
-        )
+        clone.core = self.core.__copy__()
         return clone
 
     @property

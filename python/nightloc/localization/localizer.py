@@ -138,7 +138,9 @@ class Estimate:
         heatmap: ``(grid_height, grid_width)`` (row 0 = lowest y), when asked: the paper's fused
             heat map, or the filter's belief over position (summed over heading, sums to 1).
         frame_heatmap: this frame's own heat map (inverted scores), when asked.
-        covariance: ``(2, 2)`` m^2, the filter's belief about its mean (None for the paper's method).
+        covariance: ``((xx, xy), (xy, yy))`` m^2, the filter's belief about its mean (a tuple, so
+            that estimates compare with ``==``; ``numpy.asarray`` makes it an array), None for the
+            paper's method.
         credible_radius: metres around ``(x, y)`` holding ``credibility`` (default 0.9) of the
             filter's belief (NaN for the paper's method).
         method: ``"filter"`` or ``"paper"``.
@@ -154,7 +156,7 @@ class Estimate:
     score: float
     heatmap: np.ndarray | None = None
     frame_heatmap: np.ndarray | None = None
-    covariance: np.ndarray | None = None
+    covariance: tuple[tuple[float, float], tuple[float, float]] | None = None
     credible_radius: float = math.nan
     method: str = "paper"
 
@@ -477,7 +479,7 @@ class Localizer:
             score=float(scores[best]) if scores is not None else math.nan,
             heatmap=self._filter.marginal() if return_heatmap else None,
             frame_heatmap=self.mapper.heat_map(scores)[0] if return_heatmap and scores is not None else None,
-            covariance=state.covariance,
+            covariance=tuple(map(tuple, state.covariance.tolist())),
             credible_radius=state.credible_radius,
             method="filter",
         )
