@@ -82,6 +82,7 @@ MOTIONS = [
 ]
 
 
+@pytest.mark.sanitize  # drives the core (CI runs it again under ASan + UBSan)
 @pytest.mark.parametrize("seed", [0, 1, 2])
 @pytest.mark.parametrize("noise", [0, 3, NoiseModel(0.05, 0.3)])
 def test_core_equals_the_numpy_oracle_on_random_maps_and_motions(seed, noise):
@@ -239,6 +240,7 @@ def test_ties_carry_no_position():
     assert e.confidence < 0.5 and e.credible_radius > 0.5 * grid.dx * grid.width / 2
 
 
+@pytest.mark.sanitize  # drives the core (CI runs it again under ASan + UBSan)
 def test_nan_scores_raise_and_leave_the_belief_unchanged():
     rng = np.random.default_rng(10)
     ref_map = _random_map(rng, n=6)
@@ -258,6 +260,7 @@ def test_nan_scores_raise_and_leave_the_belief_unchanged():
         loc.update_table(np.zeros((5, 16), np.float32))
 
 
+@pytest.mark.sanitize  # drives the core (CI runs it again under ASan + UBSan)
 def test_a_robot_driven_off_the_map_keeps_a_defined_belief():
     rng = np.random.default_rng(12)
     ref_map = _random_map(rng, n=8)
@@ -272,6 +275,7 @@ def test_a_robot_driven_off_the_map_keeps_a_defined_belief():
     assert grid.x0 - grid.dx <= e.x <= grid.x0 + grid.dx * grid.width
 
 
+@pytest.mark.sanitize  # drives the core (CI runs it again under ASan + UBSan)
 @pytest.mark.parametrize("n_refs", [1, 2])
 def test_one_or_two_references(n_refs):
     rng = np.random.default_rng(13)
