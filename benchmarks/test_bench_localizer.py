@@ -47,7 +47,7 @@ def setup():
 
 
 def _warm(ref_map, frame, prepared=False):
-    loc = nightloc.Localizer(ref_map, seq_len=SEQ_LEN, threads=1)
+    loc = nightloc.Localizer(ref_map, method="paper", seq_len=SEQ_LEN, threads=1)
     query = ref_map.preparer.prepare(frame) if prepared else frame
     for _ in range(SEQ_LEN):
         loc.update(query, STEP)
@@ -112,7 +112,7 @@ SUM_GROUP = f"sum of {SEQ_LEN} translated 100x100 heat maps (float32)"
 def sequence_maps(setup):
     """The localizer's grid, its sequence after SEQ_LEN frames, and the same maps as padded buffers."""
     ref_map, _ = setup
-    loc = nightloc.Localizer(ref_map, seq_len=SEQ_LEN, threads=1)
+    loc = nightloc.Localizer(ref_map, method="paper", seq_len=SEQ_LEN, threads=1)
     rng = np.random.default_rng(5)
     mapper = loc.mapper
     sequence = mapper.sequence(SEQ_LEN)

@@ -1,6 +1,6 @@
 // pybind11 glue for localization (nightloc.localization): heat-map interpolation weights, the
-// translated sum of a frame sequence with its peak search (nightloc/heatmap.hpp), and the
-// translation kernel itself.
+// translated sum of a frame sequence with its peak search (nightloc/heatmap.hpp), the
+// translation kernel itself, and the grid Bayes filter (nightloc/grid_filter.hpp).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "glue.hpp"
+#include "nightloc/grid_filter.hpp"
 #include "nightloc/heatmap.hpp"
 
 namespace {
@@ -177,9 +178,247 @@ private:
     nightloc::PeakExclusion exclusion_;
 };
 
+// ---------------------------------------------------------------------------------------------
+// the grid Bayes filter
+
+// Motion codes of GridFilter.step/predict: what the frame's odometry says.
+enum MotionKind : int { kNoMotion = 0, kUnknown = 1, kMapMotion = 2, kRobotMotion = 3 };
+
+py::array_t<float, py::array::c_style> checked_table(const py::array& a, std::size_t n_refs, std::size_t n_shifts) {
+    if (!py::isinstance<py::array_t<float>>(a)) {
+        throw py::type_error("table must have dtype float32, got " + std::string(py::str(a.dtype())));
+    }
+    if (a.ndim() != 2 || static_cast<std::size_t>(a.shape(0)) != n_refs ||
+        static_cast<std::size_t>(a.shape(1)) != n_shifts) {
+        throw py::value_error("table must be (" + std::to_string(n_refs) + ", " + std::to_string(n_shifts) +
+                              ") (references, shifts), got shape " + nightloc::glue::shape_text(a));
+    }
+    if (!(a.flags() & py::array::c_style)) throw py::value_error("table must be C-contiguous");
+    const auto t = py::reinterpret_borrow<py::array_t<float, py::array::c_style>>(a);
+    const float* v = t.data();
+    for (std::size_t i = 0; i < n_refs * n_shifts; ++i) {
+        if (!std::isfinite(v[i])) {
+            throw py::value_error("table holds NaN or infinity (reference " + std::to_string(i / n_shifts) +
+                                  "); the filter's belief is unchanged");
+        }
+    }
+    return t;
+}
+
+class GridFilterPy {
+public:
+    GridFilterPy(Weights weights, double x0, double y0, double dx, double dy, const py::array& place_of_ref,
+                 const py::object& ref_headings, std::size_t columns, const py::array& shifts, const py::dict& settings)
+        : filter_(make_map(std::move(weights), x0, y0, dx, dy, place_of_ref, ref_headings, columns, shifts),
+                  make_settings(settings)) {}
+
+    void reset() { filter_.reset(); }
+    void set_noise(double distance_std, double heading_std) { filter_.set_noise(distance_std, heading_std); }
+
+    void predict(int kind, double a, double b, double c) {
+        check_motion(kind, a, b, c);
+        py::gil_scoped_release release;
+        predict_locked(kind, a, b, c);
+    }
+
+    // One frame: prediction by the motion, the measurement from a prepared image against refs,
+    // the estimate. Returns (estimate tuple, min scores (n_refs,) float32, best shifts int32).
+    py::tuple step_image(const py::array& query_in, const py::array& refs_in, int kind, double a, double b, double c,
+                         int threads) {
+        if (!py::isinstance<py::array_t<std::uint8_t>>(query_in) || !py::isinstance<py::array_t<std::uint8_t>>(refs_in)) {
+            throw py::type_error("query and refs must have dtype uint8");
+        }
+        if (query_in.ndim() != 2 || refs_in.ndim() != 3 || !(query_in.flags() & py::array::c_style) ||
+            !(refs_in.flags() & py::array::c_style)) {
+            throw py::value_error("query must be a C-contiguous (H, W) and refs an (N, H, W) uint8 array");
+        }
+        if (static_cast<std::size_t>(refs_in.shape(0)) != filter_.n_refs() || refs_in.shape(1) != query_in.shape(0) ||
+            refs_in.shape(2) != query_in.shape(1)) {
+            throw py::value_error("refs " + nightloc::glue::shape_text(refs_in) + " do not fit the query " + nightloc::glue::shape_text(query_in) +
+                                  " and the filter's " + std::to_string(filter_.n_refs()) + " references");
+        }
+        check_motion(kind, a, b, c);
+        const auto* q = static_cast<const std::uint8_t*>(query_in.data());
+        const auto* r = static_cast<const std::uint8_t*>(refs_in.data());
+        const auto h = static_cast<std::size_t>(query_in.shape(0));
+        nightloc::GridEstimate e;
+        {
+            py::gil_scoped_release release;
+            predict_locked(kind, a, b, c);
+            filter_.update_image(q, r, filter_.n_refs(), h, threads);
+            e = filter_.estimate();
+        }
+        return result(e);
+    }
+
+    py::tuple step_table(const py::array& table_in, int kind, double a, double b, double c) {
+        const auto table = checked_table(table_in, filter_.n_refs(), filter_.n_shifts());
+        check_motion(kind, a, b, c);
+        const float* t = table.data();
+        nightloc::GridEstimate e;
+        {
+            py::gil_scoped_release release;
+            predict_locked(kind, a, b, c);
+            filter_.update(t);
+            e = filter_.estimate();
+        }
+        return result(e);
+    }
+
+    py::tuple estimate() const {
+        nightloc::GridEstimate e;
+        {
+            py::gil_scoped_release release;
+            e = filter_.estimate();
+        }
+        return estimate_tuple(e);
+    }
+
+    // The marginal over heading (height, width) float64, summing to 1.
+    py::array marginal() const {
+        py::array_t<double> out({static_cast<py::ssize_t>(filter_.height()), static_cast<py::ssize_t>(filter_.width())});
+        const float* m = filter_.marginal();
+        const double scale = filter_.scale();
+        double* o = out.mutable_data();
+        for (std::size_t c = 0; c < filter_.height() * filter_.width(); ++c) o[c] = m[c] * scale;
+        return std::move(out);
+    }
+
+    // The belief (active bins, height, width) float64, summing to 1.
+    py::array belief() const {
+        const std::size_t bins = filter_.active_bins(), cells = filter_.height() * filter_.width();
+        py::array_t<double> out({static_cast<py::ssize_t>(bins), static_cast<py::ssize_t>(filter_.height()),
+                                 static_cast<py::ssize_t>(filter_.width())});
+        const float* v = filter_.belief();
+        const double scale = filter_.scale();
+        double* o = out.mutable_data();
+        for (std::size_t c = 0; c < bins * cells; ++c) o[c] = v[c] * scale;
+        return std::move(out);
+    }
+
+    void set_belief(const py::array& belief_in, bool pose, double offset) {
+        const std::size_t bins = pose ? filter_.heading_bins() : 1;
+        if (!py::isinstance<py::array_t<float>>(belief_in) || belief_in.ndim() != 3 ||
+            static_cast<std::size_t>(belief_in.shape(0)) != bins ||
+            static_cast<std::size_t>(belief_in.shape(1)) != filter_.height() ||
+            static_cast<std::size_t>(belief_in.shape(2)) != filter_.width() || !(belief_in.flags() & py::array::c_style)) {
+            throw py::value_error("belief must be a C-contiguous float32 (" + std::to_string(bins) + ", " +
+                                  std::to_string(filter_.height()) + ", " + std::to_string(filter_.width()) + ") array");
+        }
+        filter_.set_belief(static_cast<const float*>(belief_in.data()), pose, offset);
+    }
+
+    py::array table() const {
+        py::array_t<float> out({static_cast<py::ssize_t>(filter_.n_refs()), static_cast<py::ssize_t>(filter_.n_shifts())});
+        std::copy(filter_.table().begin(), filter_.table().end(), out.mutable_data());
+        return std::move(out);
+    }
+
+    const nightloc::GridFilter& core() const { return filter_; }
+
+private:
+    static nightloc::GridFilterMap make_map(Weights weights, double x0, double y0, double dx, double dy,
+                                            const py::array& place_of_ref, const py::object& ref_headings,
+                                            std::size_t columns, const py::array& shifts) {
+        nightloc::GridFilterMap map;
+        map.weights = std::move(weights);
+        map.x0 = x0;
+        map.y0 = y0;
+        map.dx = dx;
+        map.dy = dy;
+        map.place_of_ref = vector_of<std::int32_t>(place_of_ref, "place_of_ref");
+        if (!ref_headings.is_none()) map.ref_headings = vector_of<double>(ref_headings.cast<py::array>(), "ref_headings");
+        map.columns = columns;
+        map.shifts = vector_of<std::int32_t>(shifts, "shifts");
+        return map;
+    }
+
+    static nightloc::GridFilterSettings make_settings(const py::dict& d) {
+        nightloc::GridFilterSettings s;
+        for (const auto& item : d) {
+            const auto key = item.first.cast<std::string>();
+            const py::handle v = item.second;
+            if (key == "heading_bins") s.heading_bins = v.cast<std::size_t>();
+            else if (key == "likelihood_gain") s.likelihood_gain = v.cast<double>();
+            else if (key == "distance_std") s.distance_std = v.cast<double>();
+            else if (key == "heading_std") s.heading_std = v.cast<double>();
+            else if (key == "position_floor") s.position_floor = v.cast<double>();
+            else if (key == "heading_floor") s.heading_floor = v.cast<double>();
+            else if (key == "uniform_floor") s.uniform_floor = v.cast<double>();
+            else if (key == "unknown_spread") s.unknown_spread = v.cast<double>();
+            else if (key == "credibility") s.credibility = v.cast<double>();
+            else if (key == "confidence_radius") s.confidence_radius = v.cast<double>();
+            else if (key == "estimate_window") s.estimate_window = v.cast<std::size_t>();
+            else throw py::value_error("unknown grid filter setting '" + key + "'");
+        }
+        return s;
+    }
+
+    void check_motion(int kind, double a, double b, double c) const {
+        if (kind < kNoMotion || kind > kRobotMotion) throw py::value_error("unknown motion kind");
+        if (!std::isfinite(a) || !std::isfinite(b) || !std::isfinite(c)) throw py::value_error("motion must be finite");
+        if (kind == kRobotMotion && !filter_.can_pose()) {
+            throw py::value_error(
+                "robot-frame odometry (RobotMotion) needs heading bins, and this filter has none (the map has no "
+                "headings, or it is not a full panorama, or heading_bins is 1); pass map-frame displacements");
+        }
+    }
+
+    void predict_locked(int kind, double a, double b, double c) {
+        switch (kind) {
+            case kUnknown: filter_.predict_unknown(); break;
+            case kMapMotion: filter_.predict_map(a, b); break;
+            case kRobotMotion: filter_.predict_robot(a, b, c); break;
+            default: break;
+        }
+    }
+
+    static py::tuple estimate_tuple(const nightloc::GridEstimate& e) {
+        return py::make_tuple(e.x, e.y, e.heading, e.cov_xx, e.cov_xy, e.cov_yy, e.credible_radius, e.confidence,
+                              e.cell, e.flat);
+    }
+
+    py::tuple result(const nightloc::GridEstimate& e) const {
+        const auto n = static_cast<py::ssize_t>(filter_.n_refs());
+        py::array_t<float> mins(n);
+        py::array_t<std::int32_t> shifts(n);
+        std::copy(filter_.min_scores().begin(), filter_.min_scores().end(), mins.mutable_data());
+        std::copy(filter_.best_shifts().begin(), filter_.best_shifts().end(), shifts.mutable_data());
+        return py::make_tuple(estimate_tuple(e), mins, shifts);
+    }
+
+    nightloc::GridFilter filter_;
+};
+
 }  // namespace
 
 void register_localization(py::module_& m) {
+    py::class_<GridFilterPy>(m, "GridFilter",
+                             "The grid Bayes filter over position x heading (nightloc/grid_filter.hpp).")
+        .def(py::init<Weights, double, double, double, double, const py::array&, const py::object&, std::size_t,
+                      const py::array&, const py::dict&>(),
+             py::arg("weights"), py::arg("x0"), py::arg("y0"), py::arg("dx"), py::arg("dy"), py::arg("place_of_ref"),
+             py::arg("ref_headings"), py::arg("columns"), py::arg("shifts"), py::arg("settings"))
+        .def("reset", &GridFilterPy::reset)
+        .def("__copy__", [](const GridFilterPy& f) { return GridFilterPy(f); },
+             "An independent filter in the same state, bit for bit (the map's weights are shared: immutable).")
+        .def("set_noise", &GridFilterPy::set_noise, py::arg("distance_std"), py::arg("heading_std"))
+        .def("predict", &GridFilterPy::predict, py::arg("kind"), py::arg("a"), py::arg("b"), py::arg("c"))
+        .def("step_image", &GridFilterPy::step_image, py::arg("query"), py::arg("refs"), py::arg("kind"), py::arg("a"),
+             py::arg("b"), py::arg("c"), py::arg("threads"))
+        .def("step_table", &GridFilterPy::step_table, py::arg("table"), py::arg("kind"), py::arg("a"), py::arg("b"),
+             py::arg("c"))
+        .def("estimate", &GridFilterPy::estimate)
+        .def("marginal", &GridFilterPy::marginal)
+        .def("belief", &GridFilterPy::belief)
+        .def("set_belief", &GridFilterPy::set_belief, py::arg("belief"), py::arg("pose"), py::arg("offset"))
+        .def("table", &GridFilterPy::table)
+        .def_property_readonly("pose_mode", [](const GridFilterPy& f) { return f.core().pose_mode(); })
+        .def_property_readonly("can_pose", [](const GridFilterPy& f) { return f.core().can_pose(); })
+        .def_property_readonly("heading_bins", [](const GridFilterPy& f) { return f.core().heading_bins(); })
+        .def_property_readonly("offset", [](const GridFilterPy& f) { return f.core().offset(); })
+        .def_property_readonly("lambda_", [](const GridFilterPy& f) { return f.core().lambda(); });
+
     m.def("add_translated", &add_translated, py::arg("out"), py::arg("source"), py::arg("height"), py::arg("width"),
           py::arg("stride"), py::arg("shift_x"), py::arg("shift_y"),
           "out += source translated by (shift_x, shift_y) cells, bilinear, zero beyond the grid "

@@ -18,7 +18,16 @@ from .config import load_params, save_params
 from .errors import DatasetError, MapFormatError, NightlocError
 from .io import Traverse, load_traverse, save_traverse
 from .io.reference_map import ReferenceMap
-from .localization import Estimate, LocalizationParams, Localizer, MapDisplacement, RobotMotion
+from .localization import (
+    Estimate,
+    FilterParams,
+    LocalizationParams,
+    Localizer,
+    MapDisplacement,
+    NoiseModel,
+    RobotMotion,
+    traverse_odometry,
+)
 from .matching import (
     MatchResult,
     available_simd_backends,
@@ -37,12 +46,14 @@ __all__ = [
     "DEFAULT_PATCH_SCALE",
     "DatasetError",
     "Estimate",
+    "FilterParams",
     "LocalizationParams",
     "Localizer",
     "MapDisplacement",
     "MapFormatError",
     "MatchResult",
     "NightlocError",
+    "NoiseModel",
     "PreparationParams",
     "Preparer",
     "ReferenceMap",
@@ -66,5 +77,6 @@ __all__ = [
     "set_simd_backend",
     "shifts_to_headings",
     "simd_backend",
+    "traverse_odometry",
     "use_simd_backend",
 ]

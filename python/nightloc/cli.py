@@ -26,6 +26,7 @@ COMMAND_MODULES = (
     "nightloc.commands.route",
     "nightloc.commands.synth",
     "nightloc.commands.evaluate",
+    "nightloc.commands.localize",
 )
 
 

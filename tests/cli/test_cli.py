@@ -19,12 +19,23 @@ def test_demo_runs_the_method_on_the_embedded_data(capsys, tmp_path):
     for world in ("garden", "living_room"):
         assert f"{world}: " in out
         summary = (out_dir / world / "summary.csv").read_text().splitlines()
-        assert summary[0] == "seq_len,noise_model,interpolation,n,median_m,mean_m,p90_m"
-        assert len(summary) == 1 + 10 * 4 * 2  # n = 1..10, noise 0-3, interpolation on/off
-        for name in ("errors.csv", "error_vs_seq_len.png", "error_vs_noise.png", "error_vs_interpolation.png"):
+        assert summary[0] == "seq_len,noise_model,interpolation,n,median_m,mean_m,p90_m,method"
+        # the paper: n = 1..10, noise 0-3, interpolation on/off; the filter: noise 0-3, on/off
+        assert len(summary) == 1 + 10 * 4 * 2 + 4 * 2
+        assert sum(line.endswith(",filter") for line in summary) == 8
+        for name in (
+            "errors.csv",
+            "errors_wheel.csv",
+            "error_vs_seq_len.png",
+            "error_vs_noise.png",
+            "error_vs_interpolation.png",
+            "filter_vs_paper.png",
+        ):
             assert (out_dir / world / name).is_file()
         assert list((out_dir / world).glob("heatmap_frame*.png"))
+        assert (out_dir / world / "errors_wheel.csv").read_text().splitlines()[0].endswith(",ref_index,method")
     assert out.count("|") > 40  # the median-error tables
+    assert out.count("wheel odometry (RobotMotion)  Bayes filter") == 2  # the comparison tables
 
 
 def test_info_reports_paths(capsys):

@@ -135,10 +135,11 @@ def test_demo_failing_in_its_second_world_keeps_the_previous_set(tmp_path, monke
     worlds = []
 
     def quick(ref_map, query, settings, params, **kwargs):  # one configuration: the same code, faster
-        worlds.append(kwargs["name"])
-        if fail and len(worlds) == 2:
+        worlds.append(kwargs["progress_desc"].split(":")[0])  # two evaluations per world (map, wheel odometry)
+        if fail and len(set(worlds)) == 2:
             raise ValueError("simulated failure in the second world")
-        return real(ref_map, query, evaluation_module.EvaluationSettings((1,), (0,), (True,)), params, **kwargs)
+        one = evaluation_module.EvaluationSettings((1,), (0,), (True,), odometry=settings.odometry)
+        return real(ref_map, query, one, params, **kwargs)
 
     monkeypatch.setattr(demo_command, "evaluate", quick)
     out = tmp_path / "demo"
@@ -147,7 +148,7 @@ def test_demo_failing_in_its_second_world_keeps_the_previous_set(tmp_path, monke
     before = _tree(out)
     assert sorted(before) == [
         ".nightloc-output.json",
-        *(f"{w}/{f}" for w in ("garden", "living_room") for f in ("errors.csv", "summary.csv")),
+        *(f"{w}/{f}" for w in ("garden", "living_room") for f in ("errors.csv", "errors_wheel.csv", "summary.csv")),
     ]
     fail, worlds[:] = True, []
     assert main(["demo", "--out", str(out), "--cache", str(cache), "--no-figures", "--seed", "3"]) == 2

@@ -50,7 +50,7 @@ def _evaluation(seq_lengths=(1, 3, 7), noise_models=(0, 1, 2, 3), interpolation=
                     errors = rng.gamma(2.0, (0.6 + 0.3 * model + (0 if interp else 0.4)) / n, N_FRAMES)
                     for frame, error in enumerate(errors):
                         values = ("garden/night_query", f"{frame:06d}.png", n, model, interp, repeat)
-                        values += (0.0, 0.0, 0.0, 0.0, float(error), 0)
+                        values += (0.0, 0.0, 0.0, 0.0, float(error), 0, "paper")
                         for name, value in zip(ERRORS_HEADER, values):
                             rows[name].append(value)
     return Evaluation({k: np.array(v) for k, v in rows.items()}, settings, [_matches()])

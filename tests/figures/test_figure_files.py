@@ -113,9 +113,13 @@ ROBOT_PATH = textwrap.dedent(
     camera = rng.integers(0, 256, size=(16, 96, 192, 3), dtype=np.uint8)
     refs = nightloc.prepare(camera[:12])
     ref_map = nightloc.ReferenceMap(refs, [[float(i), 0.0] for i in range(12)])
-    localizer = nightloc.Localizer(ref_map, seq_len=3)
+    localizer = nightloc.Localizer(ref_map, method="paper", seq_len=3)
     for frame in camera[12:]:
         localizer.update(frame, (1.0, 0.0))
+    ref_map = nightloc.ReferenceMap(refs, [[float(i), 0.0] for i in range(12)], np.zeros(12))
+    localizer = nightloc.Localizer(ref_map)  # the Bayes filter
+    for frame in camera[12:]:
+        localizer.update(frame, nightloc.RobotMotion(1.0, 0.0, 0.1))
     nightloc.match(refs[0], refs)
     route_localizer = nightloc.RouteLocalizer(camera[:12], nightloc.RouteParams(ds=2, mode="causal"))
     for frame in camera[12:]:

@@ -137,7 +137,8 @@ def test_cli_writes_errors_summary_and_figures(tmp_path, capsys):
     # the summary is the statistics of the rows (an independent recomputation)
     s_header, s_rows = _read_csv(out / "summary.csv")
     assert tuple(s_header) == SUMMARY_HEADER and len(s_rows) == 3 * 2 * 2
-    for seq_len, model, interp, count, median, mean, p90 in s_rows:
+    for seq_len, model, interp, count, median, mean, p90, method in s_rows:
+        assert method == "paper"
         errors = np.array([float(r[10]) for r in rows if (r[2], r[3], r[4]) == (seq_len, model, interp)])
         assert int(count) == errors.size
         assert float(median) == pytest.approx(np.median(errors), abs=2e-4)
@@ -246,3 +247,100 @@ def test_heatmap_figure_marks_truth_and_estimate_where_they_are():
         [truth] = [line for line in ax.lines if line.get_label() == "truth"]
         assert (truth.get_xdata()[0], truth.get_ydata()[0]) == tuple(matches.positions[frame])
         assert truth.get_color() == "red" and truth.get_zorder() > ax.get_images()[0].get_zorder()
+
+
+# ----------------------------------------------------------------------------------------------
+# the Bayes filter and the query's own odometry log
+
+
+@functools.cache
+def _filter_world(world: str):
+    folders = default_synth_data()[world]
+    ref_map = nightloc.ReferenceMap.build(folders["day_reference"])
+    return folders, ref_map, match_traverse(ref_map, folders["night_query"], tables=True, odometry=True)
+
+
+def test_filter_rows_hold_every_frame_once_per_draw_and_match_the_localizer():
+    _, ref_map, matches = _filter_world("garden")
+    settings = EvaluationSettings(
+        seq_lengths=(10,), noise_models=(0, 3), interpolation=(True,), repeats=2, methods=("paper", "filter")
+    )
+    ev = evaluate(ref_map, matches, settings)
+    n = len(matches.results)
+    filt = ev.select(method="filter")
+    assert filt.sum() == n * (1 + 2)  # noise 0 once, noise 3 twice
+    assert list(ev.columns["seq_len"][filt][:n]) == list(range(1, n + 1))  # frames seen so far
+    assert ev.select(method="paper").sum() == n * (1 + 2)
+    # the same estimates as a Localizer driven by hand with the same odometry
+    from nightloc.localization.evaluation import simulated_odometry
+
+    odometry = simulated_odometry(matches, 3, 1, settings)
+    loc = nightloc.Localizer(ref_map, odometry_noise=3)
+    x = [loc.update_table(matches.tables[i], odometry[i]).x for i in range(n)]
+    rows = ev.select(method="filter", noise_model=3) & (ev.columns["repeat"] == 1)
+    np.testing.assert_array_equal(ev.columns["x_est"][rows], x)
+    # the filter beats the paper's 10-frame sum under heavy wheel-free map odometry noise
+    later = np.tile(np.arange(n) >= 9, 2)
+    paper = ev.columns["error_m"][ev.select(method="paper", noise_model=3)][later]
+    mine = ev.columns["error_m"][ev.select(method="filter", noise_model=3)][later]
+    assert np.median(mine) < np.median(paper)
+
+
+def test_log_odometry_is_the_querys_own_and_equals_exact_wheel_odometry():
+    _, ref_map, matches = _filter_world("living_room")
+    assert matches.odometry is not None and matches.odometry[0] is None
+    log = evaluate(ref_map, matches, EvaluationSettings(odometry="log", methods=("filter",), interpolation=(True,)))
+    assert set(log.columns["noise_model"]) == {-1}
+    exact = evaluate(
+        ref_map,
+        matches,
+        EvaluationSettings(odometry="robot", noise_models=(0,), methods=("filter",), interpolation=(True,)),
+        filter_params=None,
+    )
+    # the synthetic logs hold the exact wheel odometry; the filter assumes log_noise (model 1) there
+    assert np.median(log.columns["error_m"][9:]) < 0.5
+    assert exact.columns["error_m"].shape == log.columns["error_m"].shape
+
+
+def test_cli_method_and_log_odometry(tmp_path, capsys):
+    folders, _, _ = _filter_world("garden")
+    out = tmp_path / "out"
+    argv = ["evaluate", str(folders["day_reference"]), str(folders["night_query"]), "--out", str(out)]
+    assert main([*argv, "--method", "paper,filter", "--odometry", "log", "--seq-lengths", "10", "--no-figures"]) == 0
+    printed = capsys.readouterr().out
+    assert "Bayes filter" in printed and "log" in printed
+    header, rows = _read_csv(out / "errors.csv")
+    assert header[-1] == "method" and {r[-1] for r in rows} == {"paper", "filter"}
+    assert {r[3] for r in rows} == {"-1"}
+    _, s_rows = _read_csv(out / "summary.csv")
+    assert [r[0] for r in s_rows if r[-1] == "filter"] == ["0", "0"]  # on and off, over all frames
+    assert main([*argv, "--method", "filter", "--odometry-noise", "0.2,0.05", "--no-figures"]) == 0
+    _, rows = _read_csv(out / "errors.csv")
+    assert {r[-1] for r in rows} == {"filter"}
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--method", "kalman"], "--method"),
+        (["--odometry-noise", "7"], "noise model"),
+        (["--odometry-noise", "a,b"], "--odometry-noise"),
+        (["--odometry-noise", "0.1,-1"], "--odometry-noise"),
+    ],
+)
+def test_cli_rejects_bad_method_and_noise(tmp_path, capsys, extra, message):
+    folders, _, _ = _filter_world("garden")
+    argv = ["evaluate", str(folders["day_reference"]), str(folders["night_query"]), "--out", str(tmp_path / "o")]
+    assert main([*argv, *extra]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+
+
+def test_log_odometry_without_a_log_is_a_clear_error(tmp_path):
+    folders, ref_map, _ = _filter_world("garden")
+    query = nightloc.load_traverse(folders["night_query"])
+    bare = nightloc.save_traverse(
+        tmp_path / "bare", (query.read(i) for i in range(4)), query.positions[:4], query.headings[:4]
+    )
+    with pytest.raises(nightloc.DatasetError, match=r"odometry\.csv"):
+        evaluate(ref_map, bare, EvaluationSettings(odometry="log", methods=("filter",)))

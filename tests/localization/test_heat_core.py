@@ -186,7 +186,7 @@ def test_localizer_estimates_equal_the_numpy_estimate_of_its_fused_map():
     images = rng.integers(0, 256, (len(positions), 24, 48), dtype=np.uint8)
     ref_map = nightloc.ReferenceMap(images, positions, rng.uniform(-np.pi, np.pi, len(positions)))
     for options in ({}, {"interpolation": False}, {"confidence_radius": 0.3}):
-        loc = Localizer(ref_map, seq_len=6, **options)
+        loc = Localizer(ref_map, method="paper", seq_len=6, **options)
         for t in range(15):
             result = _result(rng.uniform(5, 40, len(positions)), rng)
             est = loc.update_match(result, rng.normal(0, 0.3, 2) if t % 7 else None, return_heatmap=True)
@@ -206,7 +206,7 @@ def test_localizers_pickle_and_copy_mid_sequence():
     positions = rng.uniform([0, 0], [7, 5], (20, 2))
     images = nightloc.prepare(rng.integers(0, 256, (20, 48, 96), dtype=np.uint8))
     ref_map = nightloc.ReferenceMap(images, positions, rng.uniform(-3, 3, 20))
-    loc = Localizer(ref_map, seq_len=4)
+    loc = Localizer(ref_map, method="paper", seq_len=4)
     frames = [rng.integers(0, 256, (120, 240, 3), dtype=np.uint8) for _ in range(8)]
     for frame in frames[:5]:
         loc.update(frame, (0.1, 0.05))

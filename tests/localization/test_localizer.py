@@ -39,7 +39,7 @@ def _result(scores, headings, width=48):
 def test_single_frame_finds_the_place_and_heading_of_a_turned_reference():
     rng = np.random.default_rng(0)
     ref_map = _lattice_map(rng)
-    loc = Localizer(ref_map, seq_len=1, grid_width=61, grid_height=41, margin=0.0)
+    loc = Localizer(ref_map, method="paper", seq_len=1, grid_width=61, grid_height=41, margin=0.0)
     for k in rng.choice(len(ref_map), 8, replace=False):
         turn = int(rng.integers(48))
         query = np.ascontiguousarray(np.roll(ref_map.images[k], turn, axis=1))
@@ -54,7 +54,7 @@ def test_single_frame_finds_the_place_and_heading_of_a_turned_reference():
 def test_interpolation_off_reports_the_best_reference_position():
     rng = np.random.default_rng(1)
     ref_map = _lattice_map(rng)
-    loc = Localizer(ref_map, seq_len=1, interpolation=False)
+    loc = Localizer(ref_map, method="paper", seq_len=1, interpolation=False)
     scores = rng.uniform(20, 40, len(ref_map))
     scores[5] = 2.0
     est = loc.update_match(_result(scores, np.zeros(len(ref_map))))
@@ -65,7 +65,7 @@ def test_sequence_heat_map_equals_the_fusion_oracle():
     rng = np.random.default_rng(2)
     ref_map = _lattice_map(rng)
     n = 4
-    loc = Localizer(ref_map, seq_len=n)
+    loc = Localizer(ref_map, method="paper", seq_len=n)
     mapper = HeatMapper(ref_map.positions)  # independent, float64 path
     frames, steps = [], []
     for t in range(9):
@@ -93,8 +93,8 @@ def test_robot_frame_odometry_gives_the_same_result_as_map_displacements():
     positions = np.column_stack([1 + 2 * t, 2 + np.sin(2 * t)])
     headings = wrap_angle(np.arctan2(2 * np.cos(2 * t), 2.0) + 0.3)  # camera not along the path
     motions = true_robot_motions(positions, headings)
-    by_map = Localizer(ref_map, seq_len=6)
-    by_robot = Localizer(ref_map, seq_len=6)
+    by_map = Localizer(ref_map, method="paper", seq_len=6)
+    by_robot = Localizer(ref_map, method="paper", seq_len=6)
     for k in range(len(positions)):
         scores = rng.uniform(5, 40, len(ref_map))
         # every reference agrees on the true heading, so the visual heading estimate is exact
@@ -110,7 +110,7 @@ def test_robot_frame_odometry_gives_the_same_result_as_map_displacements():
 def test_unknown_motion_restarts_the_sequence_and_reset_forgets():
     rng = np.random.default_rng(4)
     ref_map = _lattice_map(rng)
-    loc = Localizer(ref_map, seq_len=3)
+    loc = Localizer(ref_map, method="paper", seq_len=3)
     r = _result(rng.uniform(5, 40, len(ref_map)), np.zeros(len(ref_map)))
     assert [loc.update_match(r, (0.1, 0)).frames for _ in range(4)] == [1, 2, 3, 3]
     assert loc.update_match(r, None).frames == 1
@@ -123,7 +123,7 @@ def test_unknown_motion_restarts_the_sequence_and_reset_forgets():
 def test_robot_motion_without_map_headings_is_a_clear_error():
     rng = np.random.default_rng(5)
     ref_map = _lattice_map(rng, with_headings=False)
-    loc = Localizer(ref_map)
+    loc = Localizer(ref_map, method="paper")
     r = _result(rng.uniform(5, 40, len(ref_map)), np.zeros(len(ref_map)))
     est = loc.update_match(r)
     assert math.isnan(est.heading)
@@ -142,8 +142,8 @@ def test_raw_frames_are_prepared_with_the_map_parameters():
     raw = [np.ascontiguousarray(np.repeat(np.repeat(r[::4, ::4], 4, 0), 4, 1)) for r in raw]  # smooth-ish
     positions = rng.uniform(0, 5, (12, 2))
     ref_map = nightloc.ReferenceMap(nightloc.prepare(np.stack(raw)), positions)
-    a = Localizer(ref_map, seq_len=2)
-    b = Localizer(ref_map, seq_len=2)
+    a = Localizer(ref_map, method="paper", seq_len=2)
+    b = Localizer(ref_map, method="paper", seq_len=2)
     for k in (3, 7):
         frame = np.ascontiguousarray(np.roll(raw[k], 8, axis=1))
         ea, eb = a.update(frame, (0.1, 0.0)), b.update(ref_map.preparer.prepare(frame), (0.1, 0.0))
@@ -160,7 +160,7 @@ def test_matches_match_results_from_the_difference_matrix():
     ref_map = _lattice_map(rng)
     queries = np.ascontiguousarray(np.roll(ref_map.images[[2, 9, 11]], 5, axis=2))
     scores, shifts = nightloc.difference_matrix(queries, ref_map.images)
-    loc1, loc2 = Localizer(ref_map), Localizer(ref_map)
+    loc1, loc2 = Localizer(ref_map, method="paper"), Localizer(ref_map, method="paper")
     for i, query in enumerate(queries):
         direct = loc1.update(query, (0.2, 0.1) if i else None)
         row = MatchResult(int(np.argmin(scores[i])), scores[i], shifts[i], shifts_to_headings(shifts[i], 48), 48)
@@ -171,7 +171,7 @@ def test_matches_match_results_from_the_difference_matrix():
 def test_params_overrides_and_toml(tmp_path):
     rng = np.random.default_rng(8)
     ref_map = _lattice_map(rng)
-    loc = Localizer(ref_map, LocalizationParams(seq_len=3), grid_width=40)
+    loc = Localizer(ref_map, LocalizationParams(seq_len=3), method="paper", grid_width=40)
     assert loc.params.seq_len == 3 and loc.params.grid_width == 40 and loc.grid.width == 40
     assert LocalizationParams().seq_len == 7 and LocalizationParams().grid_width == 100
     save_params(tmp_path / "p.toml", LocalizationParams(seq_len=10, interpolation=False))
@@ -180,7 +180,7 @@ def test_params_overrides_and_toml(tmp_path):
     with pytest.raises(TypeError, match="unknown localization parameter"):
         Localizer(ref_map, seq_length=3)
     with pytest.raises(ValueError, match="seq_len"):
-        Localizer(ref_map, seq_len=0)
+        Localizer(ref_map, method="paper", seq_len=0)
     with pytest.raises(TypeError, match="ReferenceMap"):
         Localizer(ref_map.images)
     with pytest.raises(TypeError, match="MatchResult"):

@@ -144,38 +144,50 @@ def _run(localizer, frames, steps):
     return [localizer.update(f, None if s is None else tuple(s)) for f, s in zip(frames, steps)]
 
 
-def test_a_copied_localizer_is_independent(ws):
+METHODS = {"paper": {"method": "paper", "seq_len": 4}, "filter": {"method": "filter"}}
+
+
+def _state_of(localizer):
+    return localizer._sequence if localizer.method == "paper" else localizer._filter.core
+
+
+@pytest.mark.parametrize("method", list(METHODS))
+def test_a_copied_localizer_is_independent(ws, method):
     steps = [None, (0.2, 0.1), (0.1, -0.3), (0.0, 0.2), (-0.1, 0.1), (0.3, 0.0)]
-    original = nightloc.Localizer(ws.map, grid_width=40, grid_height=30, seq_len=4)
+    options = METHODS[method]
+    original = nightloc.Localizer(ws.map, grid_width=40, grid_height=30, **options)
     _run(original, ws.frames[:3], steps[:3])
     for clone in (copy.copy(original), copy.deepcopy(original)):
-        assert clone._sequence is not original._sequence
+        assert _state_of(clone) is not _state_of(original)
         _run(clone, ws.frames[::-1], steps)  # the copy goes its own way ...
     # ... and the original answers as if no copy had been made (oracle: a localizer never copied)
-    oracle = nightloc.Localizer(ws.map, grid_width=40, grid_height=30, seq_len=4)
+    oracle = nightloc.Localizer(ws.map, grid_width=40, grid_height=30, **options)
     expected = _run(oracle, ws.frames, steps)
     assert _run(original, ws.frames[3:], steps[3:]) == expected[3:]
     # and a copy continues exactly like its original from the state it was copied in
-    first = nightloc.Localizer(ws.map, grid_width=40, grid_height=30, seq_len=4)
+    first = nightloc.Localizer(ws.map, grid_width=40, grid_height=30, **options)
     _run(first, ws.frames[:3], steps[:3])
     second = copy.copy(first)
     assert _run(second, ws.frames[3:], steps[3:]) == expected[3:]
 
 
-def test_a_localizer_used_from_two_threads_raises_one_clear_error(ws, monkeypatch):
+@pytest.mark.parametrize("method", list(METHODS))
+def test_a_localizer_used_from_two_threads_raises_one_clear_error(ws, monkeypatch, method):
     """An update running in one thread makes another thread's update raise RuntimeError at once
     (before any state changes); the localizer then goes on exactly as one never disturbed."""
-    localizer = nightloc.Localizer(ws.map, grid_width=40, grid_height=30, seq_len=3)
+    options = METHODS[method]
+    localizer = nightloc.Localizer(ws.map, grid_width=40, grid_height=30, **options)
     localizer.update(ws.frames[0])
     inside, release = threading.Event(), threading.Event()
-    real = localizer.mapper.place_excess
+    owner, name = (localizer.mapper, "place_excess") if method == "paper" else (localizer._filter, "step_image")
+    real = getattr(owner, name)
 
-    def slow_place_excess(scores):
+    def slow(*args):
         inside.set()
         release.wait(30)
-        return real(scores)
+        return real(*args)
 
-    monkeypatch.setattr(localizer.mapper, "place_excess", slow_place_excess)
+    monkeypatch.setattr(owner, name, slow)
     answers = []
     worker = threading.Thread(target=lambda: answers.append(localizer.update(ws.frames[1], (0.1, 0.0))))
     worker.start()
@@ -188,7 +200,7 @@ def test_a_localizer_used_from_two_threads_raises_one_clear_error(ws, monkeypatc
     release.set()
     worker.join(30)
     monkeypatch.undo()
-    oracle = nightloc.Localizer(ws.map, grid_width=40, grid_height=30, seq_len=3)
+    oracle = nightloc.Localizer(ws.map, grid_width=40, grid_height=30, **options)
     expected = _run(oracle, ws.frames[:3], [None, (0.1, 0.0), (0.1, 0.0)])
     assert answers == [expected[1]]
     assert localizer.update(ws.frames[2], (0.1, 0.0)) == expected[2]

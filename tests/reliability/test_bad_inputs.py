@@ -861,8 +861,13 @@ LOCALIZER = [
     ("Localizer map path", lambda ws: nightloc.Localizer(str(ws.map_file)), TypeError, "ReferenceMap"),
     ("Localizer params dict", lambda ws: nightloc.Localizer(ws.map, {"seq_len": 3}), TypeError, "LocalizationParams"),
     ("Localizer unknown parameter", lambda ws: nightloc.Localizer(ws.map, seqlen=3), TypeError, "seqlen"),
-    ("Localizer seq_len 0", lambda ws: nightloc.Localizer(ws.map, seq_len=0), ValueError, "seq_len"),
-    ("Localizer seq_len 10**9", lambda ws: nightloc.Localizer(ws.map, seq_len=10**9), ValueError, "seq_len"),
+    ("Localizer seq_len 0", lambda ws: nightloc.Localizer(ws.map, method="paper", seq_len=0), ValueError, "seq_len"),
+    (
+        "Localizer seq_len 10**9",
+        lambda ws: nightloc.Localizer(ws.map, method="paper", seq_len=10**9),
+        ValueError,
+        "seq_len",
+    ),
     (
         "Localizer huge grid",
         lambda ws: nightloc.Localizer(ws.map, grid_width=10**5, grid_height=10**5),
@@ -915,7 +920,7 @@ LOCALIZER = [
     ("Localizer.update_match text", lambda ws: _localizer(ws).update_match("match"), TypeError, "MatchResult"),
     (
         "Localizer.update_match other map",
-        lambda ws: _localizer(ws).update_match(nightloc.match(IMG, STACK)),
+        lambda ws: _localizer(ws, method="paper").update_match(nightloc.match(IMG, STACK)),
         ValueError,
         "references",
     ),

@@ -165,7 +165,9 @@ def test_a_confidence_radius_beyond_the_map_takes_bounded_memory_and_gives_exact
     radius = factor * _diagonal(ws.map)
     tracemalloc.start()
     try:
-        localizer = nightloc.Localizer(ws.map, grid_width=60, grid_height=40, seq_len=3, confidence_radius=radius)
+        localizer = nightloc.Localizer(
+            ws.map, grid_width=60, grid_height=40, method="paper", seq_len=3, confidence_radius=radius
+        )
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()

@@ -99,7 +99,8 @@ def _localizer_stream(seed: int, n_frames: int = 40):
 
 def _run_localizer(base, frames, stream, seq_len=5):
     order, odometry = stream
-    localizer = base.with_seq_len(seq_len)  # shares the base's grid and interpolation weights
+    # shares the base's grid and interpolation weights
+    localizer = base.with_seq_len(seq_len) if base.method == "paper" else base.fresh()
     out = []
     for index, motion in zip(order, odometry):
         estimate = localizer.update(frames[index], motion, return_heatmap=True)
@@ -109,12 +110,13 @@ def _run_localizer(base, frames, stream, seq_len=5):
     return out
 
 
-def test_independent_localizers_in_eight_threads_equal_serial(shared_map):
+@pytest.mark.parametrize("method", ["filter", "paper"])
+def test_independent_localizers_in_eight_threads_equal_serial(shared_map, method):
     """Eight Localizers over one shared map (sharing one grid and its interpolation weights),
-    each with its own stream: bit-identical estimates and heat maps to running them one after
-    the other."""
+    each with its own stream: bit-identical estimates and heat maps (the filter's belief) to
+    running them one after the other."""
     ref_map, frames = shared_map
-    base = nightloc.Localizer(ref_map)
+    base = nightloc.Localizer(ref_map, method=method)
     streams = [_localizer_stream(seed) for seed in range(THREADS)]
     serial = [_run_localizer(base, frames, stream) for stream in streams]
     with ThreadPoolExecutor(max_workers=THREADS) as pool:

@@ -85,7 +85,7 @@ def test_the_bound_keeps_projected_coordinates(ws):
     """UTM northings (to 1e7 m) and Web Mercator (to 2e7 m) stay accepted, and answer as the same
     map at the origin does (moved by the offset)."""
     for offset in ((5e5, 1e7), (-2.0e7, 2.0e7)):
-        far = nightloc.ReferenceMap(ws.map.images, ws.map.positions + offset)
+        far = nightloc.ReferenceMap(ws.map.images, ws.map.positions + offset, ws.map.headings)
         near = nightloc.Localizer(ws.map, grid_width=40, grid_height=30).update(ws.frames[2])
         moved = nightloc.Localizer(far, grid_width=40, grid_height=30).update(ws.frames[2])
         assert (moved.x - offset[0], moved.y - offset[1]) == pytest.approx((near.x, near.y), abs=1e-4)

@@ -176,7 +176,7 @@ def test_localizer_answers_on_awkward_layouts(layout, interpolation):
     """A night frame equal to reference i must be placed at reference i (within one grid cell)
     on every layout: flat heat maps (one place), lines, slivers thinner than a cell."""
     ref_map = _layout_map(LAYOUTS[layout])
-    localizer = nightloc.Localizer(ref_map, seq_len=1, interpolation=interpolation)
+    localizer = nightloc.Localizer(ref_map, method="paper", seq_len=1, interpolation=interpolation)
     cell = float(np.hypot(localizer.grid.dx, localizer.grid.dy))
     for i, image in enumerate(ref_map.images):
         estimate = localizer.update(image, prepared=True)
@@ -192,8 +192,8 @@ def test_localizer_answers_on_awkward_layouts(layout, interpolation):
 def test_localizer_far_from_the_origin_equals_the_map_at_the_origin(offset, interpolation):
     """Moving the whole map (and so the truth) by an offset moves every estimate by exactly that
     offset, to well under a millimetre: no precision is lost to large coordinates."""
-    near = nightloc.Localizer(_layout_map(_SCATTER), seq_len=3, interpolation=interpolation)
-    far = nightloc.Localizer(_layout_map(_SCATTER + offset), seq_len=3, interpolation=interpolation)
+    near = nightloc.Localizer(_layout_map(_SCATTER), method="paper", seq_len=3, interpolation=interpolation)
+    far = nightloc.Localizer(_layout_map(_SCATTER + offset), method="paper", seq_len=3, interpolation=interpolation)
     images = near.ref_map.images
     for i in (0, 8, 17, 29, 3, 12):
         odometry = None if i == 0 else (0.1, -0.2)
@@ -207,10 +207,42 @@ def test_localizer_far_from_the_origin_equals_the_map_at_the_origin(offset, inte
 def test_localizer_sequences_on_awkward_layouts(layout):
     """Sequences along the references, with exact odometry, end at the last reference."""
     ref_map = _layout_map(LAYOUTS[layout])
-    localizer = nightloc.Localizer(ref_map, seq_len=5)
+    localizer = nightloc.Localizer(ref_map, method="paper", seq_len=5)
     positions = ref_map.positions
     for i, image in enumerate(ref_map.images):
         odometry = None if i == 0 else tuple(positions[i] - positions[i - 1])
         estimate = localizer.update(image, odometry, prepared=True)
     cell = float(np.hypot(localizer.grid.dx, localizer.grid.dy))
     assert np.hypot(*(estimate.position - positions[-1])) <= 1.01 * cell
+
+
+@pytest.mark.parametrize("layout", list(LAYOUTS))
+def test_filter_answers_on_awkward_layouts(layout):
+    """The Bayes filter, from nothing, given one frame equal to reference i: its estimate lies at
+    reference i's place (within the estimate window of two cells) on every layout, with a finite
+    credible radius; a single place carries no position (the estimate is the grid's centre, the
+    place itself)."""
+    ref_map = _layout_map(LAYOUTS[layout])
+    localizer = nightloc.Localizer(ref_map)
+    cell = float(np.hypot(localizer.grid.dx, localizer.grid.dy))
+    for i, image in enumerate(ref_map.images):
+        localizer.reset()
+        estimate = localizer.update(image, prepared=True)
+        assert np.isfinite([estimate.x, estimate.y, estimate.credible_radius]).all()
+        assert 0.0 <= estimate.confidence <= 1.0
+        error = float(np.hypot(*(estimate.position - ref_map.positions[i])))
+        assert error <= 2.5 * cell, f"reference {i}: {error:.3g} m off (a cell is {cell:.3g} m)"
+
+
+@pytest.mark.parametrize("offset", list(FAR_AWAY.values()), ids=list(FAR_AWAY))
+def test_filter_far_from_the_origin_equals_the_map_at_the_origin(offset):
+    near = nightloc.Localizer(_layout_map(_SCATTER))
+    far = nightloc.Localizer(_layout_map(_SCATTER + offset))
+    images = near.ref_map.images
+    for i in (0, 8, 17, 29, 3, 12):
+        odometry = None if i == 0 else nightloc.RobotMotion(0.2, 0.0, 0.3)
+        a = near.update(images[i], odometry, prepared=True)
+        b = far.update(images[i], odometry, prepared=True)
+        np.testing.assert_allclose(b.position - offset, a.position, atol=1e-4)
+        assert a.ref_index == b.ref_index and a.heading == pytest.approx(b.heading, abs=1e-9)
+        assert a.credible_radius == pytest.approx(b.credible_radius, abs=1e-4)

@@ -157,7 +157,7 @@ def test_localizer_soak():
     night = np.clip(np.roll(images, 11, axis=2).astype(np.int16) + noise, 0, 255).astype(np.uint8)
     steps = np.diff(positions, axis=0, append=positions[:1])  # the step that leads to place i + 1
     odometry = [tuple(step + rng.normal(0, 0.05, 2)) for step in np.roll(steps, 1, axis=0)]
-    localizer = nightloc.Localizer(ref_map, seq_len=7, grid_width=50, grid_height=50)  # 50x50: CI time
+    localizer = nightloc.Localizer(ref_map, method="paper", seq_len=7, grid_width=50, grid_height=50)  # 50x50: CI time
 
     def step(i: int):
         estimate = localizer.update(night[i % lap], odometry[i % lap] if i else None, prepared=True)

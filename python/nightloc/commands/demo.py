@@ -10,6 +10,12 @@ world the demo builds the reference map from the day traverse, localizes every n
 frame for sequence lengths 1-10, odometry noise models 0-3 and interpolation on/off
 (:func:`nightloc.localization.evaluation.evaluate`), prints the median distance errors and writes
 ``OUT/<world>/errors.csv``, ``summary.csv`` and the figures, as ``nightloc evaluate`` does.
+
+Beside the paper's method it runs the grid Bayes filter (``Localizer``'s default) with map-frame
+odometry (rows ``method=filter`` of ``errors.csv``) and with wheel odometry
+(``errors_wheel.csv``: the paper's 10-frame sequences and the filter), prints both methods' median
+errors over the query frames from the 10th on per noise model, and draws
+``filter_vs_paper.png``.
 """
 
 from __future__ import annotations
@@ -22,7 +28,7 @@ from .._validate import MAX_REPEATS
 from ..figures import add_figure_format_option
 from ..io.atomic import make_folder, output_set
 from ..io.reference_map import ReferenceMap
-from ..localization.evaluation import EvaluationSettings, evaluate
+from ..localization.evaluation import Evaluation, EvaluationSettings, evaluate, match_traverse
 from ..localization.localizer import LocalizationParams
 
 #: (world, reference traverse, query traverse) pairs the demo evaluates.
@@ -33,6 +39,55 @@ PAPER_RESULTS = {
     "garden": "paper (real garden, night query): median ~0.5 m with 10-frame sequences",
     "living_room": "paper (real living room, night query): median up to ~0.25 m with 7-frame sequences under noise",
 }
+
+
+#: The paper's sequence length the filter is compared with, and the first query frame counted
+#: (1-based: a 10-frame sequence is full from the 10th frame on).
+COMPARE_SEQ_LEN = 10
+COMPARE_FROM = 10
+
+
+def comparison_errors(map_evaluation: Evaluation, wheel_evaluation: Evaluation) -> dict:
+    """``{odometry: {"paper": [errors per noise model], "filter": [...]}}`` over the frames from
+    :data:`COMPARE_FROM` on (interpolation on)."""
+    out = {}
+    for label, ev in (("map-frame odometry", map_evaluation), ("wheel odometry (RobotMotion)", wheel_evaluation)):
+        later = _frame_index(ev) >= COMPARE_FROM - 1
+        by_method = {"paper": [], "filter": []}
+        for model in ev.settings.noise_models:
+            for method in by_method:
+                mask = ev.select(noise_model=model, interpolation=True, method=method) & later
+                if method == "paper":
+                    mask &= ev.columns["seq_len"] == COMPARE_SEQ_LEN
+                by_method[method].append(ev.columns["error_m"][mask])
+        out[label] = by_method
+    return out
+
+
+def _frame_index(evaluation: Evaluation):
+    import numpy as np
+
+    index = np.zeros(len(evaluation), dtype=int)
+    for m in evaluation.matches:
+        rows = evaluation.columns["query"] == m.name
+        lookup = {image: k for k, image in enumerate(m.images)}
+        index[rows] = [lookup[i] for i in evaluation.columns["image"][rows]]
+    return index
+
+
+def comparison_table(map_evaluation: Evaluation, wheel_evaluation: Evaluation) -> str:
+    """The medians of :func:`comparison_errors` as text: rows odometry x method, columns noise models."""
+    import numpy as np
+
+    errors = comparison_errors(map_evaluation, wheel_evaluation)
+    models = map_evaluation.settings.noise_models
+    header = f"{'odometry':<30}{'method':<16}" + "".join(f"noise {m:<4}" for m in models)
+    lines = [header, "-" * len(header)]
+    for label, by_method in errors.items():
+        for method, name in (("paper", f"paper, n={COMPARE_SEQ_LEN}"), ("filter", "Bayes filter")):
+            cells = "".join(f"{np.median(e):<10.2f}" if e.size else f"{'-':<10}" for e in by_method[method])
+            lines.append(f"{label:<30}{name:<16}{cells}")
+    return "\n".join(lines)
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -74,26 +129,32 @@ def run(args: argparse.Namespace) -> int:
     with output_set(args.out, command="demo", inputs=(cache,)) as out:
         print(f"synthetic dataset in {cache} (generated on first use, ~10 s)", flush=True)
         folders = default_dataset(cache_dir=cache)
-        settings = EvaluationSettings(repeats=args.repeats, seed=args.seed)
+        settings = EvaluationSettings(repeats=args.repeats, seed=args.seed, methods=("paper", "filter"))
+        wheel = EvaluationSettings(
+            seq_lengths=(COMPARE_SEQ_LEN,),
+            interpolation=(True,),
+            repeats=args.repeats,
+            seed=args.seed,
+            odometry="robot",
+            methods=("paper", "filter"),
+        )
         params = LocalizationParams()
         reports = []
         for world, reference, query in DEMO_PAIRS:
             ref_map = ReferenceMap.build(folders[world][reference])
-            evaluation = evaluate(
-                ref_map,
-                folders[world][query],
-                settings,
-                params,
-                name=f"{world}/{query}",
-                progress_desc=f"{world}: evaluating",
-            )
+            matches = match_traverse(ref_map, folders[world][query], f"{world}/{query}", tables=True)
+            evaluation = evaluate(ref_map, matches, settings, params, progress_desc=f"{world}: evaluating")
+            wheel_evaluation = evaluate(ref_map, matches, wheel, params, progress_desc=f"{world}: wheel odometry")
             target = make_folder(out / world)
             written = [
                 evaluation.write_errors_csv(target / "errors.csv").name,
                 evaluation.write_summary_csv(target / "summary.csv").name,
+                wheel_evaluation.write_errors_csv(target / "errors_wheel.csv").name,
             ]
             if not args.no_figures:
+                from ..figures._common import figure_path
                 from ..figures.evaluation import save_evaluation_figures
+                from ..figures.filter import comparison_figure
 
                 written += [
                     p.name
@@ -101,7 +162,16 @@ def run(args: argparse.Namespace) -> int:
                         evaluation, ref_map, target, params=params, figure_format=args.figure_format
                     )
                 ]
-            frames = len(evaluation.matches[0].results)
+                frames = len(matches.results)
+                figure = figure_path(target, "filter_vs_paper", args.figure_format)
+                comparison_figure(
+                    comparison_errors(evaluation, wheel_evaluation),
+                    f"{world}: night query frames {COMPARE_FROM}-{frames}, {args.repeats} noise draw(s) per model",
+                    figure,
+                    args.figure_format,
+                )
+                written.append(figure.name)
+            frames = len(matches.results)
             print()
             print(
                 f"{world}: {frames} night query frames against a day map of {len(ref_map)} images; "
@@ -109,6 +179,12 @@ def run(args: argparse.Namespace) -> int:
             )
             print(evaluation.table(off_column=True))
             print(PAPER_RESULTS[world])
+            print()
+            print(
+                f"{world}: the Bayes filter beside the paper's method (n = {COMPARE_SEQ_LEN}), median distance "
+                f"error (m) over frames {COMPARE_FROM}-{frames}, {args.repeats} noise draw(s):"
+            )
+            print(comparison_table(evaluation, wheel_evaluation))
             reports.append(f"{args.out / world}/" + ", ".join(written))
     for report in reports:
         print(f"wrote {report}")

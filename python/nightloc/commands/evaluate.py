@@ -1,7 +1,8 @@
 """``nightloc evaluate``: the paper's 2D localization experiments on any pair of traverses.
 
-    nightloc evaluate REFERENCE QUERY --out OUT [--seq-lengths 1-10] [--noise-models 0,1,2,3]
-                      [--interpolation on,off] [--repeats 1] [--seed 0] [--odometry map|robot]
+    nightloc evaluate REFERENCE QUERY --out OUT [--method paper,filter] [--seq-lengths 1-10]
+                      [--noise-models 0,1,2,3] [--interpolation on,off] [--repeats 1] [--seed 0]
+                      [--odometry map|robot|log] [--odometry-noise 1|DIST,HEADING]
                       [--params FILE.toml] [--heatmap-frames 12,30] [--no-figures] [--figure-format png|pdf|svg]
 
 REFERENCE is a traverse folder with poses (``images/`` + ``poses.csv``) or a map file written
@@ -10,8 +11,16 @@ folder OUT as one set (:func:`nightloc.io.atomic.output_set`: complete or unchan
 into OUT at the same time refuses; files in OUT that nightloc did not write are kept):
 
 * ``OUT/errors.csv``: one row per query frame and configuration, columns
-  ``query,image,seq_len,noise_model,interpolation,repeat,x_est,y_est,x_true,y_true,error_m,ref_index``;
-* ``OUT/summary.csv``: ``seq_len,noise_model,interpolation,n,median_m,mean_m,p90_m``;
+  ``query,image,seq_len,noise_model,interpolation,repeat,x_est,y_est,x_true,y_true,error_m,ref_index,method``
+  (``method`` paper or filter; the filter's ``seq_len`` is the number of frames seen so far;
+  ``noise_model`` -1 with ``--odometry log``);
+* ``OUT/summary.csv``: ``seq_len,noise_model,interpolation,n,median_m,mean_m,p90_m,method`` (the
+  filter's rows summarize all its frames, seq_len 0);
+
+``--method`` picks the paper's sequence matching (default: the paper's experiments), the grid
+Bayes filter, or both; ``--odometry`` simulated map-frame displacements (the paper), simulated
+wheel odometry, or ``log``: the query's own ``odometry.csv`` (a robot's real odometry evaluated
+against its poses; ``--odometry-noise`` is then the noise the filter assumes).
 * figures (unless ``--no-figures``): ``error_vs_seq_len.png``, ``error_vs_noise.png``,
   ``error_vs_interpolation.png`` (the paper's Figures 10-12) and ``heatmap_frame<i>.png``
   (Figure 9); ``.pdf`` or ``.svg`` with ``--figure-format``.
@@ -20,6 +29,7 @@ into OUT at the same time refuses; files in OUT that nightloc did not write are 
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import time
 from pathlib import Path
@@ -30,8 +40,9 @@ from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set
 from ..io.reference_map import ReferenceMap
 from ..io.traverse import load_traverse
-from ..localization.evaluation import EvaluationSettings, evaluate, match_traverse
+from ..localization.evaluation import EVALUATION_METHODS, EvaluationSettings, evaluate, match_traverse
 from ..localization.localizer import MAX_SEQ_LEN, LocalizationParams
+from ..localization.odometry import NoiseModel, noise_model
 from ..preparation.params import PreparationParams
 
 
@@ -52,10 +63,22 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--repeats", type=int, default=1, help="noise draws per noise model (default 1)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the noise draws (default 0)")
     parser.add_argument(
+        "--method",
+        default="paper",
+        help="paper (the paper's sequence matching, default), filter (the grid Bayes filter) or paper,filter",
+    )
+    parser.add_argument(
         "--odometry",
-        choices=["map", "robot"],
+        choices=["map", "robot", "log"],
         default="map",
-        help="simulated map-frame displacements (the paper, default) or robot-frame wheel odometry",
+        help="simulated map-frame displacements (the paper, default), simulated wheel odometry (robot), or the "
+        "query's own odometry.csv (log)",
+    )
+    parser.add_argument(
+        "--odometry-noise",
+        default="1",
+        help="with --odometry log: the odometry noise the filter assumes, a Table III model (0-3) or DIST,HEADING "
+        "standard deviations per frame in metres and radians (default 1)",
     )
     parser.add_argument("--params", type=Path, help="TOML file with [localization] and/or [preparation] tables")
     parser.add_argument("--heatmap-frames", help="query frames (0-based) for heat-map figures (default: one, chosen)")
@@ -99,6 +122,36 @@ def parse_interpolation(text: str) -> tuple[bool, ...]:
     return tuple(dict.fromkeys(out))
 
 
+def parse_methods(text: str) -> tuple[str, ...]:
+    """``"paper,filter"`` -> ``("paper", "filter")``; raises ValueError naming --method."""
+    methods = tuple(dict.fromkeys(part.strip().lower() for part in str(text).split(",")))
+    bad = [m for m in methods if m not in EVALUATION_METHODS]
+    if bad or not methods:
+        raise ValueError(f"--method: {bad[0] if bad else text!r} is not paper or filter (e.g. --method paper,filter)")
+    return methods
+
+
+def parse_noise(text: str, option: str = "--odometry-noise") -> int | NoiseModel:
+    """``"3"`` -> Table III model 3; ``"0.2,0.05"`` -> NoiseModel(0.2 m, 0.05 rad); raises ValueError."""
+    parts = [p.strip() for p in str(text).split(",")]
+    if len(parts) == 1:
+        try:
+            model = int(parts[0])
+        except ValueError:
+            raise ValueError(f"{option}: {text!r} is not a model number 0-3 or DIST,HEADING (e.g. 0.2,0.05)") from None
+        noise_model(model)  # checks the range
+        return model
+    if len(parts) != 2:
+        raise ValueError(f"{option}: {text!r} must be a model number 0-3 or DIST,HEADING (metres,radians)")
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        raise ValueError(f"{option}: {text!r} must be two numbers DIST,HEADING (metres,radians)") from None
+    if not all(math.isfinite(v) and v >= 0 for v in values):
+        raise ValueError(f"{option}: {text!r}: standard deviations must be finite and >= 0")
+    return NoiseModel(*values)
+
+
 def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
     """The :class:`EvaluationSettings` of the command-line options (checked)."""
     if args.seed < 0:
@@ -113,7 +166,14 @@ def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
     if bad:
         raise ValueError(f"--noise-models must be among 0,1,2,3 (the paper's Table III), got {bad[0]}")
     return EvaluationSettings(
-        seq_lengths, noise_models, parse_interpolation(args.interpolation), args.repeats, args.seed, args.odometry
+        seq_lengths,
+        noise_models,
+        parse_interpolation(args.interpolation),
+        args.repeats,
+        args.seed,
+        args.odometry,
+        parse_methods(args.method),
+        parse_noise(args.odometry_noise),
     )
 
 
@@ -134,6 +194,7 @@ def run(args: argparse.Namespace) -> int:
     )
     sections = load_params_file(args.params) if args.params is not None else {}
     localization = sections.get("localization", LocalizationParams())
+    filter_params = sections.get("filter")
     preparation = sections.get("preparation")
     inputs = (args.reference, args.query, args.params)
     check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
@@ -148,9 +209,15 @@ def run(args: argparse.Namespace) -> int:
     with output_set(args.out, command="evaluate", inputs=inputs) as out:
         start = time.perf_counter()
         ref_map = _load_reference(args.reference, preparation)
-        matches = match_traverse(ref_map, query, threads=args.threads)
+        matches = match_traverse(
+            ref_map,
+            query,
+            threads=args.threads,
+            tables="filter" in settings.methods,
+            odometry=settings.odometry == "log",
+        )
         matching_s = time.perf_counter() - start
-        evaluation = evaluate(ref_map, matches, settings, localization)
+        evaluation = evaluate(ref_map, matches, settings, localization, filter_params=filter_params)
         total_s = time.perf_counter() - start
 
         written = [
@@ -177,8 +244,13 @@ def run(args: argparse.Namespace) -> int:
         f"{len(matches.results)} query frames of {query.root} against {len(ref_map)} references: "
         f"{configs} configurations in {total_s:.1f} s (matching and preparation {matching_s:.1f} s)"
     )
-    for interp in settings.interpolation:
-        print(f"median distance error (m), interpolation {'on' if interp else 'off'}:")
-        print(evaluation.table(interpolation=interp))
+    if "paper" in settings.methods:
+        for interp in settings.interpolation:
+            print(f"the paper's method: median distance error (m), interpolation {'on' if interp else 'off'}:")
+            print(evaluation.table(interpolation=interp))
+    if "filter" in settings.methods:
+        first = min(10, len(matches.results))
+        print(f"the Bayes filter beside the paper's method: median distance error (m) over frames {first} on:")
+        print(evaluation.compare_table(first_frame=first))
     print(f"wrote {args.out}/" + ", ".join(written))
     return 0

@@ -412,8 +412,12 @@ def save_evaluation_figures(
     ``<prefix>error_vs_seq_len.<fmt>``, ``<prefix>error_vs_noise.<fmt>``,
     ``<prefix>error_vs_interpolation.<fmt>`` (when both settings ran) and
     ``<prefix>heatmap_frame<i>.<fmt>`` for each heat-map frame (default: :func:`pick_heatmap_frame`),
-    where ``fmt`` is ``figure_format`` (png, pdf or svg).
+    where ``fmt`` is ``figure_format`` (png, pdf or svg); from the paper's method's rows (none
+    when only the filter ran: it has its own figures).
     """
+    evaluation = evaluation.subset("paper")
+    if len(evaluation) == 0:
+        return []
     matches = next((m for m in evaluation.matches if query is None or m.name == query), None)
     if matches is None:
         raise ValueError(f"no query named {query!r} in the evaluation")

@@ -34,6 +34,7 @@ def trajectory_figure(
     references: object,
     estimates: object,
     truth: object | None = None,
+    credible_radius: object | None = None,
     title: str = "Localized trajectory",
     caption: str | None = None,
     path: PathLike | None = None,
@@ -47,14 +48,30 @@ def trajectory_figure(
         estimates: ``(N, 2)`` estimated positions in frame order, metres (blue line and dots;
             rows with NaN break the line).
         truth: optional ``(N, 2)`` true positions, metres (black line).
+        credible_radius: optional ``(N,)`` metres, the localizer's uncertainty per frame (the Bayes
+            filter's ``Estimate.credible_radius``): a light disk around each estimate, and a
+            dashed line beside the error per frame.
         title, caption: the figure's title, and a line under it (e.g. the data and parameters).
     """
     refs = _points(references, "references")
     est = _points(estimates, "estimates")
     true = None if truth is None else _points(truth, "truth", est.shape[0])
+    radius = None
+    if credible_radius is not None:
+        radius = np.asarray(credible_radius, dtype=np.float64).reshape(-1)
+        if radius.shape[0] != est.shape[0]:
+            raise ValueError(f"credible_radius must have one value per estimate ({est.shape[0]}), got {radius.shape}")
     fig, axes = new_figure(11.0, 5.2, 1, 2, width_ratios=[1.3, 1.0]) if true is not None else new_figure(7.0, 5.6)
     ax = axes[0] if true is not None else axes
     ax.scatter(refs[:, 0], refs[:, 1], s=12, color="0.6", linewidths=0, label=f"references ({len(refs)})", zorder=1)
+    if radius is not None:
+        from matplotlib.patches import Circle
+
+        for (x, y), r in zip(est, radius):
+            if np.isfinite([x, y, r]).all():
+                # an artist, not a patch: large early disks must not widen the axes
+                ax.add_artist(Circle((x, y), r, facecolor="tab:blue", edgecolor="none", alpha=0.06, zorder=0))
+        ax.plot([], [], "o", color="tab:blue", alpha=0.25, markersize=10, label="credible radius")
     if true is not None:
         ax.plot(true[:, 0], true[:, 1], color="black", linewidth=1.5, label="truth", zorder=2)
         segments = np.full((3 * len(est), 2), np.nan)
@@ -69,6 +86,9 @@ def trajectory_figure(
         errors = np.hypot(*(est - true).T)
         panel = axes[1]
         panel.plot(np.arange(len(errors)), errors, color="tab:red", linewidth=1.0, marker=".", markersize=4)
+        if radius is not None:
+            panel.plot(np.arange(len(radius)), radius, color="tab:blue", linestyle="--", linewidth=1.0,
+                       label="credible radius")  # fmt: skip
         finite = errors[np.isfinite(errors)]
         if finite.size:
             median = float(np.median(finite))

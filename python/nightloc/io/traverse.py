@@ -37,6 +37,7 @@ from ..progress import progress
 from .atomic import atomic_folder
 from .files import check_regular
 from .images import IMAGE_SUFFIXES, list_images, read_image_file, write_image_file
+from .odometry_csv import ODOMETRY_FILE, odometry_values, write_odometry_csv
 from .poses import checked_poses, poses_from_rows, read_pose_csv, write_pose_csv
 from .video import VIDEO_SUFFIXES, read_video_frames, video_frame_count
 
@@ -450,7 +451,7 @@ def _checked_names(names: Sequence[str] | None, image_format: str) -> list | Non
 
 def _looks_like_traverse(folder: Path) -> bool:
     entries = {entry.name for entry in os.scandir(folder)}
-    return _IMAGE_DIR in entries and entries <= {_IMAGE_DIR, _POSE_FILE}
+    return _IMAGE_DIR in entries and entries <= {_IMAGE_DIR, _POSE_FILE, ODOMETRY_FILE}
 
 
 def save_traverse(
@@ -460,10 +461,11 @@ def save_traverse(
     headings: object | None = None,
     names: Sequence[str] | None = None,
     *,
+    odometry: Sequence[object] | None = None,
     image_format: str = "png",
     overwrite: bool = False,
 ) -> Traverse:
-    """Writes a traverse folder (``images/`` + ``poses.csv``) atomically and opens it.
+    """Writes a traverse folder (``images/`` + ``poses.csv`` [+ ``odometry.csv``]) atomically and opens it.
 
     The folder is built in a temporary sibling and renamed into place at the end, so an error or
     an interruption never leaves a half-written traverse at ``path``. Images are streamed: an
@@ -475,9 +477,13 @@ def save_traverse(
         positions: ``(N, 2)`` metres, or None for a route traverse (no ``poses.csv``).
         headings: ``(N,)`` radians (wrapped to (-pi, pi]), or None; needs positions.
         names: the N file names (default ``000000.<format>``, ``000001.<format>``, ...).
+        odometry: N motions, the robot's odometry since the previous frame (element 0 is not
+            used; None is written as zero): ``nightloc.RobotMotion`` (wheel odometry, written as
+            ``image,forward,left,turn``) or ``MapDisplacement`` / ``(dx, dy)`` (``image,dx,dy``);
+            written to ``odometry.csv`` (:mod:`nightloc.io.odometry_csv`).
         image_format: file suffix of the default names (``png``, ``jpg``, ``bmp``, ``tif``, ...).
         overwrite: replace an existing traverse folder at ``path`` (a folder holding anything
-            else than ``images/`` and ``poses.csv`` is never replaced).
+            else than ``images/``, ``poses.csv`` and ``odometry.csv`` is never replaced).
 
     The parent folder of ``path`` must exist (FileNotFoundError); a symbolic link at ``path`` is
     followed; another process saving to the same ``path`` makes this call raise
@@ -496,6 +502,16 @@ def save_traverse(
         )
     pos, head = checked_poses(positions, headings)
     file_names = _checked_names(names, fmt)
+    motions = None
+    if odometry is not None:
+        if isinstance(odometry, (str, bytes)) or not hasattr(odometry, "__len__"):
+            raise TypeError(
+                "odometry must be a sequence of motions (one per image), e.g. a list of nightloc.RobotMotion"
+            )
+        motions = list(odometry)
+        odometry_values(motions)  # checks every motion before anything is written
+        if pos is not None and len(motions) != len(pos):
+            raise ValueError(f"{len(motions)} odometry rows but {len(pos)} positions")
     expected = len(pos) if pos is not None else (len(file_names) if file_names is not None else None)
     if pos is not None and file_names is not None and len(file_names) != len(pos):
         raise ValueError(f"{len(file_names)} names but {len(pos)} positions")
@@ -505,7 +521,8 @@ def save_traverse(
                 raise FileExistsError(f"{target} exists; pass overwrite=True to replace it")
             if not target.is_dir() or not _looks_like_traverse(target):
                 raise FileExistsError(
-                    f"{target} exists and is not a traverse folder (only images/ and poses.csv); refusing to replace it"
+                    f"{target} exists and is not a traverse folder (only images/, poses.csv and odometry.csv); "
+                    f"refusing to replace it"
                 )
         image_dir = staging / _IMAGE_DIR
         image_dir.mkdir()
@@ -525,4 +542,8 @@ def save_traverse(
             raise ValueError(f"{len(written)} images but {expected} positions/names")
         if pos is not None:
             write_pose_csv(staging / _POSE_FILE, written, pos, head)
+        if motions is not None:
+            if len(motions) != len(written):
+                raise ValueError(f"{len(motions)} odometry rows but {len(written)} images")
+            write_odometry_csv(staging / ODOMETRY_FILE, written, motions)
     return load_traverse(target)

@@ -2,7 +2,7 @@
 
 For a reference map and a query traverse with ground-truth poses, :func:`evaluate` runs the
 :class:`~nightloc.Localizer` over the whole query traverse (in its order, as a robot would see
-it) for every combination of
+it), with the paper's method (``methods`` holds ``"paper"``, the default) for every combination of
 
 * sequence length ``n`` (default 1..10; at the start of the traverse a sequence holds the frames
   it has),
@@ -12,9 +12,18 @@ it) for every combination of
 * repeat (independent noise draws; the same draw is shared by all ``n`` and both interpolation
   settings, so their comparison is paired),
 
-and records, per query frame, the estimate and its distance error (the paper's Figures 10-12,
-16-18, 21-22). Frames are matched against the map once (:func:`nightloc.difference_matrix`); each
+and, when ``methods`` holds ``"filter"``, with the grid Bayes filter once per noise model, draw
+and interpolation setting (told the run's noise model; its rows' ``seq_len`` holds the frames
+seen so far, 1..N). It records, per query frame, the estimate and its distance error (the
+paper's Figures 10-12, 16-18, 21-22). Frames are matched against the map once
+(:func:`nightloc.difference_matrix`, and for the filter the whole rotational tables); each
 configuration reuses those scores.
+
+Odometry (``EvaluationSettings.odometry``): ``"map"`` simulates map-frame displacements from the
+ground truth (the paper), ``"robot"`` wheel odometry (:class:`~nightloc.RobotMotion`), both with
+the Table III noise models; ``"log"`` uses the query's own ``odometry.csv`` (a robot's real
+odometry evaluated against its poses; ``noise_model`` is then -1 in the outputs and the filter
+assumes ``log_noise``).
 
 Outputs (:meth:`Evaluation.write_errors_csv`, :meth:`Evaluation.write_summary_csv`, written
 atomically) have the headers :data:`ERRORS_HEADER` and :data:`SUMMARY_HEADER`.
@@ -38,14 +47,24 @@ from ..errors import DatasetError
 from ..io.atomic import atomic_file
 from ..io.reference_map import ReferenceMap
 from ..io.traverse import Traverse, load_traverse
-from ..matching.sad import MatchResult, difference_matrix, shifts_to_headings
+from ..matching.sad import MatchResult, difference_matrix, rotational_sad, shifts_to_headings
 from ..preparation.preparer import Preparer
 from ..progress import progress
+from .grid_filter import FilterParams
 from .localizer import Estimate, LocalizationParams, Localizer
-from .odometry import NOISE_MODELS, noise_model, simulate_map_odometry, simulate_robot_odometry
+from .odometry import (
+    NOISE_MODELS,
+    NoiseModel,
+    noise_model,
+    simulate_map_odometry,
+    simulate_robot_odometry,
+    traverse_odometry,
+)
 
 __all__ = [
     "ERRORS_HEADER",
+    "EVALUATION_METHODS",
+    "LOG_NOISE_MODEL",
     "SUMMARY_HEADER",
     "Evaluation",
     "EvaluationSettings",
@@ -73,9 +92,24 @@ ERRORS_HEADER: tuple[str, ...] = (
     "y_true",
     "error_m",
     "ref_index",
+    "method",
 )
-#: Columns of ``summary.csv``: one row per (seq_len, noise_model, interpolation).
-SUMMARY_HEADER: tuple[str, ...] = ("seq_len", "noise_model", "interpolation", "n", "median_m", "mean_m", "p90_m")
+#: Columns of ``summary.csv``: one row per (seq_len, noise_model, interpolation, method); the
+#: filter's rows summarize all its frames and have seq_len 0.
+SUMMARY_HEADER: tuple[str, ...] = (
+    "seq_len",
+    "noise_model",
+    "interpolation",
+    "n",
+    "median_m",
+    "mean_m",
+    "p90_m",
+    "method",
+)
+#: Methods :func:`evaluate` runs.
+EVALUATION_METHODS = ("paper", "filter")
+#: ``noise_model`` of rows whose odometry is the query's own log.
+LOG_NOISE_MODEL = -1
 
 
 @dataclass(frozen=True)
@@ -90,8 +124,13 @@ class EvaluationSettings:
             runs once whatever this says).
         seed: seed of the noise draws (draw r of model m uses ``default_rng([seed, m, r])``).
         odometry: ``"map"``: map-frame displacements with noise on step length and direction
-            (the paper); ``"robot"``: wheel-odometry readings (noise on step length and turn)
-            rotated into the map with the localizer's own heading estimate; needs headings.
+            (the paper); ``"robot"``: wheel-odometry readings (noise on step length and turn;
+            the paper's method rotates them into the map with its own heading estimate, the
+            filter per heading bin); needs headings; ``"log"``: the query's ``odometry.csv``
+            (noise models and repeats do not apply).
+        methods: ``("paper",)`` (default, the paper's experiments), ``("filter",)`` or both.
+        log_noise: the noise model the filter assumes for ``odometry="log"`` (a Table III
+            number or a NoiseModel).
     """
 
     seq_lengths: tuple[int, ...] = tuple(range(1, 11))
@@ -99,7 +138,9 @@ class EvaluationSettings:
     interpolation: tuple[bool, ...] = (True, False)
     repeats: int = 1
     seed: int = 0
-    odometry: Literal["map", "robot"] = "map"
+    odometry: Literal["map", "robot", "log"] = "map"
+    methods: tuple[str, ...] = ("paper",)
+    log_noise: int | NoiseModel = 1
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "seq_lengths", _unique_ints(self.seq_lengths, "seq_lengths", 1))
@@ -118,11 +159,23 @@ class EvaluationSettings:
             raise ValueError(f"repeats must be an int in 1..{MAX_REPEATS} (MAX_REPEATS), got {self.repeats!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
             raise ValueError(f"seed must be a non-negative int, got {self.seed!r}")
-        if self.odometry not in ("map", "robot"):
-            raise ValueError(f"odometry must be 'map' or 'robot', got {self.odometry!r}")
+        if self.odometry not in ("map", "robot", "log"):
+            raise ValueError(f"odometry must be 'map', 'robot' or 'log', got {self.odometry!r}")
+        methods = tuple(dict.fromkeys(self.methods))
+        if not methods or any(m not in EVALUATION_METHODS for m in methods):
+            raise ValueError(f"methods must be among {EVALUATION_METHODS}, got {self.methods!r}")
+        object.__setattr__(self, "methods", methods)
+        noise_model(self.log_noise)
+
+    @property
+    def models(self) -> tuple[int, ...]:
+        """The noise models run: the settings' ones, or :data:`LOG_NOISE_MODEL` for the log's odometry."""
+        return (LOG_NOISE_MODEL,) if self.odometry == "log" else self.noise_models
 
     def repeats_of(self, model: int) -> int:
-        """Noise draws for ``model``: 1 for the noise-free model 0, else ``repeats``."""
+        """Noise draws for ``model``: 1 for the noise-free model 0 and for the log, else ``repeats``."""
+        if model == LOG_NOISE_MODEL:
+            return 1
         noise = NOISE_MODELS[model]
         return 1 if noise.distance_std == 0 and noise.heading_std == 0 else int(self.repeats)
 
@@ -150,6 +203,9 @@ class QueryMatches:
         images: the N frame names.
         positions: ``(N, 2)`` true positions; ``headings``: ``(N,)`` or None.
         results: N :class:`~nightloc.MatchResult` (scores against every reference, headings).
+        tables: ``(N, n_refs, n_shifts)`` float32, every frame's whole rotational SAD table (the
+            filter's measurement), or None when not computed.
+        odometry: the query's own odometry (N motions, element 0 None), or None.
     """
 
     name: str
@@ -157,15 +213,34 @@ class QueryMatches:
     positions: np.ndarray
     headings: np.ndarray | None
     results: tuple[MatchResult, ...]
+    tables: np.ndarray | None = None
+    odometry: tuple | None = None
+
+
+#: Largest rotational tables :func:`match_traverse` keeps (bytes): frames x references x shifts x 4.
+MAX_TABLE_BYTES = 2 << 30
 
 
 def match_traverse(
-    ref_map: ReferenceMap, query: Traverse | PathLike, name: str | None = None, threads: int | None = None
+    ref_map: ReferenceMap,
+    query: Traverse | PathLike,
+    name: str | None = None,
+    threads: int | None = None,
+    *,
+    tables: bool = False,
+    odometry: bool | PathLike = False,
 ) -> QueryMatches:
     """Prepares every frame of ``query`` with the map's parameters and matches it against the map.
 
+    Args:
+        tables: also keep every frame's whole rotational table (what the filter needs; 4 bytes per
+            frame x reference x shift).
+        odometry: also read the query's own odometry: True for ``<query>/odometry.csv``, or the
+            CSV's path.
+
     Raises:
-        DatasetError: the query has no poses (ground truth is needed to evaluate).
+        DatasetError: the query has no poses (ground truth is needed to evaluate), or the
+            requested odometry file is missing or does not fit the frames.
     """
     traverse = query if isinstance(query, Traverse) else load_traverse(query)
     if traverse.positions is None:
@@ -173,10 +248,25 @@ def match_traverse(
             f"query traverse {traverse.root} has no poses; evaluation needs the true position of every frame "
             f"(poses.csv with columns image,x,y[,heading])"
         )
+    log = None
+    if odometry is not False:
+        log = tuple(traverse_odometry(traverse, None if odometry is True else odometry))
     prepared = Preparer(ref_map.params).prepare(traverse)
     if prepared.ndim == 2:
         prepared = prepared[np.newaxis]
     scores, shifts = difference_matrix(prepared, ref_map.images, shifts=ref_map.params.shifts, threads=threads)
+    table_array = None
+    if tables:
+        n_shifts = len(ref_map.params.shifts) if ref_map.params.shifts is not None else ref_map.params.width
+        size = len(prepared) * len(ref_map) * n_shifts * 4
+        if size > MAX_TABLE_BYTES:
+            raise ValueError(
+                f"the filter's rotational tables of {len(prepared)} frames x {len(ref_map)} references would take "
+                f"{size / 2**30:.1f} GB (at most {MAX_TABLE_BYTES / 2**30:.0f}); evaluate fewer frames (frame_step)"
+            )
+        table_array = np.stack(
+            [rotational_sad(q, ref_map.images, shifts=ref_map.params.shifts, threads=threads) for q in prepared]
+        )
     width = ref_map.params.width
     results = tuple(
         MatchResult(int(np.argmin(scores[i])), scores[i], shifts[i], shifts_to_headings(shifts[i], width), width)
@@ -188,11 +278,22 @@ def match_traverse(
         positions=np.asarray(traverse.positions, dtype=np.float64),
         headings=None if traverse.headings is None else np.asarray(traverse.headings, dtype=np.float64),
         results=results,
+        tables=table_array,
+        odometry=log,
     )
 
 
 def simulated_odometry(matches: QueryMatches, model: int, repeat: int, settings: EvaluationSettings) -> list[object]:
-    """The odometry fed to the localizer for each query frame (element 0 is None: no previous frame)."""
+    """The odometry fed to the localizer for each query frame (element 0 is None: no previous frame):
+    simulated from the ground truth with noise model ``model`` and draw ``repeat``, or the query's
+    own log (``settings.odometry == "log"``)."""
+    if settings.odometry == "log":
+        if matches.odometry is None:
+            raise DatasetError(
+                f"query {matches.name} was matched without its odometry log: match_traverse(..., odometry=True) reads "
+                f"<query>/odometry.csv"
+            )
+        return [None, *matches.odometry[1:]]
     rng = np.random.default_rng([settings.seed, model, repeat])
     if settings.odometry == "robot":
         if matches.headings is None:
@@ -222,7 +323,7 @@ def replay(
     settings = settings or EvaluationSettings()
     if not 0 <= frame < len(matches.results):
         raise ValueError(f"frame must be in 0..{len(matches.results) - 1}, got {frame}")
-    loc = Localizer(ref_map, params, seq_len=seq_len, interpolation=interpolation)
+    loc = Localizer(ref_map, params, method="paper", seq_len=seq_len, interpolation=interpolation)
     odometry = simulated_odometry(matches, noise, repeat, settings)
     for i in range(frame):
         loc.update_match(matches.results[i], odometry[i])
@@ -231,7 +332,7 @@ def replay(
 
 @dataclass(frozen=True)
 class SummaryRow:
-    """Distance-error statistics of one configuration (metres)."""
+    """Distance-error statistics of one configuration (metres); the filter's have seq_len 0."""
 
     seq_len: int
     noise_model: int
@@ -240,6 +341,7 @@ class SummaryRow:
     median_m: float
     mean_m: float
     p90_m: float
+    method: str = "paper"
 
 
 class Evaluation:
@@ -279,6 +381,7 @@ class Evaluation:
         noise_model: int | None = None,
         interpolation: bool | None = None,
         query: str | None = None,
+        method: str | None = None,
     ) -> np.ndarray:
         """Boolean row mask of the rows matching every given value."""
         mask = np.ones(len(self), dtype=bool)
@@ -287,10 +390,16 @@ class Evaluation:
             ("noise_model", noise_model),
             ("interpolation", interpolation),
             ("query", query),
+            ("method", method),
         ):
             if value is not None:
                 mask &= self.columns[column] == value
         return mask
+
+    def subset(self, method: str) -> Evaluation:
+        """The rows of one method (``"paper"`` or ``"filter"``) as an Evaluation."""
+        mask = self.select(method=method)
+        return Evaluation({c: v[mask] for c, v in self.columns.items()}, self.settings, self.matches)
 
     def errors(self, **selection) -> np.ndarray:
         """Distance errors (metres) of the rows matching ``selection`` (see :meth:`select`)."""
@@ -302,25 +411,39 @@ class Evaluation:
         return float(np.median(errors)) if errors.size else math.nan
 
     def summary(self, query: str | None = None) -> list[SummaryRow]:
-        """Statistics per (seq_len, noise_model, interpolation), in the settings' order."""
+        """Statistics per (seq_len, noise_model, interpolation) of the paper's rows, in the
+        settings' order, then per (noise_model, interpolation) of the filter's (seq_len 0)."""
         rows = []
-        for n in self.settings.seq_lengths:
-            for model in self.settings.noise_models:
-                for interp in self.settings.interpolation:
-                    e = self.errors(seq_len=n, noise_model=model, interpolation=interp, query=query)
-                    if e.size == 0:
-                        continue
-                    rows.append(
-                        SummaryRow(
-                            n,
-                            model,
-                            interp,
-                            int(e.size),
-                            float(np.median(e)),
-                            float(e.mean()),
-                            float(np.percentile(e, 90)),
-                        )
+
+        def add(e: np.ndarray, n: int, model: int, interp: bool, method: str) -> None:
+            if e.size:
+                rows.append(
+                    SummaryRow(
+                        n,
+                        model,
+                        interp,
+                        int(e.size),
+                        float(np.median(e)),
+                        float(e.mean()),
+                        float(np.percentile(e, 90)),
+                        method,
                     )
+                )
+
+        for n in self.settings.seq_lengths:
+            for model in self.settings.models:
+                for interp in self.settings.interpolation:
+                    e = self.errors(seq_len=n, noise_model=model, interpolation=interp, query=query, method="paper")
+                    add(e, n, model, interp, "paper")
+        for model in self.settings.models:
+            for interp in self.settings.interpolation:
+                add(
+                    self.errors(noise_model=model, interpolation=interp, query=query, method="filter"),
+                    0,
+                    model,
+                    interp,
+                    "filter",
+                )
         return rows
 
     def write_errors_csv(self, path: PathLike) -> Path:
@@ -344,6 +467,7 @@ class Evaluation:
                         _metres(c["y_true"][i]),
                         _metres(c["error_m"][i]),
                         int(c["ref_index"][i]),
+                        c["method"][i],
                     ]
                 )
         return Path(path)
@@ -363,6 +487,7 @@ class Evaluation:
                         _metres(row.median_m),
                         _metres(row.mean_m),
                         _metres(row.p90_m),
+                        row.method,
                     ]
                 )
         return Path(path)
@@ -373,18 +498,51 @@ class Evaluation:
         ``off_column`` adds a last column with interpolation off at the first noise model (when
         it was evaluated).
         """
-        models = self.settings.noise_models
+        models = self.settings.models
         extra = off_column and False in self.settings.interpolation and interpolation
-        header = f"{'n':>3} | " + " | ".join(f"noise {m}" for m in models)
+        header = f"{'n':>3} | " + " | ".join("log odom." if m == LOG_NOISE_MODEL else f"noise {m}" for m in models)
         if extra:
             header += f" | no interp. (noise {models[0]})"
         lines = [header, "-" * len(header)]
         for n in self.settings.seq_lengths:
-            cells = [self.median(seq_len=n, noise_model=m, interpolation=interpolation, query=query) for m in models]
+            cells = [
+                self.median(seq_len=n, noise_model=m, interpolation=interpolation, query=query, method="paper")
+                for m in models
+            ]
             line = f"{n:>3} | " + " | ".join(f"{v:7.2f}" for v in cells)
             if extra:
-                line += f" | {self.median(seq_len=n, noise_model=models[0], interpolation=False, query=query):7.2f}"
+                off = self.median(seq_len=n, noise_model=models[0], interpolation=False, query=query, method="paper")
+                line += f" | {off:7.2f}"
             lines.append(line)
+        return "\n".join(lines)
+
+    def filter_errors(self, first_frame: int = 10, **selection) -> np.ndarray:
+        """The filter's distance errors from its ``first_frame``-th frame on (1-based, as
+        ``seq_len`` counts them), of the rows matching ``selection``."""
+        mask = self.select(method="filter", **selection) & (self.columns["seq_len"] >= first_frame)
+        return self.columns["error_m"][mask]
+
+    def compare_table(self, query: str | None = None, first_frame: int = 10, seq_len: int = 10) -> str:
+        """Median error (m) per noise model: the paper's method at ``seq_len`` beside the filter,
+        both over the query frames from the ``first_frame``-th on (the filter's first frames
+        start from nothing, the paper's from short sequences)."""
+        lines = [f"noise | paper n={seq_len} | filter", "-" * 30]
+        index = np.zeros(len(self), dtype=int)
+        for m in self.matches:  # the frame index within its query
+            rows = self.columns["query"] == m.name
+            lookup = {image: k for k, image in enumerate(m.images)}
+            index[rows] = [lookup[i] for i in self.columns["image"][rows]]
+        later = index >= first_frame - 1
+        for model in self.settings.models:
+            paper = self.columns["error_m"][
+                self.select(seq_len=seq_len, noise_model=model, interpolation=True, query=query, method="paper") & later
+            ]
+            filt = self.columns["error_m"][
+                self.select(noise_model=model, interpolation=True, query=query, method="filter") & later
+            ]
+            cells = [f"{np.median(e):9.2f}" if e.size else "        -" for e in (paper, filt)]
+            label = "log" if model == LOG_NOISE_MODEL else str(model)
+            lines.append(f"{label:>5} | {cells[0]} | {cells[1]}")
         return "\n".join(lines)
 
 
@@ -400,6 +558,7 @@ def evaluate(
     name: str | None = None,
     threads: int | None = None,
     progress_desc: str | None = None,
+    filter_params: FilterParams | None = None,
 ) -> Evaluation:
     """Localizes every frame of ``query`` under every configuration of ``settings``.
 
@@ -413,6 +572,8 @@ def evaluate(
         name: the query's name in the ``query`` column (default its folder name).
         threads: matching threads (default all cores).
         progress_desc: progress-bar label (default "evaluating <name>").
+        filter_params: the filter's :class:`~nightloc.localization.grid_filter.FilterParams`
+            (default its defaults).
 
     Returns:
         :class:`Evaluation`.
@@ -421,39 +582,40 @@ def evaluate(
     params = params or LocalizationParams()
     if not isinstance(ref_map, ReferenceMap):
         raise TypeError(f"ref_map must be a nightloc.ReferenceMap, got {type(ref_map).__name__}")
-    matches = query if isinstance(query, QueryMatches) else match_traverse(ref_map, query, name, threads)
+    want_tables = "filter" in settings.methods
+    want_log = settings.odometry == "log"
+    if isinstance(query, QueryMatches):
+        matches = query
+        if want_tables and matches.tables is None:
+            raise ValueError("the filter needs the rotational tables: match_traverse(..., tables=True)")
+    else:
+        matches = match_traverse(ref_map, query, name, threads, tables=want_tables, odometry=want_log)
     if name is not None and isinstance(query, QueryMatches):
         matches = dataclasses.replace(matches, name=name)
     if settings.odometry == "robot" and matches.headings is None:
         raise DatasetError(f"query {matches.name} has no headings: robot-frame odometry needs them")
     if settings.odometry == "robot" and ref_map.headings is None:
         raise DatasetError("the reference map has no headings: robot-frame odometry needs them")
+    if want_log and matches.odometry is None:
+        raise DatasetError(f"query {matches.name} has no odometry log (match_traverse(..., odometry=True))")
     n_frames = len(matches.results)
-    jobs = [
-        (interp, model, repeat)
-        for interp in settings.interpolation
-        for model in settings.noise_models
-        for repeat in range(settings.repeats_of(model))
-    ]
-    bases = {interp: Localizer(ref_map, params, interpolation=interp) for interp in settings.interpolation}
+    draws = [(model, repeat) for model in settings.models for repeat in range(settings.repeats_of(model))]
     rows: dict[str, list[np.ndarray]] = {c: [] for c in ERRORS_HEADER}
     images = np.array(matches.images, dtype=object)
     query_names = np.full(n_frames, matches.name, dtype=object)
-    desc = progress_desc or f"evaluating {matches.name}"
-    total = len(jobs) * len(settings.seq_lengths)
-    work = ((job, n) for job in jobs for n in settings.seq_lengths)
     odometry_cache: dict[tuple[int, int], list[object]] = {}
-    for (interp, model, repeat), n in progress(work, total=total, desc=desc, unit="config"):
-        odometry = odometry_cache.get((model, repeat))
-        if odometry is None:
-            odometry = odometry_cache[(model, repeat)] = simulated_odometry(matches, model, repeat, settings)
-        loc = bases[interp].with_seq_len(n)
-        estimates = [loc.update_match(result, odometry[i]) for i, result in enumerate(matches.results)]
+
+    def odometry_of(model: int, repeat: int) -> list[object]:
+        if (model, repeat) not in odometry_cache:
+            odometry_cache[(model, repeat)] = simulated_odometry(matches, model, repeat, settings)
+        return odometry_cache[(model, repeat)]
+
+    def record(estimates: list[Estimate], seq_len: np.ndarray, model: int, interp: bool, repeat: int, method: str):
         x = np.array([e.x for e in estimates])
         y = np.array([e.y for e in estimates])
         rows["query"].append(query_names)
         rows["image"].append(images)
-        rows["seq_len"].append(np.full(n_frames, n))
+        rows["seq_len"].append(seq_len)
         rows["noise_model"].append(np.full(n_frames, model))
         rows["interpolation"].append(np.full(n_frames, interp))
         rows["repeat"].append(np.full(n_frames, repeat))
@@ -463,5 +625,41 @@ def evaluate(
         rows["y_true"].append(matches.positions[:, 1])
         rows["error_m"].append(np.hypot(x - matches.positions[:, 0], y - matches.positions[:, 1]))
         rows["ref_index"].append(np.array([e.ref_index for e in estimates]))
-    columns = {c: np.concatenate(v) for c, v in rows.items()}
+        rows["method"].append(np.full(n_frames, method, dtype=object))
+
+    work: list[tuple] = []
+    if "paper" in settings.methods:
+        work += [
+            ("paper", interp, model, repeat, n)
+            for interp in settings.interpolation
+            for model, repeat in draws
+            for n in settings.seq_lengths
+        ]
+    if "filter" in settings.methods:
+        work += [("filter", interp, model, repeat, 0) for interp in settings.interpolation for model, repeat in draws]
+    bases = (
+        {interp: Localizer(ref_map, params, method="paper", interpolation=interp) for interp in settings.interpolation}
+        if "paper" in settings.methods
+        else {}
+    )
+    desc = progress_desc or f"evaluating {matches.name}"
+    for method, interp, model, repeat, n in progress(work, total=len(work), desc=desc, unit="config"):
+        odometry = odometry_of(model, repeat)
+        if method == "paper":
+            loc = bases[interp].with_seq_len(n)
+            estimates = [loc.update_match(result, odometry[i]) for i, result in enumerate(matches.results)]
+            record(estimates, np.full(n_frames, n), model, interp, repeat, "paper")
+        else:
+            noise = settings.log_noise if model == LOG_NOISE_MODEL else model
+            loc = Localizer(
+                ref_map,
+                params,
+                method="filter",
+                odometry_noise=noise,
+                filter_params=filter_params,
+                interpolation=interp,
+            )
+            estimates = [loc.update_table(matches.tables[i], odometry[i]) for i in range(n_frames)]
+            record(estimates, np.arange(1, n_frames + 1), model, interp, repeat, "filter")
+    columns = {c: np.concatenate(v) if v else np.zeros(0) for c, v in rows.items()}
     return Evaluation(columns, settings, [matches])

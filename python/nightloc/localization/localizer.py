@@ -1,28 +1,34 @@
-"""The streaming 2D localizer: camera frame + odometry in, position and heading out.
+"""The streaming 2D localizer: camera frame + odometry in, position, heading and uncertainty out.
 
 ::
 
     ref_map = nightloc.ReferenceMap.load("garden.npz")
-    loc = nightloc.Localizer(ref_map, seq_len=7)
-    for frame, (dx, dy) in camera_and_odometry():
-        est = loc.update(frame, (dx, dy))          # or nightloc.RobotMotion(forward, left, turn)
-        print(est.x, est.y, est.heading, est.ref_index, est.confidence)
+    loc = nightloc.Localizer(ref_map, odometry_noise=1)   # the grid Bayes filter (default)
+    for frame, motion in camera_and_odometry():
+        est = loc.update(frame, nightloc.RobotMotion(forward, left, turn))   # or (dx, dy) in the map frame
+        print(est.x, est.y, est.heading, est.credible_radius, est.confidence)
 
-Each update (the paper's pipeline, docs/design.md steps 2-6):
+Two methods (docs/localization.md):
 
-1. prepares the frame with the map's own parameters (skipped for a prepared image);
-2. matches it against every reference, all rotations (eqs. 2-3, the compiled core);
-3. turns the scores into a heat map over the grid (:mod:`nightloc.localization.heatmap`, eq. 4);
-4. sums it with the heat maps of the previous ``seq_len - 1`` frames, each translated by the
-   odometry displacement since (:mod:`nightloc.localization.sequence`), and takes the hottest cell;
-5. estimates the heading from the reference closest to the estimate: its heading plus the
-   rotational match's relative heading (beyond the paper; NaN when the map has no headings).
+* ``method="filter"`` (default): the recursive grid Bayes filter over position x heading of
+  :mod:`nightloc.localization.grid_filter`: it predicts by the odometry with its noise
+  (``odometry_noise``: a Table III model number or a :class:`NoiseModel`), updates by the frame's
+  whole rotational SAD table, and reports position, heading, ``covariance``,
+  ``credible_radius`` and ``confidence`` (the belief within ``confidence_radius`` metres: low
+  means lost). One call into the compiled core per frame.
+* ``method="paper"``: Mount & Milford's 2D sequence matching, reproduced unchanged: each frame
+  (docs/design.md steps 2-6) is prepared with the map's parameters, matched against every
+  reference at every rotation (eqs. 2-3), turned into a heat map over the grid
+  (:mod:`nightloc.localization.heatmap`, eq. 4) and summed with the heat maps of the previous
+  ``seq_len - 1`` frames, each translated by the odometry displacement since
+  (:mod:`nightloc.localization.sequence`); the estimate is the hottest cell, the heading the
+  closest reference's heading plus its rotational match (NaN without map headings). A
+  :class:`RobotMotion` is rotated into the map frame with that heading estimate; ``None`` means
+  the motion is unknown: the sequence restarts from this frame.
 
-Odometry is the motion since the previous update (:mod:`nightloc.localization.odometry`): a map-frame
-``(dx, dy)`` / :class:`MapDisplacement`, or a robot-frame :class:`RobotMotion`, which is rotated
-into the map frame with the heading estimate (dead-reckoned from the previous estimate by the
-motion's turn). ``None`` means the motion is unknown: the sequence restarts from this frame.
-At the start, or after a restart, the sequence holds the frames it has (fewer than ``seq_len``).
+Odometry is the motion since the previous update (:mod:`nightloc.localization.odometry`): a
+map-frame ``(dx, dy)`` / :class:`MapDisplacement` or a robot-frame :class:`RobotMotion`; it is
+ignored on the first frame (and after :meth:`Localizer.reset`).
 """
 
 from __future__ import annotations
@@ -36,15 +42,24 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .._validate import MAX_GRID_CELLS, MAX_SEQUENCE_CELLS, StreamGuard, metres, thread_count
+from .._validate import (
+    MAX_GRID_CELLS,
+    MAX_SEQUENCE_CELLS,
+    StreamGuard,
+    metres,
+    same_image_size,
+    thread_count,
+    uint8_array,
+)
 from ..config import params_section
 from ..io.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, match
+from .grid_filter import MOTION_NONE, FilterParams, FilterState, GridFilter, motion_code
 from .heatmap import HeatMapper
-from .odometry import Motion, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
+from .odometry import Motion, NoiseModel, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
 from .sequence import cumulative_offsets
 
-__all__ = ["Estimate", "LocalizationParams", "Localizer"]
+__all__ = ["METHODS", "Estimate", "LocalizationParams", "Localizer"]
 
 _NO_OFFSETS = np.zeros((0, 2))
 
@@ -60,14 +75,17 @@ class LocalizationParams:
     Attributes:
         grid_width, grid_height: heat-map cells along x and y (the paper's 100 x 100).
         margin: metres between the outermost references and the outermost cell centres.
-        seq_len: frames per sequence, n (the paper: 1-10; its headline figures use 7).
+        seq_len: frames per sequence, n (the paper: 1-10; its headline figures use 7); only for
+            ``method="paper"``.
         interpolation: linear interpolation of scores between references (True) or the nearest
             reference (False; the estimate is then a reference position, the paper's comparison).
         outside: value of cells outside the reference hull: ``"lowest"`` (the frame's lowest
             heat: never preferred) or ``"nearest"`` (their nearest reference's).
         inversion: scores to heat, see :func:`nightloc.localization.heatmap.invert_scores` (``"range"``:
-            best 1, worst 0 per frame, so each frame weighs the same in a sequence).
-        confidence_radius: metres around the peak ignored when finding the second-best place.
+            best 1, worst 0 per frame, so each frame weighs the same in a sequence); the paper's
+            method only (the filter turns scores into likelihoods).
+        confidence_radius: metres: the paper's method ignores the cells this close to the peak
+            when finding the second-best place; the filter's confidence is the belief within it.
     """
 
     grid_width: int = 100
@@ -110,11 +128,22 @@ class Estimate:
         x, y: position estimate, metres in the map frame.
         heading: radians in (-pi, pi], or NaN when the map has no headings.
         ref_index: the reference closest to the estimate.
-        confidence: 0..1, how much the peak stands out (:class:`nightloc.localization.heatmap.HeatEstimate`).
-        frames: frames fused (1 .. seq_len).
-        best_ref: the single frame's best match (lowest score), and ``score`` its score.
-        heatmap: the fused heat map ``(grid_height, grid_width)`` (row 0 = lowest y), when asked.
-        frame_heatmap: this frame's own heat map, when asked.
+        confidence: 0..1. The filter: the belief within ``confidence_radius`` metres of the
+            estimate (low = lost). The paper's method: how much the peak stands out
+            (:class:`nightloc.localization.heatmap.HeatEstimate`).
+        frames: frames fused: the paper's method 1 .. seq_len; the filter, frames since the start
+            (or :meth:`Localizer.reset`).
+        best_ref: the single frame's best match (lowest score), and ``score`` its score (-1 and
+            NaN after a prediction without a frame).
+        heatmap: ``(grid_height, grid_width)`` (row 0 = lowest y), when asked: the paper's fused
+            heat map, or the filter's belief over position (summed over heading, sums to 1).
+        frame_heatmap: this frame's own heat map (inverted scores), when asked.
+        covariance: ``((xx, xy), (xy, yy))`` m^2, the filter's belief about its mean (a tuple, so
+            that estimates compare with ``==``; ``numpy.asarray`` makes it an array), None for the
+            paper's method.
+        credible_radius: metres around ``(x, y)`` holding ``credibility`` (default 0.9) of the
+            filter's belief (NaN for the paper's method).
+        method: ``"filter"`` or ``"paper"``.
     """
 
     x: float
@@ -127,6 +156,9 @@ class Estimate:
     score: float
     heatmap: np.ndarray | None = None
     frame_heatmap: np.ndarray | None = None
+    covariance: tuple[tuple[float, float], tuple[float, float]] | None = None
+    credible_radius: float = math.nan
+    method: str = "paper"
 
     @property
     def position(self) -> np.ndarray:
@@ -134,14 +166,26 @@ class Estimate:
         return np.array([self.x, self.y])
 
 
+#: Localization methods: the grid Bayes filter (default) and the paper's n-frame sum.
+METHODS = ("filter", "paper")
+
+
 class Localizer:
-    """Streaming 2D localization against a reference map (single frames or sequences).
+    """Streaming 2D localization against a reference map.
 
     Args:
         ref_map: the :class:`~nightloc.ReferenceMap` (prepared day images with poses).
-        params: :class:`LocalizationParams` (default: the paper's values, seq_len 7).
+        params: :class:`LocalizationParams` (grid, margin, interpolation, ...; default: the
+            paper's values).
+        method: ``"filter"`` (default, the grid Bayes filter) or ``"paper"`` (the paper's sum of
+            the last ``seq_len`` heat maps, unchanged).
+        odometry_noise: the filter's odometry noise per frame: a Table III model number (0-3) or
+            a :class:`NoiseModel` (metres on the step length, radians on the turn or step
+            direction). Default 1 (0.1 m, 0.02 rad).
+        filter_params: :class:`~nightloc.localization.grid_filter.FilterParams` of the filter.
         threads: matching threads (default 1: one core per frame, the robot's budget).
-        **overrides: fields of ``params`` to replace, e.g. ``seq_len=10, interpolation=False``.
+        **overrides: fields of ``params`` or ``filter_params`` to replace, e.g.
+            ``grid_width=80, likelihood_gain=2.5``; ``seq_len`` only with ``method="paper"``.
 
     The grid, triangulation and interpolation weights are computed here, once.
 
@@ -152,21 +196,47 @@ class Localizer:
     """
 
     def __init__(
-        self, ref_map: ReferenceMap, params: LocalizationParams | None = None, *, threads: int = 1, **overrides: Any
+        self,
+        ref_map: ReferenceMap,
+        params: LocalizationParams | None = None,
+        *,
+        method: str = "filter",
+        odometry_noise: int | NoiseModel = 1,
+        filter_params: FilterParams | None = None,
+        threads: int = 1,
+        **overrides: Any,
     ):
         if not isinstance(ref_map, ReferenceMap):
             raise TypeError(f"ref_map must be a nightloc.ReferenceMap, got {type(ref_map).__name__}")
+        if method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         params = LocalizationParams() if params is None else params
         if not isinstance(params, LocalizationParams):
             raise TypeError(f"params must be a LocalizationParams, got {type(params).__name__}")
+        filter_params = FilterParams() if filter_params is None else filter_params
+        if not isinstance(filter_params, FilterParams):
+            raise TypeError(f"filter_params must be a FilterParams, got {type(filter_params).__name__}")
         if overrides:
-            names = {f.name for f in dataclasses.fields(LocalizationParams)}
-            unknown = sorted(set(overrides) - names)
+            loc_names = {f.name for f in dataclasses.fields(LocalizationParams)}
+            filter_names = {f.name for f in dataclasses.fields(FilterParams)}
+            unknown = sorted(set(overrides) - loc_names - filter_names)
             if unknown:
-                raise TypeError(f"unknown localization parameter(s) {unknown}; known: {sorted(names)}")
-            params = dataclasses.replace(params, **overrides)
+                raise TypeError(
+                    f"unknown localization parameter(s) {unknown}; known: {sorted(loc_names | filter_names)}"
+                )
+            if "seq_len" in overrides and method != "paper":
+                raise ValueError(
+                    "seq_len is the paper's sequence length: pass method='paper' to sum the last seq_len heat maps "
+                    "(the default method, the Bayes filter, uses every frame and has no sequence length)"
+                )
+            params = dataclasses.replace(params, **{k: v for k, v in overrides.items() if k in loc_names})
+            filter_params = dataclasses.replace(
+                filter_params, **{k: v for k, v in overrides.items() if k in filter_names}
+            )
         self.ref_map = ref_map
+        self.method = method
         self.params = params
+        self.filter_params = filter_params
         self.threads = thread_count(threads)  # checked here, not at the first frame
         self.mapper = HeatMapper(
             ref_map.positions,
@@ -180,7 +250,20 @@ class Localizer:
         )
         self._shifts = ref_map.params.shifts
         self._prepared_shape = (ref_map.params.height, ref_map.params.width)
-        self._sequence = self.mapper.sequence(params.seq_len)
+        if method == "filter":
+            self._filter: GridFilter | None = GridFilter(
+                self.mapper,
+                ref_map.headings,
+                ref_map.params.width,
+                self._shifts,
+                filter_params,
+                odometry_noise,
+                params.confidence_radius,
+            )
+            self._sequence = None
+        else:
+            self._filter = None
+            self._sequence = self.mapper.sequence(params.seq_len)
         self._guard = StreamGuard("Localizer")  # one thread at a time (see the class docstring)
         self.reset()
 
@@ -188,17 +271,45 @@ class Localizer:
         with self._guard("copy"):
             clone = object.__new__(Localizer)
             clone.__dict__.update(self.__dict__)
-            clone._sequence = copy.deepcopy(self._sequence)  # the frames' heat maps: not shared
-            clone._motions = deque(self._motions, maxlen=self._motions.maxlen)
+            if self._filter is not None:
+                clone._filter = copy.copy(self._filter)  # the belief: not shared
+            else:
+                clone._sequence = copy.deepcopy(self._sequence)  # the frames' heat maps: not shared
+                clone._motions = deque(self._motions, maxlen=self._motions.maxlen)
             clone._guard = StreamGuard("Localizer")
+        return clone
+
+    def fresh(self) -> Localizer:
+        """A new localizer for the same map, method and parameters, sharing this one's grid and
+        interpolation weights (no recomputation), with nothing seen yet: e.g. one per robot or
+        thread over one map."""
+        clone = object.__new__(Localizer)
+        clone.__dict__.update(self.__dict__)
+        if self._filter is not None:
+            f = self._filter
+            clone._filter = GridFilter(
+                self.mapper,
+                self.ref_map.headings,
+                self.ref_map.params.width,
+                self._shifts,
+                self.filter_params,
+                f.noise,
+                self.params.confidence_radius,
+            )
+        else:
+            clone._sequence = self.mapper.sequence(self.params.seq_len)
+        clone._guard = StreamGuard("Localizer")
+        clone.reset()
         return clone
 
     def with_seq_len(self, seq_len: int) -> Localizer:
         """A new localizer for the same map and parameters but another sequence length.
 
         It shares this one's grid and interpolation weights (no recomputation) and starts with
-        an empty sequence; useful to evaluate several sequence lengths.
+        an empty sequence; useful to evaluate several sequence lengths. The paper's method only.
         """
+        if self.method != "paper":
+            raise ValueError("with_seq_len is for method='paper' (the filter has no sequence length)")
         params = dataclasses.replace(self.params, seq_len=seq_len)
         clone = object.__new__(Localizer)
         clone.__dict__.update(self.__dict__)
@@ -218,15 +329,53 @@ class Localizer:
         """The current heading estimate (radians, NaN if unknown)."""
         return self._heading
 
+    @property
+    def noise(self) -> NoiseModel:
+        """The filter's odometry noise model (the paper's method does not use one)."""
+        return self._require_filter("noise").noise
+
+    @noise.setter
+    def noise(self, value: int | NoiseModel) -> None:
+        self._require_filter("noise").set_noise(value)
+
+    @property
+    def belief(self) -> np.ndarray:
+        """The filter's belief over position, ``(grid_height, grid_width)`` float64 summing to 1
+        (summed over heading); row 0 is the lowest y, see :attr:`grid`."""
+        return self._require_filter("belief").marginal()
+
+    @property
+    def pose_belief(self) -> np.ndarray:
+        """The filter's whole belief ``(bins, grid_height, grid_width)`` float64 (one bin while it
+        is position-only); bin b is centred on heading ``heading_offset + 2 pi b / bins``."""
+        return self._require_filter("pose_belief").belief()
+
+    @property
+    def heading_offset(self) -> float:
+        """Radians: the centre of the filter's heading bin 0."""
+        return self._require_filter("heading_offset").offset
+
+    def _require_filter(self, what: str) -> GridFilter:
+        if self._filter is None:
+            raise AttributeError(
+                f"{what} is the Bayes filter's (method='filter'); this localizer runs the paper's method"
+            )
+        return self._filter
+
     def reset(self) -> None:
-        """Forgets the sequence and the heading (e.g. after the robot was carried elsewhere)."""
+        """Forgets everything seen (e.g. after the robot was carried elsewhere): the paper's
+        sequence, or the filter's belief (uniform again); and the heading."""
         with self._guard("reset"):
             self._reset()
 
     def _reset(self) -> None:
+        self._heading = math.nan
+        self._frames = 0
+        if self._filter is not None:
+            self._filter.reset()
+            return
         self._sequence.clear()  # the frames' excess heat maps and fill values (in the core)
         self._motions: deque[Motion] = deque(maxlen=max(self.params.seq_len - 1, 1))
-        self._heading = math.nan
 
     def update(
         self,
@@ -253,11 +402,100 @@ class Localizer:
         query = frame if prepared else self.ref_map.preparer.prepare(frame)
         if isinstance(query, np.ndarray) and query.ndim != 2:
             raise ValueError(f"update takes one frame, got an array of shape {query.shape}; loop over its frames")
+        if self._filter is not None:
+            query = uint8_array(query, 2, "frame")
+            same_image_size(query, self.ref_map.images, "the prepared frame's", "the map's")
+            with self._guard("update"):
+                motion = self._motion(odometry)
+                state = self._filter.step_image(np.ascontiguousarray(query), self.ref_map.images, motion, self.threads)
+                return self._filter_estimate(state, return_heatmap)
         result = match(query, self.ref_map.images, shifts=self._shifts, threads=self.threads)
         return self.update_match(result, odometry, return_heatmap=return_heatmap)
 
+    def update_table(self, table: np.ndarray, odometry: object = None, *, return_heatmap: bool = False) -> Estimate:
+        """The filter's :meth:`update` from the frame's whole rotational SAD table, ``(N, n_shifts)``
+        float32 (:func:`nightloc.rotational_sad` of the prepared frame against the map, with the
+        map's shifts): the measurement the filter uses. NaN or infinity: ValueError, the belief
+        unchanged."""
+        flt = self._require_filter("update_table")
+        t = np.asarray(table)
+        if t.dtype != np.float32:
+            raise TypeError(f"table must have dtype float32 (as rotational_sad returns), got {t.dtype}")
+        shape = (len(self.ref_map), len(flt.shifts))
+        if t.shape != shape:
+            raise ValueError(f"table must be {shape} (references, shifts), got shape {t.shape}")
+        with self._guard("update"):
+            motion = self._motion(odometry)
+            state = flt.step_table(np.ascontiguousarray(t), motion)
+            return self._filter_estimate(state, return_heatmap)
+
+    def predict(self, odometry: object = None, *, return_heatmap: bool = False) -> Estimate:
+        """The filter's prediction alone: the robot moved by ``odometry`` (None: unknown) but there
+        is no usable frame; the belief moves and spreads. ``best_ref`` is -1 and ``score`` NaN."""
+        flt = self._require_filter("predict")
+        motion = self._checked_motion(as_motion(odometry))
+        with self._guard("predict"):
+            state = flt.predict(motion_code(motion))
+            return self._filter_estimate(state, return_heatmap, frame=False)
+
+    def _motion(self, odometry: object) -> tuple:
+        motion = as_motion(odometry)
+        if self._frames == 0:
+            return (MOTION_NONE, 0.0, 0.0, 0.0)  # the first frame: nothing to move yet
+        return motion_code(self._checked_motion(motion))
+
+    def _checked_motion(self, motion: Motion | None) -> Motion | None:
+        if isinstance(motion, RobotMotion) and not self._filter.can_pose:
+            raise ValueError(
+                "robot-frame odometry (RobotMotion) needs heading bins, and this filter has none: the reference map "
+                "has no headings (or its images are not 360-degree panoramas); pass map-frame displacements "
+                "(MapDisplacement or (dx, dy)) instead"
+            )
+        return motion
+
+    def _filter_estimate(self, state: FilterState, return_heatmap: bool, frame: bool = True) -> Estimate:
+        self._frames += int(frame)
+        headings = self.ref_map.headings
+        scores = state.scores
+        cell = self.mapper._cell_of(state.x, state.y)
+        ref = self.mapper.closest_ref(cell, scores)
+        heading = state.heading
+        if not math.isfinite(heading):
+            if headings is not None and scores is not None:  # position-only: the closest reference's match
+                width = self.ref_map.params.width
+                heading = float(wrap_angle(float(headings[ref]) + 2.0 * math.pi * float(state.shifts[ref]) / width))
+            else:
+                heading = self._heading if scores is None else math.nan
+        self._heading = heading
+        best = int(np.argmin(scores)) if scores is not None else -1
+        return Estimate(
+            x=state.x,
+            y=state.y,
+            heading=heading,
+            ref_index=ref,
+            confidence=state.confidence,
+            frames=self._frames,
+            best_ref=best,
+            score=float(scores[best]) if scores is not None else math.nan,
+            heatmap=self._filter.marginal() if return_heatmap else None,
+            frame_heatmap=self.mapper.heat_map(scores)[0] if return_heatmap and scores is not None else None,
+            covariance=tuple(map(tuple, state.covariance.tolist())),
+            credible_radius=state.credible_radius,
+            method="filter",
+        )
+
     def update_match(self, result: MatchResult, odometry: object = None, *, return_heatmap: bool = False) -> Estimate:
-        """Like :meth:`update`, from a frame already matched against the map (a MatchResult)."""
+        """Like :meth:`update`, from a frame already matched against the map (a MatchResult).
+
+        The paper's method only: the filter's measurement is the whole rotational table, which a
+        MatchResult does not hold; use :meth:`update_table` (or :meth:`update`) with the filter.
+        """
+        if self._filter is not None:
+            raise TypeError(
+                "the Bayes filter needs the frame's whole rotational SAD table, not a MatchResult (its minimum per "
+                "reference): call update(frame) or update_table(nightloc.rotational_sad(prepared, ref_map.images)), "
+                "or use method='paper'"
+            )
         with self._guard("update"):
             return self._update_match(result, odometry, return_heatmap)
 

@@ -32,10 +32,13 @@ __all__ = [
     "NoiseModel",
     "RobotMotion",
     "as_motion",
+    "compose_motions",
     "noise_model",
+    "read_odometry",
     "robot_steps_to_map",
     "simulate_map_odometry",
     "simulate_robot_odometry",
+    "traverse_odometry",
     "true_map_steps",
     "true_robot_motions",
     "wrap_angle",
@@ -311,3 +314,81 @@ def robot_steps_to_map(motions: Sequence[Motion], heading_now: float | None) -> 
         c, s = math.cos(heading), math.sin(heading)
         out[k] = (c * motion.forward - s * motion.left, s * motion.forward + c * motion.left)
     return out
+
+
+def compose_motions(motions: Sequence[Motion]) -> Motion:
+    """One motion equal to ``motions`` one after the other (all of one kind).
+
+    Robot-frame motions compose as poses (the result is in the frame of the first); map-frame
+    displacements add up.
+    """
+    if not motions:
+        raise ValueError("nothing to compose")
+    if all(isinstance(m, MapDisplacement) for m in motions):
+        return MapDisplacement(sum(m.dx for m in motions), sum(m.dy for m in motions))
+    if not all(isinstance(m, RobotMotion) for m in motions):
+        raise ValueError("cannot compose robot-frame and map-frame motions")
+    x = y = heading = 0.0
+    for m in motions:
+        c, s = math.cos(heading), math.sin(heading)
+        x += c * m.forward - s * m.left
+        y += s * m.forward + c * m.left
+        heading += m.turn
+    return RobotMotion(x, y, heading)
+
+
+def read_odometry(file: object, keys: Sequence[object], key_column: str = "image") -> list[Motion | None]:
+    """The motion before each of ``keys`` (a traverse's frames, in order) from an odometry CSV
+    (``image,forward,left,turn`` or ``image,dx,dy``, see :mod:`nightloc.io.odometry_csv`).
+
+    Args:
+        file: the CSV, e.g. ``<traverse>/odometry.csv``.
+        keys: the traverse's image names (or frame indices for ``key_column="frame"``, a video).
+        key_column: ``"image"`` or ``"frame"``.
+
+    Returns:
+        One motion per key: element 0 is None (nothing before the first frame); element k the
+        log's rows after frame k-1 up to frame k, composed (frames the traverse skips, e.g. with
+        ``frame_step``, are not lost).
+
+    Raises:
+        DatasetError: a frame without a row, rows out of the traverse's order, malformed rows.
+    """
+    from ..errors import DatasetError
+    from ..io.odometry_csv import read_odometry_rows
+
+    rows, form = read_odometry_rows(file, key_column)
+    make = RobotMotion if form == "robot" else MapDisplacement
+    position = {key: k for k, (key, _, _) in enumerate(rows)}
+    out: list[Motion | None] = []
+    previous = -1
+    for j, key in enumerate(keys):
+        k = position.get(key)
+        if k is None:
+            raise DatasetError(f"{file} has no row for {key_column} {key!r} (frame {j} of the traverse)")
+        if k <= previous:
+            raise DatasetError(
+                f"{file} line {rows[k][2]}: {key_column} {key!r} comes before the traverse's previous frame; "
+                f"rows must be in the order the frames were recorded"
+            )
+        out.append(None if j == 0 else compose_motions([make(*values) for _, values, _ in rows[previous + 1 : k + 1]]))
+        previous = k
+    return out
+
+
+def traverse_odometry(traverse: object, file: object | None = None) -> list[Motion | None]:
+    """The odometry of a :class:`~nightloc.Traverse`: :func:`read_odometry` of ``file`` (default
+    ``<traverse folder>/odometry.csv``; a video's log names its CSV, keyed by ``frame``)."""
+    from pathlib import Path
+
+    from ..errors import DatasetError
+
+    video = bool(getattr(traverse, "is_video", False))
+    if file is None:
+        if video:
+            raise DatasetError(
+                f"{traverse.root} is a video: name its odometry CSV (frame,forward,left,turn or frame,dx,dy)"
+            )
+        file = Path(traverse.root) / "odometry.csv"
+    keys = list(traverse.frame_indices) if video else list(traverse.names)
+    return read_odometry(file, keys, "frame" if video else "image")

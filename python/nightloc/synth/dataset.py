@@ -25,6 +25,7 @@ from .._validate import thread_count
 from ..io.atomic import locked_target, make_folder, output_set, replace_folder, staging_folder, write_text
 from ..io.files import open_regular
 from ..io.traverse import save_traverse
+from ..localization.odometry import true_robot_motions
 from ..progress import progress
 from .lighting import Lighting, make_lighting
 from .paths import TraversePlan, plan_traverses
@@ -161,7 +162,8 @@ def make_dataset(
         world: ``"garden"`` (day_reference, night_reference, night_query) or ``"living_room"``
             (day_reference, night_query).
         out_dir: the dataset folder (its parent must exist); each traverse goes to
-            ``out_dir/<traverse>`` (``images/`` + ``poses.csv``), the description to
+            ``out_dir/<traverse>`` (``images/`` + ``poses.csv`` + ``odometry.csv``, the exact
+            wheel odometry between consecutive frames), the description to
             ``out_dir/dataset.json``.
         seed: same seed -> byte-identical images.
         darkness: night darkness in [0, 3] (default 1.0; see :mod:`nightloc.synth.sensor`).
@@ -185,7 +187,8 @@ def make_dataset(
             frames = progress(
                 scene.render_plan(plan, threads), total=len(plan.positions), desc=f"{world}/{plan.name}", unit="frame"
             )
-            save_traverse(out / plan.name, frames, positions=plan.positions, headings=plan.headings)
+            odometry = true_robot_motions(plan.positions, plan.headings)  # the exact wheel odometry
+            save_traverse(out / plan.name, frames, positions=plan.positions, headings=plan.headings, odometry=odometry)
         _write_json_atomic(out / "dataset.json", scene.describe(plans))
     return {plan.name: Path(out_dir) / plan.name for plan in plans}
 
@@ -210,6 +213,8 @@ def _complete(folder: Path) -> bool:
             for name, info in traverses.items():
                 images = folder / world / name / "images"
                 if not (folder / world / name / "poses.csv").is_file() or not images.is_dir():
+                    return False
+                if not (folder / world / name / "odometry.csv").is_file():  # caches written before odometry.csv
                     return False
                 if not isinstance(info, dict) or len(os.listdir(images)) != info.get("frames"):
                     return False

@@ -1,0 +1,205 @@
+// A recursive grid Bayes filter (histogram filter, Markov localization) over position x heading
+// for robot firmware that links nightloc::core: the robot's 2D localizer beyond the paper's sum of
+// shifted heat maps (DESIGN.md item 9; python/nightloc/localization/grid_filter.py is its Python
+// face and documents the model; the numpy oracle in tests/ does the same arithmetic in float64).
+//
+//   nightloc::GridFilterMap map{weights, x0, y0, dx, dy, place_of_ref, ref_headings, 48, shifts};
+//   nightloc::GridFilter filter(map, settings);
+//   per frame:
+//     filter.predict_robot(forward, left, turn);     // or predict_map(dx, dy) / predict_unknown()
+//     filter.update_image(query, refs, n_refs);      // or update(table): the whole rotational SAD table
+//     nightloc::GridEstimate e = filter.estimate();
+//
+// The belief. B heading bins x H x W cells (row-major, row 0 = lowest y), float32. Heading bin b
+// is centred on offset() + 2*pi*b/B radians (counter-clockwise from +x); offset() in
+// [0, 2*pi/B) follows the turns exactly (a turn rolls whole bins and moves the offset by the
+// rest: no smearing by interpolation). Pose mode (B > 1) needs reference headings and a full
+// panorama (shift list 0..columns-1); otherwise, and while the odometry is map-frame or unknown
+// (which carries no turn: heading bins would go stale), the belief is position-only (one slice,
+// the heading marginalized); a robot-frame motion expands it again, uniform over heading.
+//
+// Prediction (robot motion f, l, t in the robot frame at the previous frame):
+//   1. every bin b moves by R(theta_b) (f, l) metres (bilinear, sub-cell) and lands in bin b + k
+//      where k whole bins of the turn (offset + t = offset' + 2*pi*k/B);
+//   2. position blur: an isotropic Gaussian of std sqrt(distance_std^2 + position_floor^2) metres
+//      per axis, as three extended-box passes per axis (Gwosdek et al. 2011: the exact variance).
+//      Shift and blur act on the plane (the belief is zero beyond the grid) and the result is cut
+//      to the grid: mass that leaves the grid is dropped. Per axis one linear operator, y first:
+//      short kernels (<= 13 taps: box radius <= 1 cell) composed with the shift and applied as one
+//      explicit pass; wider ones as the shift's two taps then running float sums (O(1) per cell)
+//      over a tile that holds everything the passes spread beyond the grid;
+//   3. heading blur: a circular Gaussian of std sqrt(heading_std^2 + heading_floor^2) radians
+//      over the bins (taps within 3 std, those below 1e-4 of the peak left out);
+//   4. normalization and a uniform floor: p = (1 - uniform_floor) p / sum + uniform_floor / cells
+//      (a kidnapped robot is found again; an empty grid becomes uniform).
+// Map-frame motion (dx, dy): one shift, blur std sqrt(distance_std^2 + (|d| heading_std)^2 +
+// position_floor^2). Unknown motion: blur std unknown_spread, heading forgotten.
+//
+// Update (a frame's table T, n_refs x n_shifts mean absolute differences, lower = better):
+//   m_i = min_k T[i, k], s_min = min_i m_i, spread = median_i m_i - s_min,
+//   lambda = likelihood_gain / spread (0 when spread is 0: a frame of ties carries no position);
+//   pose mode: the score of reference i in bin b is T linearly interpolated at the fractional
+//   shift k = (theta_b - heading_i) * columns / (2 pi) (circular); position mode: m_i;
+//   per place (references at one position) the lowest; per bin the place scores are interpolated
+//   onto the cells with the map's weights (cells without weights take the bin's highest place
+//   score: never preferred); likelihood = exp(-lambda (score - s_min)); belief *= likelihood,
+//   normalized (when nothing is left, the likelihood alone).
+//
+// Estimate: the marginal over heading M; its first maximum, refined to the M-weighted mean of
+// the (2 window + 1)^2 cells around it; covariance of M about its mean (m^2); credible_radius:
+// the distance from the estimate to the nearest cell centre at which the mass of the cells
+// (counted by their centres) no farther than it reaches `credibility`; confidence: the mass
+// within confidence_radius metres. Heading (pose mode): over the window's cells, the heading
+// histogram's first maximum bin, refined to the circular mean of the bins within 2 of it; NaN in
+// position mode. A flat marginal has no peak: the estimate is then the mean position.
+//
+// Every SIMD path gives the same values: element-wise IEEE operations in a fixed order, no FMA,
+// sums in double with a fixed number of lanes.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "nightloc/heatmap.hpp"
+
+namespace nightloc {
+
+/// The filter's tunables (python: nightloc.localization.FilterParams, where they are documented).
+struct GridFilterSettings {
+    std::size_t heading_bins = 48;   ///< B; 1 = position only
+    double likelihood_gain = 3.0;    ///< kappa: lambda = kappa / (median - min of the frame's scores)
+    double distance_std = 0.0;       ///< odometry noise per step, metres
+    double heading_std = 0.0;        ///< odometry noise per step, radians
+    double position_floor = 0.05;    ///< metres of blur per step added in quadrature (model error)
+    double heading_floor = 0.05;     ///< radians of heading blur per step added in quadrature
+    double uniform_floor = 5e-3;     ///< share of the belief spread uniformly per prediction
+    double unknown_spread = 2.0;     ///< metres of blur when the motion is unknown
+    double credibility = 0.9;        ///< mass of the credible disk
+    double confidence_radius = 1.0;  ///< metres: confidence = mass within this of the estimate
+    std::size_t estimate_window = 2; ///< cells around the peak averaged into the estimate
+};
+
+/// What the filter knows of the map (python: built from the HeatMapper of the localizer).
+struct GridFilterMap {
+    std::shared_ptr<const HeatWeights> weights;  ///< cells x places interpolation weights
+    double x0 = 0, y0 = 0;                       ///< centre of cell (0, 0), metres
+    double dx = 1, dy = 1;                       ///< cell spacing, metres
+    std::vector<std::int32_t> place_of_ref;      ///< n_refs: the place of each reference
+    std::vector<double> ref_headings;            ///< n_refs radians, or empty (no headings)
+    std::size_t columns = 48;                    ///< panorama columns (columns per 360 degrees)
+    std::vector<std::int32_t> shifts;            ///< the table's column shifts (n_shifts)
+};
+
+/// One estimate of the filter.
+struct GridEstimate {
+    double x = 0, y = 0;         ///< metres
+    double heading = 0;          ///< radians in (-pi, pi]; NaN in position mode
+    double cov_xx = 0, cov_xy = 0, cov_yy = 0;  ///< covariance of the marginal, m^2
+    double credible_radius = 0;  ///< metres
+    double confidence = 0;       ///< mass within confidence_radius of (x, y), 0..1
+    std::size_t cell = 0;        ///< the marginal's first maximum (row-major)
+    bool flat = false;           ///< the marginal had no peak (x, y is its mean)
+};
+
+class GridFilter {
+public:
+    /// Throws std::invalid_argument for inconsistent map data or settings out of range.
+    GridFilter(GridFilterMap map, GridFilterSettings settings);
+
+    /// Uniform belief (pose mode where possible), heading offset 0.
+    void reset();
+
+    /// Replaces the odometry noise (metres, radians per step; finite, >= 0).
+    void set_noise(double distance_std, double heading_std);
+
+    /// Motion in the robot's frame at the previous frame: metres ahead, metres left, radians
+    /// turned counter-clockwise. Position mode cannot use it without headings: throws
+    /// std::logic_error when the filter has no pose mode.
+    void predict_robot(double forward, double left, double turn);
+    /// Motion in the map frame, metres (position mode).
+    void predict_map(double dx, double dy);
+    /// Unknown motion: blur by unknown_spread (position mode).
+    void predict_unknown();
+
+    /// Measurement from a table (n_refs x n_shifts float32, row-major). Throws
+    /// std::invalid_argument, the belief unchanged, when a score is NaN or infinite.
+    void update(const float* table);
+    /// Measurement from a prepared image: its rotational SAD table against `refs` (n_refs
+    /// images of the query's size, height x columns pixels) on up to `threads` threads, then
+    /// update(table).
+    void update_image(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
+                      int threads = 1);
+
+    GridEstimate estimate() const;
+
+    bool can_pose() const noexcept { return can_pose_; }
+    bool pose_mode() const noexcept { return pose_; }
+    std::size_t heading_bins() const noexcept { return bins_; }
+    std::size_t active_bins() const noexcept { return pose_ ? bins_ : 1; }
+    double offset() const noexcept { return offset_; }
+    std::size_t height() const noexcept { return height_; }
+    std::size_t width() const noexcept { return width_; }
+    std::size_t n_refs() const noexcept { return place_of_ref_.size(); }
+    std::size_t n_shifts() const noexcept { return shifts_.size(); }
+    const GridFilterSettings& settings() const noexcept { return settings_; }
+
+    /// The belief, active_bins() x height x width, multiplied by scale() (sums to 1).
+    const float* belief() const;
+    double scale() const;
+    /// The marginal over heading (height x width), times scale() (sums to 1).
+    const float* marginal() const;
+    /// The last table's per-reference minimum scores and the shifts attaining them (first).
+    const std::vector<float>& min_scores() const noexcept { return mins_; }
+    const std::vector<std::int32_t>& best_shifts() const noexcept { return best_shifts_; }
+    /// The likelihood sharpness lambda of the last update (1 / score units).
+    double lambda() const noexcept { return lambda_; }
+    /// The table of the last update_image (n_refs x n_shifts).
+    const std::vector<float>& table() const noexcept { return table_; }
+
+    /// Restores a belief (active bins x height x width, finite, >= 0, positive sum) with its
+    /// mode and heading offset, e.g. one saved from belief().
+    void set_belief(const float* belief, bool pose, double offset);
+
+private:
+    void to_position();
+    void to_pose();
+    // work_ holds a prediction before its heading blur and normalization: pending until the next
+    // update (fused there) or materialize()
+    void finish_prediction(double total, std::vector<float> taps, std::vector<std::size_t> offsets);
+    void materialize() const;
+    double translate_blur_slice(const float* src, float* dst, double shift_x, double shift_y, double sigma_x,
+                                double sigma_y);
+    void compute_marginal() const;
+
+    GridFilterMap map_;
+    GridFilterSettings settings_;
+    std::size_t height_, width_, cells_, bins_, places_;
+    bool can_pose_, pose_ = false;
+    double offset_ = 0;
+    mutable double scale_ = 1;
+    mutable bool pending_ = false;
+    std::vector<float> pending_taps_;
+    std::vector<std::size_t> pending_offsets_;
+    float pending_a_ = 1, pending_f_ = 0;
+    double lambda_ = 0;
+    std::vector<std::int32_t> place_of_ref_;
+    std::vector<std::int32_t> shifts_;
+    std::size_t slots_ = 0;            // most weights of a cell (>= 1)
+    std::vector<float> ell_data_;      // the weights, slot k of cell c at k * cells + c; a cell
+                                       // without weights: weight 1 at place index places_ (the fill)
+    std::vector<std::int32_t> ell_index_;
+    std::vector<std::int32_t> ell_places_;   // per 16-cell block and slot: its <= 4 places, or -1
+    mutable std::vector<float> belief_;
+    std::vector<float> work_;
+    mutable std::vector<float> marginal_;
+    mutable bool marginal_valid_ = true;
+    std::vector<float> tile_a_, tile_b_, zeros_, padded_, taps_x_, taps_y_, wide_a_, wide_b_, wide_c_;
+    std::vector<float> sums_;          // running sums of the box passes
+    std::vector<float> table_, mins_, place_scores_, log_lik_;
+    std::vector<std::int32_t> best_shifts_;
+    mutable std::vector<double> scratch_;
+};
+
+}  // namespace nightloc

@@ -1,0 +1,791 @@
+// The grid Bayes filter (see nightloc/grid_filter.hpp): checks, bookkeeping and the estimate; the
+// loops over the belief run in grid_filter_kernels.cpp (one table per SIMD path) and in the
+// heat-map translation kernel (heatmap.hpp).
+#include "nightloc/grid_filter.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "grid_filter_kernels.hpp"
+#include "nightloc/sad.hpp"
+#include "nightloc/simd.hpp"
+
+namespace nightloc {
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586476925286766559;
+constexpr double kPi = 3.141592653589793238462643383280;
+constexpr double kLog2e = 1.442695040888963407359924681002;
+// The likelihood's floor: 2^-60 relative to the best place (no underflow, no denormals).
+constexpr double kLowestLog2 = -60.0;
+// Blurs whose composed kernel (three box passes: 6 r + 7 taps) is at most this long run as one
+// explicit pass per axis (shift included); wider ones as running sums (O(1) per cell; faster
+// from r = 2 on, measured on AVX-512).
+constexpr std::size_t kMaxComposedTaps = 13;
+// Cells per chunk of the loops over all bins (a multiple of 16: the sums' lanes).
+constexpr std::size_t kCellChunk = 256;
+
+bool finite_nonnegative(double v) { return std::isfinite(v) && v >= 0; }
+
+void require(bool ok, const std::string& message) {
+    if (!ok) throw std::invalid_argument(message);
+}
+
+// Extended box pass parameters for a pass variance s2 (cells^2), Gwosdek et al. 2011.
+detail::BoxPass box_pass(double s2) {
+    const double r_real = std::floor(0.5 * std::sqrt(12.0 * s2 + 1.0) - 0.5);
+    const auto r = static_cast<std::size_t>(r_real);
+    const double rr = static_cast<double>(r);
+    double alpha = (2 * rr + 1) * (3 * s2 - rr * (rr + 1)) / (6 * ((rr + 1) * (rr + 1) - s2));
+    alpha = std::min(std::max(alpha, 0.0), 1.0);
+    return {r, alpha, 1.0 / (2 * rr + 1 + 2 * alpha)};
+}
+
+// A 1-D Gaussian of variance v along direction `angle`, as an axis-aligned one of variances
+// v wx, v wy: shares proportional to |cos| and |sin| whose variance along the direction is v
+// exactly (c^2 wx + s^2 wy = 1); along an axis it is exact, at 45 degrees isotropic.
+void axis_shares(double angle, double& wx, double& wy) {
+    const double c = std::fabs(std::cos(angle)), s = std::fabs(std::sin(angle));
+    const double k = 1.0 / (c * c * c + s * s * s);
+    wx = k * c;
+    wy = k * s;
+}
+
+// Wraps an angle to (-pi, pi].
+double wrap(double angle) {
+    double a = std::fmod(angle + kPi, kTwoPi);
+    if (a <= 0) a += kTwoPi;
+    return a - kPi;
+}
+
+}  // namespace
+
+GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(std::move(map)), settings_(settings) {
+    require(map_.weights != nullptr, "grid filter: the interpolation weights are null");
+    const HeatWeights& w = *map_.weights;
+    height_ = w.height();
+    width_ = w.width();
+    cells_ = w.cells();
+    places_ = w.places();
+    require(std::isfinite(map_.x0) && std::isfinite(map_.y0), "grid filter: the grid origin must be finite");
+    require(std::isfinite(map_.dx) && map_.dx > 0 && std::isfinite(map_.dy) && map_.dy > 0,
+            "grid filter: the cell spacing must be finite and positive");
+    require(!map_.place_of_ref.empty(), "grid filter: the map has no references");
+    for (std::int32_t p : map_.place_of_ref) {
+        require(p >= 0 && static_cast<std::size_t>(p) < places_, "grid filter: a reference's place is out of range");
+    }
+    require(map_.ref_headings.empty() || map_.ref_headings.size() == map_.place_of_ref.size(),
+            "grid filter: ref_headings must be empty or hold one heading per reference");
+    for (double h : map_.ref_headings) require(std::isfinite(h), "grid filter: reference headings must be finite");
+    require(map_.columns >= 1 && map_.columns <= 1 << 16, "grid filter: columns must be 1..65536");
+    require(!map_.shifts.empty() && map_.shifts.size() <= map_.columns,
+            "grid filter: the shift list must hold 1..columns shifts");
+    std::vector<bool> seen(map_.columns, false);
+    bool full = map_.shifts.size() == map_.columns;
+    for (std::size_t k = 0; k < map_.shifts.size(); ++k) {
+        const std::int32_t s = map_.shifts[k];
+        require(s >= 0 && static_cast<std::size_t>(s) < map_.columns && !seen[static_cast<std::size_t>(s)],
+                "grid filter: shifts must be distinct and in [0, columns)");
+        seen[static_cast<std::size_t>(s)] = true;
+        full = full && static_cast<std::size_t>(s) == k;
+    }
+    const GridFilterSettings& s = settings_;
+    require(s.heading_bins >= 1 && s.heading_bins <= 4096, "grid filter: heading_bins must be 1..4096");
+    require(finite_nonnegative(s.likelihood_gain), "grid filter: likelihood_gain must be finite and >= 0");
+    require(finite_nonnegative(s.distance_std) && finite_nonnegative(s.heading_std),
+            "grid filter: odometry noise must be finite and >= 0");
+    require(finite_nonnegative(s.position_floor) && finite_nonnegative(s.heading_floor),
+            "grid filter: position_floor and heading_floor must be finite and >= 0");
+    require(std::isfinite(s.uniform_floor) && s.uniform_floor >= 0 && s.uniform_floor < 1,
+            "grid filter: uniform_floor must be in [0, 1)");
+    require(finite_nonnegative(s.unknown_spread), "grid filter: unknown_spread must be finite and >= 0");
+    require(std::isfinite(s.credibility) && s.credibility > 0 && s.credibility <= 1,
+            "grid filter: credibility must be in (0, 1]");
+    require(finite_nonnegative(s.confidence_radius), "grid filter: confidence_radius must be finite and >= 0");
+    require(s.estimate_window <= 1000, "grid filter: estimate_window must be <= 1000 cells");
+
+    can_pose_ = s.heading_bins > 1 && !map_.ref_headings.empty() && full;
+    bins_ = can_pose_ ? s.heading_bins : 1;
+    require(bins_ <= (std::size_t{1} << 28) / cells_, "grid filter: heading bins x cells is too large");
+    place_of_ref_ = map_.place_of_ref;
+    shifts_ = map_.shifts;
+
+    const auto csr = w.csr();
+    // ELL copy of the weights (slot k of cell c at k * cells + c; unused slots weigh 0 at place 0);
+    // a cell without weights reads the bin's fill value, kept at index places_
+    slots_ = 1;
+    for (std::size_t c = 0; c < cells_; ++c) {
+        slots_ = std::max(slots_, static_cast<std::size_t>(csr.indptr[c + 1] - csr.indptr[c]));
+    }
+    ell_data_.assign(slots_ * cells_, 0.f);
+    ell_index_.assign(slots_ * cells_, 0);
+    for (std::size_t c = 0; c < cells_; ++c) {
+        if (csr.indptr[c + 1] == csr.indptr[c]) {
+            ell_data_[c] = 1.f;
+            ell_index_[c] = static_cast<std::int32_t>(places_);
+            continue;
+        }
+        for (auto k = static_cast<std::size_t>(csr.indptr[c]); k < static_cast<std::size_t>(csr.indptr[c + 1]); ++k) {
+            const std::size_t slot = k - static_cast<std::size_t>(csr.indptr[c]);
+            ell_data_[slot * cells_ + c] = csr.data[k];
+            ell_index_[slot * cells_ + c] = csr.indices[k];
+        }
+    }
+    // Slots in a stable order along the cells: a cell that shares places with the previous one
+    // keeps them in the same slots, so 16 neighbouring cells (one triangle or a few) read at most
+    // four places per slot and the measurement needs no gather there (the sum's order changes,
+    // not its terms: weights sum in slot order).
+    for (std::size_t c = 1; c < cells_; ++c) {
+        for (std::size_t a = 0; a < slots_; ++a) {
+            const std::int32_t want = ell_index_[a * cells_ + c - 1];
+            if (ell_data_[a * cells_ + c - 1] == 0.f) continue;
+            for (std::size_t b = 0; b < slots_; ++b) {
+                if (b != a && ell_index_[b * cells_ + c] == want && ell_data_[b * cells_ + c] != 0.f &&
+                    !(ell_index_[a * cells_ + c] == ell_index_[a * cells_ + c - 1] && ell_data_[a * cells_ + c] != 0.f)) {
+                    std::swap(ell_index_[a * cells_ + c], ell_index_[b * cells_ + c]);
+                    std::swap(ell_data_[a * cells_ + c], ell_data_[b * cells_ + c]);
+                    break;
+                }
+            }
+        }
+    }
+    ell_places_.assign(4 * (cells_ / 16) * slots_, -1);
+    for (std::size_t block = 0; block < cells_ / 16; ++block)
+        for (std::size_t slot = 0; slot < slots_; ++slot) {
+            const std::int32_t* idx = ell_index_.data() + slot * cells_ + block * 16;
+            std::int32_t distinct[4];
+            std::size_t count = 0;
+            bool fits = true;
+            for (int l = 0; l < 16 && fits; ++l) {
+                if (std::find(distinct, distinct + count, idx[l]) != distinct + count) continue;
+                if (count == 4) {
+                    fits = false;
+                } else {
+                    distinct[count++] = idx[l];
+                }
+            }
+            if (!fits) continue;
+            std::int32_t* out = ell_places_.data() + 4 * (block * slots_ + slot);
+            for (std::size_t q = 0; q < 4; ++q) out[q] = distinct[q < count ? q : 0];
+        }
+    belief_.resize(bins_ * cells_);
+    work_.resize(bins_ * cells_);
+    marginal_.resize(cells_);
+    tile_a_.resize(cells_);
+    tile_b_.resize(cells_);
+    const std::size_t side = std::max(height_, width_);
+    sums_.resize(side);
+    zeros_.assign(side, 0.f);
+    padded_.assign(side + kMaxComposedTaps + 2, 0.f);  // grown for wide tiles
+    table_.resize(n_refs() * n_shifts());
+    mins_.resize(n_refs());
+    best_shifts_.resize(n_refs());
+    place_scores_.resize(bins_ * places_);
+    log_lik_.resize(bins_ * (places_ + 1));
+    reset();
+}
+
+void GridFilter::reset() {
+    pending_ = false;
+    pose_ = can_pose_;
+    offset_ = 0;
+    lambda_ = 0;
+    const std::size_t n = active_bins() * cells_;
+    std::fill(belief_.begin(), belief_.begin() + static_cast<std::ptrdiff_t>(n), 1.f);
+    scale_ = 1.0 / static_cast<double>(n);
+    marginal_valid_ = false;
+}
+
+void GridFilter::set_noise(double distance_std, double heading_std) {
+    require(finite_nonnegative(distance_std) && finite_nonnegative(heading_std),
+            "grid filter: odometry noise must be finite and >= 0");
+    settings_.distance_std = distance_std;
+    settings_.heading_std = heading_std;
+}
+
+// ---------------------------------------------------------------------------------------------
+// prediction
+
+namespace {
+
+// Taps of the composed kernel below this share of its peak are left out (symmetric, from the ends).
+constexpr double kKernelCut = 1e-4;
+
+std::vector<double> composed_box_kernel(double sigma) {
+    // three extended-box passes of variance sigma^2 / 3 each, convolved: taps -R..R, R = 3 (r + 1)
+    const detail::BoxPass pass = box_pass(sigma * sigma / 3.0);
+    std::vector<double> box(2 * pass.r + 3, pass.inv_w);
+    box.front() = box.back() = pass.alpha * pass.inv_w;
+    std::vector<double> kernel{1.0};
+    for (int p = 0; p < 3; ++p) {
+        std::vector<double> next(kernel.size() + box.size() - 1, 0.0);
+        for (std::size_t a = 0; a < kernel.size(); ++a)
+            for (std::size_t b = 0; b < box.size(); ++b) next[a + b] += kernel[a] * box[b];
+        kernel.swap(next);
+    }
+    // the ends below 1e-4 of the peak (the passes' alpha^2, alpha^3 corners) are left out
+    const double peak = *std::max_element(kernel.begin(), kernel.end());
+    std::size_t cut = 0;
+    while (2 * cut + 1 < kernel.size() && kernel[cut] < kKernelCut * peak) ++cut;
+    return std::vector<double>(kernel.begin() + static_cast<std::ptrdiff_t>(cut),
+                               kernel.end() - static_cast<std::ptrdiff_t>(cut));
+}
+
+// The taps of one axis: the bilinear shift by `shift` cells convolved with the blur `kernel`
+// (centred), as conv_rows/conv_cols take them (taps[t] weighs source index j + t - offset).
+void shift_blur_taps(double shift, const std::vector<double>& kernel, std::vector<float>& taps, std::ptrdiff_t& offset) {
+    const double whole = std::floor(shift);
+    const double frac = shift - whole;
+    const auto R = static_cast<std::ptrdiff_t>(kernel.size() / 2);
+    const auto base = static_cast<std::ptrdiff_t>(whole);
+    // H_v for v = base - R .. base + 1 + R: out[j] = sum_v H_v in[j - v]
+    std::vector<double> h(kernel.size() + 1, 0.0);
+    for (std::size_t u = 0; u < kernel.size(); ++u) {
+        h[u] += kernel[u] * (1.0 - frac);
+        h[u + 1] += kernel[u] * frac;
+    }
+    // h[q] is H_{base - R + q}; taps[t] = H_{v_max - t}
+    std::size_t last = h.size();
+    while (last > 1 && h[last - 1] == 0.0) --last;  // an integral shift: no zero tap at the end
+    const std::ptrdiff_t v_max = base - R + static_cast<std::ptrdiff_t>(last) - 1;
+    taps.resize(last);
+    for (std::size_t t = 0; t < last; ++t) taps[t] = static_cast<float>(h[last - 1 - t]);
+    offset = v_max;
+}
+
+}  // namespace
+
+double GridFilter::translate_blur_slice(const float* src, float* dst, double shift_x, double shift_y,
+                                        double sigma_x, double sigma_y) {
+    const auto& k = detail::filter_kernels(active_simd_backend());
+    const double limit = 4.0 * static_cast<double>(height_ + width_) + 16.0;
+    if (std::fabs(shift_x) > limit + 8 * sigma_x || std::fabs(shift_y) > limit + 8 * sigma_y) {
+        std::fill(dst, dst + cells_, 0.f);  // everything lands beyond the grid
+        return 0.0;
+    }
+    // Per axis one operator: the bilinear shift convolved with the three box passes. Short
+    // kernels run as one explicit pass (composed taps); wide ones as the shift's two taps, then
+    // running sums (O(1) per cell) on a tile with room for everything that spreads beyond the
+    // grid and may come back (the passes' intermediate results included).
+    const detail::BoxPass pass_x = box_pass(sigma_x * sigma_x / 3.0), pass_y = box_pass(sigma_y * sigma_y / 3.0);
+    const bool wide_x = sigma_x > 0 && 6 * pass_x.r + 7 > kMaxComposedTaps;
+    const bool wide_y = sigma_y > 0 && 6 * pass_y.r + 7 > kMaxComposedTaps;
+    static const std::vector<double> identity{1.0};
+    std::ptrdiff_t off_x = 0, off_y = 0;
+    shift_blur_taps(shift_y, wide_y || !(sigma_y > 0) ? identity : composed_box_kernel(sigma_y), taps_y_, off_y);
+    shift_blur_taps(shift_x, wide_x || !(sigma_x > 0) ? identity : composed_box_kernel(sigma_x), taps_x_, off_x);
+    if (!wide_x && !wide_y) {  // the common case: two explicit passes, grid to grid
+        k.conv_rows(src, tile_a_.data(), height_, width_, taps_y_.data(), taps_y_.size(), off_y, zeros_.data());
+        k.conv_cols(tile_a_.data(), dst, height_, width_, taps_x_.data(), taps_x_.size(), off_x, padded_.data());
+    } else {
+        const std::size_t my = wide_y ? static_cast<std::size_t>(std::fabs(std::floor(shift_y))) + 2 + 3 * (pass_y.r + 1) : 0;
+        const std::size_t mx = wide_x ? static_cast<std::size_t>(std::fabs(std::floor(shift_x))) + 2 + 3 * (pass_x.r + 1) : 0;
+        const std::size_t th = height_ + 2 * my, tw = width_ + 2 * mx, tn = th * tw;
+        wide_a_.assign(tn, 0.f);
+        wide_b_.resize(tn);
+        for (std::size_t j = 0; j < height_; ++j) {
+            std::copy(src + j * width_, src + (j + 1) * width_, wide_a_.data() + (j + my) * tw + mx);
+        }
+        const std::size_t side = std::max(th, tw);
+        if (sums_.size() < side) sums_.resize(side);
+        if (zeros_.size() < side) zeros_.resize(side, 0.f);
+        if (padded_.size() < side + kMaxComposedTaps + 2) padded_.resize(side + kMaxComposedTaps + 2, 0.f);
+        float* current = wide_a_.data();
+        float* other = wide_b_.data();
+        // y: the composed pass, or the shift then three running passes across rows
+        k.conv_rows(current, other, th, tw, taps_y_.data(), taps_y_.size(), off_y, zeros_.data());
+        std::swap(current, other);
+        if (wide_y) {
+            for (int p = 0; p < 3; ++p) {
+                k.box_rows(current, other, th, tw, pass_y, sums_.data(), zeros_.data());
+                std::swap(current, other);
+            }
+        }
+        // x: the composed pass, or the shift then three running passes across the transpose's rows
+        k.conv_cols(current, other, th, tw, taps_x_.data(), taps_x_.size(), off_x, padded_.data());
+        std::swap(current, other);
+        if (wide_x) {
+            k.transpose(current, other, th, tw);  // now tw rows of th
+            std::swap(current, other);
+            for (int p = 0; p < 3; ++p) {
+                k.box_rows(current, other, tw, th, pass_x, sums_.data(), zeros_.data());
+                std::swap(current, other);
+            }
+            k.transpose(current, other, tw, th);
+            std::swap(current, other);
+        }
+        for (std::size_t j = 0; j < height_; ++j) {
+            std::copy(current + (j + my) * tw + mx, current + (j + my) * tw + mx + width_, dst + j * width_);
+        }
+    }
+    double lanes[detail::kSumLanes] = {};
+    k.sum(dst, cells_, lanes);
+    return detail::lane_total(lanes);
+}
+
+void GridFilter::to_position() {
+    if (!pose_) return;
+    materialize();
+    const auto& k = detail::filter_kernels(active_simd_backend());
+    k.sum_slices(belief_.data(), bins_, cells_, work_.data());
+    std::copy(work_.begin(), work_.begin() + static_cast<std::ptrdiff_t>(cells_), belief_.begin());
+    pose_ = false;
+}
+
+void GridFilter::to_pose() {
+    if (pose_ || !can_pose_) return;
+    materialize();
+    for (std::size_t b = 1; b < bins_; ++b) {
+        std::copy(belief_.begin(), belief_.begin() + static_cast<std::ptrdiff_t>(cells_),
+                  belief_.begin() + static_cast<std::ptrdiff_t>(b * cells_));
+    }
+    pose_ = true;  // the scale is irrelevant: predictions normalize
+}
+
+void GridFilter::finish_prediction(double total, std::vector<float> taps, std::vector<std::size_t> offsets) {
+    // work_ holds the predicted slices before the heading blur; the blur, the normalization and
+    // the floor are pending (done by the next update, fused with it, or by materialize()).
+    const std::size_t n = active_bins() * cells_;
+    const double eps = settings_.uniform_floor;
+    marginal_valid_ = false;
+    if (!(total > 0) || !std::isfinite(total)) {  // nothing left on the grid: start again, uniform
+        std::fill(belief_.begin(), belief_.begin() + static_cast<std::ptrdiff_t>(n), 1.f);
+        scale_ = 1.0 / static_cast<double>(n);
+        pending_ = false;
+        return;
+    }
+    pending_taps_ = std::move(taps);
+    pending_offsets_ = std::move(offsets);
+    pending_a_ = static_cast<float>((1.0 - eps) / total);
+    pending_f_ = static_cast<float>(eps / static_cast<double>(n));
+    pending_ = true;
+}
+
+void GridFilter::materialize() const {
+    if (!pending_) return;
+    const auto& k = detail::filter_kernels(active_simd_backend());
+    const std::size_t B = active_bins();
+    for (std::size_t c0 = 0; c0 < cells_; c0 += kCellChunk) {  // all bins of a chunk of cells: L2-resident
+        k.heading_conv(work_.data(), B, cells_, c0, std::min(kCellChunk, cells_ - c0), pending_taps_.data(),
+                       pending_offsets_.data(), pending_taps_.size(), pending_a_, pending_f_, belief_.data());
+    }
+    scale_ = 1.0;
+    pending_ = false;
+}
+
+void GridFilter::predict_robot(double forward, double left, double turn) {
+    if (!std::isfinite(forward) || !std::isfinite(left) || !std::isfinite(turn)) {
+        throw std::invalid_argument("grid filter: robot motion must be finite");
+    }
+    if (!can_pose_) {
+        throw std::logic_error(
+            "grid filter: robot-frame motion needs heading bins, and this filter has none (no reference headings, "
+            "a forward camera or heading_bins = 1); pass map-frame motion");
+    }
+    to_pose();
+    materialize();
+    const GridFilterSettings& s = settings_;
+    const double step = kTwoPi / static_cast<double>(bins_);
+    // the odometry's distance noise lies along the motion: its direction in the robot frame
+    const double along = std::hypot(forward, left) > 0 ? std::atan2(left, forward) : 0.0;
+    const double pf2 = s.position_floor * s.position_floor, sd2 = s.distance_std * s.distance_std;
+    const double turned = (offset_ + turn) / step;
+    const double whole = std::floor(turned);
+    double new_offset = (turned - whole) * step;
+    long long roll = static_cast<long long>(whole);
+    if (new_offset >= step) {  // rounding at the top of the range
+        new_offset -= step;
+        ++roll;
+    }
+    if (new_offset < 0) new_offset = 0;
+    const auto B = static_cast<long long>(bins_);
+    const auto k_roll = static_cast<std::size_t>(((roll % B) + B) % B);
+    double total = 0;  // the predicted mass: the translated, blurred slices (the heading blur keeps it)
+    for (std::size_t b = 0; b < bins_; ++b) {
+        const double theta = offset_ + step * static_cast<double>(b);
+        const double c = std::cos(theta), sn = std::sin(theta);
+        const double mx = c * forward - sn * left, my = sn * forward + c * left;
+        const std::size_t dst = (b + k_roll) % bins_;
+        double wx, wy;
+        axis_shares(theta + along, wx, wy);
+        const double sigma_x = std::sqrt(sd2 * wx + pf2), sigma_y = std::sqrt(sd2 * wy + pf2);
+        total += translate_blur_slice(belief_.data() + b * cells_, work_.data() + dst * cells_, mx / map_.dx,
+                                      my / map_.dy, sigma_x / map_.dx, sigma_y / map_.dy);
+    }
+    offset_ = new_offset;
+    // the heading blur: a circular Gaussian over the bins, taps within 4 std, folded and normalized
+    const double sigma_bins = std::hypot(s.heading_std, s.heading_floor) / step;
+    std::vector<double> taps(bins_, 0.0);
+    if (sigma_bins < 1e-6) {
+        taps[0] = 1.0;
+    } else {
+        const auto reach = static_cast<long long>(std::ceil(3.0 * sigma_bins));
+        for (long long t = -reach; t <= reach; ++t) {
+            const double v = std::exp(-0.5 * static_cast<double>(t * t) / (sigma_bins * sigma_bins));
+            taps[static_cast<std::size_t>(((t % B) + B) % B)] += v;
+        }
+        double sum = 0, peak = 0;
+        for (double v : taps) {
+            sum += v;
+            peak = std::max(peak, v);
+        }
+        for (double& v : taps) v = v < kKernelCut * peak ? 0.0 : v / sum;  // taps below 1e-4 of the peak: none
+    }
+    std::vector<float> tap_values;
+    std::vector<std::size_t> tap_offsets;
+    for (std::size_t d = 0; d < bins_; ++d) {
+        const auto v = static_cast<float>(taps[d]);
+        if (v > 0) {
+            tap_values.push_back(v);
+            tap_offsets.push_back(d);
+        }
+    }
+    finish_prediction(total, std::move(tap_values), std::move(tap_offsets));
+}
+
+void GridFilter::predict_map(double dx, double dy) {
+    if (!std::isfinite(dx) || !std::isfinite(dy)) throw std::invalid_argument("grid filter: map motion must be finite");
+    to_position();
+    materialize();
+    const GridFilterSettings& s = settings_;
+    // noise on the step's length (along it) and direction (across it, |d| heading_std): the
+    // covariance without its off-diagonal term, plus the floor
+    const double d = std::hypot(dx, dy);
+    const double direction = d > 0 ? std::atan2(dy, dx) : 0.0;
+    const double along2 = s.distance_std * s.distance_std, across2 = d * s.heading_std * d * s.heading_std;
+    const double pf2 = s.position_floor * s.position_floor;
+    double ax, ay, cx, cy;
+    axis_shares(direction, ax, ay);
+    axis_shares(direction + 0.5 * kPi, cx, cy);
+    const double sigma_x = std::sqrt(along2 * ax + across2 * cx + pf2);
+    const double sigma_y = std::sqrt(along2 * ay + across2 * cy + pf2);
+    const double total = translate_blur_slice(belief_.data(), work_.data(), dx / map_.dx, dy / map_.dy,
+                                              sigma_x / map_.dx, sigma_y / map_.dy);
+    finish_prediction(total, {1.f}, {0});
+}
+
+void GridFilter::predict_unknown() {
+    to_position();
+    materialize();
+    const double sigma = settings_.unknown_spread;
+    const double total = translate_blur_slice(belief_.data(), work_.data(), 0.0, 0.0, sigma / map_.dx, sigma / map_.dy);
+    finish_prediction(total, {1.f}, {0});
+}
+
+// ---------------------------------------------------------------------------------------------
+// update
+
+void GridFilter::update_image(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs_in,
+                              std::size_t image_height, int threads) {
+    if (query == nullptr || refs == nullptr) throw std::invalid_argument("grid filter: null image");
+    require(n_refs_in == n_refs(), "grid filter: the reference stack has " + std::to_string(n_refs_in) +
+                                       " images but the map has " + std::to_string(n_refs()));
+    rotational_sad(query, refs, n_refs_in, image_height, map_.columns, shifts_.data(), shifts_.size(), table_.data(),
+                   threads);
+    update(table_.data());
+}
+
+void GridFilter::update(const float* table) {
+    if (table == nullptr) throw std::invalid_argument("grid filter: null table");
+    const std::size_t n = n_refs(), S = n_shifts();
+    for (std::size_t i = 0; i < n * S; ++i) {
+        if (!std::isfinite(table[i])) {
+            throw std::invalid_argument("grid filter: the score table holds NaN or infinity (reference " +
+                                        std::to_string(i / S) + ")");
+        }
+    }
+    if (table != table_.data()) std::copy(table, table + n * S, table_.begin());
+    for (std::size_t i = 0; i < n; ++i) {
+        const float* row = table + i * S;
+        std::size_t best = 0;
+        for (std::size_t k = 1; k < S; ++k)
+            if (row[k] < row[best]) best = k;
+        mins_[i] = row[best];
+        best_shifts_[i] = shifts_[best];
+    }
+    std::vector<float> sorted(mins_);
+    std::sort(sorted.begin(), sorted.end());
+    const double s_min = sorted.front();
+    const double median = n % 2 ? static_cast<double>(sorted[n / 2])
+                                : 0.5 * (static_cast<double>(sorted[n / 2 - 1]) + static_cast<double>(sorted[n / 2]));
+    const double spread = median - s_min;
+    lambda_ = spread > 0 ? settings_.likelihood_gain / spread : 0.0;
+
+    // per place and bin: the lowest score of its references
+    const std::size_t B = active_bins();
+    const float inf = std::numeric_limits<float>::infinity();
+    std::fill(place_scores_.begin(), place_scores_.begin() + static_cast<std::ptrdiff_t>(B * places_), inf);
+    if (pose_) {
+        const auto W = static_cast<double>(map_.columns);
+        const auto columns = static_cast<long long>(map_.columns);
+        const double per_bin = W / static_cast<double>(bins_);
+        for (std::size_t i = 0; i < n; ++i) {
+            const float* row = table + i * S;
+            const double c = (offset_ - map_.ref_headings[i]) * W / kTwoPi;
+            const auto p = static_cast<std::size_t>(place_of_ref_[i]);
+            for (std::size_t b = 0; b < bins_; ++b) {
+                const double k = per_bin * static_cast<double>(b) + c;
+                const double kf = std::floor(k);
+                const double a = k - kf;
+                const auto k0 = static_cast<std::size_t>(((static_cast<long long>(kf) % columns) + columns) % columns);
+                const std::size_t k1 = (k0 + 1) % map_.columns;
+                const auto v = static_cast<float>((1.0 - a) * row[k0] + a * row[k1]);
+                float& slot = place_scores_[b * places_ + p];
+                slot = std::min(slot, v);
+            }
+        }
+    } else {
+        for (std::size_t i = 0; i < n; ++i) {
+            float& slot = place_scores_[static_cast<std::size_t>(place_of_ref_[i])];
+            slot = std::min(slot, mins_[i]);
+        }
+    }
+    for (std::size_t b = 0; b < B; ++b) {  // places without references (none in practice): never preferred
+        float* ps = place_scores_.data() + b * places_;
+        float hi = -inf;
+        for (std::size_t p = 0; p < places_; ++p)
+            if (ps[p] != inf) hi = std::max(hi, ps[p]);
+        for (std::size_t p = 0; p < places_; ++p)
+            if (ps[p] == inf) ps[p] = hi;
+    }
+
+    // per place and bin the log2-likelihood y = max(-lambda log2(e) (score - s_min), -60); the
+    // bin's fill (its highest place score: cells without weights) at index places_
+    const std::size_t stride = places_ + 1;
+    const double gain = -lambda_ * kLog2e;
+    for (std::size_t b = 0; b < B; ++b) {
+        const float* ps = place_scores_.data() + b * places_;
+        float* y = log_lik_.data() + b * stride;
+        for (std::size_t p = 0; p < places_; ++p) {
+            y[p] = static_cast<float>(std::max(gain * (static_cast<double>(ps[p]) - s_min), kLowestLog2));
+        }
+        const double fill = *std::max_element(ps, ps + places_);
+        y[places_] = static_cast<float>(std::max(gain * (fill - s_min), kLowestLog2));
+    }
+    const auto& k = detail::filter_kernels(active_simd_backend());
+    const float one = 1.f;
+    const std::size_t zero_offset = 0;
+    detail::UpdateArgs args{ell_data_.data(), ell_index_.data(), ell_places_.data(), slots_, cells_,
+                            log_lik_.data(), stride, B,
+                            // the prior: the pending prediction (heading blur, normalization, floor) or the belief
+                            pending_ ? work_.data() : belief_.data(), pending_ ? pending_taps_.data() : &one,
+                            pending_ ? pending_offsets_.data() : &zero_offset, pending_ ? pending_taps_.size() : 1,
+                            pending_ ? pending_a_ : 1.f, pending_ ? pending_f_ : 0.f, belief_.data(), marginal_.data()};
+    for (std::size_t c0 = 0; c0 < cells_; c0 += kCellChunk) k.measure(args, c0, std::min(kCellChunk, cells_ - c0));
+    pending_ = false;
+    double lanes[detail::kSumLanes] = {};
+    k.sum(marginal_.data(), cells_, lanes);
+    double total = detail::lane_total(lanes);
+    if (!(total > 0) || !std::isfinite(total)) {  // nothing of the prediction survived: the likelihood alone
+        std::fill(belief_.begin(), belief_.begin() + static_cast<std::ptrdiff_t>(B * cells_), 1.f);
+        args.source = belief_.data();
+        args.taps = &one;
+        args.offsets = &zero_offset;
+        args.n_taps = 1;
+        args.a = 1.f;
+        args.f = 0.f;
+        for (std::size_t c0 = 0; c0 < cells_; c0 += kCellChunk) k.measure(args, c0, std::min(kCellChunk, cells_ - c0));
+        std::fill(std::begin(lanes), std::end(lanes), 0.0);
+        k.sum(marginal_.data(), cells_, lanes);
+        total = detail::lane_total(lanes);  // >= 2^-60 per cell: positive
+    }
+    scale_ = 1.0 / total;
+    marginal_valid_ = true;
+}
+
+// ---------------------------------------------------------------------------------------------
+// estimate
+
+const float* GridFilter::belief() const {
+    materialize();
+    return belief_.data();
+}
+
+double GridFilter::scale() const {
+    materialize();
+    return scale_;
+}
+
+void GridFilter::compute_marginal() const {
+    if (marginal_valid_) return;
+    materialize();
+    detail::filter_kernels(active_simd_backend()).sum_slices(belief_.data(), active_bins(), cells_, marginal_.data());
+    marginal_valid_ = true;
+}
+
+const float* GridFilter::marginal() const {
+    compute_marginal();
+    return marginal_.data();
+}
+
+GridEstimate GridFilter::estimate() const {
+    compute_marginal();
+    materialize();
+    const float* M = marginal_.data();
+    const GridFilterSettings& s = settings_;
+    GridEstimate e;
+    std::size_t peak = 0;
+    float hi = M[0], lo = M[0];
+    for (std::size_t c = 1; c < cells_; ++c) {
+        if (M[c] > hi) {
+            hi = M[c];
+            peak = c;
+        }
+        lo = std::min(lo, M[c]);
+    }
+    e.cell = peak;
+    auto cx = [&](std::size_t i) { return map_.x0 + map_.dx * static_cast<double>(i); };
+    auto cy = [&](std::size_t j) { return map_.y0 + map_.dy * static_cast<double>(j); };
+    // mean and covariance of the marginal
+    double total = 0, sx = 0, sy = 0;
+    for (std::size_t j = 0; j < height_; ++j) {
+        const float* row = M + j * width_;
+        double rt = 0, rx = 0;
+        for (std::size_t i = 0; i < width_; ++i) {
+            rt += row[i];
+            rx += row[i] * cx(i);
+        }
+        total += rt;
+        sx += rx;
+        sy += rt * cy(j);
+    }
+    const double mx = sx / total, my = sy / total;
+    double cxx = 0, cxy = 0, cyy = 0;
+    for (std::size_t j = 0; j < height_; ++j) {
+        const float* row = M + j * width_;
+        const double ey = cy(j) - my;
+        double rxx = 0, rx = 0, rt = 0;
+        for (std::size_t i = 0; i < width_; ++i) {
+            const double ex = cx(i) - mx;
+            rxx += row[i] * ex * ex;
+            rx += row[i] * ex;
+            rt += row[i];
+        }
+        cxx += rxx;
+        cxy += rx * ey;
+        cyy += rt * ey * ey;
+    }
+    e.cov_xx = cxx / total;
+    e.cov_xy = cxy / total;
+    e.cov_yy = cyy / total;
+
+    const std::size_t pj = peak / width_, pi = peak % width_, w = s.estimate_window;
+    const std::size_t j0 = pj >= w ? pj - w : 0, j1 = std::min(height_, pj + w + 1);
+    const std::size_t i0 = pi >= w ? pi - w : 0, i1 = std::min(width_, pi + w + 1);
+    if (hi <= lo) {
+        e.flat = true;
+        e.x = mx;
+        e.y = my;
+    } else {
+        double m = 0, wx = 0, wy = 0;
+        for (std::size_t j = j0; j < j1; ++j)
+            for (std::size_t i = i0; i < i1; ++i) {
+                const double v = M[j * width_ + i];
+                m += v;
+                wx += v * cx(i);
+                wy += v * cy(j);
+            }
+        e.x = wx / m;
+        e.y = wy / m;
+    }
+
+    // credible radius (cells by their centres) and confidence
+    double far = 0;
+    scratch_.resize(cells_);
+    double within = 0;
+    for (std::size_t j = 0; j < height_; ++j) {
+        const double ey = cy(j) - e.y;
+        double* d_row = scratch_.data() + j * width_;
+        for (std::size_t i = 0; i < width_; ++i) {
+            const double ex = cx(i) - e.x;
+            d_row[i] = std::sqrt(ex * ex + ey * ey);
+        }
+        for (std::size_t i = 0; i < width_; ++i) {
+            far = std::max(far, d_row[i]);
+            if (d_row[i] <= s.confidence_radius) within += M[j * width_ + i];
+        }
+    }
+    e.confidence = std::min(std::max(within / total, 0.0), 1.0);
+    const double target = s.credibility * total;
+    constexpr std::size_t kBins = 1024;
+    std::vector<double> hist(kBins, 0.0);
+    const double per = far > 0 ? static_cast<double>(kBins) / far : 0.0;
+    auto bin_of = [&](double d) { return std::min(kBins - 1, static_cast<std::size_t>(d * per)); };
+    for (std::size_t c = 0; c < cells_; ++c) hist[bin_of(scratch_[c])] += M[c];
+    double below = 0;
+    std::size_t crossing = kBins - 1;
+    for (std::size_t b = 0; b < kBins; ++b) {
+        if (below + hist[b] >= target) {
+            crossing = b;
+            break;
+        }
+        below += hist[b];
+    }
+    std::vector<std::pair<double, double>> ring;  // (distance, mass) of the crossing bin's cells
+    for (std::size_t c = 0; c < cells_; ++c) {
+        if (bin_of(scratch_[c]) == crossing) ring.emplace_back(scratch_[c], static_cast<double>(M[c]));
+    }
+    std::sort(ring.begin(), ring.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    e.credible_radius = ring.empty() ? far : ring.back().first;
+    for (const auto& [d, v] : ring) {
+        below += v;
+        if (below >= target) {
+            e.credible_radius = d;
+            break;
+        }
+    }
+
+    // heading
+    if (!pose_) {
+        e.heading = std::numeric_limits<double>::quiet_NaN();
+    } else {
+        std::vector<double> h(bins_, 0.0);
+        for (std::size_t b = 0; b < bins_; ++b) {
+            const float* slice = belief_.data() + b * cells_;
+            double v = 0;
+            for (std::size_t j = j0; j < j1; ++j)
+                for (std::size_t i = i0; i < i1; ++i) v += slice[j * width_ + i];
+            h[b] = v;
+        }
+        std::size_t top = 0;
+        for (std::size_t b = 1; b < bins_; ++b)
+            if (h[b] > h[top]) top = b;
+        const double step = kTwoPi / static_cast<double>(bins_);
+        double ss = 0, cc = 0;
+        const std::size_t reach = bins_ <= 5 ? bins_ : 5;
+        for (std::size_t t = 0; t < reach; ++t) {
+            const std::size_t b = bins_ <= 5 ? t : (top + bins_ - 2 + t) % bins_;
+            const double theta = offset_ + step * static_cast<double>(b);
+            ss += h[b] * std::sin(theta);
+            cc += h[b] * std::cos(theta);
+        }
+        e.heading = wrap(std::atan2(ss, cc));
+    }
+    return e;
+}
+
+void GridFilter::set_belief(const float* belief, bool pose, double offset) {
+    if (belief == nullptr) throw std::invalid_argument("grid filter: null belief");
+    require(!pose || can_pose_, "grid filter: this filter has no pose mode");
+    const double step = kTwoPi / static_cast<double>(bins_);
+    require(std::isfinite(offset) && offset >= 0 && (offset < step || (!pose && offset == 0)),
+            "grid filter: the heading offset must be in [0, 2 pi / bins)");
+    const std::size_t n = (pose ? bins_ : 1) * cells_;
+    double total = 0;
+    for (std::size_t c = 0; c < n; ++c) {
+        require(std::isfinite(belief[c]) && belief[c] >= 0, "grid filter: a belief must be finite and >= 0");
+        total += belief[c];
+    }
+    require(total > 0, "grid filter: a belief must have a positive sum");
+    std::copy(belief, belief + n, belief_.begin());
+    pending_ = false;
+    pose_ = pose;
+    offset_ = offset;
+    scale_ = 1.0 / total;
+    marginal_valid_ = false;
+}
+
+}  // namespace nightloc

@@ -1,0 +1,169 @@
+"""A robot's odometry log on disk: ``odometry.csv`` beside a traverse's ``poses.csv``.
+
+One row per frame, the motion since the previous frame of the log, in one of two forms (the
+header says which; docs/design.md, conventions)::
+
+    image,forward,left,turn        wheel odometry: metres ahead, metres left, radians turned
+    000000.png,0,0,0                (counter-clockwise) in the robot's frame at the previous frame
+    000001.png,0.402,-0.003,0.021
+
+    image,dx,dy                     map-frame displacements, metres
+
+A video log keys its rows by frame index (column ``frame`` instead of ``image``). This module
+reads and writes the rows as numbers; :func:`nightloc.localization.odometry.read_odometry` turns
+them into motions for a traverse's frames.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Union
+
+from ..errors import DatasetError
+from .atomic import atomic_file
+
+__all__ = ["MAP_COLUMNS", "ODOMETRY_FILE", "ROBOT_COLUMNS", "OdometryRow", "read_odometry_rows", "write_odometry_csv"]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+#: The odometry file of a traverse folder.
+ODOMETRY_FILE = "odometry.csv"
+#: Columns of wheel odometry and of map-frame displacements.
+ROBOT_COLUMNS = ("forward", "left", "turn")
+MAP_COLUMNS = ("dx", "dy")
+
+#: One row: (key, values, line): key an image name or frame index, values 3 (robot) or 2 (map) floats.
+OdometryRow = tuple[object, tuple[float, ...], int]
+
+
+def _number(text: str, column: str, file: Path, line: int) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise DatasetError(f"{file} line {line}: column {column!r} holds {text!r}, not a number") from None
+    if not math.isfinite(value):
+        raise DatasetError(f"{file} line {line}: column {column!r} is {text!r}; odometry must be finite")
+    return value
+
+
+def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[OdometryRow], str]:
+    """The rows of an odometry CSV in file order and its form, ``"robot"`` or ``"map"``.
+
+    Raises:
+        DatasetError: missing file, header without a known form, malformed or repeated rows.
+    """
+    path = Path(file)
+    if not path.is_file():
+        raise DatasetError(
+            f"odometry file {path} {'is a folder' if path.is_dir() else 'does not exist'}; a robot's log needs one "
+            f"row per frame: {key_column},forward,left,turn (wheel odometry) or {key_column},dx,dy (map frame)"
+        )
+    rows: list[OdometryRow] = []
+    header = None
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as handle:
+            reader = csv.reader(handle)
+            for fields in reader:
+                line = reader.line_num
+                if not any(f.strip() for f in fields):
+                    continue
+                if header is None:
+                    header = [f.strip().lower() for f in fields]
+                    if key_column not in header:
+                        raise DatasetError(
+                            f"{path} line {line}: missing column {key_column!r}; the header must be "
+                            f"{key_column},forward,left,turn (wheel odometry) or {key_column},dx,dy (map frame)"
+                        )
+                    if all(c in header for c in ROBOT_COLUMNS):
+                        form, columns = "robot", ROBOT_COLUMNS
+                    elif all(c in header for c in MAP_COLUMNS):
+                        form, columns = "map", MAP_COLUMNS
+                    else:
+                        raise DatasetError(
+                            f"{path} line {line}: the header ({', '.join(header)}) has neither forward,left,turn "
+                            f"(wheel odometry) nor dx,dy (map-frame displacements)"
+                        )
+                    index = [header.index(c) for c in columns]
+                    key_index = header.index(key_column)
+                    seen: dict[object, int] = {}
+                    continue
+                if len(fields) != len(header):
+                    raise DatasetError(f"{path} line {line}: {len(fields)} fields, but the header has {len(header)}")
+                raw = fields[key_index].strip()
+                if key_column == "frame":
+                    try:
+                        key: object = int(raw)
+                    except ValueError:
+                        raise DatasetError(f"{path} line {line}: frame {raw!r} is not an integer") from None
+                else:
+                    key = raw
+                    if not raw:
+                        raise DatasetError(f"{path} line {line}: column 'image' is empty")
+                if key in seen:
+                    raise DatasetError(f"{path} line {line}: {key_column} {key!r} is listed twice (line {seen[key]})")
+                seen[key] = line
+                rows.append((key, tuple(_number(fields[i], c, path, line) for i, c in zip(index, columns)), line))
+    except UnicodeDecodeError as error:
+        raise DatasetError(f"{path} is not UTF-8 text ({error.reason} at byte {error.start})") from None
+    except csv.Error as error:
+        raise DatasetError(f"{path}: malformed CSV ({error})") from None
+    except OSError as error:
+        raise DatasetError(f"odometry file {path} cannot be read: {error.strerror or error}") from error
+    if header is None or not rows:
+        raise DatasetError(f"{path} has no odometry rows; it needs a header and one row per frame")
+    return rows, form
+
+
+def odometry_values(motions: Sequence[object]) -> tuple[str, list[tuple[float, ...]]]:
+    """The form and the numbers of a sequence of motions: objects with ``forward, left, turn``
+    (wheel odometry) or ``dx, dy`` attributes, or ``(dx, dy)`` pairs, all of one form; None
+    (before the first frame) becomes zeros."""
+    values: list[tuple[float, ...] | None] = []
+    forms = set()
+    for k, m in enumerate(motions):
+        if m is None:
+            values.append(None)
+        elif all(hasattr(m, a) for a in ROBOT_COLUMNS):
+            forms.add("robot")
+            values.append(tuple(float(getattr(m, a)) for a in ROBOT_COLUMNS))
+        elif all(hasattr(m, a) for a in MAP_COLUMNS):
+            forms.add("map")
+            values.append(tuple(float(getattr(m, a)) for a in MAP_COLUMNS))
+        else:
+            try:
+                pair = tuple(float(v) for v in m)  # type: ignore[union-attr]
+            except (TypeError, ValueError):
+                pair = ()
+            if len(pair) != 2:
+                raise TypeError(
+                    f"odometry[{k}] must be a RobotMotion, a MapDisplacement, a (dx, dy) pair or None, got {m!r}"
+                )
+            forms.add("map")
+            values.append(pair)
+    if len(forms) > 1:
+        raise ValueError("odometry must be all wheel odometry (RobotMotion) or all map-frame displacements")
+    form = forms.pop() if forms else "robot"
+    zeros = (0.0,) * (3 if form == "robot" else 2)
+    out = [zeros if v is None else v for v in values]
+    if any(not math.isfinite(x) for v in out for x in v):
+        raise ValueError("odometry holds NaN or infinity")
+    return form, out
+
+
+def write_odometry_csv(
+    file: PathLike, keys: Sequence[object], motions: Sequence[object], key_column: str = "image"
+) -> Path:
+    """Writes an odometry CSV atomically, one row per key (see :func:`odometry_values`)."""
+    if len(keys) != len(motions):
+        raise ValueError(f"{len(motions)} odometry rows for {len(keys)} frames")
+    form, values = odometry_values(motions)
+    with atomic_file(file, "w", newline="") as stream:
+        writer = csv.writer(stream, lineterminator="\n")
+        writer.writerow([key_column, *(ROBOT_COLUMNS if form == "robot" else MAP_COLUMNS)])
+        for key, row in zip(keys, values):
+            writer.writerow([key, *(repr(v) for v in row)])
+    return Path(file)

@@ -1,0 +1,272 @@
+"""The recursive grid Bayes filter over position x heading: the robot's localizer.
+
+The paper's 2D method sums the heat maps of the last n frames shifted by odometry: it trusts
+the odometry completely and cannot say when it is lost. This filter (histogram filter, Markov
+localization; docs/localization.md) keeps a belief over the heat-map grid **x heading bins**
+(by default one bin per panorama column, so a column shift is a heading bin) and, per frame:
+
+1. **predicts** by the odometry: each heading slice moves by the robot-frame motion rotated by
+   its own heading (sub-cell), the heading axis turns by the motion's turn (exactly: whole bins
+   roll, the rest moves the bins' centres), then the belief is spread by the odometry noise (a
+   Gaussian in position and in heading, from a Table III noise model or a
+   :class:`~nightloc.localization.odometry.NoiseModel`, plus small model-error floors) and mixed
+   with a little uniform belief (a kidnapped robot is found again). Map-frame displacements move
+   a position-only belief (they carry no turn: heading bins would go stale); an unknown motion
+   spreads the belief widely;
+2. **updates** by the frame's whole rotational SAD table: for every heading bin and reference the
+   score of the shift that turns the reference into that heading (interpolated between columns),
+   ``likelihood = exp(-lambda (score - s_min))`` with ``lambda = likelihood_gain / (median - min)``
+   of the frame's per-reference minimum scores, interpolated onto the grid with the map's
+   weights (in log space);
+3. **estimates** position (the marginal's peak refined to the mean of the cells around it),
+   heading, covariance, ``credible_radius`` and ``confidence`` (the belief within
+   ``confidence_radius`` metres of the estimate: low means lost).
+
+The arithmetic runs in the compiled core (``nightloc/grid_filter.hpp``), one call per frame with
+the GIL released; ``tests/localization/filter_oracle.py`` is the same filter in numpy.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import _core
+from ..config import params_section
+from .heatmap import HeatMapper
+from .odometry import MapDisplacement, NoiseModel, RobotMotion, noise_model, wrap_angle
+
+__all__ = ["MOTION_NONE", "MOTION_UNKNOWN", "FilterParams", "FilterState", "GridFilter"]
+
+#: Motion codes of the core: no prediction (the first frame), unknown motion, map frame, robot frame.
+MOTION_NONE, MOTION_UNKNOWN, MOTION_MAP, MOTION_ROBOT = 0, 1, 2, 3
+
+
+@params_section("filter")
+@dataclass(frozen=True)
+class FilterParams:
+    """The grid filter's tunables (TOML ``[filter]``); the odometry noise is the localizer's
+    ``odometry_noise``. Defaults were tuned on the project's synthetic world (docs/localization.md).
+
+    Attributes:
+        heading_bins: heading bins; 0 = one per panorama column (48 for the paper's images, so a
+            column shift is one bin). Maps without headings or forward cameras keep a
+            position-only belief whatever this says.
+        likelihood_gain: kappa of ``lambda = kappa / (median - min)`` of the frame's minimum
+            scores: how sharply one frame's scores decide (higher = trusts images more).
+        position_floor: metres of Gaussian blur per prediction added in quadrature to the
+            odometry's distance noise (grid and motion-model error).
+        heading_floor: radians of heading blur per prediction added in quadrature to the
+            odometry's heading noise.
+        uniform_floor: share of the belief spread uniformly over the grid at each prediction (a
+            kidnapped robot is found again; a belief never dies out).
+        unknown_spread: metres of Gaussian blur when the motion is unknown (``odometry=None``).
+        credibility: mass of the disk whose radius is reported as ``credible_radius``.
+        estimate_window: cells on each side of the marginal's peak averaged into the position
+            (and whose heading histogram gives the heading).
+    """
+
+    heading_bins: int = 0
+    likelihood_gain: float = 3.0
+    position_floor: float = 0.05
+    heading_floor: float = 0.05
+    uniform_floor: float = 5e-3
+    unknown_spread: float = 2.0
+    credibility: float = 0.9
+    estimate_window: int = 2
+
+    def validate(self) -> None:
+        """Checks ranges (called on construction); raises ValueError naming the field."""
+        if not 0 <= self.heading_bins <= 4096:
+            raise ValueError(f"heading_bins must be 0 (one per panorama column) .. 4096, got {self.heading_bins}")
+        for name in ("likelihood_gain", "position_floor", "heading_floor", "unknown_spread"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+        if not (math.isfinite(self.uniform_floor) and 0 <= self.uniform_floor < 1):
+            raise ValueError(f"uniform_floor must be in [0, 1), got {self.uniform_floor}")
+        if not (math.isfinite(self.credibility) and 0 < self.credibility <= 1):
+            raise ValueError(f"credibility must be in (0, 1], got {self.credibility}")
+        if not 0 <= self.estimate_window <= 1000:
+            raise ValueError(f"estimate_window must be 0..1000 cells, got {self.estimate_window}")
+
+
+@dataclass(frozen=True)
+class FilterState:
+    """One step of the filter, as the core returns it (positions in metres, radians, m^2).
+
+    Attributes:
+        x, y, heading: the estimate; heading NaN when the belief is position-only.
+        covariance: ``(2, 2)`` of the marginal belief about its mean.
+        credible_radius: metres around ``(x, y)`` holding ``credibility`` of the belief.
+        confidence: belief within ``confidence_radius`` of ``(x, y)``.
+        cell: row-major index of the marginal's peak; ``flat``: the marginal had no peak.
+        scores: ``(N,)`` the frame's minimum scores per reference, ``shifts`` their best shifts
+            (None for a prediction without a frame).
+    """
+
+    x: float
+    y: float
+    heading: float
+    covariance: np.ndarray
+    credible_radius: float
+    confidence: float
+    cell: int
+    flat: bool
+    scores: np.ndarray | None = None
+    shifts: np.ndarray | None = None
+
+
+def motion_code(motion: object) -> tuple[int, float, float, float]:
+    """The core's ``(kind, a, b, c)`` of an odometry value already checked by ``as_motion``."""
+    if motion is None:
+        return MOTION_UNKNOWN, 0.0, 0.0, 0.0
+    if isinstance(motion, MapDisplacement):
+        return MOTION_MAP, motion.dx, motion.dy, 0.0
+    if isinstance(motion, RobotMotion):
+        return MOTION_ROBOT, motion.forward, motion.left, motion.turn
+    raise TypeError(f"odometry must be MapDisplacement, RobotMotion or None, got {type(motion).__name__}")
+
+
+class GridFilter:
+    """The compiled filter for one map and grid (what :class:`~nightloc.Localizer` drives).
+
+    Args:
+        mapper: the localizer's :class:`~nightloc.localization.heatmap.HeatMapper` (grid,
+            interpolation weights, places).
+        headings: ``(N,)`` reference headings (radians) or None.
+        columns: panorama columns of the prepared images (columns per 360 degrees).
+        shifts: the column shifts matched (None = all columns, a panorama).
+        params: :class:`FilterParams`.
+        noise: the odometry noise per step (a Table III model number or a NoiseModel).
+        confidence_radius: metres; confidence = belief within it.
+    """
+
+    def __init__(
+        self,
+        mapper: HeatMapper,
+        headings: np.ndarray | None,
+        columns: int,
+        shifts: list | None,
+        params: FilterParams,
+        noise: int | NoiseModel,
+        confidence_radius: float,
+    ):
+        self.params = params
+        self.noise = noise_model(noise)
+        self.mapper = mapper
+        self.shifts = np.arange(columns, dtype=np.int32) if shifts is None else np.asarray(shifts, dtype=np.int32)
+        place_of_ref = np.empty(mapper.n_refs, dtype=np.int32)
+        for place, members in enumerate(mapper._members):
+            place_of_ref[members] = place
+        grid = mapper.grid
+        settings = {
+            "heading_bins": int(params.heading_bins or columns),
+            "likelihood_gain": params.likelihood_gain,
+            "distance_std": self.noise.distance_std,
+            "heading_std": self.noise.heading_std,
+            "position_floor": params.position_floor,
+            "heading_floor": params.heading_floor,
+            "uniform_floor": params.uniform_floor,
+            "unknown_spread": params.unknown_spread,
+            "credibility": params.credibility,
+            "confidence_radius": float(confidence_radius),
+            "estimate_window": params.estimate_window,
+        }
+        self.settings = settings  # what the core was given (tests build their oracle from it)
+        self.core = _core.GridFilter(
+            mapper._core_weights,
+            grid.x0,
+            grid.y0,
+            grid.dx,
+            grid.dy,
+            place_of_ref,
+            None if headings is None else np.ascontiguousarray(headings, dtype=np.float64),
+            int(columns),
+            self.shifts,
+            settings,
+        )
+
+    def __copy__(self) -> GridFilter:
+        return self._copy(self.mapper)
+
+    def __deepcopy__(self, memo: dict) -> GridFilter:
+        return self._copy(copy.deepcopy(self.mapper, memo))
+
+    def _copy(self, mapper: HeatMapper) -> GridFilter:
+        """A filter over ``mapper`` (this one's or a copy) in this one's state, bit for bit (the
+        core's copy; the interpolation weights it shares are immutable)."""
+        clone = object.__new__(GridFilter)
+        clone.__dict__.update(self.__dict__)
+        clone.mapper = mapper
+        clone.core = self.core.__copy__()
+        return clone
+
+    @property
+    def pose_mode(self) -> bool:
+        """Whether the belief holds headings now (robot-frame odometry) or only positions."""
+        return bool(self.core.pose_mode)
+
+    @property
+    def can_pose(self) -> bool:
+        """Whether the filter has heading bins at all (map headings and a full panorama)."""
+        return bool(self.core.can_pose)
+
+    def set_noise(self, noise: int | NoiseModel) -> None:
+        """Replaces the odometry noise model (a Table III number or a NoiseModel)."""
+        self.noise = noise_model(noise)
+        self.core.set_noise(self.noise.distance_std, self.noise.heading_std)
+
+    def step_image(self, query: np.ndarray, refs: np.ndarray, motion: tuple, threads: int) -> FilterState:
+        """Predicts by ``motion`` (a :func:`motion_code`), matches ``query`` against ``refs``
+        (prepared uint8 images) and updates: one call into the core."""
+        estimate, scores, shifts = self.core.step_image(query, refs, *motion, threads)
+        return _state(estimate, scores, shifts)
+
+    def step_table(self, table: np.ndarray, motion: tuple) -> FilterState:
+        """Like :meth:`step_image` from the frame's rotational SAD table ``(N, n_shifts)`` float32."""
+        estimate, scores, shifts = self.core.step_table(table, *motion)
+        return _state(estimate, scores, shifts)
+
+    def predict(self, motion: tuple) -> FilterState:
+        """Only the prediction (no frame): the belief moves and spreads."""
+        self.core.predict(*motion)
+        return _state(self.core.estimate(), None, None)
+
+    def marginal(self) -> np.ndarray:
+        """``(grid_height, grid_width)`` float64: the belief summed over heading (sums to 1)."""
+        return self.core.marginal()
+
+    def belief(self) -> np.ndarray:
+        """``(bins, grid_height, grid_width)`` float64 (one bin in position mode), sums to 1;
+        bin b is centred on ``offset + 2 pi b / bins`` radians."""
+        return self.core.belief()
+
+    @property
+    def offset(self) -> float:
+        """Radians: the centre of heading bin 0 (the turns' remainder below one bin)."""
+        return float(self.core.offset)
+
+    def reset(self) -> None:
+        """Uniform belief."""
+        self.core.reset()
+
+
+def _state(estimate: tuple, scores: np.ndarray | None, shifts: np.ndarray | None) -> FilterState:
+    x, y, heading, cxx, cxy, cyy, radius, confidence, cell, flat = estimate
+    covariance = np.array([[cxx, cxy], [cxy, cyy]])
+    return FilterState(
+        float(x),
+        float(y),
+        float(wrap_angle(float(heading))) if math.isfinite(heading) else math.nan,
+        covariance,
+        float(radius),
+        float(confidence),
+        int(cell),
+        bool(flat),
+        scores,
+        shifts,
+    )

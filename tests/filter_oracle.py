@@ -1,0 +1,288 @@
+"""The grid Bayes filter in numpy, float64 (the test oracle of nightloc/grid_filter.hpp, not library code).
+
+Written from the model in docs/localization.md, operation by operation where the core defines an
+order and otherwise as plain linear algebra: each axis of the prediction is one matrix (the
+bilinear shift convolved with three extended-box passes), the heading blur a circular kernel,
+the measurement an explicit loop over references, bins and places. The compiled filter keeps its
+belief in float32 and sums in a fixed order, so the two agree to a tolerance (the tests say which).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+TWO_PI = 2.0 * math.pi
+LOWEST_LOG2 = -60.0
+
+
+def box_pass(s2: float) -> tuple[int, float, float]:
+    """Extended box (Gwosdek et al. 2011) of variance ``s2`` cells^2: radius r, end weight alpha, 1/w."""
+    r = int(math.floor(0.5 * math.sqrt(12.0 * s2 + 1.0) - 0.5))
+    alpha = (2 * r + 1) * (3 * s2 - r * (r + 1)) / (6 * ((r + 1) ** 2 - s2))
+    alpha = min(max(alpha, 0.0), 1.0)
+    return r, alpha, 1.0 / (2 * r + 1 + 2 * alpha)
+
+
+#: Box radius beyond which the core runs the blur as running sums (the whole kernel) instead of
+#: explicit taps (the kernel without its ends below KERNEL_CUT of its peak).
+MAX_EXPLICIT_RADIUS = 1
+KERNEL_CUT = 1e-4
+
+
+def blur_kernel(sigma: float) -> np.ndarray:
+    """Three extended-box passes of variance sigma^2 / 3 each, convolved (centred, odd length); for
+    box radii the core runs as explicit taps, without the ends below KERNEL_CUT of the peak."""
+    if sigma <= 0:
+        return np.ones(1)
+    r, alpha, inv_w = box_pass(sigma * sigma / 3.0)
+    box = np.full(2 * r + 3, inv_w)
+    box[0] = box[-1] = alpha * inv_w
+    kernel = np.ones(1)
+    for _ in range(3):
+        kernel = np.convolve(kernel, box)
+    if r <= MAX_EXPLICIT_RADIUS:
+        cut = 0
+        while 2 * cut + 1 < len(kernel) and kernel[cut] < KERNEL_CUT * kernel.max():
+            cut += 1
+        kernel = kernel[cut : len(kernel) - cut]
+    return kernel
+
+
+def axis_matrix(n: int, shift: float, sigma: float) -> np.ndarray:
+    """``(n, n)``: out = M @ in along one axis: shift by ``shift`` cells (bilinear) and blur, on the
+    infinite line (zero beyond the grid), cut to the grid."""
+    kernel = blur_kernel(sigma)
+    whole = math.floor(shift)
+    frac = shift - whole
+    reach = len(kernel) // 2
+    m = np.zeros((n, n))
+    for u, g in enumerate(kernel):
+        for e, w in ((0, 1.0 - frac), (1, frac)):
+            v = whole + e + u - reach  # output j takes source j - v
+            rows = np.arange(n)
+            cols = rows - v
+            ok = (cols >= 0) & (cols < n)
+            m[rows[ok], cols[ok]] += g * w
+    return m
+
+
+def axis_shares(angle: float) -> tuple[float, float]:
+    """Variance shares of a 1-D Gaussian along ``angle`` put on the axes (see grid_filter.cpp)."""
+    c, s = abs(math.cos(angle)), abs(math.sin(angle))
+    k = 1.0 / (c**3 + s**3)
+    return k * c, k * s
+
+
+class OracleFilter:
+    """The filter of ``nightloc._core.GridFilter`` in float64.
+
+    Args:
+        weights: ``scipy.sparse`` ``(cells, places)`` interpolation weights (rows of cells without
+            weights are empty); grid ``height x width`` row-major.
+        x0, y0, dx, dy: the grid (centre of cell 0, spacing), metres.
+        place_of_ref: ``(N,)`` place of each reference.
+        ref_headings: ``(N,)`` radians or None.
+        columns: panorama columns; shifts: the table's shift list.
+        settings: the core's settings (heading_bins, likelihood_gain, distance_std, heading_std,
+            position_floor, heading_floor, uniform_floor, unknown_spread, credibility,
+            confidence_radius, estimate_window).
+    """
+
+    def __init__(self, weights, height, width, x0, y0, dx, dy, place_of_ref, ref_headings, columns, shifts, settings):
+        self.w = weights.tocsr()
+        self.h, self.wd = height, width
+        self.x0, self.y0, self.dx, self.dy = x0, y0, dx, dy
+        self.place_of_ref = np.asarray(place_of_ref)
+        self.places = self.w.shape[1]
+        self.headings = None if ref_headings is None else np.asarray(ref_headings, dtype=np.float64)
+        self.columns = columns
+        self.shifts = np.asarray(shifts)
+        self.s = dict(settings)
+        full = len(self.shifts) == columns and np.array_equal(self.shifts, np.arange(columns))
+        self.can_pose = self.s["heading_bins"] > 1 and self.headings is not None and full
+        self.bins = self.s["heading_bins"] if self.can_pose else 1
+        self.outside = np.diff(self.w.indptr) == 0
+        self.reset()
+
+    # ------------------------------------------------------------------ state
+    def reset(self):
+        self.pose = self.can_pose
+        self.offset = 0.0
+        n = self.bins if self.pose else 1
+        self.p = np.full((n, self.h, self.wd), 1.0 / (n * self.h * self.wd))
+
+    def _to_position(self):
+        if self.pose:
+            self.p = self.p.sum(0, keepdims=True)
+            self.pose = False
+
+    def _to_pose(self):
+        if not self.pose and self.can_pose:
+            self.p = np.repeat(self.p, self.bins, axis=0)
+            self.pose = True
+
+    def _shift_blur(self, slice_, sx, sy, sigx, sigy):
+        return axis_matrix(self.h, sy, sigy) @ slice_ @ axis_matrix(self.wd, sx, sigx).T
+
+    def _finish(self, q):
+        total = q.sum()
+        eps = self.s["uniform_floor"]
+        if not total > 0:
+            return np.full_like(q, 1.0 / q.size)
+        return (1 - eps) * q / total + eps / q.size
+
+    # ------------------------------------------------------------------ prediction
+    def predict_robot(self, forward, left, turn):
+        if not self.can_pose:
+            raise ValueError("no pose mode")
+        self._to_pose()
+        s = self.s
+        step = TWO_PI / self.bins
+        turned = (self.offset + turn) / step
+        whole = math.floor(turned)
+        new_offset = (turned - whole) * step
+        if new_offset >= step:
+            new_offset -= step
+            whole += 1
+        new_offset = max(new_offset, 0.0)
+        roll = whole % self.bins
+        along = math.atan2(left, forward) if math.hypot(forward, left) > 0 else 0.0
+        q = np.zeros_like(self.p)
+        for b in range(self.bins):
+            theta = self.offset + step * b
+            c, sn = math.cos(theta), math.sin(theta)
+            mx, my = c * forward - sn * left, sn * forward + c * left
+            wx, wy = axis_shares(theta + along)
+            sigx = math.sqrt(s["distance_std"] ** 2 * wx + s["position_floor"] ** 2)
+            sigy = math.sqrt(s["distance_std"] ** 2 * wy + s["position_floor"] ** 2)
+            q[(b + roll) % self.bins] = self._shift_blur(
+                self.p[b], mx / self.dx, my / self.dy, sigx / self.dx, sigy / self.dy
+            )
+        self.offset = new_offset
+        sigma_bins = math.hypot(s["heading_std"], s["heading_floor"]) / step
+        taps = np.zeros(self.bins)
+        if sigma_bins < 1e-6:
+            taps[0] = 1.0
+        else:
+            reach = math.ceil(3.0 * sigma_bins)
+            for t in range(-reach, reach + 1):
+                taps[t % self.bins] += math.exp(-0.5 * t * t / sigma_bins**2)
+            taps = np.where(taps < KERNEL_CUT * taps.max(), 0.0, taps / taps.sum())
+        blurred = np.zeros_like(q)
+        for d, g in enumerate(taps):
+            if g > 0:
+                blurred += g * np.roll(q, d, axis=0)  # out[b] += g * q[b - d]
+        total = q.sum()
+        eps = s["uniform_floor"]
+        self.p = np.full_like(q, 1.0 / q.size) if not total > 0 else (1 - eps) * blurred / total + eps / q.size
+
+    def predict_map(self, dx, dy):
+        self._to_position()
+        s = self.s
+        d = math.hypot(dx, dy)
+        direction = math.atan2(dy, dx) if d > 0 else 0.0
+        ax, ay = axis_shares(direction)
+        cx, cy = axis_shares(direction + 0.5 * math.pi)
+        along2, across2 = s["distance_std"] ** 2, (d * s["heading_std"]) ** 2
+        sigx = math.sqrt(along2 * ax + across2 * cx + s["position_floor"] ** 2)
+        sigy = math.sqrt(along2 * ay + across2 * cy + s["position_floor"] ** 2)
+        self.p = self._finish(
+            self._shift_blur(self.p[0], dx / self.dx, dy / self.dy, sigx / self.dx, sigy / self.dy)[None]
+        )
+
+    def predict_unknown(self):
+        self._to_position()
+        sig = self.s["unknown_spread"]
+        self.p = self._finish(self._shift_blur(self.p[0], 0.0, 0.0, sig / self.dx, sig / self.dy)[None])
+
+    # ------------------------------------------------------------------ update
+    def update(self, table):
+        t = np.asarray(table, dtype=np.float64)
+        if not np.isfinite(t).all():
+            raise ValueError("table holds NaN or infinity")
+        n, _n_shifts = t.shape
+        best = np.argmin(t, axis=1)
+        self.mins = t[np.arange(n), best]
+        self.best_shifts = self.shifts[best]
+        s_min = self.mins.min()
+        spread = float(np.median(self.mins)) - s_min
+        lam = self.s["likelihood_gain"] / spread if spread > 0 else 0.0
+        bins = self.bins if self.pose else 1
+        place_scores = np.full((bins, self.places), np.inf)
+        for i in range(n):
+            p = self.place_of_ref[i]
+            if self.pose:
+                c = (self.offset - self.headings[i]) * self.columns / TWO_PI
+                for b in range(bins):
+                    k = self.columns / self.bins * b + c
+                    kf = math.floor(k)
+                    a = k - kf
+                    k0 = kf % self.columns
+                    k1 = (k0 + 1) % self.columns
+                    v = (1 - a) * t[i, k0] + a * t[i, k1]
+                    place_scores[b, p] = min(place_scores[b, p], v)
+            else:
+                place_scores[0, p] = min(place_scores[0, p], self.mins[i])
+        gain = -lam * math.log2(math.e)
+        y_places = np.maximum(gain * (place_scores - s_min), LOWEST_LOG2)  # (bins, places)
+        y_fill = np.maximum(gain * (place_scores.max(axis=1) - s_min), LOWEST_LOG2)  # (bins,)
+        y_cells = (self.w @ y_places.T).T  # (bins, cells)
+        y_cells[:, self.outside] = y_fill[:, None]
+        y_cells = np.maximum(y_cells, LOWEST_LOG2)
+        like = np.exp2(y_cells).reshape(bins, self.h, self.wd)
+        post = self.p * like
+        total = post.sum()
+        self.p = post / total if total > 0 else like / like.sum()
+        self.lam = lam
+
+    # ------------------------------------------------------------------ estimate
+    def estimate(self):
+        """(x, y, heading, cov (2, 2), credible_radius, confidence, cell, flat)."""
+        m = self.p.sum(0)
+        total = m.sum()
+        xs = self.x0 + self.dx * np.arange(self.wd)
+        ys = self.y0 + self.dy * np.arange(self.h)
+        gx, gy = np.meshgrid(xs, ys)
+        mx, my = (m * gx).sum() / total, (m * gy).sum() / total
+        cov = (
+            np.array(
+                [
+                    [(m * (gx - mx) ** 2).sum(), (m * (gx - mx) * (gy - my)).sum()],
+                    [(m * (gx - mx) * (gy - my)).sum(), (m * (gy - my) ** 2).sum()],
+                ]
+            )
+            / total
+        )
+        cell = int(np.argmax(m))
+        pj, pi = divmod(cell, self.wd)
+        w = self.s["estimate_window"]
+        j0, j1, i0, i1 = max(pj - w, 0), min(pj + w + 1, self.h), max(pi - w, 0), min(pi + w + 1, self.wd)
+        flat = m.max() <= m.min()
+        if flat:
+            x, y = mx, my
+        else:
+            sub = m[j0:j1, i0:i1]
+            x = float((sub * gx[j0:j1, i0:i1]).sum() / sub.sum())
+            y = float((sub * gy[j0:j1, i0:i1]).sum() / sub.sum())
+        d = np.hypot(gx - x, gy - y).ravel()
+        order = np.argsort(d, kind="stable")
+        cum = np.cumsum(m.ravel()[order])
+        k = min(int(np.searchsorted(cum, self.s["credibility"] * total)), len(d) - 1)
+        radius = float(d[order[k]])
+        confidence = float(m.ravel()[d <= self.s["confidence_radius"]].sum() / total)
+        heading = math.nan
+        if self.pose:
+            hist = self.p[:, j0:j1, i0:i1].sum(axis=(1, 2))
+            top = int(np.argmax(hist))
+            idx = range(self.bins) if self.bins <= 5 else [(top - 2 + t) % self.bins for t in range(5)]
+            step = TWO_PI / self.bins
+            ss = sum(hist[b] * math.sin(self.offset + step * b) for b in idx)
+            cc = sum(hist[b] * math.cos(self.offset + step * b) for b in idx)
+            heading = math.atan2(ss, cc)
+        return x, y, heading, cov, radius, confidence, cell, bool(flat)
+
+    def marginal(self) -> np.ndarray:
+        m = self.p.sum(0)
+        return m / m.sum()

@@ -1,0 +1,370 @@
+"""The grid Bayes filter (Localizer(method="filter")): the compiled core against its numpy oracle on
+random maps and motions, identical results on every SIMD path, the edge cases (ties, NaN, frames
+off the map, one or two references, no headings, forward cameras), kidnapping, uncertainty and
+the API's errors."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+import nightloc
+from filter_oracle import OracleFilter
+from nightloc.localization.grid_filter import FilterParams
+from nightloc.localization.localizer import Localizer
+from nightloc.localization.odometry import MapDisplacement, NoiseModel, RobotMotion, wrap_angle
+
+# Tolerances against the float64 oracle: the core keeps float32 beliefs and sums 50-tap kernels
+# in float, so beliefs agree to ~1e-6 of their maximum per step; over a few steps 1e-4 leaves room.
+BELIEF_RTOL = 1e-4
+POSITION_TOL = 1e-4  # metres
+
+
+def _random_map(rng, n=12, headings=True, width=16, height=8, area=(4.0, 3.0), shifts_all=True):
+    positions = rng.uniform(0, area, (n, 2))
+    head = rng.uniform(-np.pi, np.pi, n) if headings else None
+    images = rng.integers(0, 256, (n, height, width), dtype=np.uint8)
+    params = nightloc.PreparationParams(width=width, height=height, wrap=shifts_all)
+    return nightloc.ReferenceMap(images, positions, head, params=params)
+
+
+def _oracle(loc: Localizer) -> OracleFilter:
+    f, m = loc._filter, loc.mapper
+    g = m.grid
+    place = np.empty(m.n_refs, dtype=int)
+    for p, members in enumerate(m._members):
+        place[members] = p
+    return OracleFilter(
+        m.weights, g.height, g.width, g.x0, g.y0, g.dx, g.dy, place, loc.ref_map.headings,
+        loc.ref_map.params.width, f.shifts, f.settings,
+    )  # fmt: skip
+
+
+def _apply(oracle: OracleFilter, motion) -> None:
+    if motion is None:
+        oracle.predict_unknown()
+    elif isinstance(motion, RobotMotion):
+        oracle.predict_robot(motion.forward, motion.left, motion.turn)
+    else:
+        oracle.predict_map(motion.dx, motion.dy)
+
+
+def _check_against_oracle(loc, oracle, estimate):
+    got = loc.pose_belief
+    want = oracle.p / oracle.p.sum()
+    assert got.shape == want.shape
+    assert np.abs(got - want).max() <= BELIEF_RTOL * want.max()
+    x, y, heading, cov, radius, confidence, _cell, _flat = oracle.estimate()
+    marginal = oracle.marginal().ravel()
+    top2 = np.sort(marginal)[-2:]
+    if top2[1] - top2[0] > 1e-3 * top2[1]:  # a clear peak: the same cell, the same refinement
+        assert (estimate.x, estimate.y) == pytest.approx((x, y), abs=POSITION_TOL)
+        if math.isfinite(heading):
+            assert wrap_angle(estimate.heading - heading) == pytest.approx(0.0, abs=1e-4)
+        assert estimate.confidence == pytest.approx(confidence, abs=1e-4)
+        # the radius is a cell-centre distance: it may step to the next ring within rounding
+        assert abs(estimate.credible_radius - radius) <= 1.5 * math.hypot(oracle.dx, oracle.dy)
+    np.testing.assert_allclose(estimate.covariance, cov, rtol=1e-3, atol=1e-6)
+
+
+MOTIONS = [
+    None,
+    RobotMotion(0.31, 0.05, 0.4),
+    RobotMotion(-0.2, 0.0, -1.3),
+    MapDisplacement(0.15, -0.27),
+    None,  # unknown motion: spread wide
+    RobotMotion(0.5, 0.1, 7.0),
+    RobotMotion(0.0, 0.0, 0.05),
+    MapDisplacement(0.0, 0.0),
+]
+
+
+@pytest.mark.sanitize  # drives the core (CI runs it again under ASan + UBSan)
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("noise", [0, 3, NoiseModel(0.05, 0.3)])
+def test_core_equals_the_numpy_oracle_on_random_maps_and_motions(seed, noise):
+    rng = np.random.default_rng(seed)
+    ref_map = _random_map(rng, n=int(rng.integers(3, 16)))
+    loc = Localizer(ref_map, odometry_noise=noise, grid_width=int(rng.integers(20, 45)), grid_height=30)
+    oracle = _oracle(loc)
+    for k, motion in enumerate(MOTIONS):
+        table = rng.uniform(15, 25, (len(ref_map), 16)).astype(np.float32)
+        estimate = loc.update_table(table, motion if k else None)
+        if k:
+            _apply(oracle, motion)
+        oracle.update(table)
+        _check_against_oracle(loc, oracle, estimate)
+        assert estimate.frames == k + 1 and estimate.method == "filter"
+
+
+def test_position_only_maps_equal_the_oracle():
+    rng = np.random.default_rng(7)
+    ref_map = _random_map(rng, n=9, headings=False)
+    loc = Localizer(ref_map, odometry_noise=2, grid_width=33, grid_height=27)
+    oracle = _oracle(loc)
+    assert not loc._filter.can_pose
+    for k, motion in enumerate([None, MapDisplacement(0.4, 0.1), None, MapDisplacement(-1.0, 0.5)]):
+        table = rng.uniform(15, 25, (9, 16)).astype(np.float32)
+        estimate = loc.update_table(table, motion)
+        if k:
+            _apply(oracle, motion)
+        oracle.update(table)
+        _check_against_oracle(loc, oracle, estimate)
+        assert math.isnan(estimate.heading)  # no map headings
+
+
+def test_every_simd_path_gives_the_same_beliefs_and_estimates():
+    rng = np.random.default_rng(11)
+    ref_map = _random_map(rng, n=10)
+    tables = rng.uniform(15, 25, (len(MOTIONS), 10, 16)).astype(np.float32)
+    runs = {}
+    for path in nightloc.available_simd_backends():
+        with nightloc.use_simd_backend(path):
+            loc = Localizer(ref_map, odometry_noise=2, grid_width=37, grid_height=23)
+            out = []
+            for k, motion in enumerate(MOTIONS):
+                e = loc.update_table(tables[k], motion if k else None)
+                out.append((e.x, e.y, e.heading, e.credible_radius, e.confidence, loc.pose_belief.copy()))
+            runs[path] = out
+    reference = runs["scalar"]
+    for path, out in runs.items():
+        for a, b in zip(reference, out):
+            assert a[:5] == pytest.approx(b[:5], abs=0, rel=0, nan_ok=True), path
+            assert np.array_equal(a[5], b[5]), path
+
+
+def test_update_from_a_frame_equals_update_from_its_table():
+    rng = np.random.default_rng(3)
+    ref_map = _random_map(rng, n=8, width=48, height=24)
+    a, b = Localizer(ref_map), Localizer(ref_map)
+    for k in range(4):
+        query = nightloc.patch_normalize(rng.integers(0, 256, (24, 48), dtype=np.uint8))
+        motion = RobotMotion(0.2, 0.0, 0.3) if k else None
+        ea = a.update(query, motion)
+        eb = b.update_table(nightloc.rotational_sad(query, ref_map.images), motion)
+        assert (ea.x, ea.y, ea.heading, ea.credible_radius) == (eb.x, eb.y, eb.heading, eb.credible_radius)
+        assert ea.best_ref == eb.best_ref and ea.score == eb.score
+
+
+# ----------------------------------------------------------------------------------------------
+# behaviour
+
+
+def _lattice_world(rng, step=1.0, nx=7, ny=5, width=48, height=24):
+    """References on a lattice, each a random prepared panorama; `view(p, heading)` renders a
+    query at any pose as the nearest reference's image turned by the heading difference (plus
+    noise): a world where the filter must find place and heading."""
+    xs, ys = np.meshgrid(np.arange(nx) * step, np.arange(ny) * step)
+    positions = np.column_stack([xs.ravel(), ys.ravel()])
+    headings = rng.uniform(-np.pi, np.pi, len(positions))
+    images = nightloc.patch_normalize(rng.integers(0, 256, (len(positions), height, width), dtype=np.uint8))
+    ref_map = nightloc.ReferenceMap(images, positions, headings)
+
+    def view(p, heading):
+        k = int(np.argmin(np.hypot(*(positions - p).T)))
+        turn = int(round((heading - headings[k]) * width / (2 * np.pi))) % width
+        noisy = np.roll(images[k], turn, axis=1).astype(int) + rng.integers(-20, 21, (height, width))
+        return np.clip(noisy, 0, 255).astype(np.uint8)
+
+    return ref_map, view
+
+
+def test_follows_a_robot_with_wheel_odometry_and_reports_heading():
+    rng = np.random.default_rng(5)
+    ref_map, view = _lattice_world(rng)
+    loc = Localizer(ref_map, odometry_noise=1)
+    pose = np.array([0.2, 0.3]), 0.3
+    errors, heading_errors = [], []
+    for k in range(20):
+        p, h = pose
+        e = loc.update(view(p, h), RobotMotion(0.45, 0.0, 0.12) if k else None)
+        errors.append(math.hypot(e.x - p[0], e.y - p[1]))
+        heading_errors.append(abs(wrap_angle(e.heading - h)))
+        pose = (p + 0.45 * np.array([math.cos(h), math.sin(h)]), h + 0.12)
+    assert np.median(errors[5:]) < 0.5
+    assert np.median(heading_errors[5:]) < math.radians(10)
+
+
+def test_a_kidnapped_robot_is_found_again_within_ten_frames():
+    rng = np.random.default_rng(6)
+    ref_map, view = _lattice_world(rng)
+    loc = Localizer(ref_map, odometry_noise=1)
+    path = [(np.array([0.5 + 0.4 * k, 1.0]), 0.0) for k in range(12)]
+    for k, (p, h) in enumerate(path):
+        e = loc.update(view(p, h), RobotMotion(0.4, 0.0, 0.0) if k else None)
+    assert math.hypot(e.x - path[-1][0][0], e.y - path[-1][0][1]) < 0.6
+    # carried 4 m away and turned; the odometry says it did not move
+    start = np.array([2.0, 4.0])
+    recovered = None
+    for k in range(12):
+        p = start + np.array([0.4 * k, 0.0])
+        e = loc.update(view(p, math.pi / 2), RobotMotion(0.0, 0.0, 0.0) if k == 0 else RobotMotion(0.0, -0.4, 0.0))
+        if math.hypot(e.x - p[0], e.y - p[1]) < 1.0:
+            recovered = k
+            break
+    assert recovered is not None and recovered <= 10
+
+
+def test_uncertainty_shrinks_as_frames_agree_and_confidence_is_low_when_lost():
+    rng = np.random.default_rng(8)
+    ref_map, view = _lattice_world(rng)
+    loc = Localizer(ref_map, odometry_noise=1)
+    # one frame moves the belief by at most exp(likelihood_gain) against a median place: the
+    # evidence of agreeing frames accumulates
+    first = loc.update(view(np.array([3.0, 2.0]), 1.0))
+    estimates = [loc.update(view(np.array([3.0, 2.0]), 1.0), RobotMotion(0.0, 0.0, 0.0)) for _ in range(11)]
+    last = estimates[-1]
+    assert last.credible_radius < 0.5 < first.credible_radius
+    assert first.confidence < 0.5 < 0.95 < last.confidence
+    assert all(a.confidence <= b.confidence + 1e-9 for a, b in itertools.pairwise(estimates))
+    eig = np.linalg.eigvalsh(last.covariance)
+    assert eig.min() >= -1e-12 and math.sqrt(eig.max()) < 1.0
+    lost = loc.predict(None)  # unknown motion: the belief spreads
+    assert lost.confidence < last.confidence and lost.credible_radius > last.credible_radius
+    assert lost.best_ref == -1 and math.isnan(lost.score) and lost.frames == last.frames
+    loc.reset()
+    assert loc.belief == pytest.approx(np.full(loc.grid.shape, 1.0 / (loc.grid.width * loc.grid.height)))
+
+
+def test_ties_carry_no_position():
+    rng = np.random.default_rng(9)
+    ref_map = _random_map(rng, n=6)
+    loc = Localizer(ref_map, grid_width=20, grid_height=20)
+    e = loc.update_table(np.full((6, 16), 20.0, dtype=np.float32))
+    # a uniform belief times a flat likelihood: no peak, the estimate is the belief's mean
+    grid = loc.grid
+    assert (e.x, e.y) == pytest.approx((grid.x0 + grid.dx * 9.5, grid.y0 + grid.dy * 9.5))
+    assert e.confidence < 0.5 and e.credible_radius > 0.5 * grid.dx * grid.width / 2
+
+
+@pytest.mark.sanitize  # drives the core (CI runs it again under ASan + UBSan)
+def test_nan_scores_raise_and_leave_the_belief_unchanged():
+    rng = np.random.default_rng(10)
+    ref_map = _random_map(rng, n=6)
+    loc = Localizer(ref_map, grid_width=20, grid_height=20)
+    loc.update_table(rng.uniform(15, 25, (6, 16)).astype(np.float32))
+    before = loc.pose_belief.copy()
+    bad = rng.uniform(15, 25, (6, 16)).astype(np.float32)
+    bad[3, 5] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        loc.update_table(bad, RobotMotion(0.3, 0.0, 0.1))
+    assert np.array_equal(loc.pose_belief, before)
+    with pytest.raises(ValueError, match="finite"):
+        RobotMotion(float("nan"))
+    with pytest.raises(TypeError, match="float32"):
+        loc.update_table(bad.astype(np.float64))
+    with pytest.raises(ValueError, match=r"\(6, 16\)"):
+        loc.update_table(np.zeros((5, 16), np.float32))
+
+
+@pytest.mark.sanitize  # drives the core (CI runs it again under ASan + UBSan)
+def test_a_robot_driven_off_the_map_keeps_a_defined_belief():
+    rng = np.random.default_rng(12)
+    ref_map = _random_map(rng, n=8)
+    loc = Localizer(ref_map, grid_width=25, grid_height=25)
+    loc.update_table(rng.uniform(15, 25, (8, 16)).astype(np.float32))
+    e = loc.update_table(rng.uniform(15, 25, (8, 16)).astype(np.float32), MapDisplacement(500.0, 0.0))
+    # every bit of the belief left the grid: what is left is the uniform floor, times this frame
+    belief = loc.belief
+    assert np.isfinite(belief).all() and belief.sum() == pytest.approx(1.0) and belief.min() > 0
+    assert math.isfinite(e.x) and math.isfinite(e.credible_radius)
+    grid = loc.grid
+    assert grid.x0 - grid.dx <= e.x <= grid.x0 + grid.dx * grid.width
+
+
+@pytest.mark.sanitize  # drives the core (CI runs it again under ASan + UBSan)
+@pytest.mark.parametrize("n_refs", [1, 2])
+def test_one_or_two_references(n_refs):
+    rng = np.random.default_rng(13)
+    ref_map = _random_map(rng, n=n_refs)
+    loc = Localizer(ref_map, grid_width=21, grid_height=21)
+    table = rng.uniform(15, 25, (n_refs, 16)).astype(np.float32)
+    e = loc.update_table(table)
+    assert math.isfinite(e.x) and math.isfinite(e.y) and 0 <= e.ref_index < n_refs
+    if n_refs == 1:  # the median is the minimum: lambda 0, images say nothing about the place
+        assert loc._filter.core.lambda_ == 0.0
+    else:
+        assert loc._filter.core.lambda_ > 0.0
+        assert e.ref_index == int(np.argmin(table.min(axis=1)))
+    e = loc.update_table(table, RobotMotion(0.2, 0.0, 0.5))
+    assert math.isfinite(e.heading)
+
+
+def test_map_without_headings_is_position_only_and_refuses_wheel_odometry():
+    rng = np.random.default_rng(14)
+    ref_map = _random_map(rng, n=6, headings=False)
+    loc = Localizer(ref_map, grid_width=20, grid_height=20)
+    e = loc.update_table(rng.uniform(15, 25, (6, 16)).astype(np.float32), RobotMotion(1.0))  # first: ignored
+    assert math.isnan(e.heading) and loc.pose_belief.shape == (1, 20, 20)
+    with pytest.raises(ValueError, match="map-frame"):
+        loc.update_table(rng.uniform(15, 25, (6, 16)).astype(np.float32), RobotMotion(0.3))
+    loc.update_table(rng.uniform(15, 25, (6, 16)).astype(np.float32), (0.3, 0.0))
+
+
+def test_forward_camera_is_position_only_with_the_closest_reference_heading():
+    rng = np.random.default_rng(15)
+    ref_map = _random_map(rng, n=6, shifts_all=False)
+    loc = Localizer(ref_map, grid_width=20, grid_height=20)
+    table = rng.uniform(15, 25, (6, 1)).astype(np.float32)
+    e = loc.update_table(table)
+    assert not loc._filter.can_pose
+    assert e.heading == pytest.approx(wrap_angle(ref_map.headings[e.ref_index]))
+
+
+def test_map_frame_odometry_collapses_heading_and_wheel_odometry_restores_it():
+    rng = np.random.default_rng(16)
+    ref_map = _random_map(rng, n=8)
+    loc = Localizer(ref_map, grid_width=20, grid_height=20)
+    loc.update_table(rng.uniform(15, 25, (8, 16)).astype(np.float32))
+    assert loc._filter.pose_mode
+    loc.update_table(rng.uniform(15, 25, (8, 16)).astype(np.float32), (0.1, 0.2))
+    assert not loc._filter.pose_mode and loc.pose_belief.shape[0] == 1
+    loc.update_table(rng.uniform(15, 25, (8, 16)).astype(np.float32), RobotMotion(0.1))
+    assert loc._filter.pose_mode and loc.pose_belief.shape[0] == 16
+
+
+def test_heatmaps_and_belief():
+    rng = np.random.default_rng(17)
+    ref_map = _random_map(rng, n=8)
+    loc = Localizer(ref_map, grid_width=24, grid_height=18)
+    e = loc.update_table(rng.uniform(15, 25, (8, 16)).astype(np.float32), return_heatmap=True)
+    assert e.heatmap.shape == (18, 24) and e.heatmap.sum() == pytest.approx(1.0)
+    assert np.array_equal(e.heatmap, loc.belief)
+    assert e.frame_heatmap.shape == (18, 24)
+    assert loc.pose_belief.sum() == pytest.approx(1.0) and 0 <= loc.heading_offset < 2 * np.pi / 16
+
+
+def test_api_errors_name_the_problem():
+    rng = np.random.default_rng(18)
+    ref_map = _random_map(rng, n=5)
+    with pytest.raises(ValueError, match="method='paper'"):
+        Localizer(ref_map, seq_len=5)
+    with pytest.raises(ValueError, match="method"):
+        Localizer(ref_map, method="kalman")
+    with pytest.raises(TypeError, match="likelihood_gian"):
+        Localizer(ref_map, likelihood_gian=2.0)
+    with pytest.raises(ValueError, match="uniform_floor"):
+        Localizer(ref_map, uniform_floor=1.5)
+    with pytest.raises(ValueError, match="noise model"):
+        Localizer(ref_map, odometry_noise=7)
+    loc = Localizer(ref_map, grid_width=10, grid_height=10)
+    result = nightloc.match(ref_map.images[0], ref_map.images)
+    with pytest.raises(TypeError, match="rotational SAD table"):
+        loc.update_match(result)
+    with pytest.raises(ValueError, match="with_seq_len"):
+        loc.with_seq_len(3)
+    paper = Localizer(ref_map, method="paper", seq_len=3)
+    with pytest.raises(AttributeError, match="filter"):
+        _ = paper.belief
+
+
+def test_filter_params_round_trip_through_toml(tmp_path):
+    params = FilterParams(likelihood_gain=2.5, heading_bins=24)
+    nightloc.save_params(tmp_path / "p.toml", params)
+    assert nightloc.load_params(tmp_path / "p.toml", FilterParams) == params
+    rng = np.random.default_rng(19)
+    loc = Localizer(_random_map(rng, n=5), filter_params=params, grid_width=10, grid_height=10)
+    assert loc._filter.core.heading_bins == 24

@@ -1,0 +1,139 @@
+"""The Bayes filter's target figures beside the paper's method (docs/localization.md, issue 11).
+
+    python tools/filter_targets.py [--draws 3] [--cache DIR] [--param likelihood_gain=3.5 ...]
+
+On the embedded synthetic world (the demo's data: each world's night query against its day
+map), for map-frame and wheel odometry (``RobotMotion``) with noise models 0 and 3, over
+``--draws`` noise draws (seeded as ``nightloc evaluate`` does): the median distance error over the
+query frames from the 10th on of the filter and of the paper's 10-frame sequences (median over
+draws, with the range), the filter's median heading error, the share of all frames whose truth
+lies within the filter's ``credible_radius``, and the frames a kidnapped robot (carried metres
+away while its odometry says it did not move) takes until its error is below 1 m again.
+Prints markdown tables.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+import numpy as np
+
+import nightloc
+from nightloc.localization.evaluation import EvaluationSettings, match_traverse, simulated_odometry
+from nightloc.localization.odometry import MapDisplacement, RobotMotion, wrap_angle
+from nightloc.synth import default_dataset
+
+FIRST = 10  # errors counted from the 10th query frame on (a 10-frame sequence is full there)
+
+
+def _run_filter(ref_map, tables, odometry, model, overrides):
+    loc = nightloc.Localizer(ref_map, odometry_noise=model, **overrides)
+    return [loc.update_table(tables[i], odometry[i]) for i in range(len(tables))]
+
+
+def _run_paper(ref_map, results, odometry):
+    loc = nightloc.Localizer(ref_map, method="paper", seq_len=10)
+    return [loc.update_match(r, odometry[i]) for i, r in enumerate(results)]
+
+
+def _errors(estimates, positions):
+    xy = np.array([[e.x, e.y] for e in estimates])
+    return np.hypot(*(xy - positions).T)
+
+
+def emit(line: str = "") -> None:
+    """One line of the report on stdout."""
+    sys.stdout.write(line + "\n")
+
+
+def _cell(values):
+    values = np.asarray(values)
+    if values.size == 1:
+        return f"{values[0]:.2f}"
+    return f"{np.median(values):.2f} ({values.min():.2f}-{values.max():.2f})"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--draws", type=int, default=3, help="noise draws per noise model (default 3)")
+    parser.add_argument("--cache", default=None, help="folder of the synthetic dataset (default the user cache)")
+    parser.add_argument(
+        "--param", action="append", default=[], help="filter parameter override, e.g. likelihood_gain=3.5"
+    )
+    args = parser.parse_args()
+    overrides = {k: float(v) for k, v in (p.split("=") for p in args.param)}
+    folders = default_dataset(cache_dir=args.cache)
+    covered: list[np.ndarray] = []
+    emit(
+        "| world | odometry | noise | filter (m) | paper n=10 (m) | filter / paper | filter heading (deg) "
+        "| within credible radius |"
+    )
+    emit("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for world in ("garden", "living_room"):
+        ref_map = nightloc.ReferenceMap.build(folders[world]["day_reference"])
+        matches = match_traverse(ref_map, folders[world]["night_query"], tables=True)
+        for kind in ("robot", "map"):
+            settings = EvaluationSettings(odometry=kind, repeats=args.draws)
+            for model in (0, 3):
+                filt, paper, ratio, heading, inside = [], [], [], [], []
+                for repeat in range(settings.repeats_of(model)):
+                    odometry = simulated_odometry(matches, model, repeat, settings)
+                    estimates = _run_filter(ref_map, matches.tables, odometry, model, overrides)
+                    errors = _errors(estimates, matches.positions)
+                    paper_errors = _errors(_run_paper(ref_map, matches.results, odometry), matches.positions)
+                    filt.append(np.median(errors[FIRST - 1 :]))
+                    paper.append(np.median(paper_errors[FIRST - 1 :]))
+                    ratio.append(filt[-1] / paper[-1])
+                    turn = wrap_angle(np.array([e.heading for e in estimates]) - matches.headings)
+                    heading.append(math.degrees(np.median(np.abs(turn[FIRST - 1 :]))))
+                    hits = errors <= np.array([e.credible_radius for e in estimates])
+                    inside.append(hits.mean())
+                    covered.append(hits)
+                label = "wheel (RobotMotion)" if kind == "robot" else "map frame"
+                emit(
+                    f"| {world} | {label} | {model} | {_cell(filt)} | {_cell(paper)} | {_cell(ratio)} | "
+                    f"{_cell(heading)} | {np.mean(inside):.0%} |"
+                )
+    share = np.mean(np.concatenate(covered))
+    emit(f"\nAll frames of these runs: the truth within credible_radius in {share:.1%}.\n")
+
+    # kidnapping: frames [0, j) then the traverse continues elsewhere; the odometry says "no motion"
+    cases = [
+        ("garden", "night_query", [*range(20), *range(30, 41)], 20),
+        ("garden", "night_query", [*range(13), *range(28, 41)], 13),
+        ("garden", "night_reference", [*range(20), *range(40, 53)], 20),
+        ("garden", "night_reference", [*range(30), *range(5, 25)], 30),
+        ("living_room", "night_query", list(range(32)), 16),
+    ]
+    emit(
+        "| odometry | noise | frames after the kidnapping until the error is below 1 m (every case and draw) | worst |"
+    )
+    emit("| --- | --- | --- | --- |")
+    maps = {}
+    for kind in ("robot", "map"):
+        for model in (0, 3):
+            recoveries = []
+            for world, query, order, jump in cases:
+                if world not in maps:
+                    maps[world] = nightloc.ReferenceMap.build(folders[world]["day_reference"])
+                ref_map = maps[world]
+                traverse = nightloc.load_traverse(folders[world][query]).subset(order)
+                matches = match_traverse(ref_map, traverse, tables=True)
+                settings = EvaluationSettings(odometry=kind, repeats=args.draws)
+                for repeat in range(settings.repeats_of(model)):
+                    odometry = simulated_odometry(matches, model, repeat, settings)
+                    odometry[jump] = RobotMotion(0.0) if kind == "robot" else MapDisplacement(0.0, 0.0)
+                    errors = _errors(
+                        _run_filter(ref_map, matches.tables, odometry, model, overrides), matches.positions
+                    )
+                    after = errors[jump:] < 1.0
+                    recoveries.append(int(np.argmax(after)) if after.any() else -1)
+            label = "wheel (RobotMotion)" if kind == "robot" else "map frame"
+            worst = "never" if -1 in recoveries else max(recoveries)
+            emit(f"| {label} | {model} | {' '.join(map(str, recoveries))} | {worst} |")
+
+
+if __name__ == "__main__":
+    main()
