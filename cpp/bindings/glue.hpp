@@ -25,13 +25,21 @@ using CArray = py::array_t<T, py::array::c_style>;
 template <class T>
 constexpr const char* dtype_name();
 template <>
-constexpr const char* dtype_name<std::uint8_t>() { return "uint8"; }
+constexpr const char* dtype_name<std::uint8_t>() {
+    return "uint8";
+}
 template <>
-constexpr const char* dtype_name<std::int32_t>() { return "int32"; }
+constexpr const char* dtype_name<std::int32_t>() {
+    return "int32";
+}
 template <>
-constexpr const char* dtype_name<float>() { return "float32"; }
+constexpr const char* dtype_name<float>() {
+    return "float32";
+}
 template <>
-constexpr const char* dtype_name<double>() { return "float64"; }
+constexpr const char* dtype_name<double>() {
+    return "float64";
+}
 
 /// The shape as numpy prints it: "(3, 24, 48)", "(5,)".
 inline std::string shape_text(const py::array& a) {

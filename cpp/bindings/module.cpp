@@ -9,7 +9,8 @@ void register_localization(py::module_& m);  // register_localization.cpp: night
 void register_route(py::module_& m);         // register_route.cpp: nightloc.route
 
 PYBIND11_MODULE(_core, m) {
-    m.doc() = "nightloc's compiled core: preparation, rotation-invariant SAD, heat maps, route mode (private; use nightloc)";
+    m.doc() =
+        "nightloc's compiled core: preparation, rotation-invariant SAD, heat maps, route mode (private; use nightloc)";
     m.attr("__version__") = NIGHTLOC_VERSION;  // the project's version, from the build (pyproject.toml)
     register_preparation(m);
     register_matching(m);

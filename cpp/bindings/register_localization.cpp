@@ -225,7 +225,8 @@ public:
     // the estimate. Returns (estimate tuple, min scores (n_refs,) float32, best shifts int32).
     py::tuple step_image(const py::array& query_in, const py::array& refs_in, int kind, double a, double b, double c,
                          int threads) {
-        if (!py::isinstance<py::array_t<std::uint8_t>>(query_in) || !py::isinstance<py::array_t<std::uint8_t>>(refs_in)) {
+        if (!py::isinstance<py::array_t<std::uint8_t>>(query_in) ||
+            !py::isinstance<py::array_t<std::uint8_t>>(refs_in)) {
             throw py::type_error("query and refs must have dtype uint8");
         }
         if (query_in.ndim() != 2 || refs_in.ndim() != 3 || !(query_in.flags() & py::array::c_style) ||
@@ -234,8 +235,9 @@ public:
         }
         if (static_cast<std::size_t>(refs_in.shape(0)) != filter_.n_refs() || refs_in.shape(1) != query_in.shape(0) ||
             refs_in.shape(2) != query_in.shape(1)) {
-            throw py::value_error("refs " + nightloc::glue::shape_text(refs_in) + " do not fit the query " + nightloc::glue::shape_text(query_in) +
-                                  " and the filter's " + std::to_string(filter_.n_refs()) + " references");
+            throw py::value_error("refs " + nightloc::glue::shape_text(refs_in) + " do not fit the query " +
+                                  nightloc::glue::shape_text(query_in) + " and the filter's " +
+                                  std::to_string(filter_.n_refs()) + " references");
         }
         check_motion(kind, a, b, c);
         const auto* q = static_cast<const std::uint8_t*>(query_in.data());
@@ -276,7 +278,8 @@ public:
 
     // The marginal over heading (height, width) float64, summing to 1.
     py::array marginal() const {
-        py::array_t<double> out({static_cast<py::ssize_t>(filter_.height()), static_cast<py::ssize_t>(filter_.width())});
+        py::array_t<double> out(
+            {static_cast<py::ssize_t>(filter_.height()), static_cast<py::ssize_t>(filter_.width())});
         const float* m = filter_.marginal();
         const double scale = filter_.scale();
         double* o = out.mutable_data();
@@ -301,15 +304,18 @@ public:
         if (!py::isinstance<py::array_t<float>>(belief_in) || belief_in.ndim() != 3 ||
             static_cast<std::size_t>(belief_in.shape(0)) != bins ||
             static_cast<std::size_t>(belief_in.shape(1)) != filter_.height() ||
-            static_cast<std::size_t>(belief_in.shape(2)) != filter_.width() || !(belief_in.flags() & py::array::c_style)) {
+            static_cast<std::size_t>(belief_in.shape(2)) != filter_.width() ||
+            !(belief_in.flags() & py::array::c_style)) {
             throw py::value_error("belief must be a C-contiguous float32 (" + std::to_string(bins) + ", " +
-                                  std::to_string(filter_.height()) + ", " + std::to_string(filter_.width()) + ") array");
+                                  std::to_string(filter_.height()) + ", " + std::to_string(filter_.width()) +
+                                  ") array");
         }
         filter_.set_belief(static_cast<const float*>(belief_in.data()), pose, offset);
     }
 
     py::array table() const {
-        py::array_t<float> out({static_cast<py::ssize_t>(filter_.n_refs()), static_cast<py::ssize_t>(filter_.n_shifts())});
+        py::array_t<float> out(
+            {static_cast<py::ssize_t>(filter_.n_refs()), static_cast<py::ssize_t>(filter_.n_shifts())});
         std::copy(filter_.table().begin(), filter_.table().end(), out.mutable_data());
         return std::move(out);
     }
@@ -327,7 +333,8 @@ private:
         map.dx = dx;
         map.dy = dy;
         map.place_of_ref = vector_of<std::int32_t>(place_of_ref, "place_of_ref");
-        if (!ref_headings.is_none()) map.ref_headings = vector_of<double>(ref_headings.cast<py::array>(), "ref_headings");
+        if (!ref_headings.is_none())
+            map.ref_headings = vector_of<double>(ref_headings.cast<py::array>(), "ref_headings");
         map.columns = columns;
         map.shifts = vector_of<std::int32_t>(shifts, "shifts");
         return map;
@@ -338,18 +345,30 @@ private:
         for (const auto& item : d) {
             const auto key = item.first.cast<std::string>();
             const py::handle v = item.second;
-            if (key == "heading_bins") s.heading_bins = v.cast<std::size_t>();
-            else if (key == "likelihood_gain") s.likelihood_gain = v.cast<double>();
-            else if (key == "distance_std") s.distance_std = v.cast<double>();
-            else if (key == "heading_std") s.heading_std = v.cast<double>();
-            else if (key == "position_floor") s.position_floor = v.cast<double>();
-            else if (key == "heading_floor") s.heading_floor = v.cast<double>();
-            else if (key == "uniform_floor") s.uniform_floor = v.cast<double>();
-            else if (key == "unknown_spread") s.unknown_spread = v.cast<double>();
-            else if (key == "credibility") s.credibility = v.cast<double>();
-            else if (key == "confidence_radius") s.confidence_radius = v.cast<double>();
-            else if (key == "estimate_window") s.estimate_window = v.cast<std::size_t>();
-            else throw py::value_error("unknown grid filter setting '" + key + "'");
+            if (key == "heading_bins")
+                s.heading_bins = v.cast<std::size_t>();
+            else if (key == "likelihood_gain")
+                s.likelihood_gain = v.cast<double>();
+            else if (key == "distance_std")
+                s.distance_std = v.cast<double>();
+            else if (key == "heading_std")
+                s.heading_std = v.cast<double>();
+            else if (key == "position_floor")
+                s.position_floor = v.cast<double>();
+            else if (key == "heading_floor")
+                s.heading_floor = v.cast<double>();
+            else if (key == "uniform_floor")
+                s.uniform_floor = v.cast<double>();
+            else if (key == "unknown_spread")
+                s.unknown_spread = v.cast<double>();
+            else if (key == "credibility")
+                s.credibility = v.cast<double>();
+            else if (key == "confidence_radius")
+                s.confidence_radius = v.cast<double>();
+            else if (key == "estimate_window")
+                s.estimate_window = v.cast<std::size_t>();
+            else
+                throw py::value_error("unknown grid filter setting '" + key + "'");
         }
         return s;
     }
@@ -366,10 +385,17 @@ private:
 
     void predict_locked(int kind, double a, double b, double c) {
         switch (kind) {
-            case kUnknown: filter_.predict_unknown(); break;
-            case kMapMotion: filter_.predict_map(a, b); break;
-            case kRobotMotion: filter_.predict_robot(a, b, c); break;
-            default: break;
+            case kUnknown:
+                filter_.predict_unknown();
+                break;
+            case kMapMotion:
+                filter_.predict_map(a, b);
+                break;
+            case kRobotMotion:
+                filter_.predict_robot(a, b, c);
+                break;
+            default:
+                break;
         }
     }
 
@@ -400,8 +426,9 @@ void register_localization(py::module_& m) {
              py::arg("weights"), py::arg("x0"), py::arg("y0"), py::arg("dx"), py::arg("dy"), py::arg("place_of_ref"),
              py::arg("ref_headings"), py::arg("columns"), py::arg("shifts"), py::arg("settings"))
         .def("reset", &GridFilterPy::reset)
-        .def("__copy__", [](const GridFilterPy& f) { return GridFilterPy(f); },
-             "An independent filter in the same state, bit for bit (the map's weights are shared: immutable).")
+        .def(
+            "__copy__", [](const GridFilterPy& f) { return GridFilterPy(f); },
+            "An independent filter in the same state, bit for bit (the map's weights are shared: immutable).")
         .def("set_noise", &GridFilterPy::set_noise, py::arg("distance_std"), py::arg("heading_std"))
         .def("predict", &GridFilterPy::predict, py::arg("kind"), py::arg("a"), py::arg("b"), py::arg("c"))
         .def("step_image", &GridFilterPy::step_image, py::arg("query"), py::arg("refs"), py::arg("kind"), py::arg("a"),

@@ -61,7 +61,8 @@ py::tuple difference_table(const py::array& queries_in, const py::array& refs_in
     const std::uint8_t* r = refs.data();
     Out* v = values.mutable_data();
     std::int32_t* b = best_shifts.mutable_data();
-    without_gil([&] { compute(q, extent(queries, 0), r, extent(refs, 0), extent(refs, 1), extent(refs, 2), shifts, v, b); });
+    without_gil(
+        [&] { compute(q, extent(queries, 0), r, extent(refs, 0), extent(refs, 1), extent(refs, 2), shifts, v, b); });
     return py::make_tuple(std::move(values), std::move(best_shifts));
 }
 
@@ -104,8 +105,8 @@ py::tuple match(const py::array& query_in, const py::array& refs_in, const py::a
     std::int32_t* b = best_shifts.mutable_data();
     double* hd = headings.mutable_data();
     const std::size_t best = without_gil([&] {
-        return nightloc::match(q, r, extent(refs, 0), extent(refs, 1), extent(refs, 2), shifts.data(), shifts.size(),
-                               s, b, hd, threads);
+        return nightloc::match(q, r, extent(refs, 0), extent(refs, 1), extent(refs, 2), shifts.data(), shifts.size(), s,
+                               b, hd, threads);
     });
     return py::make_tuple(best, std::move(scores), std::move(best_shifts), std::move(headings));
 }
@@ -124,10 +125,12 @@ void register_matching(py::module_& m) {
     std::vector<std::string> all_names;
     for (const auto& entry : nightloc::kSimdBackendNames) all_names.emplace_back(entry.name);
     m.attr("ALL_SIMD_BACKENDS") = py::tuple(py::cast(all_names));
-    m.def("simd_backend", [] { return std::string(nightloc::simd_backend_name(nightloc::active_simd_backend())); },
-          "Name of the SIMD path the kernels use now.");
-    m.def("best_simd_backend", [] { return std::string(nightloc::simd_backend_name(nightloc::best_simd_backend())); },
-          "Name of the fastest SIMD path this CPU supports.");
+    m.def(
+        "simd_backend", [] { return std::string(nightloc::simd_backend_name(nightloc::active_simd_backend())); },
+        "Name of the SIMD path the kernels use now.");
+    m.def(
+        "best_simd_backend", [] { return std::string(nightloc::simd_backend_name(nightloc::best_simd_backend())); },
+        "Name of the fastest SIMD path this CPU supports.");
     m.def(
         "available_simd_backends", [] { return names_of(nightloc::supported_simd_backends()); },
         "SIMD paths this CPU supports, slowest first.");

@@ -58,11 +58,16 @@ nightloc::Equalization equalization_from_name(const std::string& name) {
 
 const char* method_name(nightloc::DownsampleMethod method) {
     switch (method) {
-        case nightloc::DownsampleMethod::copy: return "copy";
-        case nightloc::DownsampleMethod::integral: return "integral";
-        case nightloc::DownsampleMethod::blocks: return "blocks";
-        case nightloc::DownsampleMethod::weights: return "weights";
-        case nightloc::DownsampleMethod::unsupported: return "unsupported";
+        case nightloc::DownsampleMethod::copy:
+            return "copy";
+        case nightloc::DownsampleMethod::integral:
+            return "integral";
+        case nightloc::DownsampleMethod::blocks:
+            return "blocks";
+        case nightloc::DownsampleMethod::weights:
+            return "weights";
+        case nightloc::DownsampleMethod::unsupported:
+            return "unsupported";
     }
     return "unsupported";
 }
@@ -119,8 +124,7 @@ py::array prepare_frame(const py::array& frame, const std::string& order_name, c
 void register_preparation(py::module_& m) {
     m.attr("DEFAULT_PATCH_SCALE") = nightloc::kDefaultPatchScale;
     m.attr("MAX_PATCH_RADIUS") = nightloc::kMaxPatchRadius;
-    m.def("patch_normalize", &patch_normalize, py::arg("images"), py::arg("radius"), py::arg("wrap"),
-          py::arg("scale"));
+    m.def("patch_normalize", &patch_normalize, py::arg("images"), py::arg("radius"), py::arg("wrap"), py::arg("scale"));
     m.def("block_normalize", &block_normalize, py::arg("images"), py::arg("side"));
     m.def("prepare_frame", &prepare_frame, py::arg("frame"), py::arg("order"), py::arg("crop"), py::arg("equalize"),
           py::arg("width"), py::arg("height"), py::arg("normalize"), py::arg("radius"), py::arg("wrap"),

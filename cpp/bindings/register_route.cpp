@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "glue.hpp"
-#include "nightloc/sad.hpp"
 #include "nightloc/route_filter.hpp"
+#include "nightloc/sad.hpp"
 #include "nightloc/seqslam.hpp"
 
 namespace {
@@ -61,7 +61,8 @@ py::tuple enhance_contrast(const py::array& d_in, int radius, const std::string&
                            py::object out_in) {
     const F32Array d = checked_matrix(d_in, "d", false);
     if (radius < 1) throw py::value_error("radius must be >= 1, got " + std::to_string(radius));
-    if (d.shape(1) < 2) throw py::value_error("enhancement needs at least 2 references, got " + std::to_string(d.shape(1)));
+    if (d.shape(1) < 2)
+        throw py::value_error("enhancement needs at least 2 references, got " + std::to_string(d.shape(1)));
     const nightloc::EnhanceOffset offset = offset_from_name(offset_name);
     F32Array out;
     if (out_in.is_none()) {
@@ -75,8 +76,8 @@ py::tuple enhance_contrast(const py::array& d_in, int radius, const std::string&
     const float* src = d.data();
     float* dst = out.mutable_data();
     const float added = without_gil([&] {
-        return nightloc::enhance_contrast(src, dst, extent(d, 0), extent(d, 1), static_cast<std::size_t>(radius), offset,
-                                          threads);
+        return nightloc::enhance_contrast(src, dst, extent(d, 0), extent(d, 1), static_cast<std::size_t>(radius),
+                                          offset, threads);
     });
     return py::make_tuple(std::move(out), added);
 }
@@ -109,8 +110,8 @@ py::tuple trajectory_search(const py::array& dd_in, int ds, double vmin, double 
 
 py::dict trajectory_plan(int ds, double vmin, double vmax, int uniqueness_radius, bool causal) {
     const nightloc::TrajectoryPlan plan = plan_from(ds, vmin, vmax, uniqueness_radius, causal);
-    py::array_t<std::int64_t> offsets({static_cast<py::ssize_t>(plan.speeds.size()),
-                                       static_cast<py::ssize_t>(plan.frames)});
+    py::array_t<std::int64_t> offsets(
+        {static_cast<py::ssize_t>(plan.speeds.size()), static_cast<py::ssize_t>(plan.frames)});
     std::copy(plan.offsets.begin(), plan.offsets.end(), offsets.mutable_data());
     py::dict out;
     out["ds"] = plan.ds;
@@ -172,9 +173,7 @@ py::array_t<float, py::array::c_style> checked_row(const py::array& a, std::size
     return py::reinterpret_borrow<py::array_t<float, py::array::c_style>>(a);
 }
 
-py::tuple step_tuple(const nightloc::RouteFilterStep& s) {
-    return py::make_tuple(s.best, s.confidence, s.off_route);
-}
+py::tuple step_tuple(const nightloc::RouteFilterStep& s) { return py::make_tuple(s.best, s.confidence, s.off_route); }
 
 nightloc::RouteFilter make_filter(std::size_t n_refs, const nightloc::RouteFilterParams& params) {
     return nightloc::RouteFilter(n_refs, params);  // std::invalid_argument -> ValueError
@@ -224,7 +223,8 @@ py::tuple run_rows(nightloc::RouteFilter& filter, const py::array& matrix_in, co
 py::tuple route_filter_matrix(const py::array& matrix_in, const nightloc::RouteFilterParams& params,
                               const py::object& weights_in, int threads) {
     const F32Array matrix = checked_matrix(matrix_in, "matrix", false);
-    if (matrix.shape(1) == 0) throw py::value_error("matrix has no references (shape " + filter_shape_text(matrix) + ")");
+    if (matrix.shape(1) == 0)
+        throw py::value_error("matrix has no references (shape " + filter_shape_text(matrix) + ")");
     nightloc::RouteFilter filter(static_cast<std::size_t>(matrix.shape(1)), params);
     return run_rows(filter, matrix, weights_in, threads);
 }
@@ -247,8 +247,8 @@ py::array_t<double> texture_weights(const py::array& stack_in, double min_textur
 // contrast enhancement (causal offset), the texture weight, the filter step. The row is kept in
 // `row_out` (the enhanced row, float32 (n_refs,)).
 py::tuple filter_frame(nightloc::RouteFilter& filter, const py::array& image_in, const py::array& refs_in,
-                       const py::array& shifts_in, double divisor, int enhance_radius, double min_texture,
-                       int threads, const py::array& row_in) {
+                       const py::array& shifts_in, double divisor, int enhance_radius, double min_texture, int threads,
+                       const py::array& row_in) {
     const auto refs = checked_stack(refs_in, "refs");
     if (!py::isinstance<py::array_t<std::uint8_t>>(image_in) || image_in.ndim() != 2 ||
         !(image_in.flags() & py::array::c_style)) {
@@ -256,9 +256,9 @@ py::tuple filter_frame(nightloc::RouteFilter& filter, const py::array& image_in,
     }
     const auto image = py::reinterpret_borrow<FilterImage>(image_in);
     if (image.shape(0) != refs.shape(1) || image.shape(1) != refs.shape(2)) {
-        throw py::value_error("the image is " + std::to_string(image.shape(0)) + " x " + std::to_string(image.shape(1)) +
-                              " pixels but refs are " + std::to_string(refs.shape(1)) + " x " +
-                              std::to_string(refs.shape(2)));
+        throw py::value_error("the image is " + std::to_string(image.shape(0)) + " x " +
+                              std::to_string(image.shape(1)) + " pixels but refs are " + std::to_string(refs.shape(1)) +
+                              " x " + std::to_string(refs.shape(2)));
     }
     const auto n_refs = static_cast<std::size_t>(refs.shape(0));
     if (n_refs != filter.n_refs()) {
@@ -367,11 +367,10 @@ void register_route_filter(py::module_& m) {
         "motion_kernel",
         [](double vmin, double vmax, double backward) {
             const nightloc::MotionKernel k = nightloc::motion_kernel(vmin, vmax, backward);
-            return py::make_tuple(k.first, py::array_t<double>(static_cast<py::ssize_t>(k.weights.size()),
-                                                               k.weights.data()));
+            return py::make_tuple(k.first,
+                                  py::array_t<double>(static_cast<py::ssize_t>(k.weights.size()), k.weights.data()));
         },
-        py::arg("vmin"), py::arg("vmax"), py::arg("backward"),
-        "The prediction kernel: (first advance, weights).");
+        py::arg("vmin"), py::arg("vmax"), py::arg("backward"), "The prediction kernel: (first advance, weights).");
     m.def("texture_weights", &texture_weights, py::arg("images"), py::arg("min_texture"),
           "Evidence weight min(1, mean absolute deviation / min_texture) of each prepared image.");
 }
@@ -382,8 +381,8 @@ void register_route(py::module_& m) {
     m.attr("MAX_TRAJECTORY_PLAN_ENTRIES") = nightloc::kMaxTrajectoryPlanEntries;
     m.def("zscore_bound", &nightloc::zscore_bound, py::arg("radius"),
           "(n-1)/sqrt(n) for n = 2*radius+1, as float32: the largest |z| of a window.");
-    m.def("enhance_contrast", &enhance_contrast, py::arg("d"), py::arg("radius"), py::arg("offset"),
-          py::arg("threads"), py::arg("out") = py::none(),
+    m.def("enhance_contrast", &enhance_contrast, py::arg("d"), py::arg("radius"), py::arg("offset"), py::arg("threads"),
+          py::arg("out") = py::none(),
           "Local contrast enhancement of an (n_query, n_ref) float32 matrix; returns (out, added).");
     m.def("trajectory_search", &trajectory_search, py::arg("dd"), py::arg("ds"), py::arg("vmin"), py::arg("vmax"),
           py::arg("uniqueness_radius"), py::arg("causal"), py::arg("query_begin"), py::arg("query_end"),

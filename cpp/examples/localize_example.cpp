@@ -56,7 +56,7 @@ int main() {
     for (int j = 0; j < 3; ++j)
         for (int i = 0; i < 3; ++i) places.emplace_back(i, j);
     const nightloc::PrepareSettings settings;  // 48 x 24, equalized, patch-normalized (Table II)
-    nightloc::PrepareWorkspace workspace;       // reused by every frame: no allocation per frame
+    nightloc::PrepareWorkspace workspace;      // reused by every frame: no allocation per frame
     nightloc::ImageStack refs(static_cast<nightloc::Index>(places.size()), 24, 48);
     for (std::size_t p = 0; p < places.size(); ++p) {
         const auto frame = panorama(places[p].first, places[p].second, 1.0, rng);
@@ -128,10 +128,11 @@ int main() {
         const double confidence = peak.has_second ? (peak.peak - peak.second) / (peak.peak - peak.floor) : 1.0;
         const bool right = place.second == y && std::fabs(place.first - x) <= 0.5;  // a nearest place
         wrong += !right;
-        std::printf("frame %d at (%.2f, %.2f): best match place %ld, estimate (%.0f, %.0f) from %zu frames, "
-                    "confidence %.2f%s\n",
-                    t, x, y, static_cast<long>(match.best), place.first, place.second, sequence.size(), confidence,
-                    right ? "" : "  <- off");
+        std::printf(
+            "frame %d at (%.2f, %.2f): best match place %ld, estimate (%.0f, %.0f) from %zu frames, "
+            "confidence %.2f%s\n",
+            t, x, y, static_cast<long>(match.best), place.first, place.second, sequence.size(), confidence,
+            right ? "" : "  <- off");
     }
     std::printf("%d of 9 estimates off the nearest place\n", wrong);
     return wrong <= 1 ? EXIT_SUCCESS : EXIT_FAILURE;

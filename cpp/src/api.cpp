@@ -18,9 +18,9 @@ void require_same_geometry(Index h, Index w, const ImageStack& refs) {
 
 void require_consistent(const ImageStack& stack) {
     if (stack.pixels.cols() != stack.height * stack.width) {
-        throw std::invalid_argument("ImageStack: pixels has " + std::to_string(stack.pixels.cols()) +
-                                    " columns, expected height * width = " +
-                                    std::to_string(stack.height * stack.width));
+        throw std::invalid_argument(
+            "ImageStack: pixels has " + std::to_string(stack.pixels.cols()) +
+            " columns, expected height * width = " + std::to_string(stack.height * stack.width));
     }
 }
 

@@ -119,7 +119,8 @@ Choice measure(const CpuIdentity& cpu) {
 }
 
 Choice choose() {
-    if (!cpu_has_avx512bw()) return {Avx512SadVariant::vpaddw, "this CPU has no AVX-512BW (the avx512bw path is unused)"};
+    if (!cpu_has_avx512bw())
+        return {Avx512SadVariant::vpaddw, "this CPU has no AVX-512BW (the avx512bw path is unused)"};
     if (!cpu_has_vnni()) return {Avx512SadVariant::vpaddw, "this CPU has no AVX-512 VNNI"};
     const CpuIdentity cpu = cpu_identity();
     const char* env = std::getenv("NIGHTLOC_AVX512_VNNI");

@@ -144,7 +144,8 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
             if (ell_data_[a * cells_ + c - 1] == 0.f) continue;
             for (std::size_t b = 0; b < slots_; ++b) {
                 if (b != a && ell_index_[b * cells_ + c] == want && ell_data_[b * cells_ + c] != 0.f &&
-                    !(ell_index_[a * cells_ + c] == ell_index_[a * cells_ + c - 1] && ell_data_[a * cells_ + c] != 0.f)) {
+                    !(ell_index_[a * cells_ + c] == ell_index_[a * cells_ + c - 1] &&
+                      ell_data_[a * cells_ + c] != 0.f)) {
                     std::swap(ell_index_[a * cells_ + c], ell_index_[b * cells_ + c]);
                     std::swap(ell_data_[a * cells_ + c], ell_data_[b * cells_ + c]);
                     break;
@@ -236,7 +237,8 @@ std::vector<double> composed_box_kernel(double sigma) {
 
 // The taps of one axis: the bilinear shift by `shift` cells convolved with the blur `kernel`
 // (centred), as conv_rows/conv_cols take them (taps[t] weighs source index j + t - offset).
-void shift_blur_taps(double shift, const std::vector<double>& kernel, std::vector<float>& taps, std::ptrdiff_t& offset) {
+void shift_blur_taps(double shift, const std::vector<double>& kernel, std::vector<float>& taps,
+                     std::ptrdiff_t& offset) {
     const double whole = std::floor(shift);
     const double frac = shift - whole;
     const auto R = static_cast<std::ptrdiff_t>(kernel.size() / 2);
@@ -258,8 +260,8 @@ void shift_blur_taps(double shift, const std::vector<double>& kernel, std::vecto
 
 }  // namespace
 
-double GridFilter::translate_blur_slice(const float* src, float* dst, double shift_x, double shift_y,
-                                        double sigma_x, double sigma_y) {
+double GridFilter::translate_blur_slice(const float* src, float* dst, double shift_x, double shift_y, double sigma_x,
+                                        double sigma_y) {
     const auto& k = detail::filter_kernels(active_simd_backend());
     const double limit = 4.0 * static_cast<double>(height_ + width_) + 16.0;
     if (std::fabs(shift_x) > limit + 8 * sigma_x || std::fabs(shift_y) > limit + 8 * sigma_y) {
@@ -281,8 +283,10 @@ double GridFilter::translate_blur_slice(const float* src, float* dst, double shi
         k.conv_rows(src, tile_a_.data(), height_, width_, taps_y_.data(), taps_y_.size(), off_y, zeros_.data());
         k.conv_cols(tile_a_.data(), dst, height_, width_, taps_x_.data(), taps_x_.size(), off_x, padded_.data());
     } else {
-        const std::size_t my = wide_y ? static_cast<std::size_t>(std::fabs(std::floor(shift_y))) + 2 + 3 * (pass_y.r + 1) : 0;
-        const std::size_t mx = wide_x ? static_cast<std::size_t>(std::fabs(std::floor(shift_x))) + 2 + 3 * (pass_x.r + 1) : 0;
+        const std::size_t my =
+            wide_y ? static_cast<std::size_t>(std::fabs(std::floor(shift_y))) + 2 + 3 * (pass_y.r + 1) : 0;
+        const std::size_t mx =
+            wide_x ? static_cast<std::size_t>(std::fabs(std::floor(shift_x))) + 2 + 3 * (pass_x.r + 1) : 0;
         const std::size_t th = height_ + 2 * my, tw = width_ + 2 * mx, tn = th * tw;
         wide_a_.assign(tn, 0.f);
         wide_b_.resize(tn);
@@ -568,8 +572,8 @@ void GridFilter::update(const float* table) {
     const auto& k = detail::filter_kernels(active_simd_backend());
     const float one = 1.f;
     const std::size_t zero_offset = 0;
-    detail::UpdateArgs args{ell_data_.data(), ell_index_.data(), ell_places_.data(), slots_, cells_,
-                            log_lik_.data(), stride, B,
+    detail::UpdateArgs args{ell_data_.data(), ell_index_.data(), ell_places_.data(), slots_, cells_, log_lik_.data(),
+                            stride, B,
                             // the prior: the pending prediction (heading blur, normalization, floor) or the belief
                             pending_ ? work_.data() : belief_.data(), pending_ ? pending_taps_.data() : &one,
                             pending_ ? pending_offsets_.data() : &zero_offset, pending_ ? pending_taps_.size() : 1,

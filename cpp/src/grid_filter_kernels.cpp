@@ -160,7 +160,8 @@ NL_INLINE void conv_cols_body(const float* src, float* dst, std::size_t rows, st
     for (std::size_t j = 0; j < rows; ++j) {
         const float* x = src + j * cols;
         const std::ptrdiff_t q0 = lead > 0 ? lead : 0;
-        const std::ptrdiff_t q1 = std::min(static_cast<std::ptrdiff_t>(length), lead + static_cast<std::ptrdiff_t>(cols));
+        const std::ptrdiff_t q1 =
+            std::min(static_cast<std::ptrdiff_t>(length), lead + static_cast<std::ptrdiff_t>(cols));
         const auto lo = static_cast<std::size_t>(std::min(q0, static_cast<std::ptrdiff_t>(length)));
         const auto hi = static_cast<std::size_t>(std::max(q1, static_cast<std::ptrdiff_t>(lo)));
         for (std::size_t q = 0; q < lo; ++q) padded[q] = 0.f;
@@ -198,8 +199,8 @@ NL_INLINE void heading_conv_plain(const float* work, std::size_t bins, std::size
 }
 
 NL_INLINE void heading_conv_vector(const float* work, std::size_t bins, std::size_t n, std::size_t c0, std::size_t m,
-                                   const float* taps, const std::size_t* offsets, std::size_t n_taps, float a,
-                                   float f, float* belief) {
+                                   const float* taps, const std::size_t* offsets, std::size_t n_taps, float a, float f,
+                                   float* belief) {
     const float* in[kMaxTaps];
     for (std::size_t b = 0; b < bins; ++b) {
         for (std::size_t t = 0; t < n_taps; ++t) in[t] = work + ((b + bins - offsets[t]) % bins) * n;
@@ -345,45 +346,43 @@ NL_INLINE void sum_vector(const float* values, std::size_t n, double* lanes) {
     for (; c < n; ++c) lanes[c % kSumLanes] += static_cast<double>(values[c]);
 }
 
-#define NL_DEFINE_FILTER_KERNELS(suffix, attributes, variant, vector_on)                                            \
-    attributes void box_rows_##suffix(const float* src, float* dst, std::size_t rows, std::size_t cols,            \
-                                      const BoxPass& pass, float* acc, const float* zeros) {                       \
-        box_rows_body(src, dst, rows, cols, pass, acc, zeros);                                                      \
-    }                                                                                                               \
-    attributes void conv_rows_##suffix(const float* src, float* dst, std::size_t rows, std::size_t cols,           \
-                                       const float* taps, std::size_t n_taps, std::ptrdiff_t offset,                \
-                                       const float* zeros) {                                                        \
-        conv_rows_body<vector_on>(src, dst, rows, cols, taps, n_taps, offset, zeros);                               \
-    }                                                                                                               \
-    attributes void conv_cols_##suffix(const float* src, float* dst, std::size_t rows, std::size_t cols,           \
-                                       const float* taps, std::size_t n_taps, std::ptrdiff_t offset,                \
-                                       float* padded) {                                                             \
-        conv_cols_body<vector_on>(src, dst, rows, cols, taps, n_taps, offset, padded);                              \
-    }                                                                                                               \
-    attributes void transpose_##suffix(const float* src, float* dst, std::size_t rows, std::size_t cols) {         \
-        transpose_body(src, dst, rows, cols);                                                                       \
-    }                                                                                                               \
-    attributes void heading_conv_##suffix(const float* work, std::size_t bins, std::size_t n, std::size_t c0,      \
-                                          std::size_t m, const float* taps, const std::size_t* offsets,             \
-                                          std::size_t n_taps, float a, float f, float* belief) {                    \
-        heading_conv_##variant(work, bins, n, c0, m, taps, offsets, n_taps, a, f, belief);                          \
-    }                                                                                                               \
-    attributes void measure_##suffix(const UpdateArgs& u, std::size_t c0, std::size_t m) {                         \
-        measure_##variant(u, c0, m);                                                                                \
-    }                                                                                                               \
-    attributes void scale_add_##suffix(float* values, std::size_t n, float a, float f) {                           \
-        scale_add_body(values, n, a, f);                                                                            \
-    }                                                                                                               \
-    attributes void sum_##suffix(const float* values, std::size_t n, double* lanes) {                              \
-        sum_##variant(values, n, lanes);                                                                            \
-    }                                                                                                               \
-    attributes void sum_slices_##suffix(const float* in, std::size_t bins, std::size_t n, float* out) {            \
-        sum_slices_body(in, bins, n, out);                                                                          \
-    }                                                                                                               \
-    const FilterKernels kernels_##suffix{box_rows_##suffix,          conv_rows_##suffix,                           \
-                                         conv_cols_##suffix,         transpose_##suffix, heading_conv_##suffix,     \
-                                         measure_##suffix,    scale_add_##suffix, sum_##suffix,                     \
-                                         sum_slices_##suffix};
+#define NL_DEFINE_FILTER_KERNELS(suffix, attributes, variant, vector_on)                                              \
+    attributes void box_rows_##suffix(const float* src, float* dst, std::size_t rows, std::size_t cols,               \
+                                      const BoxPass& pass, float* acc, const float* zeros) {                          \
+        box_rows_body(src, dst, rows, cols, pass, acc, zeros);                                                        \
+    }                                                                                                                 \
+    attributes void conv_rows_##suffix(const float* src, float* dst, std::size_t rows, std::size_t cols,              \
+                                       const float* taps, std::size_t n_taps, std::ptrdiff_t offset,                  \
+                                       const float* zeros) {                                                          \
+        conv_rows_body<vector_on>(src, dst, rows, cols, taps, n_taps, offset, zeros);                                 \
+    }                                                                                                                 \
+    attributes void conv_cols_##suffix(const float* src, float* dst, std::size_t rows, std::size_t cols,              \
+                                       const float* taps, std::size_t n_taps, std::ptrdiff_t offset, float* padded) { \
+        conv_cols_body<vector_on>(src, dst, rows, cols, taps, n_taps, offset, padded);                                \
+    }                                                                                                                 \
+    attributes void transpose_##suffix(const float* src, float* dst, std::size_t rows, std::size_t cols) {            \
+        transpose_body(src, dst, rows, cols);                                                                         \
+    }                                                                                                                 \
+    attributes void heading_conv_##suffix(const float* work, std::size_t bins, std::size_t n, std::size_t c0,         \
+                                          std::size_t m, const float* taps, const std::size_t* offsets,               \
+                                          std::size_t n_taps, float a, float f, float* belief) {                      \
+        heading_conv_##variant(work, bins, n, c0, m, taps, offsets, n_taps, a, f, belief);                            \
+    }                                                                                                                 \
+    attributes void measure_##suffix(const UpdateArgs& u, std::size_t c0, std::size_t m) {                            \
+        measure_##variant(u, c0, m);                                                                                  \
+    }                                                                                                                 \
+    attributes void scale_add_##suffix(float* values, std::size_t n, float a, float f) {                              \
+        scale_add_body(values, n, a, f);                                                                              \
+    }                                                                                                                 \
+    attributes void sum_##suffix(const float* values, std::size_t n, double* lanes) {                                 \
+        sum_##variant(values, n, lanes);                                                                              \
+    }                                                                                                                 \
+    attributes void sum_slices_##suffix(const float* in, std::size_t bins, std::size_t n, float* out) {               \
+        sum_slices_body(in, bins, n, out);                                                                            \
+    }                                                                                                                 \
+    const FilterKernels kernels_##suffix{box_rows_##suffix,  conv_rows_##suffix,    conv_cols_##suffix,               \
+                                         transpose_##suffix, heading_conv_##suffix, measure_##suffix,                 \
+                                         scale_add_##suffix, sum_##suffix,          sum_slices_##suffix};
 
 #if defined(__GNUC__) && !defined(__clang__)
 #define NL_NO_VECTORIZE __attribute__((optimize("no-tree-vectorize")))
@@ -404,15 +403,21 @@ float exp2_approx(float y) noexcept { return exp2_scalar(y); }
 
 const FilterKernels& filter_kernels(SimdBackend backend) noexcept {
     switch (backend) {
-        case SimdBackend::scalar: return kernels_scalar;
+        case SimdBackend::scalar:
+            return kernels_scalar;
 #if NIGHTLOC_X86_KERNELS
-        case SimdBackend::sse2: return kernels_baseline;
-        case SimdBackend::avx2: return kernels_avx2;
-        case SimdBackend::avx512bw: return kernels_avx512;
-        default: return kernels_scalar;  // another architecture's path: never active here
+        case SimdBackend::sse2:
+            return kernels_baseline;
+        case SimdBackend::avx2:
+            return kernels_avx2;
+        case SimdBackend::avx512bw:
+            return kernels_avx512;
+        default:
+            return kernels_scalar;  // another architecture's path: never active here
 #else
         // AArch64: the baseline kernels are NEON (the vector types lower to 4-lane registers)
-        default: return kernels_baseline;
+        default:
+            return kernels_baseline;
 #endif
     }
 }

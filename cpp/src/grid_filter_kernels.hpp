@@ -25,20 +25,20 @@ inline constexpr std::size_t kMaxTaps = 4096;
 
 /// The inputs of the measurement kernel (see FilterKernels::measure).
 struct UpdateArgs {
-    const float* data;           ///< ELL weights, slot k of cell c at k * n + c (unused slots weigh 0)
-    const std::int32_t* index;   ///< ELL place indices, same layout
-    const std::int32_t* places4; ///< per block of 16 cells (c / 16) and slot k, at 4 (block slots + k): the
-                                 ///< up to four places its 16 indices take (repeated to fill), or -1 when more
-    std::size_t slots, n;        ///< slots per cell, cells
-    const float* log_lik;        ///< bins rows of `stride` values: the log2-likelihood of each place
+    const float* data;            ///< ELL weights, slot k of cell c at k * n + c (unused slots weigh 0)
+    const std::int32_t* index;    ///< ELL place indices, same layout
+    const std::int32_t* places4;  ///< per block of 16 cells (c / 16) and slot k, at 4 (block slots + k): the
+                                  ///< up to four places its 16 indices take (repeated to fill), or -1 when more
+    std::size_t slots, n;         ///< slots per cell, cells
+    const float* log_lik;         ///< bins rows of `stride` values: the log2-likelihood of each place
     std::size_t stride, bins;
     const float* source;         ///< bins x n: the predicted slices before the heading blur
     const float* taps;           ///< the heading blur: prior[b][c] = float(acc * a + f), acc = sum_t
     const std::size_t* offsets;  ///< taps[t] * source[(b - offsets[t]) mod bins][c] in float, t order
     std::size_t n_taps;
-    float a, f;                  ///< normalization and the uniform floor
-    float* belief;               ///< bins x n (may be `source` when the blur is the identity)
-    float* marginal;             ///< n
+    float a, f;       ///< normalization and the uniform floor
+    float* belief;    ///< bins x n (may be `source` when the blur is the identity)
+    float* marginal;  ///< n
 };
 
 struct FilterKernels {
@@ -48,8 +48,8 @@ struct FilterKernels {
     /// after output row j becomes (acc + src[j+r+1]) - src[j-r] (missing rows count 0; `zeros`:
     /// cols zeros). A running float sum leaves rounding residues of ~1e-7 of the largest value it
     /// carried; negative ones are cut to 0.
-    void (*box_rows)(const float* src, float* dst, std::size_t rows, std::size_t cols, const BoxPass& pass,
-                     float* acc, const float* zeros);
+    void (*box_rows)(const float* src, float* dst, std::size_t rows, std::size_t cols, const BoxPass& pass, float* acc,
+                     const float* zeros);
     /// dst[j][i] = sum_t taps[t] * src[j + t - offset][i] for t < n_taps (rows outside [0, rows)
     /// count 0; n_taps <= kMaxTaps), summed in float from 0 in t order. `zeros`: cols zeros.
     void (*conv_rows)(const float* src, float* dst, std::size_t rows, std::size_t cols, const float* taps,

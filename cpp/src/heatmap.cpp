@@ -19,7 +19,11 @@ namespace nightloc {
 
 HeatWeights::HeatWeights(std::size_t height, std::size_t width, std::size_t n_places, std::vector<std::int32_t> indptr,
                          std::vector<std::int32_t> indices, std::vector<float> data)
-    : height_(height), width_(width), places_(n_places), indptr_(std::move(indptr)), indices_(std::move(indices)),
+    : height_(height),
+      width_(width),
+      places_(n_places),
+      indptr_(std::move(indptr)),
+      indices_(std::move(indices)),
       data_(std::move(data)) {
     if (height == 0 || width == 0) throw std::invalid_argument("heat-map grid must have at least one cell");
     if (width > std::numeric_limits<std::size_t>::max() / height) throw std::invalid_argument("grid too large");
@@ -83,11 +87,15 @@ void translate_into(const T* src, std::size_t src_stride, T* out, std::size_t ou
     if (shift_x >= w || shift_x < -w - 1.0 || shift_y >= h || shift_y < -h - 1.0) return;
     const double floor_x = std::floor(shift_x), floor_y = std::floor(shift_y);
     const double fx = shift_x - floor_x, fy = shift_y - floor_y;
-    const detail::Translation<T> t{static_cast<std::ptrdiff_t>(floor_x), static_cast<std::ptrdiff_t>(floor_y),
-                                   static_cast<T>(1.0 - fx),              static_cast<T>(fx),
-                                   static_cast<T>(1.0 - fy),              static_cast<T>(fy)};
-    detail::heat_kernels(active_simd_backend()).translate<T>().add(src, src_stride, out, out_stride, height, width, t,
-                                                                   scratch);
+    const detail::Translation<T> t{static_cast<std::ptrdiff_t>(floor_x),
+                                   static_cast<std::ptrdiff_t>(floor_y),
+                                   static_cast<T>(1.0 - fx),
+                                   static_cast<T>(fx),
+                                   static_cast<T>(1.0 - fy),
+                                   static_cast<T>(fy)};
+    detail::heat_kernels(active_simd_backend())
+        .translate<T>()
+        .add(src, src_stride, out, out_stride, height, width, t, scratch);
 }
 
 template <class T>
@@ -104,8 +112,8 @@ void add_translated(const float* src, std::size_t src_stride, float* out, std::s
     add_translated_impl(src, src_stride, out, out_stride, height, width, shift_x, shift_y);
 }
 
-void add_translated(const double* src, std::size_t src_stride, double* out, std::size_t out_stride,
-                    std::size_t height, std::size_t width, double shift_x, double shift_y) {
+void add_translated(const double* src, std::size_t src_stride, double* out, std::size_t out_stride, std::size_t height,
+                    std::size_t width, double shift_x, double shift_y) {
     add_translated_impl(src, src_stride, out, out_stride, height, width, shift_x, shift_y);
 }
 
@@ -143,14 +151,14 @@ HeatPeak find_peak(const float* heat, std::size_t height, std::size_t width, con
         second = any ? std::max(second, hi) : hi;
         any = true;
     };
-    take(heat, j0 * width);                           // rows above the box
-    take(heat + j1 * width, (height - j1) * width);   // rows below
+    take(heat, j0 * width);                          // rows above the box
+    take(heat + j1 * width, (height - j1) * width);  // rows below
     for (std::size_t j = j0; j < j1; ++j) {
         const float* row = heat + j * width;
-        take(row, i0);                                // left of the box
-        take(row + i1, width - i1);                   // right of the box
+        take(row, i0);               // left of the box
+        take(row + i1, width - i1);  // right of the box
         const std::uint8_t* mask = exclusion.mask.data() + (j + exclusion.rows - pj) * mask_width;
-        for (std::size_t i = i0; i < i1; ++i) {       // the box outside the disk
+        for (std::size_t i = i0; i < i1; ++i) {  // the box outside the disk
             if (!mask[i + exclusion.cols - pi]) {
                 second = any ? std::max(second, row[i]) : row[i];
                 any = true;

@@ -54,8 +54,7 @@ NL_INLINE void translate_body(const T* src, std::size_t src_stride, T* out, std:
     for (std::ptrdiff_t j = j_lo; j < j_hi; ++j) {
         const bool current_valid = across(j - t.iy, current);
         combine_body(out + static_cast<std::size_t>(j) * out_stride + static_cast<std::size_t>(i_lo),
-                     (current_valid ? current : zeros) + c0, (previous_valid ? previous : zeros) + c0, n, t.wy0,
-                     t.wy1);
+                     (current_valid ? current : zeros) + c0, (previous_valid ? previous : zeros) + c0, n, t.wy0, t.wy1);
         T* swap = current;
         current = previous;
         previous = swap;
@@ -165,32 +164,32 @@ NL_INLINE std::size_t find_first_lanes(const float* values, std::size_t n, float
     return i + find_first_plain(values + i, n - i, target);
 }
 
-#define NL_DEFINE_HEAT_KERNELS(suffix, attributes, variant)                                                         \
-    attributes void translate_f32_##suffix(const float* src, std::size_t src_stride, float* out,                   \
-                                           std::size_t out_stride, std::size_t height, std::size_t width,           \
-                                           const Translation<float>& t, float* scratch) {                           \
-        translate_body(src, src_stride, out, out_stride, height, width, t, scratch);                                \
-    }                                                                                                               \
-    attributes void translate_f64_##suffix(const double* src, std::size_t src_stride, double* out,                 \
-                                           std::size_t out_stride, std::size_t height, std::size_t width,           \
-                                           const Translation<double>& t, double* scratch) {                         \
-        translate_body(src, src_stride, out, out_stride, height, width, t, scratch);                                \
-    }                                                                                                               \
-    attributes void interpolate_##suffix(const float* data, const std::int32_t* index, std::size_t slots,          \
-                                         std::size_t n, const float* values, float* heat) {                         \
-        interpolate_body(data, index, slots, n, values, heat);                                                      \
-    }                                                                                                               \
-    attributes bool all_finite_##suffix(const float* values, std::size_t n) {                                      \
-        return all_finite_##variant(values, n);                                                                     \
-    }                                                                                                               \
-    attributes void max_min_##suffix(const float* values, std::size_t n, float& max, float& min) {                 \
-        max_min_##variant(values, n, max, min);                                                                     \
-    }                                                                                                               \
-    attributes std::size_t find_first_##suffix(const float* values, std::size_t n, float target) {                 \
-        return find_first_##variant(values, n, target);                                                             \
-    }                                                                                                               \
-    const HeatKernels kernels_##suffix{{translate_f32_##suffix}, {translate_f64_##suffix}, interpolate_##suffix,  \
-                                       all_finite_##suffix,       max_min_##suffix,          find_first_##suffix};
+#define NL_DEFINE_HEAT_KERNELS(suffix, attributes, variant)                                                      \
+    attributes void translate_f32_##suffix(const float* src, std::size_t src_stride, float* out,                 \
+                                           std::size_t out_stride, std::size_t height, std::size_t width,        \
+                                           const Translation<float>& t, float* scratch) {                        \
+        translate_body(src, src_stride, out, out_stride, height, width, t, scratch);                             \
+    }                                                                                                            \
+    attributes void translate_f64_##suffix(const double* src, std::size_t src_stride, double* out,               \
+                                           std::size_t out_stride, std::size_t height, std::size_t width,        \
+                                           const Translation<double>& t, double* scratch) {                      \
+        translate_body(src, src_stride, out, out_stride, height, width, t, scratch);                             \
+    }                                                                                                            \
+    attributes void interpolate_##suffix(const float* data, const std::int32_t* index, std::size_t slots,        \
+                                         std::size_t n, const float* values, float* heat) {                      \
+        interpolate_body(data, index, slots, n, values, heat);                                                   \
+    }                                                                                                            \
+    attributes bool all_finite_##suffix(const float* values, std::size_t n) {                                    \
+        return all_finite_##variant(values, n);                                                                  \
+    }                                                                                                            \
+    attributes void max_min_##suffix(const float* values, std::size_t n, float& max, float& min) {               \
+        max_min_##variant(values, n, max, min);                                                                  \
+    }                                                                                                            \
+    attributes std::size_t find_first_##suffix(const float* values, std::size_t n, float target) {               \
+        return find_first_##variant(values, n, target);                                                          \
+    }                                                                                                            \
+    const HeatKernels kernels_##suffix{{translate_f32_##suffix}, {translate_f64_##suffix}, interpolate_##suffix, \
+                                       all_finite_##suffix,      max_min_##suffix,         find_first_##suffix};
 
 #if defined(__GNUC__) && !defined(__clang__)
 #define NL_NO_VECTORIZE __attribute__((optimize("no-tree-vectorize")))
@@ -209,15 +208,21 @@ NL_DEFINE_HEAT_KERNELS(avx512, __attribute__((target("avx512f"))), lanes<16>)
 
 const HeatKernels& heat_kernels(SimdBackend backend) noexcept {
     switch (backend) {
-        case SimdBackend::scalar: return kernels_scalar;
+        case SimdBackend::scalar:
+            return kernels_scalar;
 #if NIGHTLOC_X86_KERNELS
-        case SimdBackend::sse2: return kernels_baseline;
-        case SimdBackend::avx2: return kernels_avx2;
-        case SimdBackend::avx512bw: return kernels_avx512;
-        default: return kernels_scalar;  // another architecture's path: never active here
+        case SimdBackend::sse2:
+            return kernels_baseline;
+        case SimdBackend::avx2:
+            return kernels_avx2;
+        case SimdBackend::avx512bw:
+            return kernels_avx512;
+        default:
+            return kernels_scalar;  // another architecture's path: never active here
 #else
         // AArch64: the baseline kernels are NEON (4-lane vectors; the dot product adds nothing)
-        default: return kernels_baseline;
+        default:
+            return kernels_baseline;
 #endif
     }
 }

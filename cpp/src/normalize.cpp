@@ -27,7 +27,7 @@ std::uint8_t quantize(double value) {
 // (with wrap-around the index runs modulo the width, so a window wider than the image counts
 // pixels as often as it covers them); vertical sums come from column prefix sums.
 struct WindowSums {
-    std::vector<std::int64_t> sum, squares, count;  // per pixel, row-major
+    std::vector<std::int64_t> sum, squares, count;                       // per pixel, row-major
     std::vector<std::int64_t> prefix_sum, prefix_squares, prefix_count;  // (height + 1) x width
     std::vector<std::ptrdiff_t> entering, leaving;  // wrap-around column indices of the sliding window
 

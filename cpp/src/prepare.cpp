@@ -36,8 +36,7 @@ struct PrepareWorkspace::Buffers {
         return grey.capacity() + row.capacity() + band.capacity() * 2 + segments.capacity() * 8 +
                corners.capacity() * 8 + cut_columns.capacity() * sizeof(std::size_t) +
                row_slot.capacity() * sizeof(std::ptrdiff_t) + prefix.capacity() * 4 +
-               (row_weights.capacity() + sums.capacity()) * 4 +
-               small.capacity();
+               (row_weights.capacity() + sums.capacity()) * 4 + small.capacity();
     }
 };
 
@@ -57,11 +56,14 @@ void PrepareWorkspace::release() noexcept {
 
 std::size_t pixel_bytes(PixelOrder order) noexcept {
     switch (order) {
-        case PixelOrder::grey: return 1;
+        case PixelOrder::grey:
+            return 1;
         case PixelOrder::bgr:
-        case PixelOrder::rgb: return 3;
+        case PixelOrder::rgb:
+            return 3;
         case PixelOrder::bgra:
-        case PixelOrder::rgba: return 4;
+        case PixelOrder::rgba:
+            return 4;
     }
     return 0;
 }
@@ -146,8 +148,8 @@ std::vector<AreaTap> area_taps(std::size_t n_in, std::size_t n_out) {
 // finite value gives the same result).
 class CutSums {
 public:
-    CutSums(PrepareWorkspace::Buffers& b, const detail::PrepareKernels& k, DownsampleMethod method,
-            std::size_t in_h, std::size_t in_w, std::size_t out_h, std::size_t out_w)
+    CutSums(PrepareWorkspace::Buffers& b, const detail::PrepareKernels& k, DownsampleMethod method, std::size_t in_h,
+            std::size_t in_w, std::size_t out_h, std::size_t out_w)
         : b_(b), k_(k), method_(method), in_h_(in_h), in_w_(in_w), out_h_(out_h), out_w_(out_w) {
         std::vector<std::size_t> rows, cols{0};
         if (method == DownsampleMethod::integral) {
@@ -258,8 +260,8 @@ private:
         const double factor = static_cast<double>(out_h_ * out_w_) / static_cast<double>(in_h_ * in_w_);
         for (std::size_t a = 0; a < out_h_; ++a) {
             for (std::size_t b = 0; b < out_w_; ++b) {
-                const double box = edges[(a + 1) * nx + b + 1] - edges[a * nx + b + 1] - edges[(a + 1) * nx + b] +
-                                   edges[a * nx + b];
+                const double box =
+                    edges[(a + 1) * nx + b + 1] - edges[a * nx + b + 1] - edges[(a + 1) * nx + b] + edges[a * nx + b];
                 small[a * out_w_ + b] = saturate_u8(round_even(box * factor));
             }
         }
@@ -302,8 +304,7 @@ private:
 // the output saturate_cast<uchar> (round half to even).
 class WeightedSums {
 public:
-    WeightedSums(PrepareWorkspace::Buffers& b, std::size_t in_h, std::size_t in_w, std::size_t out_h,
-                 std::size_t out_w)
+    WeightedSums(PrepareWorkspace::Buffers& b, std::size_t in_h, std::size_t in_w, std::size_t out_h, std::size_t out_w)
         : b_(b), in_w_(in_w), out_w_(out_w), xtab_(area_taps(in_w, out_w)), ytab_(area_taps(in_h, out_h)) {
         b_.row_weights.assign(out_w, 0.f);
         b_.sums.assign(out_w, 0.f);
@@ -374,8 +375,7 @@ void check_settings(const FrameView& frame, const PrepareSettings& s) {
     if (frame.height == 0 || frame.width == 0) throw std::invalid_argument("frame is empty (zero rows or columns)");
     const std::size_t channels = pixel_bytes(frame.order);
     if (channels == 0) throw std::invalid_argument("unknown pixel order");
-    if (frame.width > std::numeric_limits<std::size_t>::max() / channels ||
-        frame.row_stride < frame.width * channels) {
+    if (frame.width > std::numeric_limits<std::size_t>::max() / channels || frame.row_stride < frame.width * channels) {
         throw std::invalid_argument("frame row stride (" + std::to_string(frame.row_stride) +
                                     " bytes) is shorter than a row of " + std::to_string(frame.width) + " pixels");
     }

@@ -42,11 +42,21 @@ NL_INLINE void grey_body(const std::uint8_t* src, std::size_t n, std::uint8_t* d
 
 NL_INLINE void grey_dispatch(const std::uint8_t* src, std::size_t n, PixelOrder order, std::uint8_t* dst) {
     switch (order) {
-        case PixelOrder::bgr: grey_body<3, 0, 2>(src, n, dst); break;
-        case PixelOrder::rgb: grey_body<3, 2, 0>(src, n, dst); break;
-        case PixelOrder::bgra: grey_body<4, 0, 2>(src, n, dst); break;
-        case PixelOrder::rgba: grey_body<4, 2, 0>(src, n, dst); break;
-        case PixelOrder::grey: std::memcpy(dst, src, n); break;
+        case PixelOrder::bgr:
+            grey_body<3, 0, 2>(src, n, dst);
+            break;
+        case PixelOrder::rgb:
+            grey_body<3, 2, 0>(src, n, dst);
+            break;
+        case PixelOrder::bgra:
+            grey_body<4, 0, 2>(src, n, dst);
+            break;
+        case PixelOrder::rgba:
+            grey_body<4, 2, 0>(src, n, dst);
+            break;
+        case PixelOrder::grey:
+            std::memcpy(dst, src, n);
+            break;
     }
 }
 
@@ -107,20 +117,19 @@ void histogram_row(const std::uint8_t* src, std::size_t n, std::uint32_t* counts
     for (; x < n; ++x) ++counts[src[x]];
 }
 
-#define NL_DEFINE_ROW_KERNELS(suffix, attributes)                                                              \
-    attributes void grey_row_##suffix(const std::uint8_t* src, std::size_t n, PixelOrder order,                \
-                                      std::uint8_t* dst) {                                                      \
-        grey_dispatch(src, n, order, dst);                                                                      \
-    }                                                                                                           \
-    attributes void accumulate_row_##suffix(const std::uint8_t* src, std::size_t n, std::uint16_t* band) {      \
-        accumulate_body(src, n, band);                                                                          \
-    }                                                                                                           \
-    attributes void accumulate_lut_row_##suffix(const std::uint8_t* src, std::size_t n, const std::uint8_t* lut, \
-                                                std::uint16_t* band) {                                          \
-        accumulate_lut_body(src, n, lut, band);                                                                 \
-    }                                                                                                           \
-    attributes void prefix_row_##suffix(const std::uint16_t* band, std::size_t n, std::uint32_t* prefix) {      \
-        prefix_body(band, n, prefix);                                                                           \
+#define NL_DEFINE_ROW_KERNELS(suffix, attributes)                                                                    \
+    attributes void grey_row_##suffix(const std::uint8_t* src, std::size_t n, PixelOrder order, std::uint8_t* dst) { \
+        grey_dispatch(src, n, order, dst);                                                                           \
+    }                                                                                                                \
+    attributes void accumulate_row_##suffix(const std::uint8_t* src, std::size_t n, std::uint16_t* band) {           \
+        accumulate_body(src, n, band);                                                                               \
+    }                                                                                                                \
+    attributes void accumulate_lut_row_##suffix(const std::uint8_t* src, std::size_t n, const std::uint8_t* lut,     \
+                                                std::uint16_t* band) {                                               \
+        accumulate_lut_body(src, n, lut, band);                                                                      \
+    }                                                                                                                \
+    attributes void prefix_row_##suffix(const std::uint16_t* band, std::size_t n, std::uint32_t* prefix) {           \
+        prefix_body(band, n, prefix);                                                                                \
     }
 
 #if defined(__GNUC__) && !defined(__clang__)
@@ -220,9 +229,9 @@ NL_TARGET_AVX2 void grey_row_avx2_simd(const std::uint8_t* src, std::size_t n, P
         for (std::size_t k = 0; k < 4; ++k) {
             const std::uint8_t* low = src + Channels * (x + 4 * k);
             const std::uint8_t* high = src + Channels * (x + 16 + 4 * k);
-            const __m256i raw = _mm256_inserti128_si256(
-                _mm256_castsi128_si256(_mm_loadu_si128(reinterpret_cast<const __m128i*>(low))),
-                _mm_loadu_si128(reinterpret_cast<const __m128i*>(high)), 1);
+            const __m256i raw =
+                _mm256_inserti128_si256(_mm256_castsi128_si256(_mm_loadu_si128(reinterpret_cast<const __m128i*>(low))),
+                                        _mm_loadu_si128(reinterpret_cast<const __m128i*>(high)), 1);
             grey[k] = grey_dwords_avx2(_mm256_shuffle_epi8(raw, shuffle_bg), _mm256_shuffle_epi8(raw, shuffle_r));
         }
         const __m256i words01 = _mm256_packus_epi32(grey[0], grey[1]);
@@ -235,11 +244,21 @@ NL_TARGET_AVX2 void grey_row_avx2_simd(const std::uint8_t* src, std::size_t n, P
 NL_TARGET_AVX2 void grey_row_avx2_intrinsics(const std::uint8_t* src, std::size_t n, PixelOrder order,
                                              std::uint8_t* dst) {
     switch (order) {
-        case PixelOrder::bgr: grey_row_avx2_simd<3, 0>(src, n, order, dst); break;
-        case PixelOrder::rgb: grey_row_avx2_simd<3, 2>(src, n, order, dst); break;
-        case PixelOrder::bgra: grey_row_avx2_simd<4, 0>(src, n, order, dst); break;
-        case PixelOrder::rgba: grey_row_avx2_simd<4, 2>(src, n, order, dst); break;
-        case PixelOrder::grey: std::memcpy(dst, src, n); break;
+        case PixelOrder::bgr:
+            grey_row_avx2_simd<3, 0>(src, n, order, dst);
+            break;
+        case PixelOrder::rgb:
+            grey_row_avx2_simd<3, 2>(src, n, order, dst);
+            break;
+        case PixelOrder::bgra:
+            grey_row_avx2_simd<4, 0>(src, n, order, dst);
+            break;
+        case PixelOrder::rgba:
+            grey_row_avx2_simd<4, 2>(src, n, order, dst);
+            break;
+        case PixelOrder::grey:
+            std::memcpy(dst, src, n);
+            break;
     }
 }
 
@@ -313,11 +332,21 @@ NL_TARGET_VBMI void grey_row_vbmi_three(const std::uint8_t* src, std::size_t n, 
 
 NL_TARGET_VBMI void grey_row_vbmi(const std::uint8_t* src, std::size_t n, PixelOrder order, std::uint8_t* dst) {
     switch (order) {
-        case PixelOrder::bgr: grey_row_vbmi_three<0>(src, n, order, dst); break;
-        case PixelOrder::rgb: grey_row_vbmi_three<2>(src, n, order, dst); break;
-        case PixelOrder::bgra: grey_row_avx512_four<0>(src, n, order, dst); break;
-        case PixelOrder::rgba: grey_row_avx512_four<2>(src, n, order, dst); break;
-        case PixelOrder::grey: std::memcpy(dst, src, n); break;
+        case PixelOrder::bgr:
+            grey_row_vbmi_three<0>(src, n, order, dst);
+            break;
+        case PixelOrder::rgb:
+            grey_row_vbmi_three<2>(src, n, order, dst);
+            break;
+        case PixelOrder::bgra:
+            grey_row_avx512_four<0>(src, n, order, dst);
+            break;
+        case PixelOrder::rgba:
+            grey_row_avx512_four<2>(src, n, order, dst);
+            break;
+        case PixelOrder::grey:
+            std::memcpy(dst, src, n);
+            break;
     }
 }
 
@@ -400,7 +429,7 @@ NL_TARGET_AVX2 void accumulate_lut_row_gather(const std::uint8_t* src, std::size
 // of the table (index bits 0-6), the top bit of the index picks one; the bytes are widened to
 // 16 bits and added to the band. The last partial step works on masked loads and stores.
 NL_TARGET_VBMI void accumulate_lut_row_vbmi(const std::uint8_t* src, std::size_t n, const std::uint8_t* lut,
-                                           std::uint16_t* band) {
+                                            std::uint16_t* band) {
     const __m512i t0 = _mm512_loadu_si512(lut);
     const __m512i t1 = _mm512_loadu_si512(lut + 64);
     const __m512i t2 = _mm512_loadu_si512(lut + 128);
@@ -464,11 +493,21 @@ NL_INLINE void grey_row_neon_pixels(const std::uint8_t* src, std::size_t n, Pixe
 
 void grey_row_neon(const std::uint8_t* src, std::size_t n, PixelOrder order, std::uint8_t* dst) {
     switch (order) {
-        case PixelOrder::bgr: grey_row_neon_pixels<3, 0>(src, n, order, dst); break;
-        case PixelOrder::rgb: grey_row_neon_pixels<3, 2>(src, n, order, dst); break;
-        case PixelOrder::bgra: grey_row_neon_pixels<4, 0>(src, n, order, dst); break;
-        case PixelOrder::rgba: grey_row_neon_pixels<4, 2>(src, n, order, dst); break;
-        case PixelOrder::grey: std::memcpy(dst, src, n); break;
+        case PixelOrder::bgr:
+            grey_row_neon_pixels<3, 0>(src, n, order, dst);
+            break;
+        case PixelOrder::rgb:
+            grey_row_neon_pixels<3, 2>(src, n, order, dst);
+            break;
+        case PixelOrder::bgra:
+            grey_row_neon_pixels<4, 0>(src, n, order, dst);
+            break;
+        case PixelOrder::rgba:
+            grey_row_neon_pixels<4, 2>(src, n, order, dst);
+            break;
+        case PixelOrder::grey:
+            std::memcpy(dst, src, n);
+            break;
     }
 }
 
@@ -521,31 +560,36 @@ void prefix_row_neon(const std::uint16_t* band, std::size_t n, std::uint32_t* pr
 }  // namespace
 
 const PrepareKernels& prepare_kernels(SimdBackend backend) noexcept {
-    static const PrepareKernels scalar{grey_row_scalar, histogram_row, accumulate_row_scalar,
+    static const PrepareKernels scalar{grey_row_scalar,           histogram_row,     accumulate_row_scalar,
                                        accumulate_lut_row_scalar, prefix_row_scalar, "scalar"};
 #if NIGHTLOC_X86_KERNELS
-    static const PrepareKernels sse2{grey_row_baseline, histogram_row, accumulate_row_baseline,
+    static const PrepareKernels sse2{grey_row_baseline,           histogram_row,       accumulate_row_baseline,
                                      accumulate_lut_row_baseline, prefix_row_baseline, "sse2"};
-    static const PrepareKernels avx2{grey_row_avx2_intrinsics, histogram_row, accumulate_row_avx2,
+    static const PrepareKernels avx2{grey_row_avx2_intrinsics,  histogram_row,   accumulate_row_avx2,
                                      accumulate_lut_row_gather, prefix_row_avx2, "avx2"};
-    static const PrepareKernels avx512{grey_row_avx512_intrinsics, histogram_row, accumulate_row_avx512,
-                                       accumulate_lut_row_gather, prefix_row_avx512, "avx512bw"};
-    static const PrepareKernels avx512_vbmi{grey_row_vbmi, histogram_row, accumulate_row_avx512,
+    static const PrepareKernels avx512{grey_row_avx512_intrinsics, histogram_row,     accumulate_row_avx512,
+                                       accumulate_lut_row_gather,  prefix_row_avx512, "avx512bw"};
+    static const PrepareKernels avx512_vbmi{grey_row_vbmi,           histogram_row,     accumulate_row_avx512,
                                             accumulate_lut_row_vbmi, prefix_row_avx512, "avx512bw+vbmi"};
     switch (backend) {
-        case SimdBackend::scalar: return scalar;
-        case SimdBackend::sse2: return sse2;
-        case SimdBackend::avx2: return avx2;
-        case SimdBackend::avx512bw: return cpu_has_vbmi() ? avx512_vbmi : avx512;
-        default: return scalar;  // another architecture's path: never active here
+        case SimdBackend::scalar:
+            return scalar;
+        case SimdBackend::sse2:
+            return sse2;
+        case SimdBackend::avx2:
+            return avx2;
+        case SimdBackend::avx512bw:
+            return cpu_has_vbmi() ? avx512_vbmi : avx512;
+        default:
+            return scalar;  // another architecture's path: never active here
     }
 #elif NIGHTLOC_ARM_KERNELS
     // (the plain band add is auto-vectorized; the dot product does not help these passes)
-    static const PrepareKernels neon{grey_row_neon, histogram_row, accumulate_row_baseline,
+    static const PrepareKernels neon{grey_row_neon,           histogram_row,   accumulate_row_baseline,
                                      accumulate_lut_row_neon, prefix_row_neon, "neon"};
     return backend == SimdBackend::scalar ? scalar : neon;
 #else
-    static const PrepareKernels baseline{grey_row_baseline, histogram_row, accumulate_row_baseline,
+    static const PrepareKernels baseline{grey_row_baseline,           histogram_row,       accumulate_row_baseline,
                                          accumulate_lut_row_baseline, prefix_row_baseline, "baseline"};
     return backend == SimdBackend::scalar ? scalar : baseline;
 #endif

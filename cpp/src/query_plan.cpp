@@ -30,15 +30,21 @@ void write_rolled(const std::uint8_t* query, std::size_t height, std::size_t wid
 CopiesKernel copies_kernel_for(SimdBackend backend) {
     switch (backend) {
 #if NIGHTLOC_X86_KERNELS
-        case SimdBackend::sse2: return sad_copies_sse2;
-        case SimdBackend::avx2: return sad_copies_avx2;
-        case SimdBackend::avx512bw: return sad_copies_avx512bw;
+        case SimdBackend::sse2:
+            return sad_copies_sse2;
+        case SimdBackend::avx2:
+            return sad_copies_avx2;
+        case SimdBackend::avx512bw:
+            return sad_copies_avx512bw;
 #endif
 #if NIGHTLOC_ARM_KERNELS
-        case SimdBackend::neon: return sad_copies_neon;
-        case SimdBackend::neon_dotprod: return sad_copies_neon_dotprod;
+        case SimdBackend::neon:
+            return sad_copies_neon;
+        case SimdBackend::neon_dotprod:
+            return sad_copies_neon_dotprod;
 #endif
-        default: return sad_copies_scalar;
+        default:
+            return sad_copies_scalar;
     }
 }
 
@@ -54,8 +60,7 @@ void AlignedBytes::assign_zero(std::size_t size) {
     std::memset(ptr_, 0, size);
 }
 
-SearchShape make_search_shape(std::size_t height, std::size_t width, const std::int32_t* shifts,
-                              std::size_t n_shifts) {
+SearchShape make_search_shape(std::size_t height, std::size_t width, const std::int32_t* shifts, std::size_t n_shifts) {
     if (height == 0 || width == 0) throw std::invalid_argument("images must have at least one row and one column");
     if (height > kMaxImagePixels / width) {
         throw std::invalid_argument("images of " + std::to_string(height) + " x " + std::to_string(width) +
@@ -167,8 +172,8 @@ void QueryPlan::evaluate(const std::uint8_t* refs, std::size_t n_refs, std::uint
     if (all_shifts_) {
         const std::size_t width = shape_.width;
         for (std::size_t k = 0; k < query_count_; ++k) {
-            all_shift_kernel_(buffer_.data() + k * interleaved_bytes_, width, refs, n_refs, shape_.pixels,
-                                    scratch, width, nullptr, nullptr, nullptr);
+            all_shift_kernel_(buffer_.data() + k * interleaved_bytes_, width, refs, n_refs, shape_.pixels, scratch,
+                              width, nullptr, nullptr, nullptr);
             for (std::size_t i = 0; i < n_refs; ++i) {
                 const std::uint32_t* row = scratch + i * width;
                 std::uint32_t* dst = out + i * out_stride + k * slot_count_;
@@ -184,14 +189,15 @@ void QueryPlan::evaluate(const std::uint8_t* refs, std::size_t n_refs, std::uint
     copies_kernel_(buffer_.data(), stride_, query_count_ * slot_count_, refs, n_refs, shape_.pixels, out, out_stride);
 }
 
-void QueryPlan::evaluate_min(std::size_t query, const std::uint8_t* refs, std::size_t n_refs,
-                             std::uint32_t* best_sums, std::int32_t* best_shifts) const {
+void QueryPlan::evaluate_min(std::size_t query, const std::uint8_t* refs, std::size_t n_refs, std::uint32_t* best_sums,
+                             std::int32_t* best_shifts) const {
     if (!fused_min_ || query >= query_count_) {
-        throw std::logic_error("QueryPlan::evaluate_min needs the all-shift layout, sorted shifts and a prepared query");
+        throw std::logic_error(
+            "QueryPlan::evaluate_min needs the all-shift layout, sorted shifts and a prepared query");
     }
 #if NIGHTLOC_X86_KERNELS
-    all_shift_kernel_(buffer_.data() + query * interleaved_bytes_, shape_.width, refs, n_refs, shape_.pixels,
-                            nullptr, 0, selected_.data(), best_sums, best_shifts);
+    all_shift_kernel_(buffer_.data() + query * interleaved_bytes_, shape_.width, refs, n_refs, shape_.pixels, nullptr,
+                      0, selected_.data(), best_sums, best_shifts);
 #else
     (void)refs, (void)n_refs, (void)best_sums, (void)best_shifts;
 #endif

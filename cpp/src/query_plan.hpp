@@ -35,8 +35,7 @@ struct SearchShape {
 };
 
 /// Checks sizes and shifts; throws std::invalid_argument naming the problem.
-SearchShape make_search_shape(std::size_t height, std::size_t width, const std::int32_t* shifts,
-                              std::size_t n_shifts);
+SearchShape make_search_shape(std::size_t height, std::size_t width, const std::int32_t* shifts, std::size_t n_shifts);
 
 /// Writes one query in the all-shift layout of sad_all_shifts_avx512bw into `out`
 /// (round_up(pixels, kChunk) * width / 2 bytes, 64-byte aligned, already zero); `rolled` is a
@@ -87,8 +86,8 @@ private:
 #if NIGHTLOC_X86_KERNELS
     AllShiftKernel all_shift_kernel_ = nullptr;
 #endif
-    std::size_t stride_ = 0;            // bytes per rolled copy
-    std::size_t interleaved_bytes_ = 0; // bytes per query in the all-shift layout
+    std::size_t stride_ = 0;             // bytes per rolled copy
+    std::size_t interleaved_bytes_ = 0;  // bytes per query in the all-shift layout
     bool fused_min_ = false;
     std::vector<std::uint16_t> selected_;  // all-shift layout: per 8 shifts, which are in the list
     std::size_t slots_per_block_ = 0;

@@ -27,7 +27,8 @@ public:
     std::size_t count = 0;
 
     RefPass(std::size_t pixels, std::size_t n_copies)
-        : pixels_(pixels), padded_(round_up(pixels, V)),
+        : pixels_(pixels),
+          padded_(round_up(pixels, V)),
           staged_(n_copies >= kStageMinCopies && padded_ * kRefsPerPass <= kStageMaxBytes) {
         const std::size_t bytes = staged_ ? padded_ * kRefsPerPass : V * kRefsPerPass;
         storage_.reset(new std::uint8_t[bytes + 64]);

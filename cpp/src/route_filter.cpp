@@ -139,8 +139,8 @@ void validate(const RouteFilterParams& p) {
             "vmin must be a speed in [0, 1000] references per frame, got " + std::to_string(p.vmin));
     require(std::isfinite(p.vmax) && p.vmax >= p.vmin && p.vmax <= 1000.0,
             "vmax must be a speed in [vmin, 1000] references per frame, got " + std::to_string(p.vmax));
-    require(p.backward >= 0.0 && p.backward < 1.0, "backward must be a probability in [0, 1), got " +
-                                                       std::to_string(p.backward));
+    require(p.backward >= 0.0 && p.backward < 1.0,
+            "backward must be a probability in [0, 1), got " + std::to_string(p.backward));
     require(probability(p.floor), "floor must be a probability in [0, 1], got " + std::to_string(p.floor));
     require(std::isfinite(p.sharpness) && p.sharpness >= 0.0,
             "sharpness must be a finite number >= 0, got " + std::to_string(p.sharpness));
@@ -233,8 +233,8 @@ __attribute__((target("avx2"))) void likelihood_avx2(double* out, std::size_t n,
                                                      double best_dev) noexcept {
     likelihood_loop(out, n, slope, cap, best_dev);
 }
-__attribute__((target("avx512f,avx512bw"))) void likelihood_avx512(double* out, std::size_t n, double slope,
-                                                                    double cap, double best_dev) noexcept {
+__attribute__((target("avx512f,avx512bw"))) void likelihood_avx512(double* out, std::size_t n, double slope, double cap,
+                                                                   double best_dev) noexcept {
     likelihood_loop(out, n, slope, cap, best_dev);
 }
 #endif
@@ -308,8 +308,8 @@ double route_likelihood(const float* row, std::size_t n, double lambda, double c
 RouteFilterStep RouteFilter::step(const float* row, double weight) {
     require(weight >= 0.0 && weight <= 1.0, "weight must be in [0, 1], got " + std::to_string(weight));
     likelihood_.resize(belief_.size());
-    const double sum = route_likelihood(row, belief_.size(), params_.sharpness * weight, params_.clip,
-                                        likelihood_.data());
+    const double sum =
+        route_likelihood(row, belief_.size(), params_.sharpness * weight, params_.clip, likelihood_.data());
     return update(likelihood_.data(), sum);
 }
 

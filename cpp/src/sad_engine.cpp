@@ -46,7 +46,7 @@ float scaled(std::uint32_t sum, double divisor) { return static_cast<float>(stat
 // One task's results: rows = its queries, columns = its references.
 struct Tile {
     std::size_t q_first, q_count, r_first, r_count;
-    const std::uint32_t* sums;    // q_count x r_count
+    const std::uint32_t* sums;   // q_count x r_count
     const std::int32_t* shifts;  // q_count x r_count
 };
 
@@ -142,7 +142,8 @@ void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries
             n_chunks = std::max(n_chunks, (4 * n_workers + n_q_blocks - 1) / n_q_blocks);
         }
         n_chunks = std::clamp<std::size_t>(n_chunks, 1, (n_refs + 7) / 8);
-        for (std::size_t c = 1; c < n_chunks; ++c) bounds.push_back(std::max(bounds.back(), c * n_refs / n_chunks / 8 * 8));
+        for (std::size_t c = 1; c < n_chunks; ++c)
+            bounds.push_back(std::max(bounds.back(), c * n_refs / n_chunks / 8 * 8));
         bounds.push_back(n_refs);
     }
     const std::size_t n_r_chunks = bounds.size() - 1;
@@ -182,31 +183,30 @@ void check_divisor(double divisor) {
 
 }  // namespace
 
-void rotational_sad_sums(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs,
-                         std::size_t height, std::size_t width, const std::int32_t* shifts, std::size_t n_shifts,
-                         std::uint32_t* sums, int threads) {
+void rotational_sad_sums(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
+                         std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, std::uint32_t* sums,
+                         int threads) {
     const SearchShape shape = detail::make_search_shape(height, width, shifts, n_shifts);
     if (n_refs == 0) return;
     QueryPlan plan(active_simd_backend(), shape);
     const std::size_t block = ref_block_size(shape.pixels);
     const std::size_t n_blocks = (n_refs + block - 1) / block;
-    const int n_threads = useful_threads(threads, static_cast<double>(n_refs) * static_cast<double>(n_shifts) *
-                                                      static_cast<double>(shape.pixels));
+    const int n_threads = useful_threads(
+        threads, static_cast<double>(n_refs) * static_cast<double>(n_shifts) * static_cast<double>(shape.pixels));
     for (std::size_t slot = 0; slot < n_shifts; slot += plan.slots_per_block()) {
         plan.prepare(query, 1, slot);
         detail::parallel_for(n_blocks, n_threads, [&](std::size_t b) {
             const std::size_t first = b * block;
             const std::size_t count = std::min(block, n_refs - first);
             std::vector<std::uint32_t> scratch(plan.scratch_size(count));
-            plan.evaluate(refs + first * shape.pixels, count, sums + first * n_shifts + slot, n_shifts,
-                          scratch.data());
+            plan.evaluate(refs + first * shape.pixels, count, sums + first * n_shifts + slot, n_shifts, scratch.data());
         });
     }
 }
 
 void rotational_sad(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
-                    std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, float* scores,
-                    int threads, double divisor) {
+                    std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, float* scores, int threads,
+                    double divisor) {
     if (divisor == 0.0) divisor = static_cast<double>(height * width);
     check_divisor(divisor);
     std::vector<std::uint32_t> sums(n_refs * n_shifts);
@@ -216,8 +216,7 @@ void rotational_sad(const std::uint8_t* query, const std::uint8_t* refs, std::si
 
 void difference_matrix_sums(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs,
                             std::size_t n_refs, std::size_t height, std::size_t width, const std::int32_t* shifts,
-                            std::size_t n_shifts, std::uint32_t* best_sums, std::int32_t* best_shifts,
-                            int threads) {
+                            std::size_t n_shifts, std::uint32_t* best_sums, std::int32_t* best_shifts, int threads) {
     const SearchShape shape = detail::make_search_shape(height, width, shifts, n_shifts);
     for_each_difference_tile(queries, n_queries, refs, n_refs, shape, threads, [&](const Tile& tile) {
         for (std::size_t k = 0; k < tile.q_count; ++k) {
@@ -228,9 +227,9 @@ void difference_matrix_sums(const std::uint8_t* queries, std::size_t n_queries, 
     });
 }
 
-void difference_matrix(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs,
-                       std::size_t n_refs, std::size_t height, std::size_t width, const std::int32_t* shifts,
-                       std::size_t n_shifts, float* scores, std::int32_t* best_shifts, int threads, double divisor) {
+void difference_matrix(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs, std::size_t n_refs,
+                       std::size_t height, std::size_t width, const std::int32_t* shifts, std::size_t n_shifts,
+                       float* scores, std::int32_t* best_shifts, int threads, double divisor) {
     const SearchShape shape = detail::make_search_shape(height, width, shifts, n_shifts);
     if (divisor == 0.0) divisor = static_cast<double>(shape.pixels);
     check_divisor(divisor);

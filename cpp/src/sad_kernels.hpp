@@ -23,25 +23,25 @@ namespace nightloc::detail {
 /// Byte alignment and padding granule of the query copies (one zmm register).
 inline constexpr std::size_t kChunk = 64;
 
-inline std::size_t round_up(std::size_t value, std::size_t granule) { return (value + granule - 1) / granule * granule; }
+inline std::size_t round_up(std::size_t value, std::size_t granule) {
+    return (value + granule - 1) / granule * granule;
+}
 
 /// "Copies" kernels. `copies` holds n_copies rolled versions of one query, copy j at
 /// copies + j * stride (stride a multiple of 64, base 64-byte aligned), each `pixels` bytes
 /// followed by zero padding up to stride. For every reference i (refs + i * pixels, no padding):
 ///     out[i * out_stride + j] = sum_{p < pixels} |copy_j[p] - ref_i[p]|.
 using CopiesKernel = void (*)(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
-                              const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels,
-                              std::uint32_t* out, std::size_t out_stride);
+                              const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                              std::size_t out_stride);
 
-void sad_copies_scalar(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
-                       const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
-                       std::size_t out_stride);
+void sad_copies_scalar(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs,
+                       std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride);
 
 #if NIGHTLOC_ARM_KERNELS
 /// NEON: vabdq_u8 + vpadalq_u8 into 16-bit lanes (flushed to 32 bits before they can overflow).
-void sad_copies_neon(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
-                     const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
-                     std::size_t out_stride);
+void sad_copies_neon(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs,
+                     std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride);
 /// NEON with the dot-product extension (ARMv8.2 udot): vabdq_u8 + vdotq_u32 against ones.
 void sad_copies_neon_dotprod(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
                              const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
@@ -49,15 +49,12 @@ void sad_copies_neon_dotprod(const std::uint8_t* copies, std::size_t stride, std
 #endif
 
 #if NIGHTLOC_X86_KERNELS
-void sad_copies_sse2(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
-                     const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
-                     std::size_t out_stride);
-void sad_copies_avx2(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
-                     const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
-                     std::size_t out_stride);
-void sad_copies_avx512bw(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
-                         const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
-                         std::size_t out_stride);
+void sad_copies_sse2(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs,
+                     std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride);
+void sad_copies_avx2(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs,
+                     std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride);
+void sad_copies_avx512bw(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs,
+                         std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride);
 
 /// Widest panorama the all-shift kernel takes (its per-reference state lives on the stack).
 inline constexpr std::size_t kAllShiftMaxWidth = 384;

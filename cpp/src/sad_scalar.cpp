@@ -9,9 +9,8 @@ namespace nightloc::detail {
 #if defined(__GNUC__) && !defined(__clang__)
 __attribute__((optimize("no-tree-vectorize")))
 #endif
-void sad_copies_scalar(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
-                       const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
-                       std::size_t out_stride) {
+void sad_copies_scalar(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs,
+                       std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride) {
     for (std::size_t i = 0; i < n_refs; ++i) {
         const std::uint8_t* ref = refs + i * pixels;
         for (std::size_t j = 0; j < n_copies; ++j) {

@@ -1,8 +1,8 @@
 // x86 SIMD kernels, each compiled for its instruction set with a target attribute and chosen at
 // run time (simd_dispatch.cpp): the rest of the library keeps the baseline ISA, so the same
 // binary runs on any x86-64 CPU. See sad_kernels.hpp for the data layouts.
-#include "sad_kernels.hpp"
 #include "ref_pass.hpp"
+#include "sad_kernels.hpp"
 
 #if NIGHTLOC_X86_KERNELS
 
@@ -53,59 +53,66 @@ NL_TARGET_AVX512 NL_INLINE std::uint32_t hsum_avx512(__m512i v) {
 // The copies kernel of one instruction set (see sad_kernels.hpp). For each pass of 8 references
 // and each copy: one aligned load of each query chunk, compared with the 8 references' chunks.
 // Written once as a macro because each instance must carry its own target attribute.
-#define NL_DEFINE_COPIES_KERNEL(NAME, TARGET, VEC, V, ZERO, LOAD, SAD, ADD, HSUM)                        \
-    TARGET void NAME(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,                \
-                     const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out, \
-                     std::size_t out_stride) {                                                           \
-        const std::size_t n_full = pixels / (V);                                                          \
-        const bool has_tail = pixels % (V) != 0;                                                          \
-        RefPass<(V)> pass(pixels, n_copies);                                                              \
-        /* While a pass computes, the next pass's references are prefetched, spread over its copies. */   \
-        const std::size_t pass_lines = kRefsPerPass * pixels / 64 + 1;                                    \
-        const std::size_t lines_per_copy = (pass_lines + n_copies - 1) / n_copies;                         \
-        for (std::size_t first = 0; first < n_refs; first += kRefsPerPass) {                              \
-            pass.load(refs, first, n_refs);                                                               \
-            const char* next = reinterpret_cast<const char*>(refs + (first + kRefsPerPass) * pixels);      \
-            for (std::size_t j = 0; j < n_copies; ++j) {                                                  \
-                const std::uint8_t* q = copies + j * stride;                                              \
-                if (first + kRefsPerPass < n_refs) {                                                      \
-                    for (std::size_t l = j * lines_per_copy; l < (j + 1) * lines_per_copy && l < pass_lines; ++l) \
-                        _mm_prefetch(next + 64 * l, _MM_HINT_T0);                                         \
-                }                                                                                         \
-                VEC acc[kRefsPerPass];                                                                    \
-                _Pragma("GCC unroll 8") for (std::size_t k = 0; k < kRefsPerPass; ++k) acc[k] = ZERO();   \
-                for (std::size_t c = 0; c < n_full; ++c) {                                                \
-                    const VEC qv = LOAD(q + c * (V));                                                     \
-                    _Pragma("GCC unroll 8") for (std::size_t k = 0; k < kRefsPerPass; ++k) {              \
-                        acc[k] = ADD(acc[k], SAD(qv, LOAD##U(pass.row[k] + c * (V))));                    \
-                    }                                                                                     \
-                }                                                                                         \
-                if (has_tail) {                                                                           \
-                    const VEC qv = LOAD(q + n_full * (V));                                                \
-                    _Pragma("GCC unroll 8") for (std::size_t k = 0; k < kRefsPerPass; ++k) {              \
-                        acc[k] = ADD(acc[k], SAD(qv, LOAD##U(pass.tail[k])));                             \
-                    }                                                                                     \
-                }                                                                                         \
-                std::uint32_t sums[kRefsPerPass];                                                         \
-                _Pragma("GCC unroll 8") for (std::size_t k = 0; k < kRefsPerPass; ++k) sums[k] = HSUM(acc[k]); \
-                for (std::size_t k = 0; k < pass.count; ++k) out[(first + k) * out_stride + j] = sums[k];  \
-            }                                                                                             \
-        }                                                                                                 \
+#define NL_DEFINE_COPIES_KERNEL(NAME, TARGET, VEC, V, ZERO, LOAD, SAD, ADD, HSUM)                                    \
+    TARGET void NAME(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs, \
+                     std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride) {           \
+        const std::size_t n_full = pixels / (V);                                                                     \
+        const bool has_tail = pixels % (V) != 0;                                                                     \
+        RefPass<(V)> pass(pixels, n_copies);                                                                         \
+        /* While a pass computes, the next pass's references are prefetched, spread over its copies. */              \
+        const std::size_t pass_lines = kRefsPerPass * pixels / 64 + 1;                                               \
+        const std::size_t lines_per_copy = (pass_lines + n_copies - 1) / n_copies;                                   \
+        for (std::size_t first = 0; first < n_refs; first += kRefsPerPass) {                                         \
+            pass.load(refs, first, n_refs);                                                                          \
+            const char* next = reinterpret_cast<const char*>(refs + (first + kRefsPerPass) * pixels);                \
+            for (std::size_t j = 0; j < n_copies; ++j) {                                                             \
+                const std::uint8_t* q = copies + j * stride;                                                         \
+                if (first + kRefsPerPass < n_refs) {                                                                 \
+                    for (std::size_t l = j * lines_per_copy; l < (j + 1) * lines_per_copy && l < pass_lines; ++l)    \
+                        _mm_prefetch(next + 64 * l, _MM_HINT_T0);                                                    \
+                }                                                                                                    \
+                VEC acc[kRefsPerPass];                                                                               \
+                _Pragma("GCC unroll 8") for (std::size_t k = 0; k < kRefsPerPass; ++k) acc[k] = ZERO();              \
+                for (std::size_t c = 0; c < n_full; ++c) {                                                           \
+                    const VEC qv = LOAD(q + c * (V));                                                                \
+                    _Pragma("GCC unroll 8") for (std::size_t k = 0; k < kRefsPerPass; ++k) {                         \
+                        acc[k] = ADD(acc[k], SAD(qv, LOAD##U(pass.row[k] + c * (V))));                               \
+                    }                                                                                                \
+                }                                                                                                    \
+                if (has_tail) {                                                                                      \
+                    const VEC qv = LOAD(q + n_full * (V));                                                           \
+                    _Pragma("GCC unroll 8") for (std::size_t k = 0; k < kRefsPerPass; ++k) {                         \
+                        acc[k] = ADD(acc[k], SAD(qv, LOAD##U(pass.tail[k])));                                        \
+                    }                                                                                                \
+                }                                                                                                    \
+                std::uint32_t sums[kRefsPerPass];                                                                    \
+                _Pragma("GCC unroll 8") for (std::size_t k = 0; k < kRefsPerPass; ++k) sums[k] = HSUM(acc[k]);       \
+                for (std::size_t k = 0; k < pass.count; ++k) out[(first + k) * out_stride + j] = sums[k];            \
+            }                                                                                                        \
+        }                                                                                                            \
     }
 
 namespace {
-NL_TARGET_SSE2 NL_INLINE __m128i load_sse2(const std::uint8_t* p) { return _mm_load_si128(reinterpret_cast<const __m128i*>(p)); }
-NL_TARGET_SSE2 NL_INLINE __m128i load_sse2U(const std::uint8_t* p) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); }
-NL_TARGET_AVX2 NL_INLINE __m256i load_avx2(const std::uint8_t* p) { return _mm256_load_si256(reinterpret_cast<const __m256i*>(p)); }
-NL_TARGET_AVX2 NL_INLINE __m256i load_avx2U(const std::uint8_t* p) { return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p)); }
+NL_TARGET_SSE2 NL_INLINE __m128i load_sse2(const std::uint8_t* p) {
+    return _mm_load_si128(reinterpret_cast<const __m128i*>(p));
+}
+NL_TARGET_SSE2 NL_INLINE __m128i load_sse2U(const std::uint8_t* p) {
+    return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+}
+NL_TARGET_AVX2 NL_INLINE __m256i load_avx2(const std::uint8_t* p) {
+    return _mm256_load_si256(reinterpret_cast<const __m256i*>(p));
+}
+NL_TARGET_AVX2 NL_INLINE __m256i load_avx2U(const std::uint8_t* p) {
+    return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+}
 NL_TARGET_AVX512 NL_INLINE __m512i load_avx512(const std::uint8_t* p) { return _mm512_load_si512(p); }
 NL_TARGET_AVX512 NL_INLINE __m512i load_avx512U(const std::uint8_t* p) { return _mm512_loadu_si512(p); }
 }  // namespace
 
 NL_DEFINE_COPIES_KERNEL(sad_copies_sse2, NL_TARGET_SSE2, __m128i, 16, _mm_setzero_si128, load_sse2, _mm_sad_epu8,
                         _mm_add_epi32, hsum_sse2)
-NL_DEFINE_COPIES_KERNEL(sad_copies_avx2, NL_TARGET_AVX2, __m256i, 32, _mm256_setzero_si256, load_avx2,
-                        _mm256_sad_epu8, _mm256_add_epi32, hsum_avx2)
+NL_DEFINE_COPIES_KERNEL(sad_copies_avx2, NL_TARGET_AVX2, __m256i, 32, _mm256_setzero_si256, load_avx2, _mm256_sad_epu8,
+                        _mm256_add_epi32, hsum_avx2)
 NL_DEFINE_COPIES_KERNEL(sad_copies_avx512bw, NL_TARGET_AVX512, __m512i, 64, _mm512_setzero_si512, load_avx512,
                         _mm512_sad_epu8, _mm512_add_epi32, hsum_avx512)
 
@@ -156,8 +163,8 @@ NL_TARGET_AVX512 NL_INLINE __m512i fold(__m512i acc) {
 // acc += d: 16-bit adds, or with VNNI (vpdpwssd against the word pair (1, -32768)) one 32-bit
 // lane per word pair: W0 - 32768 * W1, exact while every word total stays below 32768. vpdpwssd
 // runs on port 0 only, so it never competes with vdbpsadbw (port 5) as vpaddw does: up to 1.5x
-// the pairs per cycle in a register-only loop, ~15 % in this kernel. Inline assembly: the instruction needs no compiler target flag, so the
-// kernel is compiled once for AVX-512BW and the VNNI variant is chosen at run time.
+// the pairs per cycle in a register-only loop, ~15 % in this kernel. Inline assembly: the instruction needs no compiler
+// target flag, so the kernel is compiled once for AVX-512BW and the VNNI variant is chosen at run time.
 template <bool Vnni>
 NL_TARGET_AVX512 NL_INLINE __m512i accumulate(__m512i acc, __m512i d, __m512i pair_weights) {
     if constexpr (Vnni) {
@@ -187,9 +194,8 @@ NL_TARGET_AVX512 NL_INLINE __m512i reduce4(__m512i a, __m512i b, __m512i c, __m5
 
 // Computes P_m[0..3] for copies m0 .. m0+G-1 of one reference into part[m * 4 + p].
 template <std::size_t G, bool Vnni>
-NL_TARGET_AVX512 NL_INLINE void dbsad_group(const std::uint8_t* interleaved, std::size_t chunk_stride,
-                                            std::size_t m0, const std::uint8_t* ref, std::size_t pixels,
-                                            std::uint32_t* part) {
+NL_TARGET_AVX512 NL_INLINE void dbsad_group(const std::uint8_t* interleaved, std::size_t chunk_stride, std::size_t m0,
+                                            const std::uint8_t* ref, std::size_t pixels, std::uint32_t* part) {
     static_assert(G % 4 == 0 && G <= kMaxGroup, "group size");
     const std::size_t n_full = pixels / kChunk;
     const std::size_t tail = pixels % kChunk;
@@ -235,11 +241,11 @@ NL_TARGET_AVX512 NL_INLINE __m512i group_totals(const std::uint32_t* part, std::
 
 template <bool Vnni>
 NL_TARGET_AVX512 void sad_all_shifts(const std::uint8_t* interleaved, std::size_t width, const std::uint8_t* refs,
-                                     std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
-                                     std::size_t out_stride, const std::uint16_t* selected, std::uint32_t* best_sums,
+                                     std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride,
+                                     const std::uint16_t* selected, std::uint32_t* best_sums,
                                      std::int32_t* best_shifts) {
-    const std::size_t n_even = width / 2;      // copies, a multiple of 4 since width % 8 == 0
-    const std::size_t n_groups = width / 8;    // groups of 4 copies = 8 shifts
+    const std::size_t n_even = width / 2;    // copies, a multiple of 4 since width % 8 == 0
+    const std::size_t n_groups = width / 8;  // groups of 4 copies = 8 shifts
     const std::size_t chunk_stride = n_even * kChunk;
     alignas(64) std::uint32_t part[kAllShiftMaxWidth / 2 * 4 + 16];
     // Gathers the two meaningful dwords of every lane: shifts 8g .. 8g+7 in order.
@@ -250,15 +256,34 @@ NL_TARGET_AVX512 void sad_all_shifts(const std::uint8_t* interleaved, std::size_
         for (std::size_t m0 = 0; m0 < n_even;) {
             const std::size_t left = n_even - m0;
             switch (left >= kMaxGroup ? kMaxGroup : left) {
-                case 24: dbsad_group<24, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part); m0 += 24; break;
-                case 20: dbsad_group<20, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part); m0 += 20; break;
-                case 16: dbsad_group<16, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part); m0 += 16; break;
-                case 12: dbsad_group<12, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part); m0 += 12; break;
-                case 8: dbsad_group<8, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part); m0 += 8; break;
-                default: dbsad_group<4, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part); m0 += 4; break;
+                case 24:
+                    dbsad_group<24, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part);
+                    m0 += 24;
+                    break;
+                case 20:
+                    dbsad_group<20, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part);
+                    m0 += 20;
+                    break;
+                case 16:
+                    dbsad_group<16, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part);
+                    m0 += 16;
+                    break;
+                case 12:
+                    dbsad_group<12, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part);
+                    m0 += 12;
+                    break;
+                case 8:
+                    dbsad_group<8, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part);
+                    m0 += 8;
+                    break;
+                default:
+                    dbsad_group<4, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part);
+                    m0 += 4;
+                    break;
             }
         }
-        _mm_storeu_si128(reinterpret_cast<__m128i*>(part + n_even * 4), _mm_loadu_si128(reinterpret_cast<const __m128i*>(part)));
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(part + n_even * 4),
+                         _mm_loadu_si128(reinterpret_cast<const __m128i*>(part)));
         if (out != nullptr) {
             std::uint32_t* o = out + i * out_stride;
             for (std::size_t g = 0; g < n_groups; ++g) {

@@ -51,7 +51,8 @@ std::vector<std::uint8_t> interleave(const std::vector<std::uint8_t>& query, std
         for (std::size_t y = 0; y < h; ++y) {
             for (std::size_t x = 0; x < w; ++x) rolled[y * w + x] = query[y * w + (x + 2 * m) % w];
         }
-        for (std::size_t c = 0; c < n_chunks; ++c) std::memcpy(&out[(c * (w / 2) + m) * kChunk], &rolled[c * kChunk], kChunk);
+        for (std::size_t c = 0; c < n_chunks; ++c)
+            std::memcpy(&out[(c * (w / 2) + m) * kChunk], &rolled[c * kChunk], kChunk);
     }
     return out;
 }
@@ -81,7 +82,8 @@ void check_kernel(nightloc::detail::AllShiftKernel kernel, const char* name, con
     bool same = true;
     for (std::size_t i = 0; i < c.n_refs; ++i) {
         const std::vector<std::uint32_t> expected = plain_sums(query, refs.data() + i * pixels, h, w);
-        if (!std::equal(expected.begin(), expected.end(), table.begin() + static_cast<std::ptrdiff_t>(i * w))) same = false;
+        if (!std::equal(expected.begin(), expected.end(), table.begin() + static_cast<std::ptrdiff_t>(i * w)))
+            same = false;
         std::uint32_t lowest = UINT32_MAX;
         std::int32_t at = -1;
         for (std::size_t k = 1; k < w; k += 2) {
@@ -89,7 +91,9 @@ void check_kernel(nightloc::detail::AllShiftKernel kernel, const char* name, con
         }
         if (best[i] != lowest || best_shift[i] != at) same = false;
     }
-    if (!same) std::fprintf(stderr, "%s: %zux%zu, %zu references, fill %d differs from the plain loop\n", name, h, w, c.n_refs, c.fill);
+    if (!same)
+        std::fprintf(stderr, "%s: %zux%zu, %zu references, fill %d differs from the plain loop\n", name, h, w, c.n_refs,
+                     c.fill);
     CHECK(same);
 }
 
@@ -152,11 +156,11 @@ int main() {
     const bool vnni = __builtin_cpu_supports("avx512vnni");
     std::mt19937 rng(7);
     const Case cases[] = {
-        {24, 48, 5, -1}, {24, 48, 3, 0}, {24, 48, 3, 1},  // the paper's size; the largest totals
-        {5, 8, 4, -1},   {3, 40, 2, -1},                  // one chunk, masked tails
-        {64, 64, 2, 0},  {64, 64, 3, -1},                 // 64 chunks: two flushes at the extreme
-        {6, 384, 2, -1}, {9, 384, 2, 1},                  // the widest panorama (48 groups of copies)
-        {33, 96, 2, 0},                                   // 49.5 chunks, extreme, tail after a flush
+        {24, 48, 5, -1}, {24, 48, 3, 0},  {24, 48, 3, 1},  // the paper's size; the largest totals
+        {5, 8, 4, -1},   {3, 40, 2, -1},                   // one chunk, masked tails
+        {64, 64, 2, 0},  {64, 64, 3, -1},                  // 64 chunks: two flushes at the extreme
+        {6, 384, 2, -1}, {9, 384, 2, 1},                   // the widest panorama (48 groups of copies)
+        {33, 96, 2, 0},                                    // 49.5 chunks, extreme, tail after a flush
     };
     for (const Case& c : cases) {
         check_kernel(nightloc::detail::sad_all_shifts_avx512bw, "avx512bw", c, rng);

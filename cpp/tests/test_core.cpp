@@ -14,7 +14,6 @@
 
 namespace {
 
-
 using Bytes = std::vector<std::uint8_t>;
 
 std::uint32_t oracle_sum(const std::uint8_t* q, const std::uint8_t* r, std::size_t h, std::size_t w, std::size_t k) {
@@ -46,11 +45,13 @@ void check_case(std::mt19937& rng, std::size_t h, std::size_t w, std::size_t n_r
     const std::size_t px = h * w;
     const Bytes queries = random_bytes(rng, n_queries * px, lo, hi);
     Bytes refs = random_bytes(rng, n_refs * px, lo, hi);
-    if (n_refs > 2) std::copy(refs.begin(), refs.begin() + static_cast<std::ptrdiff_t>(px), refs.end() - static_cast<std::ptrdiff_t>(px));  // a tie
+    if (n_refs > 2)
+        std::copy(refs.begin(), refs.begin() + static_cast<std::ptrdiff_t>(px),
+                  refs.end() - static_cast<std::ptrdiff_t>(px));  // a tie
     // Full table for query 0.
     std::vector<std::uint32_t> table(n_refs * shifts.size());
-    nightloc::rotational_sad_sums(queries.data(), refs.data(), n_refs, h, w, shifts.data(), shifts.size(),
-                                  table.data(), threads);
+    nightloc::rotational_sad_sums(queries.data(), refs.data(), n_refs, h, w, shifts.data(), shifts.size(), table.data(),
+                                  threads);
     bool table_ok = true;
     for (std::size_t i = 0; i < n_refs; ++i)
         for (std::size_t j = 0; j < shifts.size(); ++j)
@@ -61,15 +62,16 @@ void check_case(std::mt19937& rng, std::size_t h, std::size_t w, std::size_t n_r
     // Difference matrix.
     std::vector<std::uint32_t> best(n_queries * n_refs);
     std::vector<std::int32_t> best_shift(n_queries * n_refs);
-    nightloc::difference_matrix_sums(queries.data(), n_queries, refs.data(), n_refs, h, w, shifts.data(),
-                                     shifts.size(), best.data(), best_shift.data(), threads);
+    nightloc::difference_matrix_sums(queries.data(), n_queries, refs.data(), n_refs, h, w, shifts.data(), shifts.size(),
+                                     best.data(), best_shift.data(), threads);
     bool matrix_ok = true;
     for (std::size_t q = 0; q < n_queries; ++q) {
         for (std::size_t i = 0; i < n_refs; ++i) {
             std::uint32_t b = 0xffffffffu;
             std::int32_t bs = -1;
             for (std::int32_t s : shifts) {
-                std::uint32_t v = oracle_sum(queries.data() + q * px, refs.data() + i * px, h, w, static_cast<std::size_t>(s));
+                std::uint32_t v =
+                    oracle_sum(queries.data() + q * px, refs.data() + i * px, h, w, static_cast<std::size_t>(s));
                 if (v < b) {
                     b = v;
                     bs = s;
@@ -81,8 +83,7 @@ void check_case(std::mt19937& rng, std::size_t h, std::size_t w, std::size_t n_r
     CHECK(matrix_ok);
     if (!table_ok || !matrix_ok) {
         std::fprintf(stderr, "  case h=%zu w=%zu refs=%zu queries=%zu shifts=%zu threads=%d backend=%s\n", h, w, n_refs,
-                     n_queries, shifts.size(), threads,
-                     nightloc::simd_backend_name(nightloc::active_simd_backend()));
+                     n_queries, shifts.size(), threads, nightloc::simd_backend_name(nightloc::active_simd_backend()));
     }
 }
 
@@ -129,7 +130,8 @@ void test_errors() {
     Bytes q(6, 1), r(6, 2);
     std::uint32_t out[2];
     std::int32_t bad_shift[1] = {3};
-    CHECK_THROWS(nightloc::rotational_sad_sums(q.data(), r.data(), 1, 2, 3, bad_shift, 1, out, 1), std::invalid_argument);
+    CHECK_THROWS(nightloc::rotational_sad_sums(q.data(), r.data(), 1, 2, 3, bad_shift, 1, out, 1),
+                 std::invalid_argument);
     std::int32_t dup[2] = {1, 1};
     CHECK_THROWS(nightloc::rotational_sad_sums(q.data(), r.data(), 1, 2, 3, dup, 2, out, 1), std::invalid_argument);
     CHECK_THROWS(nightloc::patch_normalize(q.data(), r.data(), 1, 2, 3, -1, true), std::invalid_argument);
@@ -200,17 +202,17 @@ void test_eigen_api() {
     std::vector<float> scores(4);
     std::vector<std::int32_t> shifts(4);
     const std::vector<std::int32_t> all = nightloc::all_shifts(16);
-    const std::size_t best = nightloc::match(query.data(), refs.data(), 4, 6, 16, all.data(), all.size(),
-                                             scores.data(), shifts.data());
+    const std::size_t best =
+        nightloc::match(query.data(), refs.data(), 4, 6, 16, all.data(), all.size(), scores.data(), shifts.data());
     bool same = best == 2;
     for (std::size_t i = 0; i < 4; ++i) {
         same = same && scores[i] == result.scores[static_cast<nightloc::Index>(i)] &&
                shifts[i] == result.shifts[static_cast<nightloc::Index>(i)];
     }
     CHECK(same);
-    CHECK_THROWS(nightloc::match(query.data(), refs.data(), 0, 6, 16, all.data(), all.size(), scores.data(),
-                                 shifts.data()),
-                 std::invalid_argument);
+    CHECK_THROWS(
+        nightloc::match(query.data(), refs.data(), 0, 6, 16, all.data(), all.size(), scores.data(), shifts.data()),
+        std::invalid_argument);
     const auto table = nightloc::rotational_sad(query, refs);
     CHECK(table.rows() == 4 && table.cols() == 16 && table(2, 3) == 0.0f);
     const auto dm = nightloc::difference_matrix(refs, refs, {0}, 2);

@@ -102,9 +102,8 @@ SmallMap small_map(std::size_t height, std::size_t width, std::size_t n_refs, bo
             }
             std::vector<std::pair<double, std::size_t>> near;
             for (std::size_t p = 0; p < n_refs; ++p)
-                near.emplace_back(std::hypot(m.ref_x[p] - dx * static_cast<double>(i),
-                                             m.ref_y[p] - dy * static_cast<double>(j)),
-                                  p);
+                near.emplace_back(
+                    std::hypot(m.ref_x[p] - dx * static_cast<double>(i), m.ref_y[p] - dy * static_cast<double>(j)), p);
             std::sort(near.begin(), near.end());
             const std::size_t take = std::min<std::size_t>(3, n_refs);
             double total = 0;
@@ -197,7 +196,8 @@ void test_paths_identical() {
         const Trace trace = run_scenario(m, settings);
         bool same = trace.beliefs.size() == reference.beliefs.size();
         for (std::size_t s = 0; same && s < trace.beliefs.size(); ++s) {
-            same = trace.beliefs[s] == reference.beliefs[s] && same_estimate(trace.estimates[s], reference.estimates[s]);
+            same =
+                trace.beliefs[s] == reference.beliefs[s] && same_estimate(trace.estimates[s], reference.estimates[s]);
         }
         std::printf("grid filter on %s: %s the scalar path\n", nightloc::simd_backend_name(backend),
                     same ? "identical to" : "DIFFERS from");
@@ -298,7 +298,8 @@ void test_errors_leave_the_belief() {
     CHECK(filter.lambda() == 0);
     const std::vector<float> after = normalized_belief(filter);
     double worst = 0;
-    for (std::size_t c = 0; c < after.size(); ++c) worst = std::max(worst, static_cast<double>(std::fabs(after[c] - before[c])));
+    for (std::size_t c = 0; c < after.size(); ++c)
+        worst = std::max(worst, static_cast<double>(std::fabs(after[c] - before[c])));
     CHECK(worst < 1e-9);
     GridFilterSettings bad_settings;
     bad_settings.uniform_floor = 1.0;

@@ -196,9 +196,9 @@ void test_weights_interpolate_like_the_csr_definition() {
     CHECK(heat == csr_product(indptr, indices, data, values));
     values[2] = std::numeric_limits<float>::infinity();
     CHECK_THROWS(weights.interpolate(values.data(), heat.data()), std::invalid_argument);
-    CHECK_THROWS(HeatWeights(2, 2, 4, {0, 2, 2, 5}, indices, data), std::invalid_argument);         // short indptr
-    CHECK_THROWS(HeatWeights(2, 2, 3, indptr, indices, data), std::invalid_argument);               // index 3 of 3
-    CHECK_THROWS(HeatWeights(2, 2, 4, {0, 2, 1, 5, 6}, indices, data), std::invalid_argument);      // decreasing
+    CHECK_THROWS(HeatWeights(2, 2, 4, {0, 2, 2, 5}, indices, data), std::invalid_argument);     // short indptr
+    CHECK_THROWS(HeatWeights(2, 2, 3, indptr, indices, data), std::invalid_argument);           // index 3 of 3
+    CHECK_THROWS(HeatWeights(2, 2, 4, {0, 2, 1, 5, 6}, indices, data), std::invalid_argument);  // decreasing
     CHECK_THROWS(HeatWeights(2, 2, 4, indptr, indices, {0.25f, 0.75f, 0.1f, 0.3f, 0.6f}), std::invalid_argument);
     CHECK_THROWS(HeatWeights(0, 2, 4, {0}, {}, {}), std::invalid_argument);
 }

@@ -161,7 +161,7 @@ void test_downsample_methods_against_exact_means() {
         DownsampleMethod method;
     };
     const Case cases[] = {
-        {480, 640, 24, 48, DownsampleMethod::integral}, {320, 640, 24, 48, DownsampleMethod::integral},
+        {480, 640, 24, 48, DownsampleMethod::integral},  {320, 640, 24, 48, DownsampleMethod::integral},
         {333, 1001, 24, 48, DownsampleMethod::integral}, {960, 1920, 24, 48, DownsampleMethod::blocks},
         {48, 96, 24, 48, DownsampleMethod::blocks},      {72, 240, 24, 48, DownsampleMethod::blocks},
         {100, 97, 24, 48, DownsampleMethod::weights},    {30, 50, 24, 48, DownsampleMethod::weights},
@@ -256,8 +256,8 @@ void test_every_simd_path_gives_the_same_bytes() {
             const Bytes got = run(view, s, ws);
             CHECK(got == reference);
             if (got != reference) {
-                std::fprintf(stderr, "  path %s, %zux%zu order %d -> %zux%zu\n",
-                             nightloc::simd_backend_name(backend), h, w, static_cast<int>(order), oh, ow);
+                std::fprintf(stderr, "  path %s, %zux%zu order %d -> %zux%zu\n", nightloc::simd_backend_name(backend),
+                             h, w, static_cast<int>(order), oh, ow);
             }
         }
     }

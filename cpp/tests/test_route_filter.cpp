@@ -75,7 +75,8 @@ void reference_step(std::vector<double>& b, double& off, const std::vector<float
     for (std::size_t r = 0; r < n; ++r) {
         for (std::size_t i = 0; i < k.weights.size(); ++i) {
             const std::int64_t from = static_cast<std::int64_t>(r) - (k.first + static_cast<std::int64_t>(i));
-            if (from >= 0 && from < static_cast<std::int64_t>(n)) pred[r] += k.weights[i] * b[static_cast<std::size_t>(from)];
+            if (from >= 0 && from < static_cast<std::int64_t>(n))
+                pred[r] += k.weights[i] * b[static_cast<std::size_t>(from)];
         }
     }
     double moved = 0.0;
@@ -190,7 +191,8 @@ void test_batch_equals_stream_and_kidnap() {
     std::size_t first_good = truth.size();
     for (std::size_t q = 60; q < truth.size(); ++q) {
         bool rest = true;
-        for (std::size_t k = q; k < truth.size(); ++k) rest = rest && std::abs(best[k] - static_cast<std::int64_t>(truth[k])) <= 2;
+        for (std::size_t k = q; k < truth.size(); ++k)
+            rest = rest && std::abs(best[k] - static_cast<std::int64_t>(truth[k])) <= 2;
         if (rest) {
             first_good = q;
             break;

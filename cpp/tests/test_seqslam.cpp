@@ -17,7 +17,6 @@
 
 namespace {
 
-
 using Matrix = std::vector<float>;  // (rows, cols) row-major
 constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
@@ -257,8 +256,9 @@ void test_search_geometry() {
     const nightloc::TrajectoryPlan plan = nightloc::make_trajectory_plan(params);
     std::vector<std::int64_t> ref(rows);
     std::vector<double> score(rows);
-    CHECK_THROWS(nightloc::trajectory_search(dd.data(), rows * cols / 11, 11, plan, ref.data(), score.data(), 0, rows, 1),
-                 std::invalid_argument);
+    CHECK_THROWS(
+        nightloc::trajectory_search(dd.data(), rows * cols / 11, 11, plan, ref.data(), score.data(), 0, rows, 1),
+        std::invalid_argument);
 }
 
 }  // namespace

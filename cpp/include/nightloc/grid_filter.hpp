@@ -68,17 +68,17 @@ namespace nightloc {
 
 /// The filter's tunables (python: nightloc.localization.FilterParams, where they are documented).
 struct GridFilterSettings {
-    std::size_t heading_bins = 48;   ///< B; 1 = position only
-    double likelihood_gain = 3.0;    ///< kappa: lambda = kappa / (median - min of the frame's scores)
-    double distance_std = 0.0;       ///< odometry noise per step, metres
-    double heading_std = 0.0;        ///< odometry noise per step, radians
-    double position_floor = 0.05;    ///< metres of blur per step added in quadrature (model error)
-    double heading_floor = 0.05;     ///< radians of heading blur per step added in quadrature
-    double uniform_floor = 5e-3;     ///< share of the belief spread uniformly per prediction
-    double unknown_spread = 2.0;     ///< metres of blur when the motion is unknown
-    double credibility = 0.9;        ///< mass of the credible disk
-    double confidence_radius = 1.0;  ///< metres: confidence = mass within this of the estimate
-    std::size_t estimate_window = 2; ///< cells around the peak averaged into the estimate
+    std::size_t heading_bins = 48;    ///< B; 1 = position only
+    double likelihood_gain = 3.0;     ///< kappa: lambda = kappa / (median - min of the frame's scores)
+    double distance_std = 0.0;        ///< odometry noise per step, metres
+    double heading_std = 0.0;         ///< odometry noise per step, radians
+    double position_floor = 0.05;     ///< metres of blur per step added in quadrature (model error)
+    double heading_floor = 0.05;      ///< radians of heading blur per step added in quadrature
+    double uniform_floor = 5e-3;      ///< share of the belief spread uniformly per prediction
+    double unknown_spread = 2.0;      ///< metres of blur when the motion is unknown
+    double credibility = 0.9;         ///< mass of the credible disk
+    double confidence_radius = 1.0;   ///< metres: confidence = mass within this of the estimate
+    std::size_t estimate_window = 2;  ///< cells around the peak averaged into the estimate
 };
 
 /// What the filter knows of the map (python: built from the HeatMapper of the localizer).
@@ -94,13 +94,13 @@ struct GridFilterMap {
 
 /// One estimate of the filter.
 struct GridEstimate {
-    double x = 0, y = 0;         ///< metres
-    double heading = 0;          ///< radians in (-pi, pi]; NaN in position mode
+    double x = 0, y = 0;                        ///< metres
+    double heading = 0;                         ///< radians in (-pi, pi]; NaN in position mode
     double cov_xx = 0, cov_xy = 0, cov_yy = 0;  ///< covariance of the marginal, m^2
-    double credible_radius = 0;  ///< metres
-    double confidence = 0;       ///< mass within confidence_radius of (x, y), 0..1
-    std::size_t cell = 0;        ///< the marginal's first maximum (row-major)
-    bool flat = false;           ///< the marginal had no peak (x, y is its mean)
+    double credible_radius = 0;                 ///< metres
+    double confidence = 0;                      ///< mass within confidence_radius of (x, y), 0..1
+    std::size_t cell = 0;                       ///< the marginal's first maximum (row-major)
+    bool flat = false;                          ///< the marginal had no peak (x, y is its mean)
 };
 
 class GridFilter {
@@ -186,17 +186,17 @@ private:
     double lambda_ = 0;
     std::vector<std::int32_t> place_of_ref_;
     std::vector<std::int32_t> shifts_;
-    std::size_t slots_ = 0;            // most weights of a cell (>= 1)
-    std::vector<float> ell_data_;      // the weights, slot k of cell c at k * cells + c; a cell
-                                       // without weights: weight 1 at place index places_ (the fill)
+    std::size_t slots_ = 0;        // most weights of a cell (>= 1)
+    std::vector<float> ell_data_;  // the weights, slot k of cell c at k * cells + c; a cell
+                                   // without weights: weight 1 at place index places_ (the fill)
     std::vector<std::int32_t> ell_index_;
-    std::vector<std::int32_t> ell_places_;   // per 16-cell block and slot: its <= 4 places, or -1
+    std::vector<std::int32_t> ell_places_;  // per 16-cell block and slot: its <= 4 places, or -1
     mutable std::vector<float> belief_;
     std::vector<float> work_;
     mutable std::vector<float> marginal_;
     mutable bool marginal_valid_ = true;
     std::vector<float> tile_a_, tile_b_, zeros_, padded_, taps_x_, taps_y_, wide_a_, wide_b_, wide_c_;
-    std::vector<float> sums_;          // running sums of the box passes
+    std::vector<float> sums_;  // running sums of the box passes
     std::vector<float> table_, mins_, place_scores_, log_lik_;
     std::vector<std::int32_t> best_shifts_;
     mutable std::vector<double> scratch_;

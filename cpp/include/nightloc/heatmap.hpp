@@ -71,8 +71,8 @@ private:
 /// or non-finite shifts.
 void add_translated(const float* src, std::size_t src_stride, float* out, std::size_t out_stride, std::size_t height,
                     std::size_t width, double shift_x, double shift_y);
-void add_translated(const double* src, std::size_t src_stride, double* out, std::size_t out_stride,
-                    std::size_t height, std::size_t width, double shift_x, double shift_y);
+void add_translated(const double* src, std::size_t src_stride, double* out, std::size_t out_stride, std::size_t height,
+                    std::size_t width, double shift_x, double shift_y);
 
 /// The cells around a peak that do not count as "another place": a (2 rows + 1) x (2 cols + 1)
 /// mask centred on the peak, 1 = excluded (python/nightloc/heatmap.py: a disk of the confidence
@@ -127,8 +127,8 @@ public:
 
 private:
     std::size_t slot(std::size_t k) const { return (first_ + k) % capacity_; }
-    float* next_slot();         // the map the next frame goes to (the oldest one's when full)
-    void commit(double fill);   // makes that frame part of the sequence
+    float* next_slot();        // the map the next frame goes to (the oldest one's when full)
+    void commit(double fill);  // makes that frame part of the sequence
 
     std::shared_ptr<const HeatWeights> weights_;
     std::size_t capacity_;

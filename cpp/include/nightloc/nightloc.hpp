@@ -50,10 +50,10 @@ struct ImageStack {
 
 /// Result of matching one query against a reference stack.
 struct MatchResult {
-    Index best = -1;                ///< index of the reference with the lowest score
-    Eigen::VectorXf scores;         ///< (n_ref,) minimum mean absolute difference, grey levels
-    Eigen::VectorXi shifts;         ///< (n_ref,) column shift attaining it (see sad.hpp)
-    Eigen::VectorXd headings;       ///< (n_ref,) query heading relative to each reference, radians in (-pi, pi]
+    Index best = -1;           ///< index of the reference with the lowest score
+    Eigen::VectorXf scores;    ///< (n_ref,) minimum mean absolute difference, grey levels
+    Eigen::VectorXi shifts;    ///< (n_ref,) column shift attaining it (see sad.hpp)
+    Eigen::VectorXd headings;  ///< (n_ref,) query heading relative to each reference, radians in (-pi, pi]
 };
 
 /// Difference matrix of a query stack against a reference stack.

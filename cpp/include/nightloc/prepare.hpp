@@ -47,11 +47,11 @@ struct FrameView {
 struct PrepareSettings {
     std::size_t crop_top = 0, crop_bottom = 0, crop_left = 0, crop_right = 0;  ///< pixels removed
     Equalization equalize = Equalization::global;
-    std::size_t width = 48;   ///< output columns (Rx)
-    std::size_t height = 24;  ///< output rows (Ry)
-    bool normalize = true;    ///< patch normalization (eq. 1) after downsampling
-    int radius = 4;           ///< patch radius P (a (2P+1)^2 window)
-    bool wrap = true;         ///< window wraps horizontally (360-degree panoramas)
+    std::size_t width = 48;             ///< output columns (Rx)
+    std::size_t height = 24;            ///< output rows (Ry)
+    bool normalize = true;              ///< patch normalization (eq. 1) after downsampling
+    int radius = 4;                     ///< patch radius P (a (2P+1)^2 window)
+    bool wrap = true;                   ///< window wraps horizontally (360-degree panoramas)
     double scale = kDefaultPatchScale;  ///< quantization gain of patch_normalize
 };
 
@@ -63,16 +63,16 @@ inline constexpr std::size_t kMaxFrameWidth = std::size_t{1} << 24;
 /// How the area downsample of an in_height x in_width grey image to out_height x out_width is
 /// computed (the same choice as nightloc.preparation.downsample.area_downsample):
 enum class DownsampleMethod : int {
-    copy = 0,      ///< same size: the image itself
-    integral = 1,  ///< >= 65 536 input pixels, a non-integer factor: exact area sums from an
-                   ///< integral image at fractional cell edges, float64 means, round half to even
-    blocks = 2,    ///< integer factors fy x fx whose double reciprocals round-trip, 1 / (out / in)
-                   ///< == in / out (cv2.resize INTER_AREA's fast path): exact block sums s,
-                   ///< out = round_half_even(float32(s) * (1.f / (fx * fy))); 2 x 2 blocks:
-                   ///< (s + 2) >> 2
-    weights = 3,   ///< < 65 536 input pixels with a non-integer factor, or integer factors that
-                   ///< do not round-trip (cv2.resize INTER_AREA's general path): float32
-                   ///< per-pixel weights, float32 row sums, float32 sums of weighted rows
+    copy = 0,         ///< same size: the image itself
+    integral = 1,     ///< >= 65 536 input pixels, a non-integer factor: exact area sums from an
+                      ///< integral image at fractional cell edges, float64 means, round half to even
+    blocks = 2,       ///< integer factors fy x fx whose double reciprocals round-trip, 1 / (out / in)
+                      ///< == in / out (cv2.resize INTER_AREA's fast path): exact block sums s,
+                      ///< out = round_half_even(float32(s) * (1.f / (fx * fy))); 2 x 2 blocks:
+                      ///< (s + 2) >> 2
+    weights = 3,      ///< < 65 536 input pixels with a non-integer factor, or integer factors that
+                      ///< do not round-trip (cv2.resize INTER_AREA's general path): float32
+                      ///< per-pixel weights, float32 row sums, float32 sums of weighted rows
     unsupported = 4,  ///< the output is larger than the input along an axis (upsampling)
 };
 

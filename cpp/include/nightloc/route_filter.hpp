@@ -30,15 +30,15 @@ namespace nightloc {
 
 /// Parameters of the route filter (see the file comment for where each enters).
 struct RouteFilterParams {
-    double vmin = 0.8;        ///< slowest speed, references per query frame (>= 0)
-    double vmax = 1.2;        ///< fastest speed (>= vmin, <= 1000)
-    double backward = 0.0;    ///< probability per frame of stepping one reference back, [0, 1)
-    double floor = 3e-3;      ///< uniform mixing per frame, [0, 1]
-    double sharpness = 0.7;   ///< lambda, per standard deviation of the row (>= 0)
-    double clip = 0.0;        ///< z above this is no evidence against a place (any value, inf: no clip)
-    double leave = 1e-2;      ///< probability per frame of leaving the route, [0, 1]
-    double rejoin = 1e-2;     ///< probability per frame of rejoining it (uniformly), [0, 1]
-    std::size_t window = 2;   ///< confidence = belief mass within +-window references of the best
+    double vmin = 0.8;       ///< slowest speed, references per query frame (>= 0)
+    double vmax = 1.2;       ///< fastest speed (>= vmin, <= 1000)
+    double backward = 0.0;   ///< probability per frame of stepping one reference back, [0, 1)
+    double floor = 3e-3;     ///< uniform mixing per frame, [0, 1]
+    double sharpness = 0.7;  ///< lambda, per standard deviation of the row (>= 0)
+    double clip = 0.0;       ///< z above this is no evidence against a place (any value, inf: no clip)
+    double leave = 1e-2;     ///< probability per frame of leaving the route, [0, 1]
+    double rejoin = 1e-2;    ///< probability per frame of rejoining it (uniformly), [0, 1]
+    std::size_t window = 2;  ///< confidence = belief mass within +-window references of the best
 };
 
 /// Throws std::invalid_argument naming the first parameter out of range.

@@ -23,33 +23,31 @@ inline constexpr std::size_t kMaxImagePixels = std::size_t{1} << 24;
 
 /// Full table: sums[i * n_shifts + j] = sum_{shifts[j]}(query, refs[i]). Uses up to `threads`
 /// threads (<= 0: one). Throws std::invalid_argument on invalid sizes or shifts.
-void rotational_sad_sums(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs,
-                         std::size_t height, std::size_t width, const std::int32_t* shifts,
-                         std::size_t n_shifts, std::uint32_t* sums, int threads = 1);
+void rotational_sad_sums(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
+                         std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, std::uint32_t* sums,
+                         int threads = 1);
 
 /// Difference matrix: for every query q and reference r, the minimum over the shift list,
 /// best_sums[q * n_refs + r], and the shift value that attains it, best_shifts[q * n_refs + r].
 /// References are processed in cache-sized blocks, each streamed once per block of queries;
 /// work is spread over `threads` threads (<= 0: one). Extra memory: a few hundred KB per thread.
 void difference_matrix_sums(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs,
-                            std::size_t n_refs, std::size_t height, std::size_t width,
-                            const std::int32_t* shifts, std::size_t n_shifts, std::uint32_t* best_sums,
-                            std::int32_t* best_shifts, int threads = 1);
+                            std::size_t n_refs, std::size_t height, std::size_t width, const std::int32_t* shifts,
+                            std::size_t n_shifts, std::uint32_t* best_sums, std::int32_t* best_shifts, int threads = 1);
 
 /// Scores as float32: score = float(double(sum) / divisor). divisor = 0 means height * width,
 /// i.e. the mean absolute difference in grey levels (the paper's eq. 2); OpenSeqSLAM divides by
 /// the number of references instead.
 void rotational_sad(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
-                    std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, float* scores,
-                    int threads = 1, double divisor = 0.0);
+                    std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, float* scores, int threads = 1,
+                    double divisor = 0.0);
 
 /// Difference matrix as float32 scores (see rotational_sad for `divisor`): scores and
 /// best_shifts are (n_queries, n_refs) row-major. No memory beyond the outputs is needed except a
 /// per-thread tile of at most 16 x 32768 entries.
-void difference_matrix(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs,
-                       std::size_t n_refs, std::size_t height, std::size_t width, const std::int32_t* shifts,
-                       std::size_t n_shifts, float* scores, std::int32_t* best_shifts, int threads = 1,
-                       double divisor = 0.0);
+void difference_matrix(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs, std::size_t n_refs,
+                       std::size_t height, std::size_t width, const std::int32_t* shifts, std::size_t n_shifts,
+                       float* scores, std::int32_t* best_shifts, int threads = 1, double divisor = 0.0);
 
 /// The per-frame call: one query against all references. For every reference i, scores[i] is
 /// the mean absolute difference (grey levels, float32) at its best shift and best_shifts[i] that

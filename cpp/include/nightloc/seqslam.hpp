@@ -59,9 +59,9 @@ inline constexpr double kMaxTrajectoryPlanEntries = 4194304.0;
 
 /// Parameters of the trajectory search (OpenSeqSLAM's names in brackets).
 struct TrajectoryParams {
-    int ds = 10;             ///< sequence length [ds]; centred mode rounds it up to even
-    double vmin = 0.8;       ///< slowest speed, references per query frame [vmin]
-    double vmax = 1.2;       ///< fastest speed [vmax]
+    int ds = 10;                ///< sequence length [ds]; centred mode rounds it up to even
+    double vmin = 0.8;          ///< slowest speed, references per query frame [vmin]
+    double vmax = 1.2;          ///< fastest speed [vmax]
     int uniqueness_radius = 5;  ///< second best excludes argmin +- this, inclusive [Rwindow/2]
     TrajectoryMode mode = TrajectoryMode::kCentred;
 };

@@ -31,12 +31,8 @@ struct SimdBackendName {
 /// Every path the library knows (compiled into this build or not), slowest first per
 /// architecture: x86-64 (sse2, avx2, avx512bw) and AArch64 (neon, neon-dotprod).
 inline constexpr SimdBackendName kSimdBackendNames[] = {
-    {SimdBackend::scalar, "scalar"},
-    {SimdBackend::sse2, "sse2"},
-    {SimdBackend::avx2, "avx2"},
-    {SimdBackend::avx512bw, "avx512bw"},
-    {SimdBackend::neon, "neon"},
-    {SimdBackend::neon_dotprod, "neon-dotprod"},
+    {SimdBackend::scalar, "scalar"},     {SimdBackend::sse2, "sse2"}, {SimdBackend::avx2, "avx2"},
+    {SimdBackend::avx512bw, "avx512bw"}, {SimdBackend::neon, "neon"}, {SimdBackend::neon_dotprod, "neon-dotprod"},
 };
 
 /// Lower-case name of a path (see kSimdBackendNames).
