@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .._validate import MAX_REPEATS
 from ..figures import add_figure_format_option
@@ -30,6 +31,9 @@ from ..io.atomic import make_folder, output_set
 from ..io.reference_map import ReferenceMap
 from ..localization.evaluation import Evaluation, EvaluationSettings, evaluate, match_traverse
 from ..localization.localizer import LocalizationParams
+
+if TYPE_CHECKING:
+    import numpy as np
 
 #: (world, reference traverse, query traverse) pairs the demo evaluates.
 DEMO_PAIRS = (("garden", "day_reference", "night_query"), ("living_room", "day_reference", "night_query"))
@@ -47,13 +51,15 @@ COMPARE_SEQ_LEN = 10
 COMPARE_FROM = 10
 
 
-def comparison_errors(map_evaluation: Evaluation, wheel_evaluation: Evaluation) -> dict:
+def comparison_errors(
+    map_evaluation: Evaluation, wheel_evaluation: Evaluation
+) -> dict[str, dict[str, list[np.ndarray]]]:
     """``{odometry: {"paper": [errors per noise model], "filter": [...]}}`` over the frames from
     :data:`COMPARE_FROM` on (interpolation on)."""
     out = {}
     for label, ev in (("map-frame odometry", map_evaluation), ("wheel odometry (RobotMotion)", wheel_evaluation)):
         later = _frame_index(ev) >= COMPARE_FROM - 1
-        by_method = {"paper": [], "filter": []}
+        by_method: dict[str, list[np.ndarray]] = {"paper": [], "filter": []}
         for model in ev.settings.noise_models:
             for method in by_method:
                 mask = ev.select(noise_model=model, interpolation=True, method=method) & later

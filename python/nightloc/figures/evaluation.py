@@ -93,7 +93,9 @@ def _top(evaluation: Evaluation, query: str | None) -> float:
     return float(max(errors.max() * 1.05, 0.1)) if errors.size else 1.0
 
 
-def _boxes(ax, groups: Sequence[np.ndarray], positions: Sequence[float], colour: str = "black", width: float = 0.5):
+def _boxes(
+    ax, groups: Sequence[np.ndarray], positions: Sequence[float] | np.ndarray, colour: str = "black", width: float = 0.5
+):
     """Tukey box plots of the non-empty ``groups`` at ``positions``; returns matplotlib's dict."""
     drawn = [(np.asarray(g, dtype=np.float64), p) for g, p in zip(groups, positions) if np.asarray(g).size]
     if not drawn:
@@ -352,12 +354,16 @@ def heatmap_figure(
     truth = matches.positions[frame]
     inverted = invert_scores(result.scores)  # 1 = best match, 0 = worst
     best = ref_map.positions[result.index]
-    grid = HeatGrid.spanning(ref_map.positions, *(estimates[0].heatmap.shape[::-1]), margin=params.margin)
+    shown = estimates[0].heatmap
+    if shown is None:
+        raise ValueError("estimates must carry heat maps: Localizer.update(..., return_heatmap=True)")
+    height, width = shown.shape
+    grid = HeatGrid.spanning(ref_map.positions, width, height, margin=params.margin)
 
     x0, x1, y0, y1 = grid.extent
     panels = float(np.clip(4.2 * (y1 - y0) / (x1 - x0), 2.0, 6.0)) + 1.0  # height that fits the map's aspect
     fig, _ = new_figure(11.0, panels + 0.8, 0, 0)
-    top, bottom = fig.subfigures(2, 1, height_ratios=[panels, 0.8])
+    top, bottom = fig.subfigures(2, 1, squeeze=False, height_ratios=[panels, 0.8])[:, 0]
     axes = top.subplots(1, 2)
     for ax, est in zip(axes, estimates):
         label = "single frame" if est.frames == 1 else f"{int(est.frames)}-frame sequence"

@@ -19,9 +19,9 @@ from __future__ import annotations
 import csv
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Union
+from typing import Any, Union, cast
 
 from ..errors import DatasetError
 from .atomic import atomic_file
@@ -64,6 +64,7 @@ def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[
         )
     rows: list[OdometryRow] = []
     header = None
+    columns: tuple[str, ...]
     try:
         with open(path, newline="", encoding="utf-8-sig") as handle:
             reader = csv.reader(handle)
@@ -135,7 +136,7 @@ def odometry_values(motions: Sequence[object]) -> tuple[str, list[tuple[float, .
             values.append(tuple(float(getattr(m, a)) for a in MAP_COLUMNS))
         else:
             try:
-                pair = tuple(float(v) for v in m)  # type: ignore[union-attr]
+                pair = tuple(float(v) for v in cast("Iterable[Any]", m))  # duck-typed: errors caught below
             except (TypeError, ValueError):
                 pair = ()
             if len(pair) != 2:

@@ -650,6 +650,9 @@ def evaluate(
             estimates = [loc.update_match(result, odometry[i]) for i, result in enumerate(matches.results)]
             record(estimates, np.full(n_frames, n), model, interp, repeat, "paper")
         else:
+            tables = matches.tables
+            if tables is None:  # checked above, or match_traverse(..., tables=True)
+                raise ValueError("the filter needs the rotational tables: match_traverse(..., tables=True)")
             noise = settings.log_noise if model == LOG_NOISE_MODEL else model
             loc = Localizer(
                 ref_map,
@@ -659,7 +662,7 @@ def evaluate(
                 filter_params=filter_params,
                 interpolation=interp,
             )
-            estimates = [loc.update_table(matches.tables[i], odometry[i]) for i in range(n_frames)]
+            estimates = [loc.update_table(tables[i], odometry[i]) for i in range(n_frames)]
             record(estimates, np.arange(1, n_frames + 1), model, interp, repeat, "filter")
     columns = {c: np.concatenate(v) if v else np.zeros(0) for c, v in rows.items()}
     return Evaluation(columns, settings, [matches])

@@ -120,7 +120,11 @@ class FilterState:
     shifts: np.ndarray | None = None
 
 
-def motion_code(motion: object) -> tuple[int, float, float, float]:
+#: The core's motion arguments ``(kind, a, b, c)`` (see :func:`motion_code`).
+MotionCode = tuple[int, float, float, float]
+
+
+def motion_code(motion: object) -> MotionCode:
     """The core's ``(kind, a, b, c)`` of an odometry value already checked by ``as_motion``."""
     if motion is None:
         return MOTION_UNKNOWN, 0.0, 0.0, 0.0
@@ -220,18 +224,18 @@ class GridFilter:
         self.noise = noise_model(noise)
         self.core.set_noise(self.noise.distance_std, self.noise.heading_std)
 
-    def step_image(self, query: np.ndarray, refs: np.ndarray, motion: tuple, threads: int) -> FilterState:
+    def step_image(self, query: np.ndarray, refs: np.ndarray, motion: MotionCode, threads: int) -> FilterState:
         """Predicts by ``motion`` (a :func:`motion_code`), matches ``query`` against ``refs``
         (prepared uint8 images) and updates: one call into the core."""
         estimate, scores, shifts = self.core.step_image(query, refs, *motion, threads)
         return _state(estimate, scores, shifts)
 
-    def step_table(self, table: np.ndarray, motion: tuple) -> FilterState:
+    def step_table(self, table: np.ndarray, motion: MotionCode) -> FilterState:
         """Like :meth:`step_image` from the frame's rotational SAD table ``(N, n_shifts)`` float32."""
         estimate, scores, shifts = self.core.step_table(table, *motion)
         return _state(estimate, scores, shifts)
 
-    def predict(self, motion: tuple) -> FilterState:
+    def predict(self, motion: MotionCode) -> FilterState:
         """Only the prediction (no frame): the belief moves and spreads."""
         self.core.predict(*motion)
         return _state(self.core.estimate(), None, None)

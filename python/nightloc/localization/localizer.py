@@ -42,6 +42,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from .. import _core
 from .._validate import (
     MAX_GRID_CELLS,
     MAX_SEQUENCE_CELLS,
@@ -54,7 +55,7 @@ from .._validate import (
 from ..config import params_section
 from ..io.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, match
-from .grid_filter import MOTION_NONE, FilterParams, FilterState, GridFilter, motion_code
+from .grid_filter import MOTION_NONE, FilterParams, FilterState, GridFilter, MotionCode, motion_code
 from .heatmap import HeatMapper
 from .odometry import Motion, NoiseModel, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
 from .sequence import cumulative_offsets
@@ -355,6 +356,11 @@ class Localizer:
         """Radians: the centre of the filter's heading bin 0."""
         return self._require_filter("heading_offset").offset
 
+    def _require_sequence(self) -> _core.HeatSequence:
+        if self._sequence is None:  # the filter has none; the paper's method always has one
+            raise RuntimeError("internal error: the paper's method without its heat-map sequence")
+        return self._sequence
+
     def _require_filter(self, what: str) -> GridFilter:
         if self._filter is None:
             raise AttributeError(
@@ -374,7 +380,7 @@ class Localizer:
         if self._filter is not None:
             self._filter.reset()
             return
-        self._sequence.clear()  # the frames' excess heat maps and fill values (in the core)
+        self._require_sequence().clear()  # the frames' excess heat maps and fill values (in the core)
         self._motions: deque[Motion] = deque(maxlen=max(self.params.seq_len - 1, 1))
 
     def update(
@@ -438,14 +444,14 @@ class Localizer:
             state = flt.predict(motion_code(motion))
             return self._filter_estimate(state, return_heatmap, frame=False)
 
-    def _motion(self, odometry: object) -> tuple:
+    def _motion(self, odometry: object) -> MotionCode:
         motion = as_motion(odometry)
         if self._frames == 0:
             return (MOTION_NONE, 0.0, 0.0, 0.0)  # the first frame: nothing to move yet
         return motion_code(self._checked_motion(motion))
 
     def _checked_motion(self, motion: Motion | None) -> Motion | None:
-        if isinstance(motion, RobotMotion) and not self._filter.can_pose:
+        if isinstance(motion, RobotMotion) and not self._require_filter("robot-frame odometry").can_pose:
             raise ValueError(
                 "robot-frame odometry (RobotMotion) needs heading bins, and this filter has none: the reference map "
                 "has no headings (or its images are not 360-degree panoramas); pass map-frame displacements "
@@ -461,13 +467,16 @@ class Localizer:
         ref = self.mapper.closest_ref(cell, scores)
         heading = state.heading
         if not math.isfinite(heading):
-            if headings is not None and scores is not None:  # position-only: the closest reference's match
+            shifts = state.shifts  # None with scores: a prediction without a frame
+            if headings is not None and scores is not None and shifts is not None:
+                # position-only: the closest reference's match
                 width = self.ref_map.params.width
-                heading = float(wrap_angle(float(headings[ref]) + 2.0 * math.pi * float(state.shifts[ref]) / width))
+                heading = float(wrap_angle(float(headings[ref]) + 2.0 * math.pi * float(shifts[ref]) / width))
             else:
                 heading = self._heading if scores is None else math.nan
         self._heading = heading
         best = int(np.argmin(scores)) if scores is not None else -1
+        cov = state.covariance
         return Estimate(
             x=state.x,
             y=state.y,
@@ -477,9 +486,9 @@ class Localizer:
             frames=self._frames,
             best_ref=best,
             score=float(scores[best]) if scores is not None else math.nan,
-            heatmap=self._filter.marginal() if return_heatmap else None,
+            heatmap=self._require_filter("heatmap").marginal() if return_heatmap else None,
             frame_heatmap=self.mapper.heat_map(scores)[0] if return_heatmap and scores is not None else None,
-            covariance=tuple(map(tuple, state.covariance.tolist())),
+            covariance=((float(cov[0, 0]), float(cov[0, 1])), (float(cov[1, 0]), float(cov[1, 1]))),
             credible_radius=state.credible_radius,
             method="filter",
         )
@@ -506,9 +515,10 @@ class Localizer:
             raise ValueError(
                 f"result has {result.scores.shape[0]} scores but the map has {len(self.ref_map)} references"
             )
+        sequence = self._require_sequence()
         motion = as_motion(odometry)
         headings = self.ref_map.headings
-        stored = self._sequence.size
+        stored = sequence.size
         if isinstance(motion, RobotMotion) and headings is None and stored:
             raise ValueError(
                 "robot-frame odometry (RobotMotion) needs a heading estimate, and there is none: the reference "
@@ -521,9 +531,9 @@ class Localizer:
             predicted = float(headings[result.index] + result.headings[result.index])
         else:
             predicted = math.nan
-        restart = bool(stored) and motion is None
-        earlier = 0 if restart else min(stored, self.params.seq_len - 1)  # frames fused with this one
-        if earlier:
+        # frames fused with this one: none when the motion is unknown (a restart of the sequence)
+        earlier = 0 if motion is None else min(stored, self.params.seq_len - 1)
+        if earlier and motion is not None:
             motions = ([*list(self._motions), motion])[-earlier:]
             steps = robot_steps_to_map(motions, predicted)
             offsets = np.ascontiguousarray(self.grid.to_cells(cumulative_offsets(steps)))
@@ -532,15 +542,16 @@ class Localizer:
         else:
             offsets = _NO_OFFSETS
         # the update is valid: change the state
-        if restart:
-            self._sequence.clear()
-            self._motions.clear()
+        if motion is None:
+            if stored:  # restart
+                sequence.clear()
+                self._motions.clear()
         elif stored:
             self._motions.append(motion)
-        self._sequence.push(values, fill)
-        fill_sum, cell, peak, floor, second = self._sequence.fuse_peak(offsets)
-        heatmap = self._sequence.fused() + fill_sum if return_heatmap else None
-        frame_heatmap = self._sequence.frame(-1) + fill if return_heatmap else None
+        sequence.push(values, fill)
+        fill_sum, cell, peak, floor, second = sequence.fuse_peak(offsets)
+        heatmap = sequence.fused() + fill_sum if return_heatmap else None
+        frame_heatmap = sequence.frame(-1) + fill if return_heatmap else None
         found = self.mapper.estimate_from_peak(cell, peak, floor, second, result.scores)
         if headings is not None:
             self._heading = float(wrap_angle(headings[found.ref_index] + result.headings[found.ref_index]))

@@ -19,12 +19,17 @@ heading, drawn from a seeded ``numpy.random.Generator``.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Union
 
 import numpy as np
 
 from .._validate import coordinates, metres, not_masked
+
+if TYPE_CHECKING:
+    from ..io.traverse import Traverse
 
 __all__ = [
     "NOISE_MODELS",
@@ -292,8 +297,9 @@ def robot_steps_to_map(motions: Sequence[Motion], heading_now: float | None) -> 
         ``(len(motions), 2)`` metres in the map frame.
     """
     n = len(motions)
-    if all(type(m) is MapDisplacement for m in motions):
-        return np.array([(m.dx, m.dy) for m in motions], dtype=np.float64).reshape(n, 2)
+    map_steps = [(m.dx, m.dy) for m in motions if type(m) is MapDisplacement]
+    if len(map_steps) == n:
+        return np.array(map_steps, dtype=np.float64).reshape(n, 2)
     out = np.zeros((n, 2))
     needs_heading = any(isinstance(m, RobotMotion) for m in motions)
     if needs_heading:
@@ -324,12 +330,14 @@ def compose_motions(motions: Sequence[Motion]) -> Motion:
     """
     if not motions:
         raise ValueError("nothing to compose")
-    if all(isinstance(m, MapDisplacement) for m in motions):
-        return MapDisplacement(sum(m.dx for m in motions), sum(m.dy for m in motions))
-    if not all(isinstance(m, RobotMotion) for m in motions):
+    displacements = [m for m in motions if isinstance(m, MapDisplacement)]
+    if len(displacements) == len(motions):
+        return MapDisplacement(sum(m.dx for m in displacements), sum(m.dy for m in displacements))
+    robot = [m for m in motions if isinstance(m, RobotMotion)]
+    if len(robot) != len(motions):
         raise ValueError("cannot compose robot-frame and map-frame motions")
     x = y = heading = 0.0
-    for m in motions:
+    for m in robot:
         c, s = math.cos(heading), math.sin(heading)
         x += c * m.forward - s * m.left
         y += s * m.forward + c * m.left
@@ -337,7 +345,10 @@ def compose_motions(motions: Sequence[Motion]) -> Motion:
     return RobotMotion(x, y, heading)
 
 
-def read_odometry(file: object, keys: Sequence[object], key_column: str = "image") -> list[Motion | None]:
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def read_odometry(file: PathLike, keys: Sequence[object], key_column: str = "image") -> list[Motion | None]:
     """The motion before each of ``keys`` (a traverse's frames, in order) from an odometry CSV
     (``image,forward,left,turn`` or ``image,dx,dy``, see :mod:`nightloc.io.odometry_csv`).
 
@@ -376,19 +387,20 @@ def read_odometry(file: object, keys: Sequence[object], key_column: str = "image
     return out
 
 
-def traverse_odometry(traverse: object, file: object | None = None) -> list[Motion | None]:
+def traverse_odometry(traverse: Traverse, file: PathLike | None = None) -> list[Motion | None]:
     """The odometry of a :class:`~nightloc.Traverse`: :func:`read_odometry` of ``file`` (default
     ``<traverse folder>/odometry.csv``; a video's log names its CSV, keyed by ``frame``)."""
     from pathlib import Path
 
     from ..errors import DatasetError
 
-    video = bool(getattr(traverse, "is_video", False))
+    video = traverse.is_video
     if file is None:
         if video:
             raise DatasetError(
                 f"{traverse.root} is a video: name its odometry CSV (frame,forward,left,turn or frame,dx,dy)"
             )
         file = Path(traverse.root) / "odometry.csv"
-    keys = list(traverse.frame_indices) if video else list(traverse.names)
+    frames = traverse.frame_indices if video else None  # a video's frames are keyed by index
+    keys: list[object] = list(traverse.names) if frames is None else list(frames)
     return read_odometry(file, keys, "frame" if video else "image")

@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 
 from .. import _core
 
@@ -42,7 +43,7 @@ class PaddedLayout:
         dtype: element type of the buffers (float64 default).
     """
 
-    def __init__(self, height: int, width: int, dtype: np.dtype = np.float64):
+    def __init__(self, height: int, width: int, dtype: npt.DTypeLike = np.float64):
         if height < 1 or width < 1:
             raise ValueError(f"map shape must be positive, got ({height}, {width})")
         self.height = int(height)

@@ -40,7 +40,9 @@ def shifts_to_headings(shifts: np.ndarray, width: int) -> np.ndarray:
     return np.where(angles > np.pi, angles - 2.0 * np.pi, angles)
 
 
-def rotational_sad(query: np.ndarray, refs: np.ndarray, shifts: ShiftSpec = None, threads: int = 1) -> np.ndarray:
+def rotational_sad(
+    query: np.ndarray, refs: np.ndarray, shifts: ShiftSpec = None, threads: int | None = 1
+) -> np.ndarray:
     """The full table of eq. (2): mean absolute difference at every shift.
 
     Args:
