@@ -30,8 +30,11 @@
 //      over a tile that holds everything the passes spread beyond the grid;
 //   3. heading blur: a circular Gaussian of std sqrt(heading_std^2 + heading_floor^2) radians
 //      over the bins (taps within 3 std, those below 1e-4 of the peak left out);
-//   4. normalization and a uniform floor: p = (1 - uniform_floor) p / sum + uniform_floor / cells
-//      (a kidnapped robot is found again; an empty grid becomes uniform).
+//   4. a uniform floor: p = (1 - uniform_floor) p / total + uniform_floor / cells, where total is
+//      the belief's mass before the prediction (mass that left the grid is gone, not given back
+//      to the cells that stay; a kidnapped robot is found again; an empty grid becomes uniform).
+//   The prediction is pending until the next update, which runs it fused with the measurement,
+//   slice by slice while the slices are in cache (or until the belief is read).
 // Map-frame motion (dx, dy): one shift, blur std sqrt(distance_std^2 + (|d| heading_std)^2 +
 // position_floor^2). Unknown motion: blur std unknown_spread, heading forgotten.
 //
@@ -65,6 +68,9 @@
 #include "nightloc/heatmap.hpp"
 
 namespace nightloc {
+namespace detail {
+struct UpdateArgs;
+}
 
 /// The filter's tunables (python: nightloc.localization.FilterParams, where they are documented).
 struct GridFilterSettings {
@@ -163,14 +169,19 @@ public:
     void set_belief(const float* belief, bool pose, double offset);
 
 private:
+    /// One slice's pending motion: its source bin and the shift and blur, in cells.
+    struct SliceMotion {
+        std::size_t source;
+        double shift_x, shift_y, sigma_x, sigma_y;
+    };
     void to_position();
     void to_pose();
-    // work_ holds a prediction before its heading blur and normalization: pending until the next
-    // update (fused there) or materialize()
-    void finish_prediction(double total, std::vector<float> taps, std::vector<std::size_t> offsets);
+    // A prediction is pending until the next update (fused with it) or materialize(): per bin of
+    // the result its SliceMotion, then the heading blur, the normalization and the floor.
+    void begin_prediction(std::vector<float> taps, std::vector<std::size_t> offsets);
     void materialize() const;
-    double translate_blur_slice(const float* src, float* dst, double shift_x, double shift_y, double sigma_x,
-                                double sigma_y);
+    void measure_predicted(detail::UpdateArgs& args);
+    void translate_blur_slice(const float* src, float* dst, const SliceMotion& m) const;
     void compute_marginal() const;
 
     GridFilterMap map_;
@@ -180,6 +191,7 @@ private:
     double offset_ = 0;
     mutable double scale_ = 1;
     mutable bool pending_ = false;
+    std::vector<SliceMotion> pending_motion_;
     std::vector<float> pending_taps_;
     std::vector<std::size_t> pending_offsets_;
     float pending_a_ = 1, pending_f_ = 0;
@@ -190,13 +202,16 @@ private:
     std::vector<float> ell_data_;  // the weights, slot k of cell c at k * cells + c; a cell
                                    // without weights: weight 1 at place index places_ (the fill)
     std::vector<std::int32_t> ell_index_;
-    std::vector<std::int32_t> ell_places_;  // per 16-cell block and slot: its <= 4 places, or -1
+    std::vector<std::int32_t> block_start_, block_places_;  // the measurement's dense blocks
+    std::vector<float> block_weights_;
     mutable std::vector<float> belief_;
-    std::vector<float> work_;
+    mutable std::vector<float> work_;  // predicted slices (materialize: all bins; an update: a pool)
+    std::vector<std::int32_t> slot_of_, free_slots_;
+    std::vector<std::size_t> last_use_, dest_of_source_;
     mutable std::vector<float> marginal_;
     mutable bool marginal_valid_ = true;
-    std::vector<float> tile_a_, tile_b_, zeros_, padded_, taps_x_, taps_y_, wide_a_, wide_b_, wide_c_;
-    std::vector<float> sums_;  // running sums of the box passes
+    mutable std::vector<float> row_buf_, zeros_, padded_, taps_x_, taps_y_, wide_a_, wide_b_;
+    mutable std::vector<float> sums_;  // running sums of the box passes
     std::vector<float> table_, mins_, place_scores_, log_lik_;
     std::vector<std::int32_t> best_shifts_;
     mutable std::vector<double> scratch_;
