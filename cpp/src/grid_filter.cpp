@@ -27,6 +27,8 @@ constexpr double kLowestLog2 = -60.0;
 constexpr std::size_t kMaxComposedTaps = 13;
 // Cells per chunk of the loops over all bins (a multiple of 16: the sums' lanes and blocks).
 constexpr std::size_t kCellChunk = 256;
+// Bins per measurement pass of a fused update (the kernel reads the weights once per pass).
+constexpr std::size_t kFusedBins = 4;
 // Most places of a dense block of the measurement (see detail::UpdateArgs).
 constexpr std::size_t kDensePlaces = 8;
 
@@ -274,8 +276,8 @@ void GridFilter::translate_blur_slice(const float* src, float* dst, const SliceM
     if (!wide_x && !wide_y) {  // the common case: two explicit passes, row by row, grid to grid
         const auto n_x = static_cast<std::ptrdiff_t>(taps_x_.size());
         const auto pad = static_cast<std::size_t>(std::max<std::ptrdiff_t>({off_x, n_x - 1 - off_x, 0}));
-        if (row_buf_.size() < width_ + 2 * pad) row_buf_.resize(width_ + 2 * pad);
-        std::fill(row_buf_.begin(), row_buf_.begin() + static_cast<std::ptrdiff_t>(width_ + 2 * pad), 0.f);
+        if (row_buf_.size() < 2 * (width_ + 2 * pad)) row_buf_.resize(2 * (width_ + 2 * pad));
+        std::fill(row_buf_.begin(), row_buf_.begin() + static_cast<std::ptrdiff_t>(2 * (width_ + 2 * pad)), 0.f);
         const detail::ShiftBlurArgs args{src,
                                          dst,
                                          height_,
@@ -597,15 +599,14 @@ void GridFilter::update(const float* table) {
                             0.f,
                             belief_.data(),
                             marginal_.data()};
-    const float* in[detail::kMaxTaps];
+    // the prior is the belief itself (in place), one slice per bin
+    slices_.resize(B);
+    for (std::size_t b = 0; b < B; ++b) slices_[b] = belief_.data() + b * cells_;
     if (pending_) {
         measure_predicted(args);
-    } else {  // the prior is the belief (in place), chunks of cells through all bins: L2-resident
+    } else {  // chunks of cells through all bins: the chunk's weights stay in L1
         for (std::size_t c0 = 0; c0 < cells_; c0 += kCellChunk) {
-            for (std::size_t b = 0; b < B; ++b) {
-                in[0] = belief_.data() + b * cells_;
-                k.measure(args, b, in, c0, std::min(kCellChunk, cells_ - c0));
-            }
+            k.measure(args, 0, B, slices_.data(), c0, std::min(kCellChunk, cells_ - c0));
         }
     }
     double lanes[detail::kSumLanes] = {};
@@ -617,10 +618,8 @@ void GridFilter::update(const float* table) {
         args.n_taps = 1;
         args.a = 1.f;
         args.f = 0.f;
-        for (std::size_t b = 0; b < B; ++b) {
-            in[0] = belief_.data() + b * cells_;
-            k.measure(args, b, in, 0, cells_);
-        }
+        for (std::size_t b = 0; b < B; ++b) slices_[b] = belief_.data() + b * cells_;
+        k.measure(args, 0, B, slices_.data(), 0, cells_);
         std::fill(std::begin(lanes), std::end(lanes), 0.0);
         k.sum(marginal_.data(), cells_, lanes);
         total = detail::lane_total(lanes);  // >= 2^-60 per cell: positive
@@ -662,19 +661,28 @@ void GridFilter::measure_predicted(detail::UpdateArgs& args) {
                              m);
         slot_of_[e] = slot;
     };
-    const float* in[detail::kMaxTaps];
-    for (std::size_t d = 0; d < B; ++d) {
-        for (std::size_t t = 0; t < n_taps; ++t) predict((d + B - pending_offsets_[t]) % B);
-        predict(dest_of_source[d]);  // belief_[d] is read before it is overwritten
-        for (std::size_t t = 0; t < n_taps; ++t) {
-            in[t] = work_.data() + static_cast<std::size_t>(slot_of_[(d + B - pending_offsets_[t]) % B]) * cells_;
+    // kFusedBins bins at a time: the kernel reads the map's weights once for all of them
+    slices_.resize(kFusedBins * n_taps);
+    for (std::size_t d0 = 0; d0 < B; d0 += kFusedBins) {
+        const std::size_t d1 = std::min(B, d0 + kFusedBins);
+        for (std::size_t d = d0; d < d1; ++d) {
+            for (std::size_t t = 0; t < n_taps; ++t) predict((d + B - pending_offsets_[t]) % B);
+            predict(dest_of_source[d]);  // belief_[d] is read before it is overwritten
         }
-        k.measure(args, d, in, 0, cells_);
-        for (std::size_t t = 0; t < n_taps; ++t) {
-            const std::size_t e = (d + B - pending_offsets_[t]) % B;
-            if (last_use[e] == d && slot_of_[e] >= 0) {
-                free_slots_.push_back(slot_of_[e]);
-                slot_of_[e] = -1;
+        for (std::size_t d = d0; d < d1; ++d) {
+            for (std::size_t t = 0; t < n_taps; ++t) {
+                const auto slot = static_cast<std::size_t>(slot_of_[(d + B - pending_offsets_[t]) % B]);
+                slices_[(d - d0) * n_taps + t] = work_.data() + slot * cells_;
+            }
+        }
+        k.measure(args, d0, d1 - d0, slices_.data(), 0, cells_);
+        for (std::size_t d = d0; d < d1; ++d) {
+            for (std::size_t t = 0; t < n_taps; ++t) {
+                const std::size_t e = (d + B - pending_offsets_[t]) % B;
+                if (last_use[e] == d && slot_of_[e] >= 0) {
+                    free_slots_.push_back(slot_of_[e]);
+                    slot_of_[e] = -1;
+                }
             }
         }
     }

@@ -229,6 +229,97 @@ NL_INLINE void taps_row(const float* const* in, const float* taps, std::size_t n
     }
 }
 
+// Two rows at once: out0[i] = sum_t taps[t] * in[t][i] and out1[i] = sum_t taps[t] * in[t + 1][i]
+// (in: n_taps + 1 rows), each summed in float from 0 in t order as taps_row does: every loaded
+// vector of a source row serves both.
+template <int L, int V>
+NL_INLINE void taps_block2(const float* const* in, const float* taps, std::size_t n_taps, float* out0, float* out1,
+                           const std::size_t* pos) {
+    using F = typename Vec<L>::F;
+    F acc0[V], acc1[V];
+    for (int v = 0; v < V; ++v) {
+        acc0[v] = F{};
+        acc1[v] = F{};
+    }
+    {
+        const float g = taps[0];
+        for (int v = 0; v < V; ++v) {
+            F xv;
+            load<L>(xv, in[0] + pos[v]);
+            acc0[v] = acc0[v] + g * xv;
+        }
+    }
+    for (std::size_t t = 1; t < n_taps; ++t) {
+        const float g0 = taps[t], g1 = taps[t - 1];
+        const float* x = in[t];
+        for (int v = 0; v < V; ++v) {
+            F xv;
+            load<L>(xv, x + pos[v]);
+            acc0[v] = acc0[v] + g0 * xv;
+            acc1[v] = acc1[v] + g1 * xv;
+        }
+    }
+    {
+        const float g = taps[n_taps - 1];
+        for (int v = 0; v < V; ++v) {
+            F xv;
+            load<L>(xv, in[n_taps] + pos[v]);
+            acc1[v] = acc1[v] + g * xv;
+        }
+    }
+    for (int v = 0; v < V; ++v) {
+        store<L>(out0 + pos[v], acc0[v]);
+        store<L>(out1 + pos[v], acc1[v]);
+    }
+}
+
+NL_INLINE void taps_one2(const float* const* in, const float* taps, std::size_t n_taps, float* out0, float* out1,
+                         std::size_t i) {
+    taps_one(in, taps, n_taps, out0, i);
+    taps_one(in + 1, taps, n_taps, out1, i);
+}
+
+// Vectors per block of taps_row2 (two accumulators each).
+template <int L>
+constexpr int kTapVectors2 = L == 16 ? 4 : 4;
+
+template <int L>
+NL_INLINE void taps_row2(const float* const* in, const float* taps, std::size_t n_taps, float* out0, float* out1,
+                         std::size_t cols) {
+    if constexpr (L == 1) {
+        for (std::size_t i = 0; i < cols; ++i) taps_one2(in, taps, n_taps, out0, out1, i);
+    } else {
+        if (cols < static_cast<std::size_t>(L)) {
+            for (std::size_t i = 0; i < cols; ++i) taps_one2(in, taps, n_taps, out0, out1, i);
+            return;
+        }
+        constexpr int V = kTapVectors2<L>;
+        constexpr std::size_t width = static_cast<std::size_t>(V * L);
+        std::size_t pos[V];
+        std::size_t i = 0;
+        for (; i + width < cols; i += width) {
+            for (int v = 0; v < V; ++v) pos[v] = i + static_cast<std::size_t>(L * v);
+            taps_block2<L, V>(in, taps, n_taps, out0, out1, pos);
+        }
+        const std::size_t vectors = (cols - i + L - 1) / L;  // 1 .. V
+        for (std::size_t v = 0; v < vectors; ++v) pos[v] = std::min(i + L * v, cols - L);
+        switch (vectors) {
+            case 1:
+                taps_block2<L, 1>(in, taps, n_taps, out0, out1, pos);
+                break;
+            case 2:
+                taps_block2<L, 2>(in, taps, n_taps, out0, out1, pos);
+                break;
+            case 3:
+                taps_block2<L, 3>(in, taps, n_taps, out0, out1, pos);
+                break;
+            default:
+                taps_block2<L, 4>(in, taps, n_taps, out0, out1, pos);
+                break;
+        }
+    }
+}
+
 // dst[j][i] = sum_t taps[t] * src[j + t - offset][i] (rows outside [0, rows) count 0).
 template <int L>
 NL_INLINE void conv_rows_body(const float* src, float* dst, std::size_t rows, std::size_t cols, const float* taps,
@@ -268,24 +359,35 @@ NL_INLINE void conv_cols_body(const float* src, float* dst, std::size_t rows, st
 
 template <int L>
 NL_INLINE void shift_blur_body(const ShiftBlurArgs& a) {
-    const float* in[kMaxTaps];
-    const float* xin[kMaxTaps];
-    float* row = a.buf + a.pad;
-    for (std::size_t t = 0; t < a.n_x; ++t) xin[t] = row + t - a.off_x;
+    const float* in[kMaxTaps + 1];
+    const float* xin[2][kMaxTaps];
+    const std::size_t span = a.cols + 2 * a.pad;  // two row buffers
+    for (std::size_t k = 0; k < 2; ++k)
+        for (std::size_t t = 0; t < a.n_x; ++t) xin[k][t] = a.buf + k * span + a.pad + t - a.off_x;
     const auto rows = static_cast<std::ptrdiff_t>(a.rows);
-    for (std::size_t j = 0; j < a.rows; ++j) {
-        for (std::size_t t = 0; t < a.n_y; ++t) {
+    // output rows two at a time: the row pass of both reads each source row once
+    for (std::size_t j = 0; j < a.rows; j += 2) {
+        const bool pair = j + 1 < a.rows;
+        for (std::size_t t = 0; t < a.n_y + (pair ? 1 : 0); ++t) {
             const std::ptrdiff_t r = static_cast<std::ptrdiff_t>(j + t) - a.off_y;
             in[t] = r >= 0 && r < rows ? a.src + static_cast<std::size_t>(r) * a.cols : a.zeros;
         }
-        // the source row that the next output row is the first to read (the others are cached)
-        const std::ptrdiff_t next = static_cast<std::ptrdiff_t>(j + a.n_y) - a.off_y;
-        if (next >= 0 && next < rows) {
-            const float* p = a.src + static_cast<std::size_t>(next) * a.cols;
-            for (std::size_t i = 0; i < a.cols; i += 16) __builtin_prefetch(p + i);
+        // the source rows that the next pair reads first (the others are cached)
+        for (std::size_t k = 1; k <= 2; ++k) {
+            const std::ptrdiff_t next = static_cast<std::ptrdiff_t>(j + a.n_y + k) - a.off_y;
+            if (next >= 0 && next < rows) {
+                const float* p = a.src + static_cast<std::size_t>(next) * a.cols;
+                for (std::size_t i = 0; i < a.cols; i += 16) __builtin_prefetch(p + i);
+            }
         }
-        taps_row<L>(in, a.taps_y, a.n_y, row, a.cols);
-        taps_row<L>(xin, a.taps_x, a.n_x, a.dst + j * a.cols, a.cols);
+        if (pair) {
+            taps_row2<L>(in, a.taps_y, a.n_y, a.buf + a.pad, a.buf + span + a.pad, a.cols);
+            taps_row<L>(xin[0], a.taps_x, a.n_x, a.dst + j * a.cols, a.cols);
+            taps_row<L>(xin[1], a.taps_x, a.n_x, a.dst + (j + 1) * a.cols, a.cols);
+        } else {
+            taps_row<L>(in, a.taps_y, a.n_y, a.buf + a.pad, a.cols);
+            taps_row<L>(xin[0], a.taps_x, a.n_x, a.dst + j * a.cols, a.cols);
+        }
     }
 }
 
@@ -355,102 +457,104 @@ NL_INLINE void measure_one(const UpdateArgs& u, const float* const* in, std::siz
     u.marginal[c] = (b == 0 ? 0.f : u.marginal[c]) + p;
 }
 
-// The log2-likelihood of the full block from cell cb (kBlock / L vectors), not yet floored.
-template <int L>
-NL_INLINE void log_lik_block(const UpdateArgs& u, const float* values, std::size_t cb, typename Vec<L>::F* y) {
+// One full block of kBlock cells from c in Q bins from b (in: per bin its n_taps slices): the
+// block's weights are read once for all Q bins (each bin alone would stream the map's weights
+// from L2 once per bin), and the Q kBlock / L vectors are independent chains.
+template <int L, int Q>
+NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* const* in, std::size_t c) {
     using F = typename Vec<L>::F;
-    constexpr int V = static_cast<int>(kBlock) / L;
-    F s[V];
-    for (int v = 0; v < V; ++v) s[v] = F{};
-    const std::size_t block = cb / kBlock;
+    constexpr int V = static_cast<int>(kBlock) / L;  // vectors per block
+    const F zero = {}, lowest = zero + kLowest;
+    F y[Q][V];
+    for (int q = 0; q < Q; ++q)
+        for (int v = 0; v < V; ++v) y[q][v] = zero;
+    const float* values = u.log_lik + b * u.stride;
+    const std::size_t block = c / kBlock;
     const auto e0 = static_cast<std::size_t>(u.block_start[block]);
     const auto e1 = static_cast<std::size_t>(u.block_start[block + 1]);
     if (e1 > e0) {
         const float* w = u.block_weights + e0 * kBlock;
         for (std::size_t e = e0; e < e1; ++e, w += kBlock) {
-            const float g = values[u.block_places[e]];
-            for (int v = 0; v < V; ++v) {
-                F x;
-                load<L>(x, w + L * v);
-                s[v] = s[v] + x * g;
+            const std::size_t place = static_cast<std::size_t>(u.block_places[e]);
+            F x[V];
+            for (int v = 0; v < V; ++v) load<L>(x[v], w + L * v);
+            for (int q = 0; q < Q; ++q) {
+                const float g = values[static_cast<std::size_t>(q) * u.stride + place];
+                for (int v = 0; v < V; ++v) y[q][v] = y[q][v] + x[v] * g;
             }
         }
     } else {
         for (std::size_t k = 0; k < u.slots; ++k) {
             for (int v = 0; v < V; ++v) {
-                const std::size_t cv = cb + static_cast<std::size_t>(L * v);
-                F w, x;
+                const std::size_t cv = c + static_cast<std::size_t>(L * v);
+                F w;
                 load<L>(w, u.data + k * u.n + cv);
-                for (int l = 0; l < L; ++l) x[l] = values[u.index[k * u.n + cv + static_cast<std::size_t>(l)]];
-                s[v] = s[v] + w * x;
+                for (int q = 0; q < Q; ++q) {
+                    F x;
+                    const float* vq = values + static_cast<std::size_t>(q) * u.stride;
+                    for (int l = 0; l < L; ++l) x[l] = vq[u.index[k * u.n + cv + static_cast<std::size_t>(l)]];
+                    y[q][v] = y[q][v] + w * x;
+                }
             }
         }
     }
-    for (int v = 0; v < V; ++v) y[v] = s[v];
-}
-
-// G full blocks of kBlock cells from c (G kBlock / L vectors: independent chains through the
-// exp2's polynomial, whose latency one block alone would wait for).
-template <int L, int G>
-NL_INLINE void measure_blocks(const UpdateArgs& u, const float* values, const float* const* in, std::size_t b,
-                              std::size_t c) {
-    using F = typename Vec<L>::F;
-    constexpr int V = static_cast<int>(kBlock) / L;  // vectors per block
-    constexpr int N = G * V;
-    const F zero = {}, lowest = zero + kLowest;
     const float a = u.a, f = u.f;
-    float* belief = u.belief + b * u.n;
-    F y[N], acc[N];
-    if constexpr (G >= 1) log_lik_block<L>(u, values, c, y);
-    if constexpr (G >= 2) log_lik_block<L>(u, values, c + kBlock, y + V);
-    if constexpr (G >= 3) log_lik_block<L>(u, values, c + 2 * kBlock, y + 2 * V);
-    if constexpr (G >= 4) log_lik_block<L>(u, values, c + 3 * kBlock, y + 3 * V);
-    for (int v = 0; v < N; ++v) acc[v] = zero;
-    for (std::size_t t = 0; t < u.n_taps; ++t) {
-        const float g = u.taps[t];
-        const float* x = in[t] + c;
-        for (int v = 0; v < N; ++v) {
-            F xv;
-            load<L>(xv, x + L * v);
-            acc[v] = acc[v] + g * xv;
-        }
-    }
-    for (int v = 0; v < N; ++v) {
-        const std::size_t cv = c + static_cast<std::size_t>(L * v);
-        const F yy = y[v] > lowest ? y[v] : lowest;
-        F l, mg;
-        exp2_vector<L>(yy, l);
-        const F p = (acc[v] * a + f) * l;
-        store<L>(belief + cv, p);
+    F mg[V];
+    for (int v = 0; v < V; ++v) {
         if (b == 0) {
-            mg = p;
+            mg[v] = zero;
         } else {
-            load<L>(mg, u.marginal + cv);
-            mg = mg + p;
+            load<L>(mg[v], u.marginal + c + L * v);
         }
-        store<L>(u.marginal + cv, mg);
     }
+    for (int q = 0; q < Q; ++q) {
+        const std::size_t bq = b + static_cast<std::size_t>(q);
+        F acc[V];
+        for (int v = 0; v < V; ++v) acc[v] = zero;
+        for (std::size_t t = 0; t < u.n_taps; ++t) {
+            const float g = u.taps[t];
+            const float* x = in[static_cast<std::size_t>(q) * u.n_taps + t] + c;
+            for (int v = 0; v < V; ++v) {
+                F xv;
+                load<L>(xv, x + L * v);
+                acc[v] = acc[v] + g * xv;
+            }
+        }
+        float* belief = u.belief + bq * u.n + c;
+        for (int v = 0; v < V; ++v) {
+            const F yy = y[q][v] > lowest ? y[q][v] : lowest;
+            F l;
+            exp2_vector<L>(yy, l);
+            const F p = (acc[v] * a + f) * l;
+            store<L>(belief + L * v, p);
+            mg[v] = mg[v] + p;
+        }
+    }
+    for (int v = 0; v < V; ++v) store<L>(u.marginal + c + L * v, mg[v]);
 }
 
-// Blocks per group: 4 on AVX-512 (4 vectors), 2 on AVX2 (4 vectors), 1 with 16-byte registers
-// (4 vectors).
+// Bins per pass: 4 (2 with 16-byte registers, whose blocks are 4 vectors).
 template <int L>
-constexpr int kMeasureGroup = L == 16  ? 4
-                              : L == 8 ? 2
-                                       : 1;
+constexpr int kMeasureBins = L == 4 ? 2 : 4;
+
+template <int L, int Q>
+NL_INLINE void measure_bins(const UpdateArgs& u, std::size_t b, const float* const* in, std::size_t c0,
+                            std::size_t full) {
+    for (std::size_t c = c0; c < full; c += kBlock) measure_block<L, Q>(u, b, in, c);
+}
 
 template <int L>
-NL_INLINE void measure_body(const UpdateArgs& u, std::size_t b, const float* const* in, std::size_t c0, std::size_t m) {
+NL_INLINE void measure_body(const UpdateArgs& u, std::size_t b, std::size_t bins, const float* const* in,
+                            std::size_t c0, std::size_t m) {
     const std::size_t full = L == 1 ? c0 : c0 + m - m % kBlock;
-    const float* values = u.log_lik + b * u.stride;
     if constexpr (L != 1) {
-        constexpr int G = kMeasureGroup<L>;
-        constexpr std::size_t group = kBlock * G;
-        std::size_t c = c0;
-        for (; c + group <= full; c += group) measure_blocks<L, G>(u, values, in, b, c);
-        for (; c < full; c += kBlock) measure_blocks<L, 1>(u, values, in, b, c);
+        constexpr std::size_t Q = kMeasureBins<L>;
+        std::size_t q = 0;
+        for (; q + Q <= bins; q += Q) measure_bins<L, Q>(u, b + q, in + q * u.n_taps, c0, full);
+        for (; q < bins; ++q) measure_bins<L, 1>(u, b + q, in + q * u.n_taps, c0, full);
     }
-    for (std::size_t c = full; c < c0 + m; ++c) measure_one(u, in, b, c);
+    for (std::size_t q = 0; q < bins; ++q)
+        for (std::size_t c = full; c < c0 + m; ++c) measure_one(u, in + q * u.n_taps, b + q, c);
 }
 
 template <int L>
@@ -488,9 +592,9 @@ NL_INLINE void sum_body(const float* values, std::size_t n, double* lanes) {
                                           std::size_t n_taps, float a, float f, float* belief) {                      \
         heading_conv_body<lanes>(work, bins, n, c0, m, taps, offsets, n_taps, a, f, belief);                          \
     }                                                                                                                 \
-    attributes void measure_##suffix(const UpdateArgs& u, std::size_t b, const float* const* in, std::size_t c0,      \
-                                     std::size_t m) {                                                                 \
-        measure_body<lanes>(u, b, in, c0, m);                                                                         \
+    attributes void measure_##suffix(const UpdateArgs& u, std::size_t b, std::size_t bins, const float* const* in,    \
+                                     std::size_t c0, std::size_t m) {                                                 \
+        measure_body<lanes>(u, b, bins, in, c0, m);                                                                   \
     }                                                                                                                 \
     attributes void scale_add_##suffix(float* values, std::size_t n, float a, float f) {                              \
         scale_add_body(values, n, a, f);                                                                              \

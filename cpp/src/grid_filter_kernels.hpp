@@ -37,7 +37,7 @@ struct ShiftBlurArgs {
     const float* taps_x;  ///< column axis: taps_x[t] weighs source column i + t - off_x
     std::size_t n_x;
     std::ptrdiff_t off_x;
-    float* buf;          ///< cols + 2 pad floats, zero outside [pad, pad + cols) (kept so)
+    float* buf;          ///< 2 (cols + 2 pad) floats: two rows, zero outside [pad, pad + cols) (kept so)
     std::size_t pad;     ///< >= max(off_x, n_x - 1 - off_x, 0)
     const float* zeros;  ///< cols zeros
 };
@@ -95,11 +95,12 @@ struct FilterKernels {
     void (*heading_conv)(const float* work, std::size_t bins, std::size_t n, std::size_t c0, std::size_t m,
                          const float* taps, const std::size_t* offsets, std::size_t n_taps, float a, float f,
                          float* belief);
-    /// The measurement of cells [c0, c0 + m) of bin b (c0 a multiple of kBlock), `in`: the n_taps
-    /// predicted slices of its prior: y (see UpdateArgs) floored at -60; belief[b][c] = prior[c] *
-    /// exp2(y) (exp2_approx; prior: see UpdateArgs); marginal[c] = (b == 0 ? 0 : marginal[c]) +
-    /// belief[b][c].
-    void (*measure)(const UpdateArgs& u, std::size_t b, const float* const* in, std::size_t c0, std::size_t m);
+    /// The measurement of cells [c0, c0 + m) of bins [b, b + bins) (c0 a multiple of kBlock), bin
+    /// by bin in order; in[q * n_taps + t]: the n_taps predicted slices of bin b + q's prior:
+    /// y (see UpdateArgs) floored at -60; belief[b][c] = prior[c] * exp2(y) (exp2_approx; prior:
+    /// see UpdateArgs); marginal[c] = (b == 0 ? 0 : marginal[c]) + belief[b][c].
+    void (*measure)(const UpdateArgs& u, std::size_t b, std::size_t bins, const float* const* in, std::size_t c0,
+                    std::size_t m);
     /// values[c] = values[c] * a + f.
     void (*scale_add)(float* values, std::size_t n, float a, float f);
     /// lanes[c % 16] += values[c] (double).

@@ -207,6 +207,7 @@ private:
     mutable std::vector<float> belief_;
     mutable std::vector<float> work_;  // predicted slices (materialize: all bins; an update: a pool)
     std::vector<std::int32_t> slot_of_, free_slots_;
+    std::vector<const float*> slices_;  // the measurement's prior slices
     std::vector<std::size_t> last_use_, dest_of_source_;
     mutable std::vector<float> marginal_;
     mutable bool marginal_valid_ = true;
