@@ -63,6 +63,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "nightloc/heatmap.hpp"
@@ -215,7 +216,8 @@ private:
     mutable std::vector<float> sums_;  // running sums of the box passes
     std::vector<float> table_, mins_, place_scores_, log_lik_;
     std::vector<std::int32_t> best_shifts_;
-    mutable std::vector<double> scratch_;
+    mutable std::vector<double> xs_, dx2_, hist_;  // the estimate's scratch
+    mutable std::vector<std::pair<double, double>> ring_;
 };
 
 }  // namespace nightloc
