@@ -276,9 +276,12 @@ void GridFilter::translate_blur_slice(const float* src, float* dst, const SliceM
     shift_blur_taps(shift_x, wide_x || !(sigma_x > 0) ? identity : composed_box_kernel(sigma_x), taps_x_, off_x);
     if (!wide_x && !wide_y) {  // the common case: two explicit passes, row by row, grid to grid
         const auto n_x = static_cast<std::ptrdiff_t>(taps_x_.size());
-        const auto pad = static_cast<std::size_t>(std::max<std::ptrdiff_t>({off_x, n_x - 1 - off_x, 0}));
-        if (row_buf_.size() < 2 * (width_ + 2 * pad)) row_buf_.resize(2 * (width_ + 2 * pad));
-        std::fill(row_buf_.begin(), row_buf_.begin() + static_cast<std::ptrdiff_t>(2 * (width_ + 2 * pad)), 0.f);
+        // the rows' margin: a whole number of cache lines (the row pass's stores are aligned)
+        const auto reach = static_cast<std::size_t>(std::max<std::ptrdiff_t>({off_x, n_x - 1 - off_x, 0}));
+        const std::size_t pad = (reach + 15) / 16 * 16;
+        const std::size_t span = (width_ + 2 * pad + 15) / 16 * 16;
+        if (row_buf_.size() < 2 * span) row_buf_.resize(2 * span);
+        std::fill(row_buf_.begin(), row_buf_.begin() + static_cast<std::ptrdiff_t>(2 * span), 0.f);
         const detail::ShiftBlurArgs args{src,
                                          dst,
                                          height_,

@@ -361,7 +361,7 @@ template <int L>
 NL_INLINE void shift_blur_body(const ShiftBlurArgs& a) {
     const float* in[kMaxTaps + 1];
     const float* xin[2][kMaxTaps];
-    const std::size_t span = a.cols + 2 * a.pad;  // two row buffers
+    const std::size_t span = (a.cols + 2 * a.pad + 15) / 16 * 16;  // two row buffers (whole lines)
     for (std::size_t k = 0; k < 2; ++k)
         for (std::size_t t = 0; t < a.n_x; ++t) xin[k][t] = a.buf + k * span + a.pad + t - a.off_x;
     const auto rows = static_cast<std::ptrdiff_t>(a.rows);

@@ -37,7 +37,8 @@ struct ShiftBlurArgs {
     const float* taps_x;  ///< column axis: taps_x[t] weighs source column i + t - off_x
     std::size_t n_x;
     std::ptrdiff_t off_x;
-    float* buf;          ///< 2 (cols + 2 pad) floats: two rows, zero outside [pad, pad + cols) (kept so)
+    float* buf;          ///< 2 span floats, span = cols + 2 pad rounded up to 16: two rows, zero outside
+                         ///< [pad, pad + cols) (kept so)
     std::size_t pad;     ///< >= max(off_x, n_x - 1 - off_x, 0)
     const float* zeros;  ///< cols zeros
 };

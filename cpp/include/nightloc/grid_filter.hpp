@@ -63,6 +63,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <new>
 #include <utility>
 #include <vector>
 
@@ -71,7 +72,32 @@
 namespace nightloc {
 namespace detail {
 struct UpdateArgs;
-}
+
+/// Allocates on 64-byte boundaries (a cache line, an AVX-512 register): the filter's vector
+/// loops read whole lines instead of pairs of them.
+template <class T>
+struct LineAllocator {
+    using value_type = T;
+    LineAllocator() noexcept = default;
+    template <class U>
+    LineAllocator(const LineAllocator<U>&) noexcept {}
+    T* allocate(std::size_t n) {
+        if (n > static_cast<std::size_t>(-1) / sizeof(T) - 64) throw std::bad_alloc();
+        return static_cast<T*>(::operator new(n * sizeof(T), std::align_val_t{64}));
+    }
+    void deallocate(T* p, std::size_t) noexcept { ::operator delete(p, std::align_val_t{64}); }
+    template <class U>
+    bool operator==(const LineAllocator<U>&) const noexcept {
+        return true;
+    }
+    template <class U>
+    bool operator!=(const LineAllocator<U>&) const noexcept {
+        return false;
+    }
+};
+template <class T>
+using LineVector = std::vector<T, LineAllocator<T>>;
+}  // namespace detail
 
 /// The filter's tunables (python: nightloc.localization.FilterParams, where they are documented).
 struct GridFilterSettings {
@@ -204,15 +230,16 @@ private:
                                    // without weights: weight 1 at place index places_ (the fill)
     std::vector<std::int32_t> ell_index_;
     std::vector<std::int32_t> block_start_, block_places_;  // the measurement's dense blocks
-    std::vector<float> block_weights_;
-    mutable std::vector<float> belief_;
-    mutable std::vector<float> work_;  // predicted slices (materialize: all bins; an update: a pool)
+    detail::LineVector<float> block_weights_;
+    mutable detail::LineVector<float> belief_;
+    mutable detail::LineVector<float> work_;  // predicted slices (materialize: all bins; an update: a pool)
     std::vector<std::int32_t> slot_of_, free_slots_;
     std::vector<const float*> slices_;  // the measurement's prior slices
     std::vector<std::size_t> last_use_, dest_of_source_;
-    mutable std::vector<float> marginal_;
+    mutable detail::LineVector<float> marginal_;
     mutable bool marginal_valid_ = true;
-    mutable std::vector<float> row_buf_, zeros_, padded_, taps_x_, taps_y_, wide_a_, wide_b_;
+    mutable detail::LineVector<float> row_buf_, zeros_, padded_, wide_a_, wide_b_;
+    mutable std::vector<float> taps_x_, taps_y_;
     mutable std::vector<float> sums_;  // running sums of the box passes
     std::vector<float> table_, mins_, place_scores_, log_lik_;
     std::vector<std::int32_t> best_shifts_;
