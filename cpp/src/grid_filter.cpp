@@ -844,7 +844,7 @@ GridEstimate GridFilter::estimate() const {
         }
         below += mass;
     }
-    ring_.clear();  // (d^2, mass) of the crossing bin's cells (bins start at d^2 = crossing / per)
+    ring_.clear();  // the crossing bin's cells (bins start at d^2 = crossing / per)
     const double ring_start = per > 0 ? static_cast<double>(crossing) / per : 0.0;
     for (std::size_t j = 0; j < height_; ++j) {
         const double ey = cy(j) - e.y, ey2 = ey * ey;
@@ -854,16 +854,16 @@ GridEstimate GridFilter::estimate() const {
             const double d2 = ey2 + dx2_[i];
             if (d2 + 1e-9 * far2 < ring_start) continue;
             if (std::min(kBins - 1, static_cast<std::size_t>(d2 * per)) == crossing) {
-                ring_.emplace_back(d2, static_cast<double>(row[i]));
+                ring_.push_back({d2, static_cast<double>(row[i])});
             }
         }
     }
-    std::sort(ring_.begin(), ring_.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-    e.credible_radius = ring_.empty() ? std::sqrt(far2) : std::sqrt(ring_.back().first);
-    for (const auto& [d2, v] : ring_) {
-        below += v;
+    std::sort(ring_.begin(), ring_.end(), [](const RingCell& a, const RingCell& b) { return a.d2 < b.d2; });
+    e.credible_radius = ring_.empty() ? std::sqrt(far2) : std::sqrt(ring_.back().d2);
+    for (const RingCell& cell : ring_) {
+        below += cell.mass;
         if (below >= target) {
-            e.credible_radius = std::sqrt(d2);
+            e.credible_radius = std::sqrt(cell.d2);
             break;
         }
     }

@@ -15,6 +15,12 @@
 #include "sad_kernels.hpp"  // NIGHTLOC_X86_KERNELS
 
 #define NL_INLINE inline __attribute__((always_inline))
+// Loops over a template's few vectors or bins, unrolled: their accumulators stay in registers.
+#if defined(__clang__)
+#define NL_UNROLL _Pragma("unroll")
+#else
+#define NL_UNROLL _Pragma("GCC unroll 16")
+#endif
 
 namespace nightloc::detail {
 namespace {
@@ -163,16 +169,19 @@ NL_INLINE void taps_block(const float* const* in, const float* taps, std::size_t
                           const std::size_t* pos) {
     using F = typename Vec<L>::F;
     F acc[V];
+    NL_UNROLL
     for (int v = 0; v < V; ++v) acc[v] = F{};
     for (std::size_t t = 0; t < n_taps; ++t) {
         const float g = taps[t];
         const float* x = in[t];
+        NL_UNROLL
         for (int v = 0; v < V; ++v) {
             F xv;
             load<L>(xv, x + pos[v]);
             acc[v] = acc[v] + g * xv;
         }
     }
+    NL_UNROLL
     for (int v = 0; v < V; ++v) store<L>(out + pos[v], acc[v]);
 }
 
@@ -195,6 +204,7 @@ NL_INLINE void taps_row(const float* const* in, const float* taps, std::size_t n
         std::size_t i = 0;
         // whole blocks while more than one block is left (the rest: one block of 1 .. V vectors)
         for (; i + width < cols; i += width) {
+            NL_UNROLL
             for (int v = 0; v < V; ++v) pos[v] = i + static_cast<std::size_t>(L * v);
             taps_block<L, V>(in, taps, n_taps, out, pos);
         }
@@ -237,12 +247,14 @@ NL_INLINE void taps_block2(const float* const* in, const float* taps, std::size_
                            const std::size_t* pos) {
     using F = typename Vec<L>::F;
     F acc0[V], acc1[V];
+    NL_UNROLL
     for (int v = 0; v < V; ++v) {
         acc0[v] = F{};
         acc1[v] = F{};
     }
     {
         const float g = taps[0];
+        NL_UNROLL
         for (int v = 0; v < V; ++v) {
             F xv;
             load<L>(xv, in[0] + pos[v]);
@@ -252,6 +264,7 @@ NL_INLINE void taps_block2(const float* const* in, const float* taps, std::size_
     for (std::size_t t = 1; t < n_taps; ++t) {
         const float g0 = taps[t], g1 = taps[t - 1];
         const float* x = in[t];
+        NL_UNROLL
         for (int v = 0; v < V; ++v) {
             F xv;
             load<L>(xv, x + pos[v]);
@@ -261,12 +274,14 @@ NL_INLINE void taps_block2(const float* const* in, const float* taps, std::size_
     }
     {
         const float g = taps[n_taps - 1];
+        NL_UNROLL
         for (int v = 0; v < V; ++v) {
             F xv;
             load<L>(xv, in[n_taps] + pos[v]);
             acc1[v] = acc1[v] + g * xv;
         }
     }
+    NL_UNROLL
     for (int v = 0; v < V; ++v) {
         store<L>(out0 + pos[v], acc0[v]);
         store<L>(out1 + pos[v], acc1[v]);
@@ -298,6 +313,7 @@ NL_INLINE void taps_row2(const float* const* in, const float* taps, std::size_t 
         std::size_t pos[V];
         std::size_t i = 0;
         for (; i + width < cols; i += width) {
+            NL_UNROLL
             for (int v = 0; v < V; ++v) pos[v] = i + static_cast<std::size_t>(L * v);
             taps_block2<L, V>(in, taps, n_taps, out0, out1, pos);
         }
@@ -466,8 +482,9 @@ NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* co
     constexpr int V = static_cast<int>(kBlock) / L;  // vectors per block
     const F zero = {}, lowest = zero + kLowest;
     F y[Q][V];
-    for (int q = 0; q < Q; ++q)
-        for (int v = 0; v < V; ++v) y[q][v] = zero;
+    NL_UNROLL
+    for (int q = 0; q < Q; ++q) NL_UNROLL
+    for (int v = 0; v < V; ++v) y[q][v] = zero;
     const float* values = u.log_lik + b * u.stride;
     const std::size_t block = c / kBlock;
     const auto e0 = static_cast<std::size_t>(u.block_start[block]);
@@ -477,18 +494,23 @@ NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* co
         for (std::size_t e = e0; e < e1; ++e, w += kBlock) {
             const std::size_t place = static_cast<std::size_t>(u.block_places[e]);
             F x[V];
+            NL_UNROLL
             for (int v = 0; v < V; ++v) load<L>(x[v], w + L * v);
+            NL_UNROLL
             for (int q = 0; q < Q; ++q) {
                 const float g = values[static_cast<std::size_t>(q) * u.stride + place];
+                NL_UNROLL
                 for (int v = 0; v < V; ++v) y[q][v] = y[q][v] + x[v] * g;
             }
         }
     } else {
         for (std::size_t k = 0; k < u.slots; ++k) {
+            NL_UNROLL
             for (int v = 0; v < V; ++v) {
                 const std::size_t cv = c + static_cast<std::size_t>(L * v);
                 F w;
                 load<L>(w, u.data + k * u.n + cv);
+                NL_UNROLL
                 for (int q = 0; q < Q; ++q) {
                     F x;
                     const float* vq = values + static_cast<std::size_t>(q) * u.stride;
@@ -500,6 +522,7 @@ NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* co
     }
     const float a = u.a, f = u.f;
     F mg[V];
+    NL_UNROLL
     for (int v = 0; v < V; ++v) {
         if (b == 0) {
             mg[v] = zero;
@@ -507,13 +530,16 @@ NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* co
             load<L>(mg[v], u.marginal + c + L * v);
         }
     }
+    NL_UNROLL
     for (int q = 0; q < Q; ++q) {
         const std::size_t bq = b + static_cast<std::size_t>(q);
         F acc[V];
+        NL_UNROLL
         for (int v = 0; v < V; ++v) acc[v] = zero;
         for (std::size_t t = 0; t < u.n_taps; ++t) {
             const float g = u.taps[t];
             const float* x = in[static_cast<std::size_t>(q) * u.n_taps + t] + c;
+            NL_UNROLL
             for (int v = 0; v < V; ++v) {
                 F xv;
                 load<L>(xv, x + L * v);
@@ -521,6 +547,7 @@ NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* co
             }
         }
         float* belief = u.belief + bq * u.n + c;
+        NL_UNROLL
         for (int v = 0; v < V; ++v) {
             const F yy = y[q][v] > lowest ? y[q][v] : lowest;
             F l;
@@ -530,6 +557,7 @@ NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* co
             mg[v] = mg[v] + p;
         }
     }
+    NL_UNROLL
     for (int v = 0; v < V; ++v) store<L>(u.marginal + c + L * v, mg[v]);
 }
 

@@ -64,7 +64,6 @@
 #include <cstdint>
 #include <memory>
 #include <new>
-#include <utility>
 #include <vector>
 
 #include "nightloc/heatmap.hpp"
@@ -244,7 +243,10 @@ private:
     std::vector<float> table_, mins_, place_scores_, log_lik_;
     std::vector<std::int32_t> best_shifts_;
     mutable std::vector<double> xs_, dx2_, hist_;  // the estimate's scratch
-    mutable std::vector<std::pair<double, double>> ring_;
+    struct RingCell {
+        double d2, mass;  // squared distance (m^2) from the estimate, marginal mass
+    };
+    mutable std::vector<RingCell> ring_;
 };
 
 }  // namespace nightloc
