@@ -26,7 +26,7 @@ def box_pass(s2: float) -> tuple[int, float, float]:
 
 
 #: Box radius beyond which the core runs the blur as running sums (the whole kernel) instead of
-#: explicit taps (the kernel without its ends below KERNEL_CUT of its peak).
+#: explicit taps (the kernel without its ends below KERNEL_CUT of its peak: up to 6 r + 7 = 127).
 MAX_EXPLICIT_RADIUS = 20
 KERNEL_CUT = 1e-4
 
