@@ -2,7 +2,7 @@
 
 The issue's case: a 50-image map, the 100 x 100 grid, 48 heading bins (480 000 cells), one
 thread, wheel odometry (``RobotMotion``) with the default noise (Table III model 1) and with
-model 3 (wider blurs: the running-sum path), per update from a prepared image and from a
+model 3 (wider blurs: up to 55 taps per axis), per update from a prepared image and from a
 640 x 320 camera frame (preparation included). In the same group: the paper's update (10-frame
 sequence, prepared image), ``match`` of one prepared frame against 5 000 references (the
 target: a filter update costs no more), and the filter's numpy oracle (``tests/filter_oracle.py``,

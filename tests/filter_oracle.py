@@ -26,8 +26,8 @@ def box_pass(s2: float) -> tuple[int, float, float]:
 
 
 #: Box radius beyond which the core runs the blur as running sums (the whole kernel) instead of
-#: explicit taps (the kernel without its ends below KERNEL_CUT of its peak).
-MAX_EXPLICIT_RADIUS = 1
+#: explicit taps (the kernel without its ends below KERNEL_CUT of its peak: up to 6 r + 7 = 127).
+MAX_EXPLICIT_RADIUS = 20
 KERNEL_CUT = 1e-4
 
 
@@ -126,12 +126,14 @@ class OracleFilter:
     def _shift_blur(self, slice_, sx, sy, sigx, sigy):
         return axis_matrix(self.h, sy, sigy) @ slice_ @ axis_matrix(self.wd, sx, sigx).T
 
-    def _finish(self, q):
-        total = q.sum()
+    def _finish(self, q, before):
+        """The prior from the predicted mass ``q`` of a belief that summed to ``before``: mass that
+        left the grid is gone (not given back to the cells that stay), plus the uniform floor."""
         eps = self.s["uniform_floor"]
-        if not total > 0:
+        prior = (1 - eps) * q / before + eps / q.size
+        if not prior.sum() > 0:  # nothing left on the grid and no floor: uniform
             return np.full_like(q, 1.0 / q.size)
-        return (1 - eps) * q / total + eps / q.size
+        return prior
 
     # ------------------------------------------------------------------ prediction
     def predict_robot(self, forward, left, turn):
@@ -148,6 +150,7 @@ class OracleFilter:
             whole += 1
         new_offset = max(new_offset, 0.0)
         roll = whole % self.bins
+        before = self.p.sum()
         along = math.atan2(left, forward) if math.hypot(forward, left) > 0 else 0.0
         q = np.zeros_like(self.p)
         for b in range(self.bins):
@@ -174,9 +177,7 @@ class OracleFilter:
         for d, g in enumerate(taps):
             if g > 0:
                 blurred += g * np.roll(q, d, axis=0)  # out[b] += g * q[b - d]
-        total = q.sum()
-        eps = s["uniform_floor"]
-        self.p = np.full_like(q, 1.0 / q.size) if not total > 0 else (1 - eps) * blurred / total + eps / q.size
+        self.p = self._finish(blurred, before)
 
     def predict_map(self, dx, dy):
         self._to_position()
@@ -189,13 +190,13 @@ class OracleFilter:
         sigx = math.sqrt(along2 * ax + across2 * cx + s["position_floor"] ** 2)
         sigy = math.sqrt(along2 * ay + across2 * cy + s["position_floor"] ** 2)
         self.p = self._finish(
-            self._shift_blur(self.p[0], dx / self.dx, dy / self.dy, sigx / self.dx, sigy / self.dy)[None]
+            self._shift_blur(self.p[0], dx / self.dx, dy / self.dy, sigx / self.dx, sigy / self.dy)[None], self.p.sum()
         )
 
     def predict_unknown(self):
         self._to_position()
         sig = self.s["unknown_spread"]
-        self.p = self._finish(self._shift_blur(self.p[0], 0.0, 0.0, sig / self.dx, sig / self.dy)[None])
+        self.p = self._finish(self._shift_blur(self.p[0], 0.0, 0.0, sig / self.dx, sig / self.dy)[None], self.p.sum())
 
     # ------------------------------------------------------------------ update
     def update(self, table):

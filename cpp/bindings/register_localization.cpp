@@ -280,8 +280,13 @@ public:
     py::array marginal() const {
         py::array_t<double> out(
             {static_cast<py::ssize_t>(filter_.height()), static_cast<py::ssize_t>(filter_.width())});
-        const float* m = filter_.marginal();
-        const double scale = filter_.scale();
+        const float* m = nullptr;
+        double scale = 1;
+        {
+            py::gil_scoped_release release;  // a pending prediction is made here
+            m = filter_.marginal();
+            scale = filter_.scale();
+        }
         double* o = out.mutable_data();
         for (std::size_t c = 0; c < filter_.height() * filter_.width(); ++c) o[c] = m[c] * scale;
         return std::move(out);
@@ -292,8 +297,13 @@ public:
         const std::size_t bins = filter_.active_bins(), cells = filter_.height() * filter_.width();
         py::array_t<double> out({static_cast<py::ssize_t>(bins), static_cast<py::ssize_t>(filter_.height()),
                                  static_cast<py::ssize_t>(filter_.width())});
-        const float* v = filter_.belief();
-        const double scale = filter_.scale();
+        const float* v = nullptr;
+        double scale = 1;
+        {
+            py::gil_scoped_release release;  // a pending prediction is made here
+            v = filter_.belief();
+            scale = filter_.scale();
+        }
         double* o = out.mutable_data();
         for (std::size_t c = 0; c < bins * cells; ++c) o[c] = v[c] * scale;
         return std::move(out);

@@ -22,11 +22,16 @@ constexpr double kLog2e = 1.442695040888963407359924681002;
 // The likelihood's floor: 2^-60 relative to the best place (no underflow, no denormals).
 constexpr double kLowestLog2 = -60.0;
 // Blurs whose composed kernel (three box passes: 6 r + 7 taps) is at most this long run as one
-// explicit pass per axis (shift included); wider ones as running sums (O(1) per cell; faster
-// from r = 2 on, measured on AVX-512).
-constexpr std::size_t kMaxComposedTaps = 13;
-// Cells per chunk of the loops over all bins (a multiple of 16: the sums' lanes).
+// explicit pass per axis (shift included), row by row; wider ones as running sums on a padded
+// tile (O(1) per cell, but several passes, two transposes and a tile of up to twice the grid's
+// area: slower than 121 explicit taps on the 100 x 100 grid, measured on AVX-512).
+constexpr std::size_t kMaxComposedTaps = 127;
+// Cells per chunk of the loops over all bins (a multiple of 16: the sums' lanes and blocks).
 constexpr std::size_t kCellChunk = 256;
+// Bins per measurement pass of a fused update (the kernel reads the weights once per pass).
+constexpr std::size_t kFusedBins = 4;
+// Most places of a dense block of the measurement (see detail::UpdateArgs).
+constexpr std::size_t kDensePlaces = 8;
 
 bool finite_nonnegative(double v) { return std::isfinite(v) && v >= 0; }
 
@@ -134,53 +139,42 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
             ell_index_[slot * cells_ + c] = csr.indices[k];
         }
     }
-    // Slots in a stable order along the cells: a cell that shares places with the previous one
-    // keeps them in the same slots, so 16 neighbouring cells (one triangle or a few) read at most
-    // four places per slot and the measurement needs no gather there (the sum's order changes,
-    // not its terms: weights sum in slot order).
-    for (std::size_t c = 1; c < cells_; ++c) {
-        for (std::size_t a = 0; a < slots_; ++a) {
-            const std::int32_t want = ell_index_[a * cells_ + c - 1];
-            if (ell_data_[a * cells_ + c - 1] == 0.f) continue;
-            for (std::size_t b = 0; b < slots_; ++b) {
-                if (b != a && ell_index_[b * cells_ + c] == want && ell_data_[b * cells_ + c] != 0.f &&
-                    !(ell_index_[a * cells_ + c] == ell_index_[a * cells_ + c - 1] &&
-                      ell_data_[a * cells_ + c] != 0.f)) {
-                    std::swap(ell_index_[a * cells_ + c], ell_index_[b * cells_ + c]);
-                    std::swap(ell_data_[a * cells_ + c], ell_data_[b * cells_ + c]);
-                    break;
+    // Dense blocks of the measurement: per kBlock cells the places they use (ascending; places_:
+    // the fill of cells without weights) and each cell's weight of each, when there are at most
+    // kDensePlaces; otherwise the block reads its cells' ELL slots.
+    const std::size_t blocks = (cells_ + detail::kBlock - 1) / detail::kBlock;
+    block_start_.assign(blocks + 1, 0);
+    block_places_.clear();
+    block_weights_.clear();
+    for (std::size_t block = 0; block < blocks; ++block) {
+        const std::size_t c0 = block * detail::kBlock, c1 = std::min(cells_, c0 + detail::kBlock);
+        std::vector<std::int32_t> used;
+        for (std::size_t c = c0; c < c1; ++c)
+            for (std::size_t k = 0; k < slots_; ++k)
+                if (ell_data_[k * cells_ + c] != 0.f) used.push_back(ell_index_[k * cells_ + c]);
+        std::sort(used.begin(), used.end());
+        used.erase(std::unique(used.begin(), used.end()), used.end());
+        if (used.size() <= kDensePlaces) {
+            for (std::int32_t place : used) {
+                block_places_.push_back(place);
+                for (std::size_t lane = 0; lane < detail::kBlock; ++lane) {
+                    float weight = 0.f;
+                    const std::size_t c = c0 + lane;
+                    for (std::size_t k = 0; c < c1 && k < slots_; ++k)
+                        if (ell_index_[k * cells_ + c] == place) weight += ell_data_[k * cells_ + c];
+                    block_weights_.push_back(weight);
                 }
             }
         }
+        block_start_[block + 1] = static_cast<std::int32_t>(block_places_.size());
     }
-    ell_places_.assign(4 * (cells_ / 16) * slots_, -1);
-    for (std::size_t block = 0; block < cells_ / 16; ++block)
-        for (std::size_t slot = 0; slot < slots_; ++slot) {
-            const std::int32_t* idx = ell_index_.data() + slot * cells_ + block * 16;
-            std::int32_t distinct[4];
-            std::size_t count = 0;
-            bool fits = true;
-            for (int l = 0; l < 16 && fits; ++l) {
-                if (std::find(distinct, distinct + count, idx[l]) != distinct + count) continue;
-                if (count == 4) {
-                    fits = false;
-                } else {
-                    distinct[count++] = idx[l];
-                }
-            }
-            if (!fits) continue;
-            std::int32_t* out = ell_places_.data() + 4 * (block * slots_ + slot);
-            for (std::size_t q = 0; q < 4; ++q) out[q] = distinct[q < count ? q : 0];
-        }
     belief_.resize(bins_ * cells_);
     work_.resize(bins_ * cells_);
     marginal_.resize(cells_);
-    tile_a_.resize(cells_);
-    tile_b_.resize(cells_);
     const std::size_t side = std::max(height_, width_);
     sums_.resize(side);
     zeros_.assign(side, 0.f);
-    padded_.assign(side + kMaxComposedTaps + 2, 0.f);  // grown for wide tiles
+    padded_.assign(side + 4, 0.f);  // grown for wide tiles and long kernels
     table_.resize(n_refs() * n_shifts());
     mins_.resize(n_refs());
     best_shifts_.resize(n_refs());
@@ -260,18 +254,19 @@ void shift_blur_taps(double shift, const std::vector<double>& kernel, std::vecto
 
 }  // namespace
 
-double GridFilter::translate_blur_slice(const float* src, float* dst, double shift_x, double shift_y, double sigma_x,
-                                        double sigma_y) {
+void GridFilter::translate_blur_slice(const float* src, float* dst, const SliceMotion& m) const {
     const auto& k = detail::filter_kernels(active_simd_backend());
+    const double shift_x = m.shift_x, shift_y = m.shift_y, sigma_x = m.sigma_x, sigma_y = m.sigma_y;
     const double limit = 4.0 * static_cast<double>(height_ + width_) + 16.0;
     if (std::fabs(shift_x) > limit + 8 * sigma_x || std::fabs(shift_y) > limit + 8 * sigma_y) {
         std::fill(dst, dst + cells_, 0.f);  // everything lands beyond the grid
-        return 0.0;
+        return;
     }
-    // Per axis one operator: the bilinear shift convolved with the three box passes. Short
-    // kernels run as one explicit pass (composed taps); wide ones as the shift's two taps, then
-    // running sums (O(1) per cell) on a tile with room for everything that spreads beyond the
-    // grid and may come back (the passes' intermediate results included).
+    // Per axis one operator: the bilinear shift convolved with the three box passes. Kernels up
+    // to kMaxComposedTaps run as one explicit pass per axis (composed taps), row by row; wider
+    // ones as the shift's two taps, then running sums (O(1) per cell) on a tile with room for
+    // everything that spreads beyond the grid and may come back (the passes' intermediate
+    // results included).
     const detail::BoxPass pass_x = box_pass(sigma_x * sigma_x / 3.0), pass_y = box_pass(sigma_y * sigma_y / 3.0);
     const bool wide_x = sigma_x > 0 && 6 * pass_x.r + 7 > kMaxComposedTaps;
     const bool wide_y = sigma_y > 0 && 6 * pass_y.r + 7 > kMaxComposedTaps;
@@ -279,55 +274,71 @@ double GridFilter::translate_blur_slice(const float* src, float* dst, double shi
     std::ptrdiff_t off_x = 0, off_y = 0;
     shift_blur_taps(shift_y, wide_y || !(sigma_y > 0) ? identity : composed_box_kernel(sigma_y), taps_y_, off_y);
     shift_blur_taps(shift_x, wide_x || !(sigma_x > 0) ? identity : composed_box_kernel(sigma_x), taps_x_, off_x);
-    if (!wide_x && !wide_y) {  // the common case: two explicit passes, grid to grid
-        k.conv_rows(src, tile_a_.data(), height_, width_, taps_y_.data(), taps_y_.size(), off_y, zeros_.data());
-        k.conv_cols(tile_a_.data(), dst, height_, width_, taps_x_.data(), taps_x_.size(), off_x, padded_.data());
-    } else {
-        const std::size_t my =
-            wide_y ? static_cast<std::size_t>(std::fabs(std::floor(shift_y))) + 2 + 3 * (pass_y.r + 1) : 0;
-        const std::size_t mx =
-            wide_x ? static_cast<std::size_t>(std::fabs(std::floor(shift_x))) + 2 + 3 * (pass_x.r + 1) : 0;
-        const std::size_t th = height_ + 2 * my, tw = width_ + 2 * mx, tn = th * tw;
-        wide_a_.assign(tn, 0.f);
-        wide_b_.resize(tn);
-        for (std::size_t j = 0; j < height_; ++j) {
-            std::copy(src + j * width_, src + (j + 1) * width_, wide_a_.data() + (j + my) * tw + mx);
-        }
-        const std::size_t side = std::max(th, tw);
-        if (sums_.size() < side) sums_.resize(side);
-        if (zeros_.size() < side) zeros_.resize(side, 0.f);
-        if (padded_.size() < side + kMaxComposedTaps + 2) padded_.resize(side + kMaxComposedTaps + 2, 0.f);
-        float* current = wide_a_.data();
-        float* other = wide_b_.data();
-        // y: the composed pass, or the shift then three running passes across rows
-        k.conv_rows(current, other, th, tw, taps_y_.data(), taps_y_.size(), off_y, zeros_.data());
-        std::swap(current, other);
-        if (wide_y) {
-            for (int p = 0; p < 3; ++p) {
-                k.box_rows(current, other, th, tw, pass_y, sums_.data(), zeros_.data());
-                std::swap(current, other);
-            }
-        }
-        // x: the composed pass, or the shift then three running passes across the transpose's rows
-        k.conv_cols(current, other, th, tw, taps_x_.data(), taps_x_.size(), off_x, padded_.data());
-        std::swap(current, other);
-        if (wide_x) {
-            k.transpose(current, other, th, tw);  // now tw rows of th
+    if (!wide_x && !wide_y) {  // the common case: two explicit passes, row by row, grid to grid
+        const auto n_x = static_cast<std::ptrdiff_t>(taps_x_.size());
+        // the rows' margin: a whole number of cache lines (the row pass's stores are aligned)
+        const auto reach = static_cast<std::size_t>(std::max<std::ptrdiff_t>({off_x, n_x - 1 - off_x, 0}));
+        const std::size_t pad = (reach + 15) / 16 * 16;
+        const std::size_t span = (width_ + 2 * pad + 15) / 16 * 16;
+        if (row_buf_.size() < 2 * span) row_buf_.resize(2 * span);
+        std::fill(row_buf_.begin(), row_buf_.begin() + static_cast<std::ptrdiff_t>(2 * span), 0.f);
+        const detail::ShiftBlurArgs args{src,
+                                         dst,
+                                         height_,
+                                         width_,
+                                         taps_y_.data(),
+                                         taps_y_.size(),
+                                         off_y,
+                                         taps_x_.data(),
+                                         taps_x_.size(),
+                                         off_x,
+                                         row_buf_.data(),
+                                         pad,
+                                         zeros_.data()};
+        k.shift_blur(args);
+        return;
+    }
+    const std::size_t my =
+        wide_y ? static_cast<std::size_t>(std::fabs(std::floor(shift_y))) + 2 + 3 * (pass_y.r + 1) : 0;
+    const std::size_t mx =
+        wide_x ? static_cast<std::size_t>(std::fabs(std::floor(shift_x))) + 2 + 3 * (pass_x.r + 1) : 0;
+    const std::size_t th = height_ + 2 * my, tw = width_ + 2 * mx, tn = th * tw;
+    wide_a_.assign(tn, 0.f);
+    wide_b_.resize(tn);
+    for (std::size_t j = 0; j < height_; ++j) {
+        std::copy(src + j * width_, src + (j + 1) * width_, wide_a_.data() + (j + my) * tw + mx);
+    }
+    const std::size_t side = std::max(th, tw);
+    if (sums_.size() < side) sums_.resize(side);
+    if (zeros_.size() < side) zeros_.resize(side, 0.f);
+    if (padded_.size() < side + taps_x_.size()) padded_.resize(side + taps_x_.size(), 0.f);
+    float* current = wide_a_.data();
+    float* other = wide_b_.data();
+    // y: the composed pass, or the shift then three running passes across rows
+    k.conv_rows(current, other, th, tw, taps_y_.data(), taps_y_.size(), off_y, zeros_.data());
+    std::swap(current, other);
+    if (wide_y) {
+        for (int p = 0; p < 3; ++p) {
+            k.box_rows(current, other, th, tw, pass_y, sums_.data(), zeros_.data());
             std::swap(current, other);
-            for (int p = 0; p < 3; ++p) {
-                k.box_rows(current, other, tw, th, pass_x, sums_.data(), zeros_.data());
-                std::swap(current, other);
-            }
-            k.transpose(current, other, tw, th);
-            std::swap(current, other);
-        }
-        for (std::size_t j = 0; j < height_; ++j) {
-            std::copy(current + (j + my) * tw + mx, current + (j + my) * tw + mx + width_, dst + j * width_);
         }
     }
-    double lanes[detail::kSumLanes] = {};
-    k.sum(dst, cells_, lanes);
-    return detail::lane_total(lanes);
+    // x: the composed pass, or the shift then three running passes across the transpose's rows
+    k.conv_cols(current, other, th, tw, taps_x_.data(), taps_x_.size(), off_x, padded_.data());
+    std::swap(current, other);
+    if (wide_x) {
+        k.transpose(current, other, th, tw);  // now tw rows of th
+        std::swap(current, other);
+        for (int p = 0; p < 3; ++p) {
+            k.box_rows(current, other, tw, th, pass_x, sums_.data(), zeros_.data());
+            std::swap(current, other);
+        }
+        k.transpose(current, other, tw, th);
+        std::swap(current, other);
+    }
+    for (std::size_t j = 0; j < height_; ++j) {
+        std::copy(current + (j + my) * tw + mx, current + (j + my) * tw + mx + width_, dst + j * width_);
+    }
 }
 
 void GridFilter::to_position() {
@@ -336,7 +347,7 @@ void GridFilter::to_position() {
     const auto& k = detail::filter_kernels(active_simd_backend());
     k.sum_slices(belief_.data(), bins_, cells_, work_.data());
     std::copy(work_.begin(), work_.begin() + static_cast<std::ptrdiff_t>(cells_), belief_.begin());
-    pose_ = false;
+    pose_ = false;  // the same total: the scale holds
 }
 
 void GridFilter::to_pose() {
@@ -346,38 +357,47 @@ void GridFilter::to_pose() {
         std::copy(belief_.begin(), belief_.begin() + static_cast<std::ptrdiff_t>(cells_),
                   belief_.begin() + static_cast<std::ptrdiff_t>(b * cells_));
     }
-    pose_ = true;  // the scale is irrelevant: predictions normalize
+    scale_ /= static_cast<double>(bins_);  // bins copies of the same total
+    pose_ = true;
 }
 
-void GridFilter::finish_prediction(double total, std::vector<float> taps, std::vector<std::size_t> offsets) {
-    // work_ holds the predicted slices before the heading blur; the blur, the normalization and
-    // the floor are pending (done by the next update, fused with it, or by materialize()).
+void GridFilter::begin_prediction(std::vector<float> taps, std::vector<std::size_t> offsets) {
+    // The prediction is pending: the next update runs it fused with the measurement (slice by
+    // slice, while they are in cache), materialize() on its own. The prior of a cell is
+    // (1 - floor) (its predicted mass) / (the belief's total before the prediction) + floor /
+    // cells: mass that leaves the grid is gone, not given back to the cells that stay.
     const std::size_t n = active_bins() * cells_;
     const double eps = settings_.uniform_floor;
-    marginal_valid_ = false;
-    if (!(total > 0) || !std::isfinite(total)) {  // nothing left on the grid: start again, uniform
-        std::fill(belief_.begin(), belief_.begin() + static_cast<std::ptrdiff_t>(n), 1.f);
-        scale_ = 1.0 / static_cast<double>(n);
-        pending_ = false;
-        return;
-    }
     pending_taps_ = std::move(taps);
     pending_offsets_ = std::move(offsets);
-    pending_a_ = static_cast<float>((1.0 - eps) / total);
+    pending_a_ = static_cast<float>((1.0 - eps) * scale_);
     pending_f_ = static_cast<float>(eps / static_cast<double>(n));
     pending_ = true;
+    marginal_valid_ = false;
 }
 
 void GridFilter::materialize() const {
     if (!pending_) return;
     const auto& k = detail::filter_kernels(active_simd_backend());
     const std::size_t B = active_bins();
+    for (std::size_t d = 0; d < B; ++d) {
+        const SliceMotion& m = pending_motion_[d];
+        translate_blur_slice(belief_.data() + m.source * cells_, work_.data() + d * cells_, m);
+    }
     for (std::size_t c0 = 0; c0 < cells_; c0 += kCellChunk) {  // all bins of a chunk of cells: L2-resident
         k.heading_conv(work_.data(), B, cells_, c0, std::min(kCellChunk, cells_ - c0), pending_taps_.data(),
                        pending_offsets_.data(), pending_taps_.size(), pending_a_, pending_f_, belief_.data());
     }
-    scale_ = 1.0;
     pending_ = false;
+    double lanes[detail::kSumLanes] = {};
+    k.sum(belief_.data(), B * cells_, lanes);
+    const double total = detail::lane_total(lanes);
+    if (!(total > 0) || !std::isfinite(total)) {  // nothing left on the grid and no floor: start again, uniform
+        std::fill(belief_.begin(), belief_.begin() + static_cast<std::ptrdiff_t>(B * cells_), 1.f);
+        scale_ = 1.0 / static_cast<double>(B * cells_);
+    } else {
+        scale_ = 1.0 / total;
+    }
 }
 
 void GridFilter::predict_robot(double forward, double left, double turn) {
@@ -407,20 +427,18 @@ void GridFilter::predict_robot(double forward, double left, double turn) {
     if (new_offset < 0) new_offset = 0;
     const auto B = static_cast<long long>(bins_);
     const auto k_roll = static_cast<std::size_t>(((roll % B) + B) % B);
-    double total = 0;  // the predicted mass: the translated, blurred slices (the heading blur keeps it)
+    pending_motion_.resize(bins_);
     for (std::size_t b = 0; b < bins_; ++b) {
         const double theta = offset_ + step * static_cast<double>(b);
         const double c = std::cos(theta), sn = std::sin(theta);
         const double mx = c * forward - sn * left, my = sn * forward + c * left;
-        const std::size_t dst = (b + k_roll) % bins_;
         double wx, wy;
         axis_shares(theta + along, wx, wy);
         const double sigma_x = std::sqrt(sd2 * wx + pf2), sigma_y = std::sqrt(sd2 * wy + pf2);
-        total += translate_blur_slice(belief_.data() + b * cells_, work_.data() + dst * cells_, mx / map_.dx,
-                                      my / map_.dy, sigma_x / map_.dx, sigma_y / map_.dy);
+        pending_motion_[(b + k_roll) % bins_] = {b, mx / map_.dx, my / map_.dy, sigma_x / map_.dx, sigma_y / map_.dy};
     }
     offset_ = new_offset;
-    // the heading blur: a circular Gaussian over the bins, taps within 4 std, folded and normalized
+    // the heading blur: a circular Gaussian over the bins, taps within 3 std, folded and normalized
     const double sigma_bins = std::hypot(s.heading_std, s.heading_floor) / step;
     std::vector<double> taps(bins_, 0.0);
     if (sigma_bins < 1e-6) {
@@ -447,7 +465,7 @@ void GridFilter::predict_robot(double forward, double left, double turn) {
             tap_offsets.push_back(d);
         }
     }
-    finish_prediction(total, std::move(tap_values), std::move(tap_offsets));
+    begin_prediction(std::move(tap_values), std::move(tap_offsets));
 }
 
 void GridFilter::predict_map(double dx, double dy) {
@@ -466,17 +484,16 @@ void GridFilter::predict_map(double dx, double dy) {
     axis_shares(direction + 0.5 * kPi, cx, cy);
     const double sigma_x = std::sqrt(along2 * ax + across2 * cx + pf2);
     const double sigma_y = std::sqrt(along2 * ay + across2 * cy + pf2);
-    const double total = translate_blur_slice(belief_.data(), work_.data(), dx / map_.dx, dy / map_.dy,
-                                              sigma_x / map_.dx, sigma_y / map_.dy);
-    finish_prediction(total, {1.f}, {0});
+    pending_motion_.assign(1, {0, dx / map_.dx, dy / map_.dy, sigma_x / map_.dx, sigma_y / map_.dy});
+    begin_prediction({1.f}, {0});
 }
 
 void GridFilter::predict_unknown() {
     to_position();
     materialize();
     const double sigma = settings_.unknown_spread;
-    const double total = translate_blur_slice(belief_.data(), work_.data(), 0.0, 0.0, sigma / map_.dx, sigma / map_.dy);
-    finish_prediction(total, {1.f}, {0});
+    pending_motion_.assign(1, {0, 0.0, 0.0, sigma / map_.dx, sigma / map_.dy});
+    begin_prediction({1.f}, {0});
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -571,33 +588,109 @@ void GridFilter::update(const float* table) {
     }
     const auto& k = detail::filter_kernels(active_simd_backend());
     const float one = 1.f;
-    const std::size_t zero_offset = 0;
-    detail::UpdateArgs args{ell_data_.data(), ell_index_.data(), ell_places_.data(), slots_, cells_, log_lik_.data(),
-                            stride, B,
-                            // the prior: the pending prediction (heading blur, normalization, floor) or the belief
-                            pending_ ? work_.data() : belief_.data(), pending_ ? pending_taps_.data() : &one,
-                            pending_ ? pending_offsets_.data() : &zero_offset, pending_ ? pending_taps_.size() : 1,
-                            pending_ ? pending_a_ : 1.f, pending_ ? pending_f_ : 0.f, belief_.data(), marginal_.data()};
-    for (std::size_t c0 = 0; c0 < cells_; c0 += kCellChunk) k.measure(args, c0, std::min(kCellChunk, cells_ - c0));
-    pending_ = false;
+    detail::UpdateArgs args{block_start_.data(),
+                            block_places_.data(),
+                            block_weights_.data(),
+                            ell_data_.data(),
+                            ell_index_.data(),
+                            slots_,
+                            cells_,
+                            log_lik_.data(),
+                            stride,
+                            &one,
+                            1,
+                            1.f,
+                            0.f,
+                            belief_.data(),
+                            marginal_.data()};
+    // the prior is the belief itself (in place), one slice per bin
+    slices_.resize(B);
+    for (std::size_t b = 0; b < B; ++b) slices_[b] = belief_.data() + b * cells_;
+    if (pending_) {
+        measure_predicted(args);
+    } else {  // chunks of cells through all bins: the chunk's weights stay in L1
+        for (std::size_t c0 = 0; c0 < cells_; c0 += kCellChunk) {
+            k.measure(args, 0, B, slices_.data(), c0, std::min(kCellChunk, cells_ - c0));
+        }
+    }
     double lanes[detail::kSumLanes] = {};
     k.sum(marginal_.data(), cells_, lanes);
     double total = detail::lane_total(lanes);
-    if (!(total > 0) || !std::isfinite(total)) {  // nothing of the prediction survived: the likelihood alone
+    if (!(total > 0) || !std::isfinite(total)) {  // nothing of the prior survived: the likelihood alone
         std::fill(belief_.begin(), belief_.begin() + static_cast<std::ptrdiff_t>(B * cells_), 1.f);
-        args.source = belief_.data();
         args.taps = &one;
-        args.offsets = &zero_offset;
         args.n_taps = 1;
         args.a = 1.f;
         args.f = 0.f;
-        for (std::size_t c0 = 0; c0 < cells_; c0 += kCellChunk) k.measure(args, c0, std::min(kCellChunk, cells_ - c0));
+        for (std::size_t b = 0; b < B; ++b) slices_[b] = belief_.data() + b * cells_;
+        k.measure(args, 0, B, slices_.data(), 0, cells_);
         std::fill(std::begin(lanes), std::end(lanes), 0.0);
         k.sum(marginal_.data(), cells_, lanes);
         total = detail::lane_total(lanes);  // >= 2^-60 per cell: positive
     }
     scale_ = 1.0 / total;
     marginal_valid_ = true;
+}
+
+void GridFilter::measure_predicted(detail::UpdateArgs& args) {
+    // The pending prediction fused with the measurement, bin by bin in order: a bin's predicted
+    // slice (translation and blur of its source bin) is made when a bin's prior first needs it,
+    // in a free slice of work_ (the most recently freed: cache-hot), and freed after the last bin
+    // that needs it; the posterior of bin d overwrites belief_[d] once the prediction that reads
+    // it is made.
+    const auto& k = detail::filter_kernels(active_simd_backend());
+    const std::size_t B = active_bins();
+    const std::size_t n_taps = pending_taps_.size();
+    args.taps = pending_taps_.data();
+    args.n_taps = n_taps;
+    args.a = pending_a_;
+    args.f = pending_f_;
+    slot_of_.assign(B, -1);
+    free_slots_.clear();
+    for (std::size_t s = B; s-- > 0;) free_slots_.push_back(static_cast<std::int32_t>(s));
+    std::vector<std::size_t>& last_use = last_use_;  // the last bin whose prior reads bin e's prediction
+    std::vector<std::size_t>& dest_of_source = dest_of_source_;
+    last_use.assign(B, 0);
+    dest_of_source.assign(B, 0);
+    for (std::size_t e = 0; e < B; ++e) {
+        for (std::size_t t = 0; t < n_taps; ++t) last_use[e] = std::max(last_use[e], (e + pending_offsets_[t]) % B);
+        dest_of_source[pending_motion_[e].source] = e;
+    }
+    auto predict = [&](std::size_t e) {
+        if (slot_of_[e] >= 0) return;
+        const std::int32_t slot = free_slots_.back();
+        free_slots_.pop_back();
+        const SliceMotion& m = pending_motion_[e];
+        translate_blur_slice(belief_.data() + m.source * cells_, work_.data() + static_cast<std::size_t>(slot) * cells_,
+                             m);
+        slot_of_[e] = slot;
+    };
+    // kFusedBins bins at a time: the kernel reads the map's weights once for all of them
+    slices_.resize(kFusedBins * n_taps);
+    for (std::size_t d0 = 0; d0 < B; d0 += kFusedBins) {
+        const std::size_t d1 = std::min(B, d0 + kFusedBins);
+        for (std::size_t d = d0; d < d1; ++d) {
+            for (std::size_t t = 0; t < n_taps; ++t) predict((d + B - pending_offsets_[t]) % B);
+            predict(dest_of_source[d]);  // belief_[d] is read before it is overwritten
+        }
+        for (std::size_t d = d0; d < d1; ++d) {
+            for (std::size_t t = 0; t < n_taps; ++t) {
+                const auto slot = static_cast<std::size_t>(slot_of_[(d + B - pending_offsets_[t]) % B]);
+                slices_[(d - d0) * n_taps + t] = work_.data() + slot * cells_;
+            }
+        }
+        k.measure(args, d0, d1 - d0, slices_.data(), 0, cells_);
+        for (std::size_t d = d0; d < d1; ++d) {
+            for (std::size_t t = 0; t < n_taps; ++t) {
+                const std::size_t e = (d + B - pending_offsets_[t]) % B;
+                if (last_use[e] == d && slot_of_[e] >= 0) {
+                    free_slots_.push_back(slot_of_[e]);
+                    slot_of_[e] = -1;
+                }
+            }
+        }
+    }
+    pending_ = false;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -631,58 +724,71 @@ GridEstimate GridFilter::estimate() const {
     const float* M = marginal_.data();
     const GridFilterSettings& s = settings_;
     GridEstimate e;
-    std::size_t peak = 0;
-    float hi = M[0], lo = M[0];
-    for (std::size_t c = 1; c < cells_; ++c) {
-        if (M[c] > hi) {
-            hi = M[c];
-            peak = c;
-        }
-        lo = std::min(lo, M[c]);
-    }
-    e.cell = peak;
     auto cx = [&](std::size_t i) { return map_.x0 + map_.dx * static_cast<double>(i); };
     auto cy = [&](std::size_t j) { return map_.y0 + map_.dy * static_cast<double>(j); };
-    // mean and covariance of the marginal
-    double total = 0, sx = 0, sy = 0;
+    // one pass: the first maximum, the minimum and the raw moments of the marginal (per row in
+    // double, offsets from the grid's centre: the covariance about the mean loses no digits)
+    const double ox = cx(width_ / 2), oy = cy(height_ / 2);
+    xs_.resize(width_);
+    for (std::size_t i = 0; i < width_; ++i) xs_[i] = cx(i) - ox;
+    double total = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
+    float hi = M[0], lo = M[0];
+    constexpr std::size_t kLanes = 4;  // independent sums (a fixed order: the same on every path)
     for (std::size_t j = 0; j < height_; ++j) {
         const float* row = M + j * width_;
-        double rt = 0, rx = 0;
-        for (std::size_t i = 0; i < width_; ++i) {
-            rt += row[i];
-            rx += row[i] * cx(i);
+        double rt[kLanes] = {}, rx[kLanes] = {}, rxx[kLanes] = {};
+        float rh[kLanes], rl[kLanes];
+        for (std::size_t l = 0; l < kLanes; ++l) rh[l] = rl[l] = row[0];
+        std::size_t i = 0;
+        for (; i + kLanes <= width_; i += kLanes) {
+            for (std::size_t l = 0; l < kLanes; ++l) {
+                const double v = row[i + l], x = xs_[i + l];
+                rt[l] += v;
+                rx[l] += v * x;
+                rxx[l] += v * x * x;
+                rh[l] = std::max(rh[l], row[i + l]);
+                rl[l] = std::min(rl[l], row[i + l]);
+            }
         }
-        total += rt;
-        sx += rx;
-        sy += rt * cy(j);
-    }
-    const double mx = sx / total, my = sy / total;
-    double cxx = 0, cxy = 0, cyy = 0;
-    for (std::size_t j = 0; j < height_; ++j) {
-        const float* row = M + j * width_;
-        const double ey = cy(j) - my;
-        double rxx = 0, rx = 0, rt = 0;
-        for (std::size_t i = 0; i < width_; ++i) {
-            const double ex = cx(i) - mx;
-            rxx += row[i] * ex * ex;
-            rx += row[i] * ex;
-            rt += row[i];
+        for (; i < width_; ++i) {
+            const double v = row[i], x = xs_[i];
+            rt[0] += v;
+            rx[0] += v * x;
+            rxx[0] += v * x * x;
+            rh[0] = std::max(rh[0], row[i]);
+            rl[0] = std::min(rl[0], row[i]);
         }
-        cxx += rxx;
-        cxy += rx * ey;
-        cyy += rt * ey * ey;
+        double t = 0, tx = 0, txx = 0;
+        for (std::size_t l = 0; l < kLanes; ++l) {
+            t += rt[l];
+            tx += rx[l];
+            txx += rxx[l];
+            hi = std::max(hi, rh[l]);
+            lo = std::min(lo, rl[l]);
+        }
+        const double y = cy(j) - oy;
+        total += t;
+        sx += tx;
+        sy += t * y;
+        sxx += txx;
+        sxy += tx * y;
+        syy += t * y * y;
     }
-    e.cov_xx = cxx / total;
-    e.cov_xy = cxy / total;
-    e.cov_yy = cyy / total;
+    std::size_t peak = 0;  // the first maximum
+    while (M[peak] != hi) ++peak;
+    e.cell = peak;
+    const double mx = sx / total, my = sy / total;  // relative to (ox, oy)
+    e.cov_xx = sxx / total - mx * mx;
+    e.cov_xy = sxy / total - mx * my;
+    e.cov_yy = syy / total - my * my;
 
     const std::size_t pj = peak / width_, pi = peak % width_, w = s.estimate_window;
     const std::size_t j0 = pj >= w ? pj - w : 0, j1 = std::min(height_, pj + w + 1);
     const std::size_t i0 = pi >= w ? pi - w : 0, i1 = std::min(width_, pi + w + 1);
     if (hi <= lo) {
         e.flat = true;
-        e.x = mx;
-        e.y = my;
+        e.x = mx + ox;
+        e.y = my + oy;
     } else {
         double m = 0, wx = 0, wy = 0;
         for (std::size_t j = j0; j < j1; ++j)
@@ -696,48 +802,68 @@ GridEstimate GridFilter::estimate() const {
         e.y = wy / m;
     }
 
-    // credible radius (cells by their centres) and confidence
-    double far = 0;
-    scratch_.resize(cells_);
+    // credible radius (cells by their centres) and confidence, on squared distances: a histogram
+    // of the mass over 1024 equal bins of d^2 up to the farthest corner's, the bin where the mass
+    // reaches credibility, its cells sorted by distance
+    dx2_.resize(width_);
+    for (std::size_t i = 0; i < width_; ++i) {
+        const double ex = cx(i) - e.x;
+        dx2_[i] = ex * ex;
+    }
+    double far2 = 0;
+    for (double corner_x : {cx(0), cx(width_ - 1)})
+        for (double corner_y : {cy(0), cy(height_ - 1)}) {
+            const double ex = corner_x - e.x, ey = corner_y - e.y;
+            far2 = std::max(far2, ex * ex + ey * ey);
+        }
+    constexpr std::size_t kBins = 1024, kCopies = 4;  // copies: column i adds to copy i % 4 (no chain of
+                                                      // adds to one bin through memory)
+    hist_.assign(kCopies * kBins, 0.0);
+    const double per = far2 > 0 ? static_cast<double>(kBins) / far2 : 0.0;
+    const double r2 = s.confidence_radius * s.confidence_radius;
     double within = 0;
     for (std::size_t j = 0; j < height_; ++j) {
-        const double ey = cy(j) - e.y;
-        double* d_row = scratch_.data() + j * width_;
+        const double ey = cy(j) - e.y, ey2 = ey * ey;
+        const float* row = M + j * width_;
         for (std::size_t i = 0; i < width_; ++i) {
-            const double ex = cx(i) - e.x;
-            d_row[i] = std::sqrt(ex * ex + ey * ey);
-        }
-        for (std::size_t i = 0; i < width_; ++i) {
-            far = std::max(far, d_row[i]);
-            if (d_row[i] <= s.confidence_radius) within += M[j * width_ + i];
+            const double d2 = ey2 + dx2_[i];
+            hist_[(i % kCopies) * kBins + std::min(kBins - 1, static_cast<std::size_t>(d2 * per))] += row[i];
+            if (d2 <= r2) within += row[i];
         }
     }
     e.confidence = std::min(std::max(within / total, 0.0), 1.0);
     const double target = s.credibility * total;
-    constexpr std::size_t kBins = 1024;
-    std::vector<double> hist(kBins, 0.0);
-    const double per = far > 0 ? static_cast<double>(kBins) / far : 0.0;
-    auto bin_of = [&](double d) { return std::min(kBins - 1, static_cast<std::size_t>(d * per)); };
-    for (std::size_t c = 0; c < cells_; ++c) hist[bin_of(scratch_[c])] += M[c];
     double below = 0;
     std::size_t crossing = kBins - 1;
     for (std::size_t b = 0; b < kBins; ++b) {
-        if (below + hist[b] >= target) {
+        double mass = hist_[b];
+        for (std::size_t k = 1; k < kCopies; ++k) mass += hist_[k * kBins + b];
+        if (below + mass >= target) {
             crossing = b;
             break;
         }
-        below += hist[b];
+        below += mass;
     }
-    std::vector<std::pair<double, double>> ring;  // (distance, mass) of the crossing bin's cells
-    for (std::size_t c = 0; c < cells_; ++c) {
-        if (bin_of(scratch_[c]) == crossing) ring.emplace_back(scratch_[c], static_cast<double>(M[c]));
+    ring_.clear();  // the crossing bin's cells (bins start at d^2 = crossing / per)
+    const double ring_start = per > 0 ? static_cast<double>(crossing) / per : 0.0;
+    for (std::size_t j = 0; j < height_; ++j) {
+        const double ey = cy(j) - e.y, ey2 = ey * ey;
+        if (per > 0 && crossing + 1 < kBins && ey2 > static_cast<double>(crossing + 1) / per) continue;
+        const float* row = M + j * width_;
+        for (std::size_t i = 0; i < width_; ++i) {
+            const double d2 = ey2 + dx2_[i];
+            if (d2 + 1e-9 * far2 < ring_start) continue;
+            if (std::min(kBins - 1, static_cast<std::size_t>(d2 * per)) == crossing) {
+                ring_.push_back({d2, static_cast<double>(row[i])});
+            }
+        }
     }
-    std::sort(ring.begin(), ring.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-    e.credible_radius = ring.empty() ? far : ring.back().first;
-    for (const auto& [d, v] : ring) {
-        below += v;
+    std::sort(ring_.begin(), ring_.end(), [](const RingCell& a, const RingCell& b) { return a.d2 < b.d2; });
+    e.credible_radius = ring_.empty() ? std::sqrt(far2) : std::sqrt(ring_.back().d2);
+    for (const RingCell& cell : ring_) {
+        below += cell.mass;
         if (below >= target) {
-            e.credible_radius = d;
+            e.credible_radius = std::sqrt(cell.d2);
             break;
         }
     }

@@ -1,9 +1,11 @@
 // Loops of the grid filter, the same source compiled for each SIMD path with target attributes
 // (the pattern of heatmap_kernels.cpp): scalar (plain loops, no auto-vectorization), the baseline
-// (SSE2 on x86-64, NEON on AArch64), AVX2 and AVX-512F. Element-wise loops are left to the
-// compiler's vectorizer; the measurement kernel (an exp per cell and a sum) is written with GCC/
-// Clang vector types of 16 lanes (lowered to each target's registers). No FMA contraction
-// (-ffp-contract=off) and a fixed lane order for sums: every path returns the same values.
+// (SSE2 on x86-64, NEON on AArch64), AVX2 and AVX-512F. Loops that sum taps, interpolate and
+// exponentiate are written with GCC/Clang vector types of the path's own register width (4, 8 or
+// 16 floats: a generic vector wider than the target's registers is kept in memory and lowered
+// element by element, several times slower than scalar code); simple element-wise loops are left
+// to the compiler's vectorizer. No FMA contraction (-ffp-contract=off), every element the same
+// sequence of operations and a fixed lane order for sums: every path returns the same values.
 #include "grid_filter_kernels.hpp"
 
 #include <algorithm>
@@ -13,6 +15,12 @@
 #include "sad_kernels.hpp"  // NIGHTLOC_X86_KERNELS
 
 #define NL_INLINE inline __attribute__((always_inline))
+// Loops over a template's few vectors or bins, unrolled: their accumulators stay in registers.
+#if defined(__clang__)
+#define NL_UNROLL _Pragma("unroll")
+#else
+#define NL_UNROLL _Pragma("GCC unroll 16")
+#endif
 
 namespace nightloc::detail {
 namespace {
@@ -38,27 +46,88 @@ NL_INLINE float exp2_scalar(float y) {
     return p * scale;
 }
 
-typedef float F16 __attribute__((vector_size(64)));
-typedef std::int32_t I16 __attribute__((vector_size(64)));
-typedef double D16 __attribute__((vector_size(128)));
+// Vectors of L float lanes, the path's register width: F floats, I int32, H the half of F (L/2
+// floats) and D L/2 doubles (F's bytes). Passed by reference only (no ABI questions between
+// targets).
+template <int L>
+struct Vec;
+template <>
+struct Vec<4> {
+    typedef float F __attribute__((vector_size(16)));
+    typedef std::int32_t I __attribute__((vector_size(16)));
+    typedef float H __attribute__((vector_size(8)));
+    typedef double D __attribute__((vector_size(16)));
+};
+template <>
+struct Vec<8> {
+    typedef float F __attribute__((vector_size(32)));
+    typedef std::int32_t I __attribute__((vector_size(32)));
+    typedef float H __attribute__((vector_size(16)));
+    typedef double D __attribute__((vector_size(32)));
+};
+template <>
+struct Vec<16> {
+    typedef float F __attribute__((vector_size(64)));
+    typedef std::int32_t I __attribute__((vector_size(64)));
+    typedef float H __attribute__((vector_size(32)));
+    typedef double D __attribute__((vector_size(64)));
+};
 
-// (vectors by reference: never passed or returned by value, no ABI questions between targets)
-NL_INLINE void exp2_vector(const F16& y, F16& out) {
-    const F16 r = (y + kRound) - kRound;
-    const F16 f = y - r;
-    F16 p = f * kC5 + kC4;
+template <int L>
+NL_INLINE void load(typename Vec<L>::F& v, const float* p) {
+    std::memcpy(&v, p, sizeof(v));
+}
+
+template <int L>
+NL_INLINE void store(float* p, const typename Vec<L>::F& v) {
+    std::memcpy(p, &v, sizeof(v));
+}
+
+template <int L>
+NL_INLINE void exp2_vector(const typename Vec<L>::F& y, typename Vec<L>::F& out) {
+    using F = typename Vec<L>::F;
+    using I = typename Vec<L>::I;
+    const F r = (y + kRound) - kRound;
+    const F f = y - r;
+    F p = f * kC5 + kC4;
     p = p * f + kC3;
     p = p * f + kC2;
     p = p * f + kC1;
     p = p * f + kC0;
-    const I16 bits = (__builtin_convertvector(r, I16) + 127) * (1 << 23);
-    F16 scale;
+    const I bits = (__builtin_convertvector(r, I) + 127) * (1 << 23);
+    F scale;
     std::memcpy(&scale, &bits, sizeof(scale));
     out = p * scale;
 }
 
+// lo += double(v[0 .. L/2)), hi += double(v[L/2 .. L)).
+template <int L>
+NL_INLINE void add_double(const typename Vec<L>::F& v, typename Vec<L>::D& lo, typename Vec<L>::D& hi) {
+    typename Vec<L>::H a, b;
+    std::memcpy(&a, &v, sizeof(a));
+    std::memcpy(&b, reinterpret_cast<const char*>(&v) + sizeof(a), sizeof(b));
+    lo += __builtin_convertvector(a, typename Vec<L>::D);
+    hi += __builtin_convertvector(b, typename Vec<L>::D);
+}
+
+// 16 double lanes as 32 / L vectors of L / 2.
+template <int L>
+struct Lanes {
+    typename Vec<L>::D d[32 / L];
+    NL_INLINE void read(const double* lanes) { std::memcpy(d, lanes, sizeof(d)); }
+    NL_INLINE void write(double* lanes) const { std::memcpy(lanes, d, sizeof(d)); }
+    // lanes[i] += values[i] for i < 16
+    NL_INLINE void add16(const float* values) {
+        for (int v = 0; v < 16 / L; ++v) {
+            typename Vec<L>::F x;
+            load<L>(x, values + L * v);
+            add_double<L>(x, d[2 * v], d[2 * v + 1]);
+        }
+    }
+};
+
 // ---------------------------------------------------------------------------------------------
-// bodies shared by every path
+// bodies shared by every path (L: the path's float lanes; 1 = element by element)
 
 NL_INLINE void box_rows_body(const float* __restrict src, float* __restrict dst, std::size_t rows, std::size_t cols,
                              const BoxPass& pass, float* __restrict acc, const float* __restrict zeros) {
@@ -84,58 +153,191 @@ NL_INLINE void box_rows_body(const float* __restrict src, float* __restrict dst,
 }
 
 // out[i] = sum_t taps[t] * in[t][i] for i in [0, cols), summed in float from 0 in t order: blocks
-// of 64 (four independent 16-lane sums hide the adds' latency), then of 16, the last one shifted
-// back to end at the row's end (its overlap is recomputed, to the same values); rows shorter than
-// 16 element by element. Every element is the same sequence of operations.
-NL_INLINE void taps_row_one(const float* const* in, const float* taps, std::size_t n_taps, float* out, std::size_t i) {
+// of V vectors (independent sums hide the adds' latency), then one block of the vectors left,
+// the last one shifted back to end at the row's end (its overlap is recomputed, to the same
+// values); rows shorter than a vector element by element. Every element is the same sequence of
+// operations.
+NL_INLINE void taps_one(const float* const* in, const float* taps, std::size_t n_taps, float* out, std::size_t i) {
     float acc = 0.f;
     for (std::size_t t = 0; t < n_taps; ++t) acc = acc + taps[t] * in[t][i];
     out[i] = acc;
 }
 
-template <bool Vector>
+// V vectors at out + pos[v].
+template <int L, int V>
+NL_INLINE void taps_block(const float* const* in, const float* taps, std::size_t n_taps, float* out,
+                          const std::size_t* pos) {
+    using F = typename Vec<L>::F;
+    F acc[V];
+    NL_UNROLL
+    for (int v = 0; v < V; ++v) acc[v] = F{};
+    for (std::size_t t = 0; t < n_taps; ++t) {
+        const float g = taps[t];
+        const float* x = in[t];
+        NL_UNROLL
+        for (int v = 0; v < V; ++v) {
+            F xv;
+            load<L>(xv, x + pos[v]);
+            acc[v] = acc[v] + g * xv;
+        }
+    }
+    NL_UNROLL
+    for (int v = 0; v < V; ++v) store<L>(out + pos[v], acc[v]);
+}
+
+// Vectors per block (independent sums hide the adds' latency).
+template <int L>
+constexpr int kTapVectors = L == 16 ? 4 : 8;
+
+template <int L>
 NL_INLINE void taps_row(const float* const* in, const float* taps, std::size_t n_taps, float* out, std::size_t cols) {
-    if (!Vector || cols < 16) {
-        for (std::size_t i = 0; i < cols; ++i) taps_row_one(in, taps, n_taps, out, i);
-        return;
-    }
-    std::size_t i = 0;
-    for (; i + 64 <= cols; i += 64) {
-        F16 a0 = {}, a1 = {}, a2 = {}, a3 = {};
-        for (std::size_t t = 0; t < n_taps; ++t) {
-            const float g = taps[t];
-            F16 x0, x1, x2, x3;
-            std::memcpy(&x0, in[t] + i, sizeof(x0));
-            std::memcpy(&x1, in[t] + i + 16, sizeof(x1));
-            std::memcpy(&x2, in[t] + i + 32, sizeof(x2));
-            std::memcpy(&x3, in[t] + i + 48, sizeof(x3));
-            a0 = a0 + g * x0;
-            a1 = a1 + g * x1;
-            a2 = a2 + g * x2;
-            a3 = a3 + g * x3;
+    if constexpr (L == 1) {
+        for (std::size_t i = 0; i < cols; ++i) taps_one(in, taps, n_taps, out, i);
+    } else {
+        if (cols < static_cast<std::size_t>(L)) {
+            for (std::size_t i = 0; i < cols; ++i) taps_one(in, taps, n_taps, out, i);
+            return;
         }
-        std::memcpy(out + i, &a0, sizeof(a0));
-        std::memcpy(out + i + 16, &a1, sizeof(a1));
-        std::memcpy(out + i + 32, &a2, sizeof(a2));
-        std::memcpy(out + i + 48, &a3, sizeof(a3));
-    }
-    if (i == cols) return;
-    for (;;) {  // 16 at a time from i on
-        if (i + 16 > cols) i = cols - 16;
-        F16 a = {};
-        for (std::size_t t = 0; t < n_taps; ++t) {
-            F16 x;
-            std::memcpy(&x, in[t] + i, sizeof(x));
-            a = a + taps[t] * x;
+        constexpr int V = kTapVectors<L>;
+        constexpr std::size_t width = static_cast<std::size_t>(V * L);
+        std::size_t pos[V];
+        std::size_t i = 0;
+        // whole blocks while more than one block is left (the rest: one block of 1 .. V vectors)
+        for (; i + width < cols; i += width) {
+            NL_UNROLL
+            for (int v = 0; v < V; ++v) pos[v] = i + static_cast<std::size_t>(L * v);
+            taps_block<L, V>(in, taps, n_taps, out, pos);
         }
-        std::memcpy(out + i, &a, sizeof(a));
-        if (i + 16 >= cols) return;
-        i += 16;
+        const std::size_t vectors = (cols - i + L - 1) / L;  // 1 .. V
+        for (std::size_t v = 0; v < vectors; ++v) pos[v] = std::min(i + L * v, cols - L);
+        switch (vectors) {
+            case 1:
+                taps_block<L, 1>(in, taps, n_taps, out, pos);
+                break;
+            case 2:
+                taps_block<L, 2>(in, taps, n_taps, out, pos);
+                break;
+            case 3:
+                taps_block<L, 3>(in, taps, n_taps, out, pos);
+                break;
+            case 4:
+                taps_block<L, 4>(in, taps, n_taps, out, pos);
+                break;
+            case 5:
+                if constexpr (V >= 5) taps_block<L, 5>(in, taps, n_taps, out, pos);
+                break;
+            case 6:
+                if constexpr (V >= 6) taps_block<L, 6>(in, taps, n_taps, out, pos);
+                break;
+            case 7:
+                if constexpr (V >= 7) taps_block<L, 7>(in, taps, n_taps, out, pos);
+                break;
+            default:
+                if constexpr (V >= 8) taps_block<L, 8>(in, taps, n_taps, out, pos);
+                break;
+        }
+    }
+}
+
+// Two rows at once: out0[i] = sum_t taps[t] * in[t][i] and out1[i] = sum_t taps[t] * in[t + 1][i]
+// (in: n_taps + 1 rows), each summed in float from 0 in t order as taps_row does: every loaded
+// vector of a source row serves both.
+template <int L, int V>
+NL_INLINE void taps_block2(const float* const* in, const float* taps, std::size_t n_taps, float* out0, float* out1,
+                           const std::size_t* pos) {
+    using F = typename Vec<L>::F;
+    F acc0[V], acc1[V];
+    NL_UNROLL
+    for (int v = 0; v < V; ++v) {
+        acc0[v] = F{};
+        acc1[v] = F{};
+    }
+    {
+        const float g = taps[0];
+        NL_UNROLL
+        for (int v = 0; v < V; ++v) {
+            F xv;
+            load<L>(xv, in[0] + pos[v]);
+            acc0[v] = acc0[v] + g * xv;
+        }
+    }
+    for (std::size_t t = 1; t < n_taps; ++t) {
+        const float g0 = taps[t], g1 = taps[t - 1];
+        const float* x = in[t];
+        NL_UNROLL
+        for (int v = 0; v < V; ++v) {
+            F xv;
+            load<L>(xv, x + pos[v]);
+            acc0[v] = acc0[v] + g0 * xv;
+            acc1[v] = acc1[v] + g1 * xv;
+        }
+    }
+    {
+        const float g = taps[n_taps - 1];
+        NL_UNROLL
+        for (int v = 0; v < V; ++v) {
+            F xv;
+            load<L>(xv, in[n_taps] + pos[v]);
+            acc1[v] = acc1[v] + g * xv;
+        }
+    }
+    NL_UNROLL
+    for (int v = 0; v < V; ++v) {
+        store<L>(out0 + pos[v], acc0[v]);
+        store<L>(out1 + pos[v], acc1[v]);
+    }
+}
+
+NL_INLINE void taps_one2(const float* const* in, const float* taps, std::size_t n_taps, float* out0, float* out1,
+                         std::size_t i) {
+    taps_one(in, taps, n_taps, out0, i);
+    taps_one(in + 1, taps, n_taps, out1, i);
+}
+
+// Vectors per block of taps_row2 (two accumulators each).
+template <int L>
+constexpr int kTapVectors2 = L == 16 ? 4 : 4;
+
+template <int L>
+NL_INLINE void taps_row2(const float* const* in, const float* taps, std::size_t n_taps, float* out0, float* out1,
+                         std::size_t cols) {
+    if constexpr (L == 1) {
+        for (std::size_t i = 0; i < cols; ++i) taps_one2(in, taps, n_taps, out0, out1, i);
+    } else {
+        if (cols < static_cast<std::size_t>(L)) {
+            for (std::size_t i = 0; i < cols; ++i) taps_one2(in, taps, n_taps, out0, out1, i);
+            return;
+        }
+        constexpr int V = kTapVectors2<L>;
+        constexpr std::size_t width = static_cast<std::size_t>(V * L);
+        std::size_t pos[V];
+        std::size_t i = 0;
+        for (; i + width < cols; i += width) {
+            NL_UNROLL
+            for (int v = 0; v < V; ++v) pos[v] = i + static_cast<std::size_t>(L * v);
+            taps_block2<L, V>(in, taps, n_taps, out0, out1, pos);
+        }
+        const std::size_t vectors = (cols - i + L - 1) / L;  // 1 .. V
+        for (std::size_t v = 0; v < vectors; ++v) pos[v] = std::min(i + L * v, cols - L);
+        switch (vectors) {
+            case 1:
+                taps_block2<L, 1>(in, taps, n_taps, out0, out1, pos);
+                break;
+            case 2:
+                taps_block2<L, 2>(in, taps, n_taps, out0, out1, pos);
+                break;
+            case 3:
+                taps_block2<L, 3>(in, taps, n_taps, out0, out1, pos);
+                break;
+            default:
+                taps_block2<L, 4>(in, taps, n_taps, out0, out1, pos);
+                break;
+        }
     }
 }
 
 // dst[j][i] = sum_t taps[t] * src[j + t - offset][i] (rows outside [0, rows) count 0).
-template <bool Vector>
+template <int L>
 NL_INLINE void conv_rows_body(const float* src, float* dst, std::size_t rows, std::size_t cols, const float* taps,
                               std::size_t n_taps, std::ptrdiff_t offset, const float* zeros) {
     const float* in[kMaxTaps];
@@ -144,13 +346,13 @@ NL_INLINE void conv_rows_body(const float* src, float* dst, std::size_t rows, st
             const std::ptrdiff_t r = static_cast<std::ptrdiff_t>(j + t) - offset;
             in[t] = r >= 0 && r < static_cast<std::ptrdiff_t>(rows) ? src + static_cast<std::size_t>(r) * cols : zeros;
         }
-        taps_row<Vector>(in, taps, n_taps, dst + j * cols, cols);
+        taps_row<L>(in, taps, n_taps, dst + j * cols, cols);
     }
 }
 
 // dst[j][i] = sum_t taps[t] * src[j][i + t - offset] (columns outside [0, cols) count 0);
 // `padded` holds cols + n_taps floats of scratch.
-template <bool Vector>
+template <int L>
 NL_INLINE void conv_cols_body(const float* src, float* dst, std::size_t rows, std::size_t cols, const float* taps,
                               std::size_t n_taps, std::ptrdiff_t offset, float* padded) {
     const std::ptrdiff_t lead = offset;  // padded[q] = x[q - lead]: output i reads padded[i + t]
@@ -167,61 +369,71 @@ NL_INLINE void conv_cols_body(const float* src, float* dst, std::size_t rows, st
         for (std::size_t q = 0; q < lo; ++q) padded[q] = 0.f;
         for (std::size_t q = lo; q < hi; ++q) padded[q] = x[static_cast<std::ptrdiff_t>(q) - lead];
         for (std::size_t q = hi; q < length; ++q) padded[q] = 0.f;
-        taps_row<Vector>(in, taps, n_taps, dst + j * cols, cols);
+        taps_row<L>(in, taps, n_taps, dst + j * cols, cols);
+    }
+}
+
+template <int L>
+NL_INLINE void shift_blur_body(const ShiftBlurArgs& a) {
+    const float* in[kMaxTaps + 1];
+    const float* xin[2][kMaxTaps];
+    const std::size_t span = (a.cols + 2 * a.pad + 15) / 16 * 16;  // two row buffers (whole lines)
+    for (std::size_t k = 0; k < 2; ++k)
+        for (std::size_t t = 0; t < a.n_x; ++t) xin[k][t] = a.buf + k * span + a.pad + t - a.off_x;
+    const auto rows = static_cast<std::ptrdiff_t>(a.rows);
+    // output rows two at a time: the row pass of both reads each source row once
+    for (std::size_t j = 0; j < a.rows; j += 2) {
+        const bool pair = j + 1 < a.rows;
+        for (std::size_t t = 0; t < a.n_y + (pair ? 1 : 0); ++t) {
+            const std::ptrdiff_t r = static_cast<std::ptrdiff_t>(j + t) - a.off_y;
+            in[t] = r >= 0 && r < rows ? a.src + static_cast<std::size_t>(r) * a.cols : a.zeros;
+        }
+        // the source rows that the next pair reads first (the others are cached)
+        for (std::size_t k = 1; k <= 2; ++k) {
+            const std::ptrdiff_t next = static_cast<std::ptrdiff_t>(j + a.n_y + k) - a.off_y;
+            if (next >= 0 && next < rows) {
+                const float* p = a.src + static_cast<std::size_t>(next) * a.cols;
+                for (std::size_t i = 0; i < a.cols; i += 16) __builtin_prefetch(p + i);
+            }
+        }
+        if (pair) {
+            taps_row2<L>(in, a.taps_y, a.n_y, a.buf + a.pad, a.buf + span + a.pad, a.cols);
+            taps_row<L>(xin[0], a.taps_x, a.n_x, a.dst + j * a.cols, a.cols);
+            taps_row<L>(xin[1], a.taps_x, a.n_x, a.dst + (j + 1) * a.cols, a.cols);
+        } else {
+            taps_row<L>(in, a.taps_y, a.n_y, a.buf + a.pad, a.cols);
+            taps_row<L>(xin[0], a.taps_x, a.n_x, a.dst + j * a.cols, a.cols);
+        }
     }
 }
 
 NL_INLINE void transpose_body(const float* __restrict src, float* __restrict dst, std::size_t rows, std::size_t cols) {
-    constexpr std::size_t kBlock = 16;
-    for (std::size_t r0 = 0; r0 < rows; r0 += kBlock) {
-        const std::size_t r1 = r0 + kBlock < rows ? r0 + kBlock : rows;
-        for (std::size_t c0 = 0; c0 < cols; c0 += kBlock) {
-            const std::size_t c1 = c0 + kBlock < cols ? c0 + kBlock : cols;
+    constexpr std::size_t kTile = 16;
+    for (std::size_t r0 = 0; r0 < rows; r0 += kTile) {
+        const std::size_t r1 = r0 + kTile < rows ? r0 + kTile : rows;
+        for (std::size_t c0 = 0; c0 < cols; c0 += kTile) {
+            const std::size_t c1 = c0 + kTile < cols ? c0 + kTile : cols;
             for (std::size_t c = c0; c < c1; ++c)
                 for (std::size_t r = r0; r < r1; ++r) dst[c * rows + r] = src[r * cols + c];
         }
     }
 }
 
-NL_INLINE void heading_one(const float* work, std::size_t bins, std::size_t n, std::size_t b, const float* taps,
-                           const std::size_t* offsets, std::size_t n_taps, float a, float f, float* belief,
-                           std::size_t c) {
-    float acc = 0.f;
-    for (std::size_t t = 0; t < n_taps; ++t) acc = acc + taps[t] * work[((b + bins - offsets[t]) % bins) * n + c];
-    belief[b * n + c] = acc * a + f;
-}
-
-NL_INLINE void heading_conv_plain(const float* work, std::size_t bins, std::size_t n, std::size_t c0, std::size_t m,
-                                  const float* taps, const std::size_t* offsets, std::size_t n_taps, float a, float f,
-                                  float* belief) {
-    for (std::size_t b = 0; b < bins; ++b)
-        for (std::size_t c = c0; c < c0 + m; ++c) heading_one(work, bins, n, b, taps, offsets, n_taps, a, f, belief, c);
-}
-
-NL_INLINE void heading_conv_vector(const float* work, std::size_t bins, std::size_t n, std::size_t c0, std::size_t m,
-                                   const float* taps, const std::size_t* offsets, std::size_t n_taps, float a, float f,
-                                   float* belief) {
-    const float* in[kMaxTaps];
-    for (std::size_t b = 0; b < bins; ++b) {
-        for (std::size_t t = 0; t < n_taps; ++t) in[t] = work + ((b + bins - offsets[t]) % bins) * n;
-        float* out = belief + b * n;
-        std::size_t c = c0;
-        for (; c + 16 <= c0 + m; c += 16) {
-            F16 acc = {};
-            for (std::size_t t = 0; t < n_taps; ++t) {
-                F16 x;
-                std::memcpy(&x, in[t] + c, sizeof(x));
-                acc = acc + taps[t] * x;
-            }
-            const F16 v = acc * a + f;
-            std::memcpy(out + c, &v, sizeof(v));
-        }
-        for (; c < c0 + m; ++c) heading_one(work, bins, n, b, taps, offsets, n_taps, a, f, belief, c);
-    }
-}
-
 NL_INLINE void scale_add_body(float* __restrict values, std::size_t n, float a, float f) {
     for (std::size_t c = 0; c < n; ++c) values[c] = values[c] * a + f;
+}
+
+template <int L>
+NL_INLINE void heading_conv_body(const float* work, std::size_t bins, std::size_t n, std::size_t c0, std::size_t m,
+                                 const float* taps, const std::size_t* offsets, std::size_t n_taps, float a, float f,
+                                 float* belief) {
+    const float* in[kMaxTaps];
+    for (std::size_t b = 0; b < bins; ++b) {
+        for (std::size_t t = 0; t < n_taps; ++t) in[t] = work + ((b + bins - offsets[t]) % bins) * n + c0;
+        float* out = belief + b * n + c0;
+        taps_row<L>(in, taps, n_taps, out, m);
+        scale_add_body(out, m, a, f);
+    }
 }
 
 NL_INLINE void sum_slices_body(const float* __restrict in, std::size_t bins, std::size_t n, float* __restrict out) {
@@ -232,121 +444,160 @@ NL_INLINE void sum_slices_body(const float* __restrict in, std::size_t bins, std
     }
 }
 
-// The prior of cell c in bin b: the pending heading blur of the source, scaled, plus the floor.
-NL_INLINE float prior_one(const UpdateArgs& u, std::size_t b, std::size_t c) {
-    float acc = 0.f;
-    for (std::size_t t = 0; t < u.n_taps; ++t) {
-        acc = acc + u.taps[t] * u.source[((b + u.bins - u.offsets[t]) % u.bins) * u.n + c];
+// ---------------------------------------------------------------------------------------------
+// the measurement
+
+// The log2-likelihood of cell c in bin b's values (the sum of UpdateArgs), not yet floored.
+NL_INLINE float log_lik_one(const UpdateArgs& u, const float* values, std::size_t c) {
+    const std::size_t block = c / kBlock;
+    const auto e0 = static_cast<std::size_t>(u.block_start[block]),
+               e1 = static_cast<std::size_t>(u.block_start[block + 1]);
+    float y = 0.f;
+    if (e1 > e0) {
+        const std::size_t lane = c % kBlock;
+        for (std::size_t e = e0; e < e1; ++e) y = y + u.block_weights[e * kBlock + lane] * values[u.block_places[e]];
+    } else {
+        for (std::size_t k = 0; k < u.slots; ++k) y = y + u.data[k * u.n + c] * values[u.index[k * u.n + c]];
     }
-    return acc * u.a + u.f;
+    return y;
 }
 
-// The measurement of cell c in bin b (the scalar path and every path's tail).
-NL_INLINE void measure_one(const UpdateArgs& u, std::size_t b, std::size_t c) {
-    const float* values = u.log_lik + b * u.stride;
-    float y = 0.f;
-    for (std::size_t k = 0; k < u.slots; ++k) y = y + u.data[k * u.n + c] * values[u.index[k * u.n + c]];
+// The measurement of cell c in bin b (the scalar path and every path's short last block).
+NL_INLINE void measure_one(const UpdateArgs& u, const float* const* in, std::size_t b, std::size_t c) {
+    float y = log_lik_one(u, u.log_lik + b * u.stride, c);
     y = y > kLowest ? y : kLowest;
-    const float p = prior_one(u, b, c) * exp2_scalar(y);
+    float acc = 0.f;
+    for (std::size_t t = 0; t < u.n_taps; ++t) acc = acc + u.taps[t] * in[t][c];
+    const float p = (acc * u.a + u.f) * exp2_scalar(y);
     u.belief[b * u.n + c] = p;
     u.marginal[c] = (b == 0 ? 0.f : u.marginal[c]) + p;
 }
 
-NL_INLINE void measure_plain(const UpdateArgs& u, std::size_t c0, std::size_t m) {
-    for (std::size_t b = 0; b < u.bins; ++b)
-        for (std::size_t c = c0; c < c0 + m; ++c) measure_one(u, b, c);
-}
-
-// V groups of 16 cells from c on, bin b (V independent dependency chains: the exp's polynomial
-// and the sums are latency-bound one group at a time).
-template <int V>
-NL_INLINE void measure_groups(const UpdateArgs& u, std::size_t b, std::size_t c, const float* values,
-                              const float* const* in, float* belief) {
-    const F16 zero = {}, lowest = zero + kLowest;
-    F16 y[V], acc[V];
-    for (int v = 0; v < V; ++v) {
-        y[v] = zero;
-        acc[v] = zero;
-    }
-    for (std::size_t k = 0; k < u.slots; ++k) {
-        for (int v = 0; v < V; ++v) {
-            const std::size_t cv = c + 16 * static_cast<std::size_t>(v);
-            const std::int32_t* places = u.places4 + 4 * ((cv / 16) * u.slots + k);
-            F16 d, x;
-            I16 idx;
-            std::memcpy(&d, u.data + k * u.n + cv, sizeof(d));
-            std::memcpy(&idx, u.index + k * u.n + cv, sizeof(idx));
-            if (places[0] >= 0) {  // at most four places among the 16 cells (a triangle's corner): selects
-                x = zero + values[places[0]];
-                x = idx == places[1] ? zero + values[places[1]] : x;
-                x = idx == places[2] ? zero + values[places[2]] : x;
-                x = idx == places[3] ? zero + values[places[3]] : x;
-            } else {
-                for (int l = 0; l < 16; ++l) x[l] = values[idx[l]];
+// One full block of kBlock cells from c in Q bins from b (in: per bin its n_taps slices): the
+// block's weights are read once for all Q bins (each bin alone would stream the map's weights
+// from L2 once per bin), and the Q kBlock / L vectors are independent chains.
+template <int L, int Q>
+NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* const* in, std::size_t c) {
+    using F = typename Vec<L>::F;
+    constexpr int V = static_cast<int>(kBlock) / L;  // vectors per block
+    const F zero = {}, lowest = zero + kLowest;
+    F y[Q][V];
+    NL_UNROLL
+    for (int q = 0; q < Q; ++q) NL_UNROLL
+    for (int v = 0; v < V; ++v) y[q][v] = zero;
+    const float* values = u.log_lik + b * u.stride;
+    const std::size_t block = c / kBlock;
+    const auto e0 = static_cast<std::size_t>(u.block_start[block]);
+    const auto e1 = static_cast<std::size_t>(u.block_start[block + 1]);
+    if (e1 > e0) {
+        const float* w = u.block_weights + e0 * kBlock;
+        for (std::size_t e = e0; e < e1; ++e, w += kBlock) {
+            const std::size_t place = static_cast<std::size_t>(u.block_places[e]);
+            F x[V];
+            NL_UNROLL
+            for (int v = 0; v < V; ++v) load<L>(x[v], w + L * v);
+            NL_UNROLL
+            for (int q = 0; q < Q; ++q) {
+                const float g = values[static_cast<std::size_t>(q) * u.stride + place];
+                NL_UNROLL
+                for (int v = 0; v < V; ++v) y[q][v] = y[q][v] + x[v] * g;
             }
-            y[v] = y[v] + d * x;
+        }
+    } else {
+        for (std::size_t k = 0; k < u.slots; ++k) {
+            NL_UNROLL
+            for (int v = 0; v < V; ++v) {
+                const std::size_t cv = c + static_cast<std::size_t>(L * v);
+                F w;
+                load<L>(w, u.data + k * u.n + cv);
+                NL_UNROLL
+                for (int q = 0; q < Q; ++q) {
+                    F x;
+                    const float* vq = values + static_cast<std::size_t>(q) * u.stride;
+                    for (int l = 0; l < L; ++l) x[l] = vq[u.index[k * u.n + cv + static_cast<std::size_t>(l)]];
+                    y[q][v] = y[q][v] + w * x;
+                }
+            }
         }
     }
-    for (std::size_t t = 0; t < u.n_taps; ++t) {
-        for (int v = 0; v < V; ++v) {
-            F16 x;
-            std::memcpy(&x, in[t] + c + 16 * static_cast<std::size_t>(v), sizeof(x));
-            acc[v] = acc[v] + u.taps[t] * x;
-        }
-    }
+    const float a = u.a, f = u.f;
+    F mg[V];
+    NL_UNROLL
     for (int v = 0; v < V; ++v) {
-        const std::size_t cv = c + 16 * static_cast<std::size_t>(v);
-        F16 yy = y[v] > lowest ? y[v] : lowest;
-        F16 l, mg;
-        exp2_vector(yy, l);
-        const F16 p = (acc[v] * u.a + u.f) * l;
-        std::memcpy(belief + cv, &p, sizeof(p));
         if (b == 0) {
-            mg = zero + p;
+            mg[v] = zero;
         } else {
-            std::memcpy(&mg, u.marginal + cv, sizeof(mg));
-            mg = mg + p;
+            load<L>(mg[v], u.marginal + c + L * v);
         }
-        std::memcpy(u.marginal + cv, &mg, sizeof(mg));
     }
-}
-
-NL_INLINE void measure_vector(const UpdateArgs& u, std::size_t c0, std::size_t m) {
-    const float* in[kMaxTaps];
-    for (std::size_t b = 0; b < u.bins; ++b) {
-        const float* values = u.log_lik + b * u.stride;
-        for (std::size_t t = 0; t < u.n_taps; ++t) in[t] = u.source + ((b + u.bins - u.offsets[t]) % u.bins) * u.n;
-        float* belief = u.belief + b * u.n;
-        // the next chunk of this bin's slices: 48 and more streams 40 KB apart defeat the prefetcher
-        for (std::size_t c = c0 + m; c < c0 + 2 * m && c < u.n; c += 16) {
-            __builtin_prefetch(u.source + b * u.n + c);
-            __builtin_prefetch(belief + c, 1);
+    NL_UNROLL
+    for (int q = 0; q < Q; ++q) {
+        const std::size_t bq = b + static_cast<std::size_t>(q);
+        F acc[V];
+        NL_UNROLL
+        for (int v = 0; v < V; ++v) acc[v] = zero;
+        for (std::size_t t = 0; t < u.n_taps; ++t) {
+            const float g = u.taps[t];
+            const float* x = in[static_cast<std::size_t>(q) * u.n_taps + t] + c;
+            NL_UNROLL
+            for (int v = 0; v < V; ++v) {
+                F xv;
+                load<L>(xv, x + L * v);
+                acc[v] = acc[v] + g * xv;
+            }
         }
-        std::size_t c = c0;
-        for (; c + 64 <= c0 + m; c += 64) measure_groups<4>(u, b, c, values, in, belief);
-        for (; c + 16 <= c0 + m; c += 16) measure_groups<1>(u, b, c, values, in, belief);
-        for (; c < c0 + m; ++c) measure_one(u, b, c);
+        float* belief = u.belief + bq * u.n + c;
+        NL_UNROLL
+        for (int v = 0; v < V; ++v) {
+            const F yy = y[q][v] > lowest ? y[q][v] : lowest;
+            F l;
+            exp2_vector<L>(yy, l);
+            const F p = (acc[v] * a + f) * l;
+            store<L>(belief + L * v, p);
+            mg[v] = mg[v] + p;
+        }
     }
+    NL_UNROLL
+    for (int v = 0; v < V; ++v) store<L>(u.marginal + c + L * v, mg[v]);
 }
 
-NL_INLINE void sum_plain(const float* values, std::size_t n, double* lanes) {
-    for (std::size_t c = 0; c < n; ++c) lanes[c % kSumLanes] += static_cast<double>(values[c]);
+// Bins per pass: 4 (2 with 16-byte registers, whose blocks are 4 vectors).
+template <int L>
+constexpr int kMeasureBins = L == 4 ? 2 : 4;
+
+template <int L, int Q>
+NL_INLINE void measure_bins(const UpdateArgs& u, std::size_t b, const float* const* in, std::size_t c0,
+                            std::size_t full) {
+    for (std::size_t c = c0; c < full; c += kBlock) measure_block<L, Q>(u, b, in, c);
 }
 
-NL_INLINE void sum_vector(const float* values, std::size_t n, double* lanes) {
-    D16 sum;
-    std::memcpy(&sum, lanes, sizeof(sum));
+template <int L>
+NL_INLINE void measure_body(const UpdateArgs& u, std::size_t b, std::size_t bins, const float* const* in,
+                            std::size_t c0, std::size_t m) {
+    const std::size_t full = L == 1 ? c0 : c0 + m - m % kBlock;
+    if constexpr (L != 1) {
+        constexpr std::size_t Q = kMeasureBins<L>;
+        std::size_t q = 0;
+        for (; q + Q <= bins; q += Q) measure_bins<L, Q>(u, b + q, in + q * u.n_taps, c0, full);
+        for (; q < bins; ++q) measure_bins<L, 1>(u, b + q, in + q * u.n_taps, c0, full);
+    }
+    for (std::size_t q = 0; q < bins; ++q)
+        for (std::size_t c = full; c < c0 + m; ++c) measure_one(u, in + q * u.n_taps, b + q, c);
+}
+
+template <int L>
+NL_INLINE void sum_body(const float* values, std::size_t n, double* lanes) {
     std::size_t c = 0;
-    for (; c + 16 <= n; c += 16) {
-        F16 v;
-        std::memcpy(&v, values + c, sizeof(v));
-        sum += __builtin_convertvector(v, D16);
+    if constexpr (L != 1) {
+        Lanes<L> s;
+        s.read(lanes);
+        for (; c + 16 <= n; c += 16) s.add16(values + c);
+        s.write(lanes);
     }
-    std::memcpy(lanes, &sum, sizeof(sum));
     for (; c < n; ++c) lanes[c % kSumLanes] += static_cast<double>(values[c]);
 }
 
-#define NL_DEFINE_FILTER_KERNELS(suffix, attributes, variant, vector_on)                                              \
+#define NL_DEFINE_FILTER_KERNELS(suffix, attributes, lanes)                                                           \
     attributes void box_rows_##suffix(const float* src, float* dst, std::size_t rows, std::size_t cols,               \
                                       const BoxPass& pass, float* acc, const float* zeros) {                          \
         box_rows_body(src, dst, rows, cols, pass, acc, zeros);                                                        \
@@ -354,35 +605,37 @@ NL_INLINE void sum_vector(const float* values, std::size_t n, double* lanes) {
     attributes void conv_rows_##suffix(const float* src, float* dst, std::size_t rows, std::size_t cols,              \
                                        const float* taps, std::size_t n_taps, std::ptrdiff_t offset,                  \
                                        const float* zeros) {                                                          \
-        conv_rows_body<vector_on>(src, dst, rows, cols, taps, n_taps, offset, zeros);                                 \
+        conv_rows_body<lanes>(src, dst, rows, cols, taps, n_taps, offset, zeros);                                     \
     }                                                                                                                 \
     attributes void conv_cols_##suffix(const float* src, float* dst, std::size_t rows, std::size_t cols,              \
                                        const float* taps, std::size_t n_taps, std::ptrdiff_t offset, float* padded) { \
-        conv_cols_body<vector_on>(src, dst, rows, cols, taps, n_taps, offset, padded);                                \
+        conv_cols_body<lanes>(src, dst, rows, cols, taps, n_taps, offset, padded);                                    \
     }                                                                                                                 \
+    attributes void shift_blur_##suffix(const ShiftBlurArgs& a) { shift_blur_body<lanes>(a); }                        \
     attributes void transpose_##suffix(const float* src, float* dst, std::size_t rows, std::size_t cols) {            \
         transpose_body(src, dst, rows, cols);                                                                         \
     }                                                                                                                 \
     attributes void heading_conv_##suffix(const float* work, std::size_t bins, std::size_t n, std::size_t c0,         \
                                           std::size_t m, const float* taps, const std::size_t* offsets,               \
                                           std::size_t n_taps, float a, float f, float* belief) {                      \
-        heading_conv_##variant(work, bins, n, c0, m, taps, offsets, n_taps, a, f, belief);                            \
+        heading_conv_body<lanes>(work, bins, n, c0, m, taps, offsets, n_taps, a, f, belief);                          \
     }                                                                                                                 \
-    attributes void measure_##suffix(const UpdateArgs& u, std::size_t c0, std::size_t m) {                            \
-        measure_##variant(u, c0, m);                                                                                  \
+    attributes void measure_##suffix(const UpdateArgs& u, std::size_t b, std::size_t bins, const float* const* in,    \
+                                     std::size_t c0, std::size_t m) {                                                 \
+        measure_body<lanes>(u, b, bins, in, c0, m);                                                                   \
     }                                                                                                                 \
     attributes void scale_add_##suffix(float* values, std::size_t n, float a, float f) {                              \
         scale_add_body(values, n, a, f);                                                                              \
     }                                                                                                                 \
-    attributes void sum_##suffix(const float* values, std::size_t n, double* lanes) {                                 \
-        sum_##variant(values, n, lanes);                                                                              \
+    attributes void sum_##suffix(const float* values, std::size_t n, double* lanes_out) {                             \
+        sum_body<lanes>(values, n, lanes_out);                                                                        \
     }                                                                                                                 \
     attributes void sum_slices_##suffix(const float* in, std::size_t bins, std::size_t n, float* out) {               \
         sum_slices_body(in, bins, n, out);                                                                            \
     }                                                                                                                 \
-    const FilterKernels kernels_##suffix{box_rows_##suffix,  conv_rows_##suffix,    conv_cols_##suffix,               \
-                                         transpose_##suffix, heading_conv_##suffix, measure_##suffix,                 \
-                                         scale_add_##suffix, sum_##suffix,          sum_slices_##suffix};
+    const FilterKernels kernels_##suffix{                                                                             \
+        box_rows_##suffix,     conv_rows_##suffix, conv_cols_##suffix, shift_blur_##suffix, transpose_##suffix,       \
+        heading_conv_##suffix, measure_##suffix,   scale_add_##suffix, sum_##suffix,        sum_slices_##suffix};
 
 #if defined(__GNUC__) && !defined(__clang__)
 #define NL_NO_VECTORIZE __attribute__((optimize("no-tree-vectorize")))
@@ -390,11 +643,11 @@ NL_INLINE void sum_vector(const float* values, std::size_t n, double* lanes) {
 #define NL_NO_VECTORIZE
 #endif
 
-NL_DEFINE_FILTER_KERNELS(scalar, NL_NO_VECTORIZE, plain, false)
-NL_DEFINE_FILTER_KERNELS(baseline, , vector, true)
+NL_DEFINE_FILTER_KERNELS(scalar, NL_NO_VECTORIZE, 1)
+NL_DEFINE_FILTER_KERNELS(baseline, , 4)
 #if NIGHTLOC_X86_KERNELS
-NL_DEFINE_FILTER_KERNELS(avx2, __attribute__((target("avx2"))), vector, true)
-NL_DEFINE_FILTER_KERNELS(avx512, __attribute__((target("avx512f"))), vector, true)
+NL_DEFINE_FILTER_KERNELS(avx2, __attribute__((target("avx2"))), 8)
+NL_DEFINE_FILTER_KERNELS(avx512, __attribute__((target("avx512f"))), 16)
 #endif
 
 }  // namespace
@@ -415,7 +668,7 @@ const FilterKernels& filter_kernels(SimdBackend backend) noexcept {
         default:
             return kernels_scalar;  // another architecture's path: never active here
 #else
-        // AArch64: the baseline kernels are NEON (the vector types lower to 4-lane registers)
+        // AArch64: the baseline kernels are NEON (4-lane vectors)
         default:
             return kernels_baseline;
 #endif

@@ -1,6 +1,6 @@
 // Internal: the loops of the grid filter (grid_filter.cpp), one table per SIMD path. Element-wise
-// IEEE arithmetic in a fixed order, sums in double over a fixed 16 lanes: every path gives the
-// same values.
+// IEEE arithmetic in a fixed order, sums in double over fixed lanes: every path gives the same
+// values.
 #pragma once
 
 #include <cstddef>
@@ -13,6 +13,9 @@ namespace nightloc::detail {
 /// Lanes of the fixed-order double sums: element i of a run adds to lane i % 16.
 inline constexpr std::size_t kSumLanes = 16;
 
+/// Cells per block of the measurement's interpolation (see UpdateArgs).
+inline constexpr std::size_t kBlock = 16;
+
 /// Parameters of one extended-box pass (see GridFilter): taps -r..r weigh 1, taps +-(r+1) weigh
 /// alpha, all times inv_w = 1 / (2r + 1 + 2 alpha).
 struct BoxPass {
@@ -20,25 +23,47 @@ struct BoxPass {
     double alpha, inv_w;
 };
 
-/// Most taps of the heading blur.
+/// Most taps of a blur (per axis and over heading).
 inline constexpr std::size_t kMaxTaps = 4096;
 
-/// The inputs of the measurement kernel (see FilterKernels::measure).
+/// The inputs of the explicit prediction kernel (see FilterKernels::shift_blur).
+struct ShiftBlurArgs {
+    const float* src;  ///< rows x cols
+    float* dst;        ///< rows x cols
+    std::size_t rows, cols;
+    const float* taps_y;  ///< row axis: taps_y[t] weighs source row j + t - off_y
+    std::size_t n_y;
+    std::ptrdiff_t off_y;
+    const float* taps_x;  ///< column axis: taps_x[t] weighs source column i + t - off_x
+    std::size_t n_x;
+    std::ptrdiff_t off_x;
+    float* buf;          ///< 2 span floats, span = cols + 2 pad rounded up to 16: two rows, zero outside
+                         ///< [pad, pad + cols) (kept so)
+    std::size_t pad;     ///< >= max(off_x, n_x - 1 - off_x, 0)
+    const float* zeros;  ///< cols zeros
+};
+
+/// The inputs of the measurement kernel (see FilterKernels::measure). The cells are cut into
+/// blocks of kBlock (the last one may be short). A dense block lists the places its cells use
+/// (ascending; index `places` is the bin's fill, for cells without weights) with kBlock weights
+/// each (the block's cells in order, 0 where a cell does not use the place); a cell's
+/// log2-likelihood is then y = sum over the block's list of weight * log_lik[b][place], in list
+/// order, from 0. Other blocks (more places than fit: dense maps) sum their cells' own ELL slots
+/// in slot order.
 struct UpdateArgs {
-    const float* data;            ///< ELL weights, slot k of cell c at k * n + c (unused slots weigh 0)
-    const std::int32_t* index;    ///< ELL place indices, same layout
-    const std::int32_t* places4;  ///< per block of 16 cells (c / 16) and slot k, at 4 (block slots + k): the
-                                  ///< up to four places its 16 indices take (repeated to fill), or -1 when more
-    std::size_t slots, n;         ///< slots per cell, cells
-    const float* log_lik;         ///< bins rows of `stride` values: the log2-likelihood of each place
-    std::size_t stride, bins;
-    const float* source;         ///< bins x n: the predicted slices before the heading blur
-    const float* taps;           ///< the heading blur: prior[b][c] = float(acc * a + f), acc = sum_t
-    const std::size_t* offsets;  ///< taps[t] * source[(b - offsets[t]) mod bins][c] in float, t order
-    std::size_t n_taps;
-    float a, f;       ///< normalization and the uniform floor
-    float* belief;    ///< bins x n (may be `source` when the blur is the identity)
-    float* marginal;  ///< n
+    const std::int32_t* block_start;   ///< blocks + 1 offsets into block_places; a block with none: ELL
+    const std::int32_t* block_places;  ///< the dense blocks' places
+    const float* block_weights;        ///< kBlock weights per entry of block_places
+    const float* data;                 ///< ELL weights, slot k of cell c at k * n + c (unused slots weigh 0)
+    const std::int32_t* index;         ///< ELL place indices, same layout
+    std::size_t slots, n;              ///< slots per cell, cells
+    const float* log_lik;              ///< bins rows of `stride` values: the log2-likelihood of each place
+    std::size_t stride;
+    const float* taps;   ///< the heading blur: prior[b][c] = float(acc * a + f), acc = sum_t taps[t] *
+    std::size_t n_taps;  ///< in[t][c] summed in float from 0 in t order (in: the predicted slices)
+    float a, f;          ///< normalization and the uniform floor
+    float* belief;       ///< bins x n (bin b's slice may be in[t] when the blur is the identity)
+    float* marginal;     ///< n
 };
 
 struct FilterKernels {
@@ -58,6 +83,11 @@ struct FilterKernels {
     /// the same order; `padded`: cols + n_taps floats of scratch.
     void (*conv_cols)(const float* src, float* dst, std::size_t rows, std::size_t cols, const float* taps,
                       std::size_t n_taps, std::ptrdiff_t offset, float* padded);
+    /// One slice's shift and blur with explicit taps, row by row (the row in `buf`, L1-resident):
+    /// row[i] = sum_t taps_y[t] * src[j + t - off_y][i] (rows outside [0, rows) count 0), then
+    /// dst[j][i] = sum_t taps_x[t] * row[i + t - off_x] (columns outside count 0), each summed in
+    /// float from 0 in t order (n_y, n_x <= kMaxTaps).
+    void (*shift_blur)(const ShiftBlurArgs& a);
     /// dst[c * rows + r] = src[r * cols + c].
     void (*transpose)(const float* src, float* dst, std::size_t rows, std::size_t cols);
     /// The heading blur of cells [c0, c0 + m) of every bin: belief[b][c] = float(acc * a + f) with
@@ -66,11 +96,12 @@ struct FilterKernels {
     void (*heading_conv)(const float* work, std::size_t bins, std::size_t n, std::size_t c0, std::size_t m,
                          const float* taps, const std::size_t* offsets, std::size_t n_taps, float a, float f,
                          float* belief);
-    /// The measurement of cells [c0, c0 + m) of every bin (c0 a multiple of 16), bins in order:
-    /// y = max(sum_k data[k n + c] * log_lik[b][index[k n + c]] (float, k order, from 0), -60);
-    /// belief[b][c] = prior[b][c] * exp2(y) (exp2_approx; prior: see UpdateArgs);
-    /// marginal[c] = (b == 0 ? 0 : marginal[c]) + belief[b][c].
-    void (*measure)(const UpdateArgs& u, std::size_t c0, std::size_t m);
+    /// The measurement of cells [c0, c0 + m) of bins [b, b + bins) (c0 a multiple of kBlock), bin
+    /// by bin in order; in[q * n_taps + t]: the n_taps predicted slices of bin b + q's prior:
+    /// y (see UpdateArgs) floored at -60; belief[b][c] = prior[c] * exp2(y) (exp2_approx; prior:
+    /// see UpdateArgs); marginal[c] = (b == 0 ? 0 : marginal[c]) + belief[b][c].
+    void (*measure)(const UpdateArgs& u, std::size_t b, std::size_t bins, const float* const* in, std::size_t c0,
+                    std::size_t m);
     /// values[c] = values[c] * a + f.
     void (*scale_add)(float* values, std::size_t n, float a, float f);
     /// lanes[c % 16] += values[c] (double).
@@ -83,10 +114,10 @@ struct FilterKernels {
 /// a degree-5 polynomial in f in [-0.5, 0.5] (Horner), times 2^n. What measure computes.
 float exp2_approx(float y) noexcept;
 
-/// The total of 16 lane sums, added in lane order.
-inline double lane_total(const double* lanes) noexcept {
+/// The total of `count` lane sums, added in lane order.
+inline double lane_total(const double* lanes, std::size_t count = kSumLanes) noexcept {
     double total = 0;
-    for (std::size_t l = 0; l < kSumLanes; ++l) total += lanes[l];
+    for (std::size_t l = 0; l < count; ++l) total += lanes[l];
     return total;
 }
 

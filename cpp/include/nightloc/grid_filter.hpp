@@ -30,8 +30,11 @@
 //      over a tile that holds everything the passes spread beyond the grid;
 //   3. heading blur: a circular Gaussian of std sqrt(heading_std^2 + heading_floor^2) radians
 //      over the bins (taps within 3 std, those below 1e-4 of the peak left out);
-//   4. normalization and a uniform floor: p = (1 - uniform_floor) p / sum + uniform_floor / cells
-//      (a kidnapped robot is found again; an empty grid becomes uniform).
+//   4. a uniform floor: p = (1 - uniform_floor) p / total + uniform_floor / cells, where total is
+//      the belief's mass before the prediction (mass that left the grid is gone, not given back
+//      to the cells that stay; a kidnapped robot is found again; an empty grid becomes uniform).
+//   The prediction is pending until the next update, which runs it fused with the measurement,
+//   slice by slice while the slices are in cache (or until the belief is read).
 // Map-frame motion (dx, dy): one shift, blur std sqrt(distance_std^2 + (|d| heading_std)^2 +
 // position_floor^2). Unknown motion: blur std unknown_spread, heading forgotten.
 //
@@ -60,11 +63,40 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <new>
 #include <vector>
 
 #include "nightloc/heatmap.hpp"
 
 namespace nightloc {
+namespace detail {
+struct UpdateArgs;
+
+/// Allocates on 64-byte boundaries (a cache line, an AVX-512 register): the filter's vector
+/// loops read whole lines instead of pairs of them.
+template <class T>
+struct LineAllocator {
+    using value_type = T;
+    LineAllocator() noexcept = default;
+    template <class U>
+    LineAllocator(const LineAllocator<U>&) noexcept {}
+    T* allocate(std::size_t n) {
+        if (n > static_cast<std::size_t>(-1) / sizeof(T) - 64) throw std::bad_alloc();
+        return static_cast<T*>(::operator new(n * sizeof(T), std::align_val_t{64}));
+    }
+    void deallocate(T* p, std::size_t) noexcept { ::operator delete(p, std::align_val_t{64}); }
+    template <class U>
+    bool operator==(const LineAllocator<U>&) const noexcept {
+        return true;
+    }
+    template <class U>
+    bool operator!=(const LineAllocator<U>&) const noexcept {
+        return false;
+    }
+};
+template <class T>
+using LineVector = std::vector<T, LineAllocator<T>>;
+}  // namespace detail
 
 /// The filter's tunables (python: nightloc.localization.FilterParams, where they are documented).
 struct GridFilterSettings {
@@ -163,14 +195,19 @@ public:
     void set_belief(const float* belief, bool pose, double offset);
 
 private:
+    /// One slice's pending motion: its source bin and the shift and blur, in cells.
+    struct SliceMotion {
+        std::size_t source;
+        double shift_x, shift_y, sigma_x, sigma_y;
+    };
     void to_position();
     void to_pose();
-    // work_ holds a prediction before its heading blur and normalization: pending until the next
-    // update (fused there) or materialize()
-    void finish_prediction(double total, std::vector<float> taps, std::vector<std::size_t> offsets);
+    // A prediction is pending until the next update (fused with it) or materialize(): per bin of
+    // the result its SliceMotion, then the heading blur, the normalization and the floor.
+    void begin_prediction(std::vector<float> taps, std::vector<std::size_t> offsets);
     void materialize() const;
-    double translate_blur_slice(const float* src, float* dst, double shift_x, double shift_y, double sigma_x,
-                                double sigma_y);
+    void measure_predicted(detail::UpdateArgs& args);
+    void translate_blur_slice(const float* src, float* dst, const SliceMotion& m) const;
     void compute_marginal() const;
 
     GridFilterMap map_;
@@ -180,6 +217,7 @@ private:
     double offset_ = 0;
     mutable double scale_ = 1;
     mutable bool pending_ = false;
+    std::vector<SliceMotion> pending_motion_;
     std::vector<float> pending_taps_;
     std::vector<std::size_t> pending_offsets_;
     float pending_a_ = 1, pending_f_ = 0;
@@ -190,16 +228,25 @@ private:
     std::vector<float> ell_data_;  // the weights, slot k of cell c at k * cells + c; a cell
                                    // without weights: weight 1 at place index places_ (the fill)
     std::vector<std::int32_t> ell_index_;
-    std::vector<std::int32_t> ell_places_;  // per 16-cell block and slot: its <= 4 places, or -1
-    mutable std::vector<float> belief_;
-    std::vector<float> work_;
-    mutable std::vector<float> marginal_;
+    std::vector<std::int32_t> block_start_, block_places_;  // the measurement's dense blocks
+    detail::LineVector<float> block_weights_;
+    mutable detail::LineVector<float> belief_;
+    mutable detail::LineVector<float> work_;  // predicted slices (materialize: all bins; an update: a pool)
+    std::vector<std::int32_t> slot_of_, free_slots_;
+    std::vector<const float*> slices_;  // the measurement's prior slices
+    std::vector<std::size_t> last_use_, dest_of_source_;
+    mutable detail::LineVector<float> marginal_;
     mutable bool marginal_valid_ = true;
-    std::vector<float> tile_a_, tile_b_, zeros_, padded_, taps_x_, taps_y_, wide_a_, wide_b_, wide_c_;
-    std::vector<float> sums_;  // running sums of the box passes
+    mutable detail::LineVector<float> row_buf_, zeros_, padded_, wide_a_, wide_b_;
+    mutable std::vector<float> taps_x_, taps_y_;
+    mutable std::vector<float> sums_;  // running sums of the box passes
     std::vector<float> table_, mins_, place_scores_, log_lik_;
     std::vector<std::int32_t> best_shifts_;
-    mutable std::vector<double> scratch_;
+    mutable std::vector<double> xs_, dx2_, hist_;  // the estimate's scratch
+    struct RingCell {
+        double d2, mass;  // squared distance (m^2) from the estimate, marginal mass
+    };
+    mutable std::vector<RingCell> ring_;
 };
 
 }  // namespace nightloc
