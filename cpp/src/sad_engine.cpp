@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cstring>
 #include <limits>
+#include <mutex>
 #include <stdexcept>
 #include <vector>
 
@@ -248,17 +249,34 @@ std::size_t match(const std::uint8_t* query, const std::uint8_t* refs, std::size
                   std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, float* scores,
                   std::int32_t* best_shifts, double* headings, int threads) {
     if (n_refs == 0) throw std::invalid_argument("the reference stack is empty");
-    std::vector<std::uint32_t> sums(n_refs);
-    difference_matrix_sums(query, 1, refs, n_refs, height, width, shifts, n_shifts, sums.data(), best_shifts, threads);
+    const SearchShape shape = detail::make_search_shape(height, width, shifts, n_shifts);
     const auto pixels = static_cast<double>(height * width);
-    std::size_t best = 0;
-    for (std::size_t i = 0; i < n_refs; ++i) {
-        scores[i] = score_from_sum(sums[i], pixels);
-        if (sums[i] < sums[best]) best = i;  // the first minimum: ties go to the lowest index
-    }
-    if (headings != nullptr) {
-        for (std::size_t i = 0; i < n_refs; ++i) headings[i] = shift_heading(best_shifts[i], width);
-    }
+    // Scores, shifts and headings are written by the thread that computed the tile (no serial
+    // pass after the threads); the best reference is the lowest (sum, index) over the tiles.
+    std::mutex best_mutex;
+    std::size_t best = n_refs;
+    std::uint32_t best_sum = 0;
+    for_each_difference_tile(query, 1, refs, n_refs, shape, threads, [&](const Tile& tile) {
+        std::size_t tile_best = 0;
+        for (std::size_t i = 0; i < tile.r_count; ++i) {
+            const std::size_t r = tile.r_first + i;
+            scores[r] = score_from_sum(tile.sums[i], pixels);
+            best_shifts[r] = tile.shifts[i];
+            if (tile.sums[i] < tile.sums[tile_best]) tile_best = i;  // the first minimum of the tile
+        }
+        if (headings != nullptr) {
+            for (std::size_t i = 0; i < tile.r_count; ++i) {
+                headings[tile.r_first + i] = shift_heading(tile.shifts[i], width);
+            }
+        }
+        const std::uint32_t sum = tile.sums[tile_best];
+        const std::size_t index = tile.r_first + tile_best;
+        std::lock_guard<std::mutex> lock(best_mutex);
+        if (best == n_refs || sum < best_sum || (sum == best_sum && index < best)) {  // ties: lowest index
+            best = index;
+            best_sum = sum;
+        }
+    });
     return best;
 }
 

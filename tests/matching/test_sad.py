@@ -73,6 +73,26 @@ def test_ties_go_to_earliest_shift_and_lowest_reference(simd_path):
     assert flat.index == 0 and np.all(flat.shifts == 0)
 
 
+def test_match_on_threads_ties_go_to_lowest_reference_across_chunks(simd_path):
+    """Two threads split the references into chunks; the best of each chunk is merged: the
+    lowest (sum, index) must win wherever the tied copies land (copies near both ends)."""
+    rng = np.random.default_rng(5)
+    refs = random_stack(rng, 1500, 24, 48)  # 8.3e7 comparisons: two threads take part
+    query = random_stack(rng, 1, 24, 48)[0]
+    for copies in ([1499, 1200, 901], [7, 1498], [0, 749, 750, 1499]):
+        tied = refs.copy()
+        for k, place in enumerate(copies):
+            tied[place] = np.roll(query, 3 + k, axis=1)  # each a zero-difference match
+        expected_scores, expected_shifts = oracle.difference_matrix(query[None], tied, np.arange(48))
+        for threads in (1, 2):
+            result = nightloc.match(query, tied, threads=threads)
+            assert result.index == min(copies)
+            np.testing.assert_array_equal(result.scores, expected_scores[0])
+            np.testing.assert_array_equal(result.shifts, expected_shifts[0])
+            headings = 2 * np.pi * expected_shifts[0] / 48
+            np.testing.assert_allclose(result.headings, np.where(headings > np.pi, headings - 2 * np.pi, headings))
+
+
 def test_extreme_values_do_not_overflow(simd_path):
     # 0 against 255 everywhere: the largest possible sums (16-bit lanes and flushes inside).
     for h, w in ((24, 48), (64, 64), (96, 128)):
