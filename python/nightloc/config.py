@@ -372,11 +372,12 @@ def load_params(path: str | os.PathLike[str], cls: type[T] | None = None) -> T:
     return found[section] if section in found else chosen()
 
 
-def save_params(path: str | os.PathLike[str], params: Any | Iterable[Any]) -> None:
+def save_params(path: str | os.PathLike[str], params: Any | Iterable[Any], *, overwrite: bool = False) -> None:
     """Writes one parameter instance, or several of different classes, to a TOML file.
 
     Every field is written, defaults included, so the file documents the full configuration.
-    The write is atomic (temporary file, then rename).
+    The write is atomic (temporary file, then rename). An existing file is replaced only with
+    ``overwrite=True`` (else FileExistsError, the file untouched); the parent folder must exist.
     """
     items = list(params) if isinstance(params, (list, tuple)) else [params]
     if not items:
@@ -387,4 +388,4 @@ def save_params(path: str | os.PathLike[str], params: Any | Iterable[Any]) -> No
         if section in document:
             raise ValueError(f"two instances for table [{section}]")
         document[section] = params_to_dict(item)
-    write_text(Path(path), dumps_toml(document, header="nightloc parameters"))
+    write_text(Path(path), dumps_toml(document, header="nightloc parameters"), overwrite=overwrite)

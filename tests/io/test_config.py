@@ -176,9 +176,24 @@ def test_save_errors_and_atomic_write(tmp_path, monkeypatch):
 
     monkeypatch.setattr(os, "replace", failing_replace)
     with pytest.raises(OSError, match="disk full"):
-        save_params(tmp_path / "p.toml", PreparationParams(width=16))
+        save_params(tmp_path / "p.toml", PreparationParams(width=16), overwrite=True)
     assert (tmp_path / "p.toml").read_bytes() == before
     assert os.listdir(tmp_path) == ["p.toml"]
+
+
+def test_save_replaces_an_existing_file_only_with_overwrite(tmp_path):
+    """A user's parameter file is never replaced by accident (as maps and traverses)."""
+    mine = tmp_path / "tuned.toml"
+    mine.write_text("# my notes\n[preparation]\nwidth = 32\n")
+    before = mine.read_bytes()
+    with pytest.raises(FileExistsError, match="overwrite=True"):
+        save_params(mine, PreparationParams(width=16))
+    assert mine.read_bytes() == before
+    save_params(mine, PreparationParams(width=16), overwrite=True)
+    assert load_params(mine) == PreparationParams(width=16)
+    with pytest.raises(FileNotFoundError):
+        save_params(tmp_path / "missing" / "p.toml", PreparationParams())
+    assert sorted(os.listdir(tmp_path)) == ["tuned.toml"]
 
 
 def test_registration_rules():
