@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstring>
 
+#include "float_kernel_table.hpp"
 #include "sad_kernels.hpp"  // NIGHTLOC_X86_KERNELS
 
 #define NL_INLINE inline __attribute__((always_inline))
@@ -207,24 +208,13 @@ NL_DEFINE_HEAT_KERNELS(avx512, __attribute__((target("avx512f"))), lanes<16>)
 }  // namespace
 
 const HeatKernels& heat_kernels(SimdBackend backend) noexcept {
-    switch (backend) {
-        case SimdBackend::scalar:
-            return kernels_scalar;
 #if NIGHTLOC_X86_KERNELS
-        case SimdBackend::sse2:
-            return kernels_baseline;
-        case SimdBackend::avx2:
-            return kernels_avx2;
-        case SimdBackend::avx512bw:
-            return kernels_avx512;
-        default:
-            return kernels_scalar;  // another architecture's path: never active here
+    static const FloatKernelTables<HeatKernels> tables{kernels_scalar, kernels_baseline, &kernels_avx2,
+                                                       &kernels_avx512};
 #else
-        // AArch64: the baseline kernels are NEON (4-lane vectors; the dot product adds nothing)
-        default:
-            return kernels_baseline;
+    static const FloatKernelTables<HeatKernels> tables{kernels_scalar, kernels_baseline, nullptr, nullptr};
 #endif
-    }
+    return tables.of(backend);
 }
 
 }  // namespace nightloc::detail
