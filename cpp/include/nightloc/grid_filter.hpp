@@ -106,7 +106,7 @@ struct GridFilterSettings {
     double heading_std = 0.0;         ///< odometry noise per step, radians
     double position_floor = 0.05;     ///< metres of blur per step added in quadrature (model error)
     double heading_floor = 0.05;      ///< radians of heading blur per step added in quadrature
-    double uniform_floor = 5e-3;      ///< share of the belief spread uniformly per prediction
+    double uniform_floor = 1.5e-2;    ///< share of the belief spread uniformly per prediction
     double unknown_spread = 2.0;      ///< metres of blur when the motion is unknown
     double credibility = 0.9;         ///< mass of the credible disk
     double confidence_radius = 1.0;   ///< metres: confidence = mass within this of the estimate

@@ -73,7 +73,7 @@ class FilterParams:
     likelihood_gain: float = 3.0
     position_floor: float = 0.05
     heading_floor: float = 0.05
-    uniform_floor: float = 5e-3
+    uniform_floor: float = 1.5e-2
     unknown_spread: float = 2.0
     credibility: float = 0.9
     estimate_window: int = 2
