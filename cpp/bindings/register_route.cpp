@@ -147,18 +147,6 @@ void difference_matrix_into(const py::array& queries_in, const py::array& refs_i
 
 // ---- route filter (nightloc/route_filter.hpp) ----------------------------------------------
 
-// The filter's bindings use only checked_matrix / checked_stack / F32Array from above (kept the
-// same when the bindings moved to glue.hpp) and these two local helpers.
-std::string float_text(double value) { return std::to_string(value); }
-
-std::string filter_shape_text(const py::array& a) {
-    std::string s = "(";
-    for (py::ssize_t d = 0; d < a.ndim(); ++d) s += (d ? ", " : "") + std::to_string(a.shape(d));
-    return s + (a.ndim() == 1 ? ",)" : ")");
-}
-
-using FilterImage = py::array_t<std::uint8_t, py::array::c_style>;
-
 // A C-contiguous 1-D float32 row of n values.
 py::array_t<float, py::array::c_style> checked_row(const py::array& a, std::size_t n) {
     if (!py::isinstance<py::array_t<float>>(a)) {
@@ -167,17 +155,13 @@ py::array_t<float, py::array::c_style> checked_row(const py::array& a, std::size
     }
     if (a.ndim() != 1 || static_cast<std::size_t>(a.shape(0)) != n) {
         throw py::value_error("row must have shape (" + std::to_string(n) + ",) (one value per reference), got " +
-                              filter_shape_text(a));
+                              shape_text(a));
     }
     if (!(a.flags() & py::array::c_style)) throw py::value_error("row must be C-contiguous");
     return py::reinterpret_borrow<py::array_t<float, py::array::c_style>>(a);
 }
 
 py::tuple step_tuple(const nightloc::RouteFilterStep& s) { return py::make_tuple(s.best, s.confidence, s.off_route); }
-
-nightloc::RouteFilter make_filter(std::size_t n_refs, const nightloc::RouteFilterParams& params) {
-    return nightloc::RouteFilter(n_refs, params);  // std::invalid_argument -> ValueError
-}
 
 // weights: None or n values in [0, 1] (copied), as a vector (empty for None).
 std::vector<double> checked_weights(const py::object& weights_in, std::size_t n) {
@@ -190,7 +174,7 @@ std::vector<double> checked_weights(const py::object& weights_in, std::size_t n)
     }
     weights.assign(w.data(), w.data() + n);
     for (double v : weights) {
-        if (!(v >= 0.0 && v <= 1.0)) throw py::value_error("weights must lie in [0, 1], got " + float_text(v));
+        if (!(v >= 0.0 && v <= 1.0)) throw py::value_error("weights must lie in [0, 1], got " + std::to_string(v));
     }
     return weights;
 }
@@ -223,8 +207,7 @@ py::tuple run_rows(nightloc::RouteFilter& filter, const py::array& matrix_in, co
 py::tuple route_filter_matrix(const py::array& matrix_in, const nightloc::RouteFilterParams& params,
                               const py::object& weights_in, int threads) {
     const F32Array matrix = checked_matrix(matrix_in, "matrix", false);
-    if (matrix.shape(1) == 0)
-        throw py::value_error("matrix has no references (shape " + filter_shape_text(matrix) + ")");
+    if (matrix.shape(1) == 0) throw py::value_error("matrix has no references (shape " + shape_text(matrix) + ")");
     nightloc::RouteFilter filter(static_cast<std::size_t>(matrix.shape(1)), params);
     return run_rows(filter, matrix, weights_in, threads);
 }
@@ -254,7 +237,7 @@ py::tuple filter_frame(nightloc::RouteFilter& filter, const py::array& image_in,
         !(image_in.flags() & py::array::c_style)) {
         throw py::type_error("image must be a C-contiguous 2-D uint8 array (one prepared frame)");
     }
-    const auto image = py::reinterpret_borrow<FilterImage>(image_in);
+    const auto image = py::reinterpret_borrow<nightloc::glue::CArray<std::uint8_t>>(image_in);
     if (image.shape(0) != refs.shape(1) || image.shape(1) != refs.shape(2)) {
         throw py::value_error("the image is " + std::to_string(image.shape(0)) + " x " +
                               std::to_string(image.shape(1)) + " pixels but refs are " + std::to_string(refs.shape(1)) +
@@ -268,15 +251,10 @@ py::tuple filter_frame(nightloc::RouteFilter& filter, const py::array& image_in,
     if (n_refs < 2) throw py::value_error("enhancement needs at least 2 references");
     if (enhance_radius < 1) throw py::value_error("enhance_radius must be >= 1, got " + std::to_string(enhance_radius));
     if (!(divisor > 0.0)) throw py::value_error("divisor must be > 0");
-    if (!py::isinstance<py::array_t<std::int32_t>>(shifts_in) || shifts_in.ndim() != 1 || shifts_in.size() == 0) {
-        throw py::type_error("shifts must be a non-empty 1-D int32 array");
-    }
-    const auto shifts_view = py::reinterpret_borrow<py::array_t<std::int32_t>>(shifts_in).unchecked<1>();
-    std::vector<std::int32_t> shifts(static_cast<std::size_t>(shifts_view.shape(0)));
-    for (py::ssize_t i = 0; i < shifts_view.shape(0); ++i) shifts[static_cast<std::size_t>(i)] = shifts_view(i);
+    const std::vector<std::int32_t> shifts = nightloc::glue::shift_list(shifts_in, /*non_empty=*/true);
     F32Array row = checked_matrix(row_in, "row", true);
     if (row.shape(0) != 1 || static_cast<std::size_t>(row.shape(1)) != n_refs) {
-        throw py::value_error("row must have shape (1, " + std::to_string(n_refs) + "), got " + filter_shape_text(row));
+        throw py::value_error("row must have shape (1, " + std::to_string(n_refs) + "), got " + shape_text(row));
     }
     const std::uint8_t* q = image.data();
     const std::uint8_t* r = refs.data();
@@ -314,14 +292,12 @@ void register_route_filter(py::module_& m) {
         .def("validate", [](const nightloc::RouteFilterParams& p) { nightloc::validate(p); });
 
     py::class_<nightloc::RouteFilter>(m, "RouteFilter", "The route filter's state and per-frame step.")
-        .def(py::init(&make_filter), py::arg("n_refs"), py::arg("params"))
+        .def(py::init<std::size_t, const nightloc::RouteFilterParams&>(), py::arg("n_refs"),
+             py::arg("params"))  // std::invalid_argument -> ValueError
         .def(
             "step",
             [](nightloc::RouteFilter& f, const py::array& row_in, double weight) {
-                const auto row = checked_row(row_in, f.n_refs());
-                if (!(weight >= 0.0 && weight <= 1.0)) {
-                    throw py::value_error("weight must be in [0, 1], got " + float_text(weight));
-                }
+                const auto row = checked_row(row_in, f.n_refs());  // the weight is checked by the core
                 const float* r = row.data();
                 nightloc::RouteFilterStep s;
                 {

@@ -37,7 +37,7 @@ std::atomic<int> g_forced{kNotForced};
 
 #if NIGHTLOC_X86_KERNELS
 
-bool cpu_has_avx512bw() noexcept { return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw"); }
+bool cpu_has_avx512bw() noexcept { return simd_backend_supported(SimdBackend::avx512bw); }
 bool cpu_has_vnni() noexcept { return cpu_has_avx512bw() && __builtin_cpu_supports("avx512vnni"); }
 
 struct CpuIdentity {

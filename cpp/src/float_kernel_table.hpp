@@ -6,10 +6,10 @@
 
 namespace nightloc::detail {
 
-/// The float kernels compiled per path: `scalar` (vectorization off: the reference), `baseline`
-/// (4-lane vectors: SSE2 on x86, NEON on AArch64), and on x86 `avx2` (8 lanes) and `avx512`
-/// (16 lanes; nullptr elsewhere). On AArch64 every path but scalar runs the NEON table (the dot
-/// product adds nothing to float work); a path of another architecture gets the scalar table.
+/// The float kernels compiled per path: `scalar` (the reference; vectorization off where it
+/// matters), `baseline` (4-lane vectors: SSE2 on x86, NEON on AArch64), and on x86 `avx2` (8
+/// lanes) and `avx512` (16 lanes; both given on x86, nullptr elsewhere). On AArch64 every path but scalar runs the NEON
+/// table (the dot product adds nothing to float work); a path of another architecture gets the scalar table.
 template <class Kernels>
 struct FloatKernelTables {
     const Kernels& scalar;
@@ -25,9 +25,9 @@ struct FloatKernelTables {
             case SimdBackend::sse2:
                 return baseline;
             case SimdBackend::avx2:
-                return avx2 != nullptr ? *avx2 : scalar;
+                return *avx2;
             case SimdBackend::avx512bw:
-                return avx512 != nullptr ? *avx512 : scalar;
+                return *avx512;
             default:
                 return scalar;  // another architecture's path: never active here
 #else

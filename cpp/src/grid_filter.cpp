@@ -1,6 +1,5 @@
 // The grid Bayes filter (see nightloc/grid_filter.hpp): checks, bookkeeping and the estimate; the
-// loops over the belief run in grid_filter_kernels.cpp (one table per SIMD path) and in the
-// heat-map translation kernel (heatmap.hpp).
+// loops over the belief run in grid_filter_kernels.cpp (one table per SIMD path).
 #include "nightloc/grid_filter.hpp"
 
 #include <algorithm>
@@ -115,8 +114,6 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
     can_pose_ = s.heading_bins > 1 && !map_.ref_headings.empty() && full;
     bins_ = can_pose_ ? s.heading_bins : 1;
     require(bins_ <= (std::size_t{1} << 28) / cells_, "grid filter: heading bins x cells is too large");
-    place_of_ref_ = map_.place_of_ref;
-    shifts_ = map_.shifts;
 
     const auto csr = w.csr();
     // ELL copy of the weights (slot k of cell c at k * cells + c; unused slots weigh 0 at place 0);
@@ -504,8 +501,8 @@ void GridFilter::update_image(const std::uint8_t* query, const std::uint8_t* ref
     if (query == nullptr || refs == nullptr) throw std::invalid_argument("grid filter: null image");
     require(n_refs_in == n_refs(), "grid filter: the reference stack has " + std::to_string(n_refs_in) +
                                        " images but the map has " + std::to_string(n_refs()));
-    rotational_sad(query, refs, n_refs_in, image_height, map_.columns, shifts_.data(), shifts_.size(), table_.data(),
-                   threads);
+    rotational_sad(query, refs, n_refs_in, image_height, map_.columns, map_.shifts.data(), map_.shifts.size(),
+                   table_.data(), threads);
     update(table_.data());
 }
 
@@ -525,7 +522,7 @@ void GridFilter::update(const float* table) {
         for (std::size_t k = 1; k < S; ++k)
             if (row[k] < row[best]) best = k;
         mins_[i] = row[best];
-        best_shifts_[i] = shifts_[best];
+        best_shifts_[i] = map_.shifts[best];
     }
     std::vector<float> sorted(mins_);
     std::sort(sorted.begin(), sorted.end());
@@ -546,7 +543,7 @@ void GridFilter::update(const float* table) {
         for (std::size_t i = 0; i < n; ++i) {
             const float* row = table + i * S;
             const double c = (offset_ - map_.ref_headings[i]) * W / kTwoPi;
-            const auto p = static_cast<std::size_t>(place_of_ref_[i]);
+            const auto p = static_cast<std::size_t>(map_.place_of_ref[i]);
             for (std::size_t b = 0; b < bins_; ++b) {
                 const double k = per_bin * static_cast<double>(b) + c;
                 const double kf = std::floor(k);
@@ -560,7 +557,7 @@ void GridFilter::update(const float* table) {
         }
     } else {
         for (std::size_t i = 0; i < n; ++i) {
-            float& slot = place_scores_[static_cast<std::size_t>(place_of_ref_[i])];
+            float& slot = place_scores_[static_cast<std::size_t>(map_.place_of_ref[i])];
             slot = std::min(slot, mins_[i]);
         }
     }

@@ -295,9 +295,8 @@ NL_INLINE void taps_one2(const float* const* in, const float* taps, std::size_t 
     taps_one(in + 1, taps, n_taps, out1, i);
 }
 
-// Vectors per block of taps_row2 (two accumulators each).
-template <int L>
-constexpr int kTapVectors2 = L == 16 ? 4 : 4;
+// Vectors per block of taps_row2 (two accumulators each), on every path.
+constexpr int kTapVectors2 = 4;
 
 template <int L>
 NL_INLINE void taps_row2(const float* const* in, const float* taps, std::size_t n_taps, float* out0, float* out1,
@@ -309,7 +308,7 @@ NL_INLINE void taps_row2(const float* const* in, const float* taps, std::size_t 
             for (std::size_t i = 0; i < cols; ++i) taps_one2(in, taps, n_taps, out0, out1, i);
             return;
         }
-        constexpr int V = kTapVectors2<L>;
+        constexpr int V = kTapVectors2;
         constexpr std::size_t width = static_cast<std::size_t>(V * L);
         std::size_t pos[V];
         std::size_t i = 0;
@@ -625,18 +624,15 @@ NL_INLINE void sum_body(const float* values, std::size_t n, double* lanes) {
                                      std::size_t c0, std::size_t m) {                                                 \
         measure_body<lanes>(u, b, bins, in, c0, m);                                                                   \
     }                                                                                                                 \
-    attributes void scale_add_##suffix(float* values, std::size_t n, float a, float f) {                              \
-        scale_add_body(values, n, a, f);                                                                              \
-    }                                                                                                                 \
     attributes void sum_##suffix(const float* values, std::size_t n, double* lanes_out) {                             \
         sum_body<lanes>(values, n, lanes_out);                                                                        \
     }                                                                                                                 \
     attributes void sum_slices_##suffix(const float* in, std::size_t bins, std::size_t n, float* out) {               \
         sum_slices_body(in, bins, n, out);                                                                            \
     }                                                                                                                 \
-    const FilterKernels kernels_##suffix{                                                                             \
-        box_rows_##suffix,     conv_rows_##suffix, conv_cols_##suffix, shift_blur_##suffix, transpose_##suffix,       \
-        heading_conv_##suffix, measure_##suffix,   scale_add_##suffix, sum_##suffix,        sum_slices_##suffix};
+    const FilterKernels kernels_##suffix{box_rows_##suffix,   conv_rows_##suffix, conv_cols_##suffix,                 \
+                                         shift_blur_##suffix, transpose_##suffix, heading_conv_##suffix,              \
+                                         measure_##suffix,    sum_##suffix,       sum_slices_##suffix};
 
 #if defined(__GNUC__) && !defined(__clang__)
 #define NL_NO_VECTORIZE __attribute__((optimize("no-tree-vectorize")))

@@ -102,8 +102,6 @@ struct FilterKernels {
     /// see UpdateArgs); marginal[c] = (b == 0 ? 0 : marginal[c]) + belief[b][c].
     void (*measure)(const UpdateArgs& u, std::size_t b, std::size_t bins, const float* const* in, std::size_t c0,
                     std::size_t m);
-    /// values[c] = values[c] * a + f.
-    void (*scale_add)(float* values, std::size_t n, float a, float f);
     /// lanes[c % 16] += values[c] (double).
     void (*sum)(const float* values, std::size_t n, double* lanes);
     /// out[c] = sum over b < bins of in[b * n + c], in float from 0 in b order.

@@ -15,7 +15,7 @@ struct PoolJob {
 };
 
 /// Runs `job` on up to `helpers` threads of the process-wide worker pool while the calling thread
-/// runs `caller(context)`; returns when the caller's part and every helper that took part are
+/// runs `job.run(job.context)` too; returns when the caller's part and every helper that took part are
 /// done. Helpers that wake after the caller's part is finished no longer join. The pool's threads
 /// are started on first use, kept for the life of the process (a fork starts a fresh pool in the
 /// child), and spin briefly before sleeping so that back-to-back calls do not pay a wake-up.

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "float_kernel_table.hpp"
 #include "nightloc/simd.hpp"
 #include "parallel.hpp"
 
@@ -76,11 +77,10 @@ double sum_of_squares(const double* x, std::size_t n) noexcept {
     return total;
 }
 
-// The largest (Max) or smallest value of n >= 1 doubles without NaN: four interleaved running
-// extremes (exact in any order; the layout lets the compiler vectorize).
-template <bool Max>
-double extreme_of(const double* x, std::size_t n) noexcept {
-    auto pick = [](double a, double b) { return Max ? (b > a ? b : a) : (b < a ? b : a); };
+// The largest value of n >= 1 doubles without NaN: four interleaved running maxima (exact in any
+// order; the layout lets the compiler vectorize).
+double max_of(const double* x, std::size_t n) noexcept {
+    auto pick = [](double a, double b) { return b > a ? b : a; };
     double e0 = x[0], e1 = x[0], e2 = x[0], e3 = x[0];
     std::size_t i = 0;
     for (; i + 4 <= n; i += 4) {
@@ -227,8 +227,7 @@ void likelihood_baseline(double* out, std::size_t n, double slope, double cap, d
     likelihood_loop(out, n, slope, cap, best_dev);
 }
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define NIGHTLOC_ROUTE_FILTER_AVX2 1
+#if NIGHTLOC_X86_KERNELS
 __attribute__((target("avx2"))) void likelihood_avx2(double* out, std::size_t n, double slope, double cap,
                                                      double best_dev) noexcept {
     likelihood_loop(out, n, slope, cap, best_dev);
@@ -239,19 +238,19 @@ __attribute__((target("avx512f,avx512bw"))) void likelihood_avx512(double* out, 
 }
 #endif
 
+struct LikelihoodKernel {
+    void (*run)(double* out, std::size_t n, double slope, double cap, double best_dev) noexcept;
+};
+
 void likelihood_from_deviations(double* out, std::size_t n, double slope, double cap, double best_dev) noexcept {
-#ifdef NIGHTLOC_ROUTE_FILTER_AVX2
-    const SimdBackend path = active_simd_backend();
-    if (path >= SimdBackend::avx512bw) {
-        likelihood_avx512(out, n, slope, cap, best_dev);
-        return;
-    }
-    if (path >= SimdBackend::avx2) {
-        likelihood_avx2(out, n, slope, cap, best_dev);
-        return;
-    }
+    static const LikelihoodKernel baseline{likelihood_baseline};
+#if NIGHTLOC_X86_KERNELS
+    static const LikelihoodKernel avx2{likelihood_avx2}, avx512{likelihood_avx512};
+    static const detail::FloatKernelTables<LikelihoodKernel> tables{baseline, baseline, &avx2, &avx512};
+#else
+    static const detail::FloatKernelTables<LikelihoodKernel> tables{baseline, baseline, nullptr, nullptr};
 #endif
-    likelihood_baseline(out, n, slope, cap, best_dev);
+    tables.of(active_simd_backend()).run(out, n, slope, cap, best_dev);
 }
 
 }  // namespace
@@ -363,7 +362,7 @@ RouteFilterStep RouteFilter::update(const double* likelihood, double likelihood_
     }
 
     // 3. Answer: the first maximum, and the mass around it.
-    const double top = extreme_of<true>(b, n);
+    const double top = max_of(b, n);
     std::size_t best = 0;
     while (best + 1 < n && b[best] != top) ++best;
     const std::size_t lo = best >= params_.window ? best - params_.window : 0;

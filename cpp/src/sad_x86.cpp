@@ -14,10 +14,6 @@
 
 #include <immintrin.h>
 
-#include <cstdlib>
-#include <cstring>
-#include <memory>
-
 #define NL_TARGET_SSE2 __attribute__((target("sse2")))
 #define NL_TARGET_AVX2 __attribute__((target("avx2")))
 #define NL_TARGET_AVX512 __attribute__((target("avx512f,avx512bw")))

@@ -173,8 +173,8 @@ public:
     double offset() const noexcept { return offset_; }
     std::size_t height() const noexcept { return height_; }
     std::size_t width() const noexcept { return width_; }
-    std::size_t n_refs() const noexcept { return place_of_ref_.size(); }
-    std::size_t n_shifts() const noexcept { return shifts_.size(); }
+    std::size_t n_refs() const noexcept { return map_.place_of_ref.size(); }
+    std::size_t n_shifts() const noexcept { return map_.shifts.size(); }
     const GridFilterSettings& settings() const noexcept { return settings_; }
 
     /// The belief, active_bins() x height x width, multiplied by scale() (sums to 1).
@@ -222,8 +222,6 @@ private:
     std::vector<std::size_t> pending_offsets_;
     float pending_a_ = 1, pending_f_ = 0;
     double lambda_ = 0;
-    std::vector<std::int32_t> place_of_ref_;
-    std::vector<std::int32_t> shifts_;
     std::size_t slots_ = 0;        // most weights of a cell (>= 1)
     std::vector<float> ell_data_;  // the weights, slot k of cell c at k * cells + c; a cell
                                    // without weights: weight 1 at place index places_ (the fill)
