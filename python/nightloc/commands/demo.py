@@ -25,12 +25,12 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .._validate import MAX_REPEATS
 from ..figures import add_figure_format_option
 from ..io.atomic import make_folder, output_set
 from ..io.reference_map import ReferenceMap
 from ..localization.evaluation import Evaluation, EvaluationSettings, evaluate, match_traverse
 from ..localization.localizer import LocalizationParams
+from .evaluate import check_draw_options
 
 if TYPE_CHECKING:
     import numpy as np
@@ -58,7 +58,7 @@ def comparison_errors(
     :data:`COMPARE_FROM` on (interpolation on)."""
     out = {}
     for label, ev in (("map-frame odometry", map_evaluation), ("wheel odometry (RobotMotion)", wheel_evaluation)):
-        later = _frame_index(ev) >= COMPARE_FROM - 1
+        later = ev.frame_index() >= COMPARE_FROM - 1
         by_method: dict[str, list[np.ndarray]] = {"paper": [], "filter": []}
         for model in ev.settings.noise_models:
             for method in by_method:
@@ -70,23 +70,10 @@ def comparison_errors(
     return out
 
 
-def _frame_index(evaluation: Evaluation):
-    import numpy as np
-
-    index = np.zeros(len(evaluation), dtype=int)
-    for m in evaluation.matches:
-        rows = evaluation.columns["query"] == m.name
-        lookup = {image: k for k, image in enumerate(m.images)}
-        index[rows] = [lookup[i] for i in evaluation.columns["image"][rows]]
-    return index
-
-
-def comparison_table(map_evaluation: Evaluation, wheel_evaluation: Evaluation) -> str:
+def comparison_table(errors: dict[str, dict[str, list[np.ndarray]]], models: tuple[int, ...]) -> str:
     """The medians of :func:`comparison_errors` as text: rows odometry x method, columns noise models."""
     import numpy as np
 
-    errors = comparison_errors(map_evaluation, wheel_evaluation)
-    models = map_evaluation.settings.noise_models
     header = f"{'odometry':<30}{'method':<16}" + "".join(f"noise {m:<4}" for m in models)
     lines = [header, "-" * len(header)]
     for label, by_method in errors.items():
@@ -123,10 +110,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 def run(args: argparse.Namespace) -> int:
     """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
-    if args.seed < 0:
-        raise ValueError(f"--seed must be non-negative, got {args.seed}")
-    if not 1 <= args.repeats <= MAX_REPEATS:
-        raise ValueError(f"--repeats must be in 1..{MAX_REPEATS} (MAX_REPEATS), got {args.repeats}")
+    check_draw_options(args)
     from ..synth import default_cache_dir, default_dataset
 
     start = time.perf_counter()
@@ -151,6 +135,8 @@ def run(args: argparse.Namespace) -> int:
             matches = match_traverse(ref_map, folders[world][query], f"{world}/{query}", tables=True)
             evaluation = evaluate(ref_map, matches, settings, params, progress_desc=f"{world}: evaluating")
             wheel_evaluation = evaluate(ref_map, matches, wheel, params, progress_desc=f"{world}: wheel odometry")
+            errors = comparison_errors(evaluation, wheel_evaluation)
+            frames = len(matches.results)
             target = make_folder(out / world)
             written = [
                 evaluation.write_errors_csv(target / "errors.csv").name,
@@ -168,16 +154,14 @@ def run(args: argparse.Namespace) -> int:
                         evaluation, ref_map, target, params=params, figure_format=args.figure_format
                     )
                 ]
-                frames = len(matches.results)
                 figure = figure_path(target, "filter_vs_paper", args.figure_format)
                 comparison_figure(
-                    comparison_errors(evaluation, wheel_evaluation),
+                    errors,
                     f"{world}: night query frames {COMPARE_FROM}-{frames}, {args.repeats} noise draw(s) per model",
                     figure,
                     args.figure_format,
                 )
                 written.append(figure.name)
-            frames = len(matches.results)
             print()
             print(
                 f"{world}: {frames} night query frames against a day map of {len(ref_map)} images; "
@@ -190,7 +174,7 @@ def run(args: argparse.Namespace) -> int:
                 f"{world}: the Bayes filter beside the paper's method (n = {COMPARE_SEQ_LEN}), median distance "
                 f"error (m) over frames {COMPARE_FROM}-{frames}, {args.repeats} noise draw(s):"
             )
-            print(comparison_table(evaluation, wheel_evaluation))
+            print(comparison_table(errors, evaluation.settings.noise_models))
             reports.append(f"{args.out / world}/" + ", ".join(written))
     for report in reports:
         print(f"wrote {report}")

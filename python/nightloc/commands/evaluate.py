@@ -152,12 +152,17 @@ def parse_noise(text: str, option: str = "--odometry-noise") -> int | NoiseModel
     return NoiseModel(*values)
 
 
-def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
-    """The :class:`EvaluationSettings` of the command-line options (checked)."""
+def check_draw_options(args: argparse.Namespace) -> None:
+    """ValueError unless ``--seed`` and ``--repeats`` (the noise draws) are in range."""
     if args.seed < 0:
         raise ValueError(f"--seed must be non-negative, got {args.seed}")
     if not 1 <= args.repeats <= MAX_REPEATS:
         raise ValueError(f"--repeats must be in 1..{MAX_REPEATS} (MAX_REPEATS), got {args.repeats}")
+
+
+def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
+    """The :class:`EvaluationSettings` of the command-line options (checked)."""
+    check_draw_options(args)
     seq_lengths = parse_int_list(args.seq_lengths, "--seq-lengths")
     if min(seq_lengths) < 1 or max(seq_lengths) > MAX_SEQ_LEN:
         raise ValueError(f"--seq-lengths must be in 1..{MAX_SEQ_LEN}, got {min(seq_lengths)}..{max(seq_lengths)}")
@@ -177,11 +182,12 @@ def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
     )
 
 
-def _load_reference(path: Path, preparation: PreparationParams | None) -> ReferenceMap:
+def load_reference(path: Path, preparation: PreparationParams | None) -> ReferenceMap:
+    """The map of a reference traverse folder, or a map file (anything but a regular file is
+    refused, naming what it is)."""
     if path.is_dir():
         return ReferenceMap.build(load_traverse(path), preparation)
-    # a map file (anything but a regular file is refused, naming what it is)
-    return ReferenceMap.load(path, preparation) if preparation is not None else ReferenceMap.load(path)
+    return ReferenceMap.load(path, preparation)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -208,7 +214,7 @@ def run(args: argparse.Namespace) -> int:
     # Checked and locked before the work; the files appear together at the end, or not at all.
     with output_set(args.out, command="evaluate", inputs=inputs) as out:
         start = time.perf_counter()
-        ref_map = _load_reference(args.reference, preparation)
+        ref_map = load_reference(args.reference, preparation)
         matches = match_traverse(
             ref_map,
             query,

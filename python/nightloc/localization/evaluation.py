@@ -516,23 +516,21 @@ class Evaluation:
             lines.append(line)
         return "\n".join(lines)
 
-    def filter_errors(self, first_frame: int = 10, **selection) -> np.ndarray:
-        """The filter's distance errors from its ``first_frame``-th frame on (1-based, as
-        ``seq_len`` counts them), of the rows matching ``selection``."""
-        mask = self.select(method="filter", **selection) & (self.columns["seq_len"] >= first_frame)
-        return self.columns["error_m"][mask]
+    def frame_index(self) -> np.ndarray:
+        """``(rows,)`` int: each row's frame index within its query traverse (0-based)."""
+        index = np.zeros(len(self), dtype=int)
+        for m in self.matches:
+            rows = self.columns["query"] == m.name
+            lookup = {image: k for k, image in enumerate(m.images)}
+            index[rows] = [lookup[i] for i in self.columns["image"][rows]]
+        return index
 
     def compare_table(self, query: str | None = None, first_frame: int = 10, seq_len: int = 10) -> str:
         """Median error (m) per noise model: the paper's method at ``seq_len`` beside the filter,
         both over the query frames from the ``first_frame``-th on (the filter's first frames
         start from nothing, the paper's from short sequences)."""
         lines = [f"noise | paper n={seq_len} | filter", "-" * 30]
-        index = np.zeros(len(self), dtype=int)
-        for m in self.matches:  # the frame index within its query
-            rows = self.columns["query"] == m.name
-            lookup = {image: k for k, image in enumerate(m.images)}
-            index[rows] = [lookup[i] for i in self.columns["image"][rows]]
-        later = index >= first_frame - 1
+        later = self.frame_index() >= first_frame - 1
         for model in self.settings.models:
             paper = self.columns["error_m"][
                 self.select(seq_len=seq_len, noise_model=model, interpolation=True, query=query, method="paper") & later
@@ -637,31 +635,26 @@ def evaluate(
         ]
     if "filter" in settings.methods:
         work += [("filter", interp, model, repeat, 0) for interp in settings.interpolation for model, repeat in draws]
-    bases = (
-        {interp: Localizer(ref_map, params, method="paper", interpolation=interp) for interp in settings.interpolation}
-        if "paper" in settings.methods
-        else {}
-    )
+    # one localizer per method and interpolation setting; each configuration starts a fresh copy
+    # sharing its grid and weights
+    bases = {
+        (method, interp): Localizer(ref_map, params, method=method, filter_params=filter_params, interpolation=interp)
+        for method in settings.methods
+        for interp in settings.interpolation
+    }
     desc = progress_desc or f"evaluating {matches.name}"
     for method, interp, model, repeat, n in progress(work, total=len(work), desc=desc, unit="config"):
         odometry = odometry_of(model, repeat)
         if method == "paper":
-            loc = bases[interp].with_seq_len(n)
+            loc = bases["paper", interp].with_seq_len(n)
             estimates = [loc.update_match(result, odometry[i]) for i, result in enumerate(matches.results)]
             record(estimates, np.full(n_frames, n), model, interp, repeat, "paper")
         else:
             tables = matches.tables
             if tables is None:  # checked above, or match_traverse(..., tables=True)
                 raise ValueError("the filter needs the rotational tables: match_traverse(..., tables=True)")
-            noise = settings.log_noise if model == LOG_NOISE_MODEL else model
-            loc = Localizer(
-                ref_map,
-                params,
-                method="filter",
-                odometry_noise=noise,
-                filter_params=filter_params,
-                interpolation=interp,
-            )
+            loc = bases["filter", interp].fresh()
+            loc.noise = settings.log_noise if model == LOG_NOISE_MODEL else model
             estimates = [loc.update_table(tables[i], odometry[i]) for i in range(n_frames)]
             record(estimates, np.arange(1, n_frames + 1), model, interp, repeat, "filter")
     columns = {c: np.concatenate(v) if v else np.zeros(0) for c, v in rows.items()}

@@ -163,9 +163,7 @@ class GridFilter:
         self.noise = noise_model(noise)
         self.mapper = mapper
         self.shifts = np.arange(columns, dtype=np.int32) if shifts is None else np.asarray(shifts, dtype=np.int32)
-        place_of_ref = np.empty(mapper.n_refs, dtype=np.int32)
-        for place, members in enumerate(mapper._members):
-            place_of_ref[members] = place
+        place_of_ref = mapper.place_of_ref
         grid = mapper.grid
         settings = {
             "heading_bins": int(params.heading_bins or columns),

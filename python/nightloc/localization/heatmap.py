@@ -316,6 +316,7 @@ class HeatMapper:
         inverse = np.asarray(inverse).ravel()
         order = np.argsort(inverse, kind="stable")
         self._places = places
+        self.place_of_ref = inverse.astype(np.int32)  # (N,) the place each reference stands at
         self._order = order  # references sorted by place
         self._starts = np.flatnonzero(np.r_[True, np.diff(inverse[order]) != 0])
         self._all_distinct = len(places) == len(pos)

@@ -252,15 +252,7 @@ class Localizer:
         self._shifts = ref_map.params.shifts
         self._prepared_shape = (ref_map.params.height, ref_map.params.width)
         if method == "filter":
-            self._filter: GridFilter | None = GridFilter(
-                self.mapper,
-                ref_map.headings,
-                ref_map.params.width,
-                self._shifts,
-                filter_params,
-                odometry_noise,
-                params.confidence_radius,
-            )
+            self._filter: GridFilter | None = self._new_filter(odometry_noise)
             self._sequence = None
         else:
             self._filter = None
@@ -287,21 +279,24 @@ class Localizer:
         clone = object.__new__(Localizer)
         clone.__dict__.update(self.__dict__)
         if self._filter is not None:
-            f = self._filter
-            clone._filter = GridFilter(
-                self.mapper,
-                self.ref_map.headings,
-                self.ref_map.params.width,
-                self._shifts,
-                self.filter_params,
-                f.noise,
-                self.params.confidence_radius,
-            )
+            clone._filter = self._new_filter(self._filter.noise)
         else:
             clone._sequence = self.mapper.sequence(self.params.seq_len)
         clone._guard = StreamGuard("Localizer")
         clone.reset()
         return clone
+
+    def _new_filter(self, noise: int | NoiseModel) -> GridFilter:
+        """A compiled filter over this localizer's grid, with nothing seen yet."""
+        return GridFilter(
+            self.mapper,
+            self.ref_map.headings,
+            self.ref_map.params.width,
+            self._shifts,
+            self.filter_params,
+            noise,
+            self.params.confidence_radius,
+        )
 
     def with_seq_len(self, seq_len: int) -> Localizer:
         """A new localizer for the same map and parameters but another sequence length.
@@ -413,7 +408,7 @@ class Localizer:
             same_image_size(query, self.ref_map.images, "the prepared frame's", "the map's")
             with self._guard("update"):
                 motion = self._motion(odometry)
-                state = self._filter.step_image(np.ascontiguousarray(query), self.ref_map.images, motion, self.threads)
+                state = self._filter.step_image(query, self.ref_map.images, motion, self.threads)
                 return self._filter_estimate(state, return_heatmap)
         result = match(query, self.ref_map.images, shifts=self._shifts, threads=self.threads)
         return self.update_match(result, odometry, return_heatmap=return_heatmap)

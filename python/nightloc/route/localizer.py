@@ -134,12 +134,11 @@ class RouteLocalizer:
         self._threads = thread_count(threads)
         self._seen = 0
         self._guard = StreamGuard("RouteLocalizer")  # one thread at a time (see the class docstring)
+        self._row = np.empty((1, n_refs), dtype=np.float32)
         if self._params.method == "filter":
             self._filter = _core.RouteFilter(n_refs, self._params.core_filter_params())
-            self._row = np.empty((1, n_refs), dtype=np.float32)
             return
         self._window = np.zeros((self._params.ds, n_refs), dtype=np.float32)
-        self._row = np.empty((1, n_refs), dtype=np.float32)
 
     def __copy__(self) -> RouteLocalizer:
         """An independent localizer in the same state (its own window or belief; the prepared

@@ -339,7 +339,7 @@ def _as_frames(source: TraverseInput, name: str, frame_step: int) -> Traverse | 
         return load_traverse(Path(source), frame_step=frame_step)
     if isinstance(source, (Traverse, np.ndarray)):
         return source
-    if isinstance(source, Iterable):
+    if isinstance(source, Iterable):  # apart from the line above for mypy: str is Iterable too
         return source
     raise TypeError(f"{name} must be a Traverse, a path, or frames, got {type(source).__name__}")
 
