@@ -167,6 +167,17 @@ def test_cli_params_naming_a_fifo_fails_at_once(ws, capsys):
     assert "named pipe (FIFO)" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("command", [["localize", "--odometry", "none"], ["evaluate"]])
+def test_cli_map_naming_a_fifo_is_named_at_once(ws, capsys, command):
+    """The map argument of localize (as evaluate's) names a FIFO instead of calling it missing."""
+    fifo = _special(ws, "fifo", "m.map")
+    with no_hang():
+        status = main([command[0], str(fifo), str(ws.traverse.root), "--out", str(ws.fresh("out")), *command[1:]])
+    assert status == 2
+    err = capsys.readouterr().err
+    assert "named pipe (FIFO)" in err and "does not exist" not in err
+
+
 def test_a_symbolic_link_to_a_regular_file_is_read(ws):
     link = ws.fresh("link").with_suffix(".map")
     os.symlink(ws.map_file, link)
@@ -177,4 +188,4 @@ def test_a_symbolic_link_to_a_regular_file_is_read(ws):
 def test_case_count_is_recorded_in_the_readme():
     from reliability_support import reliability_section
 
-    assert f"{len(CASES) + 2} non-regular files" in reliability_section()
+    assert f"{len(CASES) + 4} non-regular files" in reliability_section()

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import os
 import time
 from pathlib import Path
 
@@ -39,7 +40,7 @@ from ..io.reference_map import ReferenceMap
 from ..io.traverse import load_traverse
 from ..localization.localizer import LocalizationParams, Localizer
 from ..localization.odometry import traverse_odometry
-from .evaluate import parse_noise
+from .evaluate import load_reference, parse_noise
 
 #: Columns of ``trajectory.csv``.
 TRAJECTORY_HEADER = ("image", "x", "y", "heading", "confidence", "credible_radius", "ref_index")
@@ -74,11 +75,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def _load_map(path: Path, preparation) -> ReferenceMap:
-    if path.is_file():
-        return ReferenceMap.load(path, preparation) if preparation is not None else ReferenceMap.load(path)
-    if path.is_dir():
-        return ReferenceMap.build(load_traverse(path), preparation)
-    raise DatasetError(f"map {path} does not exist (a map file from nightloc build-map or a reference traverse folder)")
+    if not os.path.lexists(path):
+        raise DatasetError(
+            f"map {path} does not exist (a map file from nightloc build-map or a reference traverse folder)"
+        )
+    return load_reference(path, preparation)  # a FIFO, device or link loop is named
 
 
 def write_trajectory_csv(path: Path, names, estimates) -> Path:
@@ -111,7 +112,8 @@ def run(args: argparse.Namespace) -> int:
     inputs = (args.map, args.log, args.params, args.odometry if args.odometry not in (None, "none") else None)
     check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
     log = load_traverse(args.log)
-    if args.odometry is not None and args.odometry.strip().lower() == "none":
+    no_odometry = args.odometry is not None and args.odometry.strip().lower() == "none"
+    if no_odometry:
         odometry: list = [None] * len(log)
     else:
         odometry = traverse_odometry(log, None if args.odometry is None else Path(args.odometry))
@@ -133,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
             from ..figures._common import figure_path
             from ..figures.trajectory import trajectory_figure
 
-            source = "none" if args.odometry is not None and args.odometry.strip().lower() == "none" else "the log's"
+            source = "none" if no_odometry else "the log's"
             caption = (
                 f"{len(estimates)} frames of {log.root.name} against {len(ref_map)} references; odometry: "
                 f"{source}, noise {args.odometry_noise}; disks: credible radius "
