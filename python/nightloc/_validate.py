@@ -79,9 +79,9 @@ def coordinates(values: np.ndarray, name: str) -> None:
     that is NaN, infinite or reaches :data:`MAX_COORDINATE_M` in magnitude."""
     bad = ~np.isfinite(values) | (np.abs(values) >= MAX_COORDINATE_M)
     if bad.any():
-        row = int(np.argwhere(bad)[0, 0]) if values.ndim else 0
-        shown = values[row].tolist() if values.ndim else float(values)
-        finite = np.isfinite(values[row] if values.ndim else values).all()
+        row = int(np.argwhere(bad)[0, 0])
+        shown = values[row].tolist()
+        finite = np.isfinite(values[row]).all()
         what = f"beyond {_COORDINATE_TEXT} m" if finite else "not finite (NaN or infinite)"
         raise ValueError(
             f"{name}[{row}] = {shown} is {what}; coordinates must be finite metres within {_COORDINATE_TEXT} m "

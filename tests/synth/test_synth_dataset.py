@@ -12,7 +12,14 @@ import pytest
 
 import nightloc
 from nightloc.cli import main
-from nightloc.synth import Camera, default_cache_dir, default_dataset, make_dataset, plan_traverses
+from nightloc.synth import (
+    TRAVERSE_NAMES,
+    Camera,
+    default_cache_dir,
+    default_dataset,
+    make_dataset,
+    plan_traverses,
+)
 from nightloc.synth.dataset import GENERATOR_VERSION
 
 from synth_support import default_synth_data
@@ -51,6 +58,9 @@ def test_traverses_mirror_table_one():
         "garden": {"day_reference": 24, "night_reference": 53, "night_query": 41},
         "living_room": {"day_reference": 52, "night_query": 32},
     }
+    for world in ("garden", "living_room"):  # the names the cache check and default_dataset use
+        for seed in (0, 7):
+            assert tuple(p.name for p in plan_traverses(world, seed)) == TRAVERSE_NAMES[world]
     for world, area in (("garden", (0, 0, 7, 5)), ("living_room", (0, 0, 6, 3))):
         for plan in plan_traverses(world, 0):
             x, y = plan.positions.T

@@ -267,8 +267,14 @@ def pick_heatmap_frame(evaluation: Evaluation, query: str | None = None, seq_len
     ``seq_len - 1`` frames before them (when the traverse is that long)."""
     seq_len = headline_seq_len(evaluation) if seq_len is None else seq_len
     single, multi, _ = _gain(evaluation, query, seq_len)
-    full = min(seq_len - 1, single.size - 1)  # prefer frames with a whole sequence behind them
-    return full + int(np.argmax((single - multi)[full:]))
+    return _largest_drop(single, multi, seq_len)[0]
+
+
+def _largest_drop(single: np.ndarray, multi: np.ndarray, seq_len: int) -> tuple[int, int]:
+    """(frame, full): the frame from ``full`` on (the first with a whole sequence behind it, when
+    the traverse is that long) with the largest drop from ``single`` to ``multi``."""
+    full = min(seq_len - 1, single.size - 1)
+    return full + int(np.argmax((single - multi)[full:])), full
 
 
 def explain_heatmap_frame(
@@ -295,8 +301,8 @@ def explain_heatmap_frame(
     detail = "noise-free odometry, interpolation on"
     if requested:
         return f"Frame requested: {errors} ({detail})"
-    if frame == pick_heatmap_frame(evaluation, query, seq_len):
-        full = min(seq_len - 1, single.size - 1)
+    chosen, full = _largest_drop(single, multi, seq_len)
+    if frame == chosen:
         return (
             f"Frame chosen where the sequence helps most: {errors}, the largest drop among frames "
             f"{full}-{single.size - 1} ({detail})"

@@ -23,6 +23,14 @@ from .files import open_regular
 __all__ = ["PoseRow", "checked_poses", "poses_from_rows", "read_pose_csv", "wrap_headings", "write_pose_csv"]
 
 
+def finite_headings(headings: np.ndarray) -> np.ndarray:
+    """``headings`` (float64) wrapped to (-pi, pi], or ValueError naming the first that is not
+    finite."""
+    if not np.isfinite(headings).all():
+        raise ValueError(f"headings[{int(np.argwhere(~np.isfinite(headings))[0, 0])}] is not finite")
+    return wrap_headings(headings)
+
+
 def wrap_headings(headings: np.ndarray) -> np.ndarray:
     """Angles (radians) wrapped to (-pi, pi]; values already inside are returned bit-exact."""
     values = np.asarray(headings, dtype=np.float64)
@@ -174,9 +182,7 @@ def checked_poses(positions: object | None, headings: object | None) -> tuple[np
         head = np.asarray(headings, dtype=np.float64)
         if head.shape != (len(pos),):
             raise ValueError(f"headings must be ({len(pos)},) radians to match positions, got shape {head.shape}")
-        if not np.isfinite(head).all():
-            raise ValueError(f"headings[{int(np.argwhere(~np.isfinite(head))[0, 0])}] is not finite")
-        head = wrap_headings(head)
+        head = finite_headings(head)
     return pos, head
 
 

@@ -35,7 +35,7 @@ from ..preparation.params import PreparationParams
 from ..preparation.preparer import Preparer
 from .atomic import atomic_file
 from .files import open_regular
-from .poses import wrap_headings
+from .poses import finite_headings
 from .traverse import Traverse, load_traverse
 
 __all__ = ["MAP_FORMAT", "MAP_FORMAT_VERSION", "MAX_MAP_EXPANSION", "ReferenceMap"]
@@ -171,9 +171,7 @@ class ReferenceMap:
                 raise ValueError(f"headings must be ({n},) numbers (radians): {error}") from None
             if head.shape != (n,):
                 raise ValueError(f"headings must be ({n},) radians, got shape {head.shape}")
-            if not np.isfinite(head).all():
-                raise ValueError(f"headings[{int(np.argwhere(~np.isfinite(head))[0, 0])}] is not finite")
-            head = wrap_headings(head)
+            head = finite_headings(head)
         if names is None:
             name_tuple = tuple(f"{i:06d}" for i in range(n))
         else:

@@ -299,12 +299,15 @@ def _check_step(frame_step: int) -> int:
     return int(frame_step)
 
 
-def _image_folder(root: Path) -> Path:
+def _image_folder(root: Path) -> tuple[Path, list[str] | None]:
+    """The folder holding the frames, and its listing when finding it took one (frames directly
+    in ``root``)."""
     images = root / _IMAGE_DIR
     if images.is_dir():
-        return images
-    if list_images(root):
-        return root
+        return images, None
+    names = list_images(root)
+    if names:
+        return root, names
     raise DatasetError(
         f"{root} is not a traverse: it has no '{_IMAGE_DIR}/' folder and no image files "
         f"(expected {root}/{_IMAGE_DIR}/<frames> and optionally {root}/{_POSE_FILE})"
@@ -317,10 +320,10 @@ def _inside(name: str) -> bool:
 
 
 def _load_folder(root: Path, frame_step: int, poses: Path | None) -> Traverse:
-    image_dir = _image_folder(root)
+    image_dir, listed = _image_folder(root)
     pose_file = poses if poses is not None else root / _POSE_FILE
     if poses is None and not os.path.lexists(pose_file):
-        names = list_images(image_dir)
+        names = listed if listed is not None else list_images(image_dir)
         if not names:
             raise DatasetError(f"{image_dir} holds no image files ({', '.join(sorted(IMAGE_SUFFIXES))})")
         names = names[::frame_step]
@@ -364,21 +367,20 @@ def _load_video(file: Path, frame_step: int, poses: Path | None) -> Traverse:
         return Traverse(root=file, names=[label.format(f) for f in frames], video=file, frame_indices=frames)
     check_regular(poses, "poses file", DatasetError)
     rows, has_heading = read_pose_csv(poses, "frame")
-    frame_of = {id(row): int(row.key) for row in rows}  # the key column of a video's CSV is the frame index
     for row in rows:
-        if frame_of[id(row)] >= count:
+        if int(row.key) >= count:
             raise DatasetError(f"{poses} line {row.line}: frame {row.key} is past the end of {file} ({count} frames)")
-    rows = sorted((row for row in rows if frame_of[id(row)] % frame_step == 0), key=lambda row: frame_of[id(row)])
+    rows = sorted((row for row in rows if int(row.key) % frame_step == 0), key=lambda row: int(row.key))
     if not rows:
         raise DatasetError(f"{poses}: no frame index is a multiple of frame_step={frame_step}")
     positions, headings = poses_from_rows(rows, has_heading)
     return Traverse(
         root=file,
-        names=[label.format(frame_of[id(row)]) for row in rows],
+        names=[label.format(int(row.key)) for row in rows],
         positions=positions,
         headings=headings,
         video=file,
-        frame_indices=[frame_of[id(row)] for row in rows],
+        frame_indices=[int(row.key) for row in rows],
         poses_file=poses,
         lines=[row.line for row in rows],
     )

@@ -28,7 +28,7 @@ from ..io.traverse import save_traverse
 from ..localization.odometry import true_robot_motions
 from ..progress import progress
 from .lighting import Lighting, make_lighting
-from .paths import TraversePlan, plan_traverses
+from .paths import TRAVERSE_NAMES, TraversePlan, plan_traverses
 from .render import Camera, render_panorama, render_radiance
 from .sensor import Exposure, metered_exposure
 from .world import WORLD_NAMES, World, build_world
@@ -207,8 +207,7 @@ def _complete(folder: Path) -> bool:
             with open_regular(folder / world / "dataset.json", "dataset description", ValueError) as stream:
                 content = json.loads(stream.read(1 << 20).decode("utf-8"))
             traverses = content["traverses"]
-            expected = {p.name for p in plan_traverses(world, DEFAULT_SEED)}
-            if not isinstance(traverses, dict) or set(traverses) != expected:
+            if not isinstance(traverses, dict) or set(traverses) != set(TRAVERSE_NAMES[world]):
                 return False
             for name, info in traverses.items():
                 images = folder / world / name / "images"
@@ -250,5 +249,5 @@ def default_dataset(cache_dir: str | os.PathLike | None = None) -> dict[str, dic
                     shutil.rmtree(staging, ignore_errors=True)
                     raise
     return {
-        world: {p.name: folder / world / p.name for p in plan_traverses(world, DEFAULT_SEED)} for world in WORLD_NAMES
+        world: {name: folder / world / name for name in TRAVERSE_NAMES[world]} for world in WORLD_NAMES
     }
