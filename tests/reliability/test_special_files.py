@@ -23,6 +23,7 @@ import pytest
 import nightloc
 from nightloc import DatasetError, MapFormatError, NightlocError
 from nightloc.cli import main
+from nightloc.io.odometry_csv import read_odometry_rows
 
 from reliability_support import Workspace
 
@@ -131,6 +132,11 @@ READERS = [
     (
         "poses file",
         lambda ws, k: nightloc.load_traverse(ws.traverse.root, poses=_special(ws, k, "poses.csv")),
+        DatasetError,
+    ),
+    (
+        "odometry file",
+        lambda ws, k: read_odometry_rows(_special(ws, k, "odometry.csv")),
         DatasetError,
     ),
     ("image named in poses.csv", lambda ws, k: nightloc.load_traverse(_traverse_with(ws, k)), DatasetError),

@@ -17,6 +17,7 @@ them into motions for a traverse's frames.
 from __future__ import annotations
 
 import csv
+import io
 import math
 import os
 from collections.abc import Iterable, Sequence
@@ -25,6 +26,7 @@ from typing import Any, Union, cast
 
 from ..errors import DatasetError
 from .atomic import atomic_file
+from .files import open_regular
 
 __all__ = ["MAP_COLUMNS", "ODOMETRY_FILE", "ROBOT_COLUMNS", "OdometryRow", "read_odometry_rows", "write_odometry_csv"]
 
@@ -57,7 +59,7 @@ def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[
         DatasetError: missing file, header without a known form, malformed or repeated rows.
     """
     path = Path(file)
-    if not path.is_file():
+    if not os.path.lexists(path) or path.is_dir():
         raise DatasetError(
             f"odometry file {path} {'is a folder' if path.is_dir() else 'does not exist'}; a robot's log needs one "
             f"row per frame: {key_column},forward,left,turn (wheel odometry) or {key_column},dx,dy (map frame)"
@@ -66,7 +68,10 @@ def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[
     header = None
     columns: tuple[str, ...]
     try:
-        with open(path, newline="", encoding="utf-8-sig") as handle:
+        # only a regular file is read: a FIFO, device, socket or link loop is named at once
+        with io.TextIOWrapper(
+            open_regular(path, "odometry file", DatasetError), newline="", encoding="utf-8-sig"
+        ) as handle:
             reader = csv.reader(handle)
             for fields in reader:
                 line = reader.line_num
