@@ -69,3 +69,9 @@ def test_main_writes_both_worlds_in_the_format_asked(tmp_path, capsys):
     assert capsys.readouterr().out.count("\n") == 4
     assert main([]) == 2 and "OUT_DIR" in capsys.readouterr().err
     assert main([str(tmp_path), "--figure-format", "gif"]) == 2
+    fresh = tmp_path / "fresh"  # OUT_DIR is created when missing, not its parents
+    assert main([str(fresh), "--figure-format", "svg"]) == 0
+    assert len(list(fresh.glob("synth_*.svg"))) == 4
+    assert main([str(tmp_path / "no" / "such"), "--figure-format", "svg"]) == 2
+    assert "parent folder" in capsys.readouterr().err
+    assert not (tmp_path / "no").exists()

@@ -164,12 +164,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         prog="python -m nightloc.figures.synth",
         description="Draws the day/night and map figures of the synthetic worlds into OUT_DIR.",
     )
-    parser.add_argument("out", type=Path, metavar="OUT_DIR", help="output folder (created if missing)")
+    parser.add_argument(
+        "out", type=Path, metavar="OUT_DIR", help="output folder (created if missing; its parent must exist)"
+    )
     add_figure_format_option(parser)
     try:
         args = parser.parse_args(list(sys.argv[1:] if argv is None else argv))
     except SystemExit as exit_:
         return int(exit_.code or 0)
+    if not args.out.parent.is_dir():
+        print(f"{parser.prog}: error: the parent folder of {args.out} does not exist", file=sys.stderr)
+        return 2
+    args.out.mkdir(exist_ok=True)
     written: list[Path] = []
     for world in FIGURE_POSES:
         for stem, draw in (("day_night", day_night_figure), ("map", map_figure)):
