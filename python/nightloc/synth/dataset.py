@@ -248,6 +248,4 @@ def default_dataset(cache_dir: str | os.PathLike | None = None) -> dict[str, dic
                 except BaseException:
                     shutil.rmtree(staging, ignore_errors=True)
                     raise
-    return {
-        world: {name: folder / world / name for name in TRAVERSE_NAMES[world]} for world in WORLD_NAMES
-    }
+    return {world: {name: folder / world / name for name in TRAVERSE_NAMES[world]} for world in WORLD_NAMES}
