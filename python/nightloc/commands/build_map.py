@@ -13,6 +13,7 @@ from ..io.reference_map import ReferenceMap
 from ..io.traverse import Traverse, load_traverse
 from ..preparation.camera import shape_camera
 from ..preparation.params import PreparationParams
+from .bag_options import add_bag_options, bag_options
 from .camera_option import add_camera_option, preparation_for_camera
 from .wording import duration
 
@@ -22,19 +23,21 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "build-map",
         help="prepare a traverse (folder or video + poses) into a reference map file",
         description=(
-            "Reads TRAVERSE (a folder with images/ and poses.csv, or a video with --poses), prepares "
+            "Reads TRAVERSE (a folder with images/ and poses.csv, a video with --poses, or a ROS bag with a pose "
+            "topic), prepares "
             "every frame (crop, greyscale, equalization, 48x24 area downsample, patch normalization) "
             "and writes one reference map file that nightloc.ReferenceMap.load reads on the robot. An existing "
             "map is replaced only with --overwrite; the map may not lie inside the traverse."
         ),
     )
-    parser.add_argument("traverse", type=Path, help="traverse folder, or a video file")
+    parser.add_argument("traverse", type=Path, help="traverse folder, a video file or a ROS bag")
     parser.add_argument("output", type=Path, help="map file to write (e.g. garden.map)")
     parser.add_argument("--params", type=Path, help="TOML file with a [preparation] table (default: paper values)")
     add_camera_option(parser, "Stored in the map; default panoramic, or the wrap of --params.")
     parser.add_argument("--poses", type=Path, help="poses CSV (for a video: frame,x,y[,heading])")
     parser.add_argument("--frame-step", type=int, default=1, help="keep every k-th frame (default 1)")
     parser.add_argument("--overwrite", action="store_true", help="replace OUT.map when it exists")
+    add_bag_options(parser)
     parser.set_defaults(run=run)
 
 
@@ -53,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--frame-step must be >= 1, got {args.frame_step}")
     params = load_params(args.params, PreparationParams) if args.params is not None else None
     params = preparation_for_camera(params, args.camera, args.params) or PreparationParams()
-    traverse = load_traverse(args.traverse, frame_step=args.frame_step, poses=args.poses)  # names and poses only
+    # names, times and poses only
+    traverse = load_traverse(args.traverse, frame_step=args.frame_step, poses=args.poses, **bag_options(args))
     if not traverse.has_poses:
         raise no_poses_error(traverse)
     # Fail before preparing every frame: a folder, a missing parent, an existing map without
