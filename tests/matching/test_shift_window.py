@@ -19,7 +19,7 @@ from nightloc import _core
 import oracle
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
-import sad_golden  # noqa: E402
+import sad_golden
 
 pytestmark = pytest.mark.sanitize
 
