@@ -106,6 +106,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     add_camera_option(parser, "Default forward (--camera panoramic is --circular-shifts).")
     parser.add_argument(
+        "--shift-window",
+        metavar="COLUMNS,ROWS",
+        help="viewpoint tolerance: compare each pair at its best alignment within +-COLUMNS columns (forward "
+        "cameras) and +-ROWS rows, over the overlap; 0,0 compares one alignment",
+    )
+    parser.add_argument(
         "--tolerance",
         type=float,
         help=f"ground-truth tolerance: frames (default {DEFAULT_FRAME_TOLERANCE}) or metres "
@@ -166,8 +172,23 @@ def route_params_from_args(args: argparse.Namespace) -> tuple:
         vmax=args.vmax,
         mode=args.mode,
         circular_shifts=args.circular_shifts,
+        shift_window=parse_shift_window(args.shift_window),
     )
     return params, preparation
+
+
+def parse_shift_window(text: str | None) -> tuple[int, int] | None:
+    """``--shift-window COLUMNS,ROWS`` as a pair of ints >= 0 (None when not given)."""
+    if text is None:
+        return None
+    parts = str(text).split(",")
+    try:
+        values = tuple(int(part) for part in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 2 or min(values) < 0:
+        raise ValueError(f"--shift-window {text!r}: expected COLUMNS,ROWS, two integers >= 0 such as 8,2")
+    return (values[0], values[1])
 
 
 # --------------------------------------------------------------------------------------------
