@@ -271,3 +271,14 @@ def test_streaming_a_long_bag_holds_a_few_frames(tmp_path):
     count, peak = (int(v) for v in done.stdout.split())
     assert count == 300
     assert peak < 20 * frame.nbytes, f"peak {peak / 1e6:.1f} MB while streaming {300 * frame.nbytes / 1e6:.0f} MB"
+
+
+@pytest.mark.parametrize("storage", STORAGES)
+def test_a_truncated_bag_is_named(tmp_path, frames, storage):
+    bag = write_bag(_path(tmp_path, storage), frames, [stamp_ns(T0 + i) for i in range(len(frames))], storage=storage)
+    file = bag if storage == "ros1" else next(p for p in bag.iterdir() if p.suffix in (".mcap", ".db3"))
+    data = file.read_bytes()
+    for size in (len(data) // 2, 0):
+        file.write_bytes(data[:size])
+        with pytest.raises(DatasetError, match=rf"bag {bag} cannot be read"):
+            nightloc.load_traverse(bag)
