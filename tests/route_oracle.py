@@ -390,7 +390,9 @@ def _odometry_move(
                 moved[i + 1] += share * belief[c]
     total = belief.sum()
     taps = odometry_spread(advance, spacing, p)
-    return np.convolve(moved, taps, mode="same"), (travelled / total if total > 0 else 0.0)
+    half = len(taps) // 2
+    spread = np.convolve(moved, taps)[half : half + m]  # centred; what spreads past either end is lost
+    return spread, (travelled / total if total > 0 else 0.0)
 
 
 def route_filter_planes(matrix: np.ndarray, p, weights=None, advances=None, distances=None):
@@ -457,3 +459,35 @@ def route_filter_planes(matrix: np.ndarray, p, weights=None, advances=None, dist
             plane_mass = belief.sum(axis=1)
             speed[q] = float(np.dot(plane_mass, planes) / plane_mass.sum())
     return refs, confidence, off_route, speed, belief.sum(axis=0).reshape(n, cells).sum(axis=1)
+
+
+def synthetic_route_at(
+    n_ref: int,
+    positions: np.ndarray,
+    seed: int,
+    height: int = 16,
+    width: int = 32,
+    noise: float = 12.0,
+    likeness: float = 1.0,
+):
+    """The route of :func:`synthetic_route` seen by a query at ``positions`` (reference frames,
+    any order and speed: a stop repeats a place, a reverse goes back): query frame k shows the
+    place at ``round(positions[k])`` (``likeness`` of it, the rest a fresh random texture: weak
+    evidence, as at night), darker, with fresh sensor noise.
+
+    Returns (refs uint8 (n_ref, h, w), queries uint8 (n, h, w), truth int64 (n,), -1 off the route).
+    """
+    rng = np.random.default_rng(seed)
+    places = rng.uniform(0, 255, size=(n_ref + 2, height, width))
+    kernel = np.array([0.25, 0.5, 0.25])
+    world = kernel[0] * places[:-2] + kernel[1] * places[1:-1] + kernel[2] * places[2:]
+    refs = np.clip(world, 0, 255).astype(np.uint8)
+    truth = np.rint(np.asarray(positions, dtype=np.float64)).astype(np.int64)
+    truth[(truth < 0) | (truth >= n_ref)] = -1
+    queries = np.empty((len(truth), height, width), np.uint8)
+    for q, ref in enumerate(truth):
+        clutter = rng.uniform(0, 255, size=(height, width))
+        source = likeness * world[ref] + (1 - likeness) * clutter if ref >= 0 else clutter
+        darker = 0.6 * source + 20 + rng.normal(0, noise, size=source.shape)
+        queries[q] = np.clip(darker, 0, 255).astype(np.uint8)
+    return refs, queries, truth

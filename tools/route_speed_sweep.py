@@ -61,7 +61,7 @@ def enhanced_pair(refs: np.ndarray, queries: np.ndarray, params: route.RoutePara
 
 def real_pair(data: Path, reference: str, query: str, params: route.RouteParams, cache: Path | None):
     """The enhanced matrix and weights of a frame-aligned real pair (cached by shape and preparation)."""
-    key = f"{reference}-{query}".replace("/", "_")
+    key = f"{reference}-{query}-{params.shift_window[0]}x{params.shift_window[1]}".replace("/", "_")
     stored = cache / f"{key}.npz" if cache is not None else None
     if stored is not None and stored.exists():
         with np.load(stored) as saved:
@@ -252,7 +252,9 @@ def synthetic_cases(synthetic: SyntheticRoute, draws: int) -> dict:
 
 
 def parse_value(text: str) -> object:
-    """A ``--set`` / ``--grid`` value: int, float (inf) or string."""
+    """A ``--set`` / ``--grid`` value: int, float (inf), a tuple ``8:2`` or a string."""
+    if ":" in text:
+        return tuple(parse_value(part) for part in text.split(":"))
     for convert in (int, float):
         try:
             return convert(text)

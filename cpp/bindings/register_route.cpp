@@ -325,6 +325,7 @@ py::tuple filter_frame(nightloc::RouteFilter& filter, const py::array& image_in,
         nightloc::enhance_contrast(out, out, 1, n_refs, static_cast<std::size_t>(enhance_radius),
                                    nightloc::EnhanceOffset::kZscoreBound, 1);
         weight = nightloc::texture_weight(q, h * w, min_texture);
+        filter.set_threads(threads);
         step = filter.step(out, weight, advance);
     }
     return py::make_tuple(step.best, step.confidence, step.off_route, weight, step.speed);

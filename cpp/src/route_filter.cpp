@@ -626,11 +626,12 @@ RouteFilterStep RouteFilter::update_window(const double* likelihood, double like
     return answer(b, std::numeric_limits<double>::quiet_NaN());
 }
 
-double RouteFilter::move_planes(double /*advance*/, double* speed) {
-    // Every plane's mass advances by its kernel (in cells), each advance a shifted add.
+double RouteFilter::move_planes() {
+    // Every plane's mass advances by its kernel (in cells), each advance a shifted add; plane by
+    // plane on the threads (each plane's sum in a fixed order, the planes' in plane order).
     const std::size_t m = n_refs_ * cells_;
-    double moved = 0.0;
-    for (std::size_t s = 0; s < planes_; ++s) {
+    plane_mass_.resize(planes_);
+    detail::parallel_for(planes_, threads_, [&](std::size_t s) {
         const double* b = belief_.data() + s * m;
         double* p = scratch_.data() + s * m;
         std::fill(p, p + m, 0.0);
@@ -639,9 +640,10 @@ double RouteFilter::move_planes(double /*advance*/, double* speed) {
             if (kernel.weights[i] == 0.0) continue;
             shift_add(b, p, m, kernel.first + static_cast<std::int64_t>(i), kernel.weights[i]);
         }
-        moved += sum_of(p, m);
-    }
-    *speed = std::numeric_limits<double>::quiet_NaN();  // the posterior's, in update_planes
+        plane_mass_[s] = sum_of(p, m);
+    });
+    double moved = 0.0;
+    for (std::size_t s = 0; s < planes_; ++s) moved += plane_mass_[s];
     return moved;
 }
 
@@ -697,28 +699,24 @@ double RouteFilter::move_odometry(double advance, double* speed) {
 }
 
 void RouteFilter::mix_planes() {
-    // The speed's random walk between neighbouring planes, `passes` passes.
+    // The speed's random walk between neighbouring planes, `passes` passes; plane by plane on
+    // the threads: out_s = keep_s p_s + up_{s-1} p_{s-1} + down_{s+1} p_{s+1}, in that order.
     const std::size_t m = n_refs_ * cells_;
     const std::size_t planes = chain_.speeds.size();
     for (std::size_t pass = 0; pass < chain_.passes; ++pass) {
         const double* p = scratch_.data();
         double* q = chain_scratch_.data();
-        for (std::size_t s = 0; s < planes; ++s) {
+        detail::parallel_for(planes, threads_, [&](std::size_t s) {
             const double keep = 1.0 - chain_.up[s] - chain_.down[s];
             const double* here = p + s * m;
             double* out = q + s * m;
-            for (std::size_t c = 0; c < m; ++c) out[c] = keep * here[c];
-            if (s > 0) {
-                const double w = chain_.up[s - 1];
-                const double* below = p + (s - 1) * m;
-                for (std::size_t c = 0; c < m; ++c) out[c] += w * below[c];
-            }
-            if (s + 1 < planes) {
-                const double w = chain_.down[s + 1];
-                const double* above = p + (s + 1) * m;
-                for (std::size_t c = 0; c < m; ++c) out[c] += w * above[c];
-            }
-        }
+            const double from_below = s > 0 ? chain_.up[s - 1] : 0.0;
+            const double from_above = s + 1 < planes ? chain_.down[s + 1] : 0.0;
+            const double* below = s > 0 ? p + (s - 1) * m : here;
+            const double* above = s + 1 < planes ? p + (s + 1) * m : here;
+            for (std::size_t c = 0; c < m; ++c)
+                out[c] = (keep * here[c] + from_below * below[c]) + from_above * above[c];
+        });
         scratch_.swap(chain_scratch_);
     }
 }
@@ -739,7 +737,7 @@ RouteFilterStep RouteFilter::update_planes(const double* likelihood, double like
     double speed = 0.0;
     // 1. Predict: the motion into scratch_, the speed chain, then the rescaling to the on-route
     // mass, the floor and the off-route exchange as one affine map per plane.
-    const double moved = odometry_ ? move_odometry(fresh_ ? 0.0 : advance, &speed) : move_planes(advance, &speed);
+    const double moved = odometry_ ? move_odometry(fresh_ ? 0.0 : advance, &speed) : move_planes();
     if (!odometry_) mix_planes();
     const double stay = 1.0 - params_.leave;
     const double back = off_ * params_.rejoin / md;
@@ -753,38 +751,57 @@ RouteFilterStep RouteFilter::update_planes(const double* likelihood, double like
         (off_ * (1.0 - params_.rejoin) + on * params_.leave) * (likelihood_sum / static_cast<double>(n_refs_));
 
     // 2. Update: posterior = prediction x likelihood (the same for every cell and plane of a
-    // reference), normalized with the off-route state.
-    double total = 0.0;
-    for (std::size_t s = 0; s < planes_; ++s) {
+    // reference), plane by plane on the threads, each plane's sum in a fixed order.
+    plane_mass_.resize(planes_);
+    const std::size_t cells = cells_;
+    detail::parallel_for(planes_, threads_, [&](std::size_t s) {
         const double offset = spread * plane_prior_[s];
         const double* p = scratch_.data() + s * m;
         double* b = belief_.data() + s * m;
-        for (std::size_t r = 0; r < n_refs_; ++r) {
-            const double l = likelihood[r];
-            for (std::size_t k = 0; k < cells_; ++k) {
-                const std::size_t c = r * cells_ + k;
-                b[c] = (scale * p[c] + offset) * l;
+        if (cells == 1) {
+            for (std::size_t c = 0; c < m; ++c) b[c] = (scale * p[c] + offset) * likelihood[c];
+        } else {
+            for (std::size_t r = 0; r < n_refs_; ++r) {
+                const double l = likelihood[r];
+                for (std::size_t k = 0; k < cells; ++k) b[r * cells + k] = (scale * p[r * cells + k] + offset) * l;
             }
         }
-        total += sum_of(b, m);
-    }
-    total += off;
+        plane_mass_[s] = sum_of(b, m);
+    });
+    double total = off;
+    for (std::size_t s = 0; s < planes_; ++s) total += plane_mass_[s];
     if (!(total > 0.0) || !std::isfinite(total)) {
         reset();  // cannot happen with floor > 0; with floor = 0 every place may be ruled out
-    } else {
-        const double inverse = 1.0 / total;
-        for (double& v : belief_) v *= inverse;
-        off_ = off * inverse;
+        return answer(marginal_.data(), std::numeric_limits<double>::quiet_NaN());
     }
-    marginalize(belief_.data(), planes_, n_refs_, cells_, marginal_.data());
+    // 3. Normalize and sum over planes and cells per reference, in blocks of references on the
+    // threads (each reference's sum: planes in order, cells in order).
+    const double inverse = 1.0 / total;
+    off_ = off * inverse;
+    const std::size_t blocks = std::min<std::size_t>(n_refs_, 64);
+    detail::parallel_for(blocks, threads_, [&](std::size_t block) {
+        const std::size_t lo = n_refs_ * block / blocks;
+        const std::size_t hi = n_refs_ * (block + 1) / blocks;
+        for (std::size_t r = lo; r < hi; ++r) marginal_[r] = 0.0;
+        for (std::size_t s = 0; s < planes_; ++s) {
+            double* b = belief_.data() + s * m;
+            for (std::size_t r = lo; r < hi; ++r) {
+                double sum = 0.0;
+                for (std::size_t k = 0; k < cells; ++k) {
+                    b[r * cells + k] *= inverse;
+                    sum += b[r * cells + k];
+                }
+                marginal_[r] += sum;
+            }
+        }
+    });
     if (!odometry_) {
-        // 3. The posterior's mean speed.
+        // The posterior's mean speed.
         double weighted = 0.0;
         double mass = 0.0;
         for (std::size_t s = 0; s < planes_; ++s) {
-            const double plane_mass = sum_of(belief_.data() + s * m, m);
-            weighted += chain_.speeds[s] * plane_mass;
-            mass += plane_mass;
+            weighted += chain_.speeds[s] * plane_mass_[s];
+            mass += plane_mass_[s];
         }
         speed = mass > 0.0 ? weighted / mass : std::numeric_limits<double>::quiet_NaN();
     }
@@ -807,6 +824,8 @@ void RouteFilter::run(const float* rows, std::size_t n_rows, const double* weigh
     std::vector<double> likelihoods(block * n);
     std::vector<double> sums(block);
     const bool fresh_at_start = fresh_;
+    const int threads_before = threads_;
+    threads_ = threads;
     for (std::size_t start = 0; start < n_rows; start += block) {
         const std::size_t rows_here = std::min(block, n_rows - start);
         detail::parallel_for(rows_here, threads, [&](std::size_t i) {
@@ -826,6 +845,7 @@ void RouteFilter::run(const float* rows, std::size_t n_rows, const double* weigh
             if (out.speed != nullptr) out.speed[q] = s.speed;
         }
     }
+    threads_ = threads_before;
 }
 
 void RouteFilter::run(const float* rows, std::size_t n_rows, const double* weights, std::int64_t* best,

@@ -187,6 +187,10 @@ public:
     std::size_t n_refs() const noexcept { return n_refs_; }
     const RouteFilterParams& params() const noexcept { return params_; }
     const MotionKernel& kernel() const noexcept { return kernel_; }
+    /// Threads for the speed and odometry models' work per frame (planes, blocks of
+    /// references) in step(); run() uses its own argument. The results do not depend on it.
+    void set_threads(int threads) noexcept { threads_ = threads > 1 ? threads : 1; }
+
     /// "window", "speed" or "odometry".
     const char* motion_name() const noexcept;
     /// The speed model's planes (empty for the other models).
@@ -199,7 +203,7 @@ private:
     RouteFilterStep update_window(const double* likelihood, double likelihood_sum);
     RouteFilterStep update_planes(const double* likelihood, double likelihood_sum, double advance);
     double novelty(double advance) const noexcept;
-    double move_planes(double advance, double* speed);
+    double move_planes();
     double move_odometry(double advance, double* speed);
     void mix_planes();
 
@@ -220,8 +224,10 @@ private:
     std::vector<double> scratch_;
     std::vector<double> chain_scratch_;
     std::vector<double> marginal_;
+    std::vector<double> plane_mass_;
     std::vector<double> likelihood_;
     double off_ = 0.0;
+    int threads_ = 1;
 };
 
 /// The filter over a whole (n_queries, n_refs) matrix, query rows in time order, from the

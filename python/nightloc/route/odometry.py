@@ -5,10 +5,11 @@ their cumulative distance along the route and moves the belief by the distance t
 travelled between its frames. Both come from a traverse's own records, read through
 :mod:`nightloc.io`:
 
-* ``odometry.csv`` (:func:`nightloc.traverse_odometry`): wheel odometry (``forward,left,turn``)
-  gives a step of ``hypot(forward, left)``, negative when ``forward`` is (reversing); map-frame
-  displacements (``dx,dy``) a step of ``hypot(dx, dy)``;
-* otherwise poses (``poses.csv`` or a video's CSV): the distance between consecutive positions.
+* ``odometry.csv``, or a bag's odometry topic (:func:`nightloc.traverse_odometry`): wheel
+  odometry (``forward,left,turn``) gives a step of ``hypot(forward, left)``, negative when
+  ``forward`` is (reversing); map-frame displacements (``dx,dy``) a step of ``hypot(dx, dy)``;
+* otherwise poses (``poses.csv``, a video's CSV, a bag's pose topic): the distance between
+  consecutive positions.
 
 A reference's distances are the cumulative *lengths* of its steps (a route does not run
 backwards); a query's advances keep the sign. Units are the records' (metres), the same in both
@@ -37,7 +38,7 @@ class RouteOdometry:
     Attributes:
         steps: ``(N,)`` float64 distance travelled from the previous frame to each frame (0 for
             the first), negative when reversing (wheel odometry only).
-        source: ``"odometry.csv"`` or ``"poses"``.
+        source: ``"odometry.csv"``, ``"bag odometry"`` or ``"poses"``.
     """
 
     steps: np.ndarray
@@ -58,15 +59,17 @@ def _step(motion: object) -> float:
 
 
 def route_odometry(traverse: Traverse) -> RouteOdometry | None:
-    """The traverse's travel per frame from its ``odometry.csv`` (a folder's), else from its
-    poses; None when it has neither.
+    """The traverse's travel per frame from its ``odometry.csv`` (a folder's) or its bag's
+    odometry, else from its poses; None when it has neither.
 
     Raises:
         DatasetError: an ``odometry.csv`` that cannot be read or does not fit the frames.
     """
-    if not traverse.is_video and (Path(traverse.root) / ODOMETRY_FILE).is_file():
+    bag = traverse.is_bag and traverse.motions is not None
+    if bag or (not traverse.is_video and not traverse.is_bag and (Path(traverse.root) / ODOMETRY_FILE).is_file()):
         motions = traverse_odometry(traverse)
-        return RouteOdometry(np.array([_step(m) for m in motions], dtype=np.float64), ODOMETRY_FILE)
+        source = "bag odometry" if bag else ODOMETRY_FILE
+        return RouteOdometry(np.array([_step(m) for m in motions], dtype=np.float64), source)
     positions = traverse.positions
     if positions is not None:
         xy = np.asarray(positions, dtype=np.float64)
