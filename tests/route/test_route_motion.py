@@ -271,7 +271,7 @@ def test_streaming_localizer_with_odometry_equals_the_batch(tmp_path):
     with pytest.raises(ValueError, match="odometry=True needs the reference as a traverse"):
         nightloc.RouteLocalizer(refs, prepared=True, odometry=True)
     bare = nightloc.save_traverse(tmp_path / "bare", list(refs))
-    with pytest.raises(ValueError, match="has no odometry.csv or poses"):
+    with pytest.raises(ValueError, match=r"has no odometry\.csv or poses"):
         nightloc.RouteLocalizer(bare, odometry=True)
     with pytest.raises(ValueError, match="filter"):
         nightloc.RouteLocalizer(refs, "openseqslam", prepared=True, reference_distances=distances)
@@ -376,7 +376,7 @@ def test_command_names_the_motion_model(tmp_path, capsys, ref_odometry, query_od
 
 
 def test_bad_motion_inputs_are_named():
-    matrix, weights = _matrix(1, 30, 20)
+    matrix, _ = _matrix(1, 30, 20)
     with pytest.raises(ValueError, match="advances must be a 1-D array of 30"):
         route.route_filter(matrix, advances=np.ones(29), reference_distances=np.arange(20.0))
     with pytest.raises(ValueError, match="advances must be finite"):

@@ -60,8 +60,8 @@ from ..preparation.camera import check_frames_fit
 from ..preparation.params import PreparationParams
 from ..route.evaluation import GroundTruth, RouteEvaluation, evaluate_matches
 from ..route.filter import texture_weights
-from ..route.params import PRESETS, RouteParams, resolve_params
 from ..route.odometry import motion_plan
+from ..route.params import PRESETS, RouteParams, resolve_params
 from ..route.pipeline import RouteResult, match_difference, route_difference_matrix
 from ..route.preparation import RoutePreparer
 from .bag_options import add_bag_options, bag_options

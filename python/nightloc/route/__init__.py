@@ -43,8 +43,8 @@ from .preparation import RoutePreparer, octave_rgb2gray
 __all__ = [
     "PRESETS",
     "FilterStep",
-    "MotionPlan",
     "GroundTruth",
+    "MotionPlan",
     "PRCurve",
     "RouteEvaluation",
     "RouteFilter",
