@@ -181,17 +181,19 @@ def _correct(result, truth, skip: int = 20) -> float:
 
 
 def test_speed_model_stays_locked_when_the_speed_swings():
-    # 0.5-1.5x the reference's speed, a full swing every 50 frames, on weak evidence (a fifth
-    # of each query frame is the place): the speed model follows, the window model loses it.
+    # 0.5-1.5x the reference's speed, a full swing every 50 frames, on weak evidence (a quarter
+    # of each query frame is the place): the speed model (the default) follows it, the window
+    # model lags behind at both ends of the swing.
     speeds = 1.0 + 0.5 * np.sin(2 * np.pi * np.arange(300) / 50)
-    refs, queries, truth = ro.synthetic_route_at(330, _positions(speeds), seed=3, likeness=0.2)
+    refs, queries, truth = ro.synthetic_route_at(330, _positions(speeds), seed=3, likeness=0.25)
     window = route.match_prepared(refs, queries, route.RouteParams(filter_motion="window"))
-    speed = route.match_prepared(refs, queries, SPEED)
+    speed = route.match_prepared(refs, queries)
     assert speed.motion == "speed" and window.motion == "window"
-    assert _correct(speed, truth) > 0.95
-    assert _correct(window, truth) < 0.85
+    assert _correct(speed, truth) > 0.9
+    assert _correct(speed, truth) > _correct(window, truth) + 0.05
     # The speed it reports follows the true one (a few frames behind).
     assert np.corrcoef(speed.speed[30:], np.roll(speeds, 4)[30:])[0, 1] > 0.7
+    assert np.isnan(window.speed).all()
 
 
 @pytest.mark.parametrize("kind", ["stop", "reverse"])

@@ -417,18 +417,18 @@ def run(args: argparse.Namespace) -> int:
         evaluations = {}
         for index, p in enumerate(per_method):
             last = index == len(per_method) - 1
-            filtered = p.method == "filter" and plan is not None
+            used = plan if p.method == "filter" else None
             result = match_difference(
                 difference,
                 p,
                 args.threads,
                 keep_difference=not last,
                 weights=weights if p.method == "filter" else None,
-                advances=plan.advances if filtered else None,
-                reference_distances=plan.reference_distances if filtered else None,
+                advances=None if used is None else used.advances,
+                reference_distances=None if used is None else used.reference_distances,
             )
-            if filtered:
-                result.motion_note = plan.note
+            if used is not None:
+                result.motion_note = used.note
             result.timings = {"preparation": preparation_s, "difference": difference_s, **result.timings}
             if not result.defined.any():
                 raise ValueError(

@@ -127,11 +127,13 @@ class RouteLocalizer:
         chosen = resolve_params(preset if preset is not None else params, method=method)
         self._params = dataclasses.replace(chosen, mode="causal")
         self._preparer = RoutePreparer(self._params, preparation, channel_order)
-        source = reference if prepared else _as_frames(reference, "reference", 1)
+        source: object = reference
         if prepared:
             refs = uint8_array(reference, 3, "reference")
         else:
-            refs = self._preparer(source)
+            frames = _as_frames(reference, "reference", 1)
+            source = frames
+            refs = self._preparer(frames)
             if refs.ndim != 3:
                 raise ValueError("the reference route must hold several frames, not a single image")
         n_refs = refs.shape[0]
