@@ -182,12 +182,12 @@ def _correct(result, truth, skip: int = 20) -> float:
 
 def test_speed_model_stays_locked_when_the_speed_swings():
     # 0.5-1.5x the reference's speed, a full swing every 50 frames, on weak evidence (a quarter
-    # of each query frame is the place): the speed model (the default) follows it, the window
-    # model lags behind at both ends of the swing.
+    # of each query frame is the place): the speed model follows it, the window model lags
+    # behind at both ends of the swing.
     speeds = 1.0 + 0.5 * np.sin(2 * np.pi * np.arange(300) / 50)
     refs, queries, truth = ro.synthetic_route_at(330, _positions(speeds), seed=3, likeness=0.25)
     window = route.match_prepared(refs, queries, route.RouteParams(filter_motion="window"))
-    speed = route.match_prepared(refs, queries)
+    speed = route.match_prepared(refs, queries, SPEED)
     assert speed.motion == "speed" and window.motion == "window"
     assert _correct(speed, truth) > 0.9
     assert _correct(speed, truth) > _correct(window, truth) + 0.05
@@ -257,6 +257,7 @@ def test_streaming_localizer_with_odometry_equals_the_batch(tmp_path):
     np.testing.assert_array_equal([u.ref for u in updates], batch.refs)
     np.testing.assert_array_equal([u.confidence for u in updates], batch.confidence)
     np.testing.assert_array_equal([u.speed for u in updates], batch.speed)
+    assert nightloc.RouteLocalizer(refs, prepared=True).update(queries[0], prepared=True).speed is None
     with pytest.raises(ValueError, match="pass advance="):
         localizer.update(queries[0], prepared=True)
     plain = nightloc.RouteLocalizer(refs, prepared=True)

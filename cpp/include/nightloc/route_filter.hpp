@@ -75,7 +75,7 @@ struct RouteFilterParams {
     double leave = 1e-2;     ///< probability per frame of leaving the route, [0, 1]
     double rejoin = 1e-2;    ///< probability per frame of rejoining it (uniformly), [0, 1]
     std::size_t window = 2;  ///< confidence = belief mass within +-window references of the best
-    RouteMotion motion = RouteMotion::kSpeed;  ///< without reference distances
+    RouteMotion motion = RouteMotion::kWindow;  ///< without reference distances
     double speed_min = 0.5;                    ///< slowest speed plane, references per frame, [-1000, 1000]
     double speed_max = 1.5;                    ///< fastest speed plane, [speed_min, 1000]
     double speed_step = 0.1;                   ///< spacing of the speed planes (> 0; at most 1000 planes)

@@ -144,13 +144,13 @@ class FilterStep:
         confidence: belief within ``filter_window`` references of ``ref``, in [0, 1].
         off_route: probability that the frame shows no reference of the route.
         speed: references per frame: the speed model's mean speed, the odometry model's mean
-            advance; NaN for the window model.
+            advance; None for the window model.
     """
 
     ref: int
     confidence: float
     off_route: float
-    speed: float = math.nan
+    speed: float | None = None
 
 
 class RouteFilter:
@@ -204,7 +204,7 @@ class RouteFilter:
         evidence (0: prediction only); ``advance``: the odometry model's distance travelled
         since the previous frame (ignored by the other models)."""
         ref, confidence, off, speed = self._core.step(row, float(weight), float(advance))
-        return FilterStep(int(ref), float(confidence), float(off), float(speed))
+        return FilterStep(int(ref), float(confidence), float(off), None if math.isnan(speed) else float(speed))
 
     def run(
         self, rows: np.ndarray, weights: np.ndarray | None = None, advances: np.ndarray | None = None

@@ -54,7 +54,7 @@ class RouteUpdate:
         confidence: filter: belief within ``filter_window`` references of ``ref``; NaN for SeqSLAM.
         off_route: filter: probability that the frame shows no reference; NaN for SeqSLAM.
         speed: filter: references per frame (the speed model's mean speed, the odometry model's
-            mean advance); NaN for the window model and SeqSLAM.
+            mean advance); None for the window model and SeqSLAM.
     """
 
     index: int
@@ -62,7 +62,7 @@ class RouteUpdate:
     score: float
     confidence: float = math.nan
     off_route: float = math.nan
-    speed: float = math.nan
+    speed: float | None = None
 
     @property
     def matched(self) -> bool:
@@ -278,7 +278,8 @@ class RouteLocalizer:
             )
             index = self._seen
             self._seen += 1
-            return RouteUpdate(index, int(ref), 1.0 - confidence, confidence, off_route, speed)
+            speed_or_none = None if math.isnan(speed) else float(speed)
+            return RouteUpdate(index, int(ref), 1.0 - confidence, confidence, off_route, speed_or_none)
         _core.difference_matrix_into(
             np.ascontiguousarray(image)[np.newaxis],
             self._refs,

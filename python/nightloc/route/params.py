@@ -125,7 +125,7 @@ class RouteParams:
     filter_rejoin: float = 1e-2
     filter_window: int = 2
     filter_min_texture: float = 1.0
-    filter_motion: Literal["speed", "window"] = "speed"
+    filter_motion: Literal["speed", "window"] = "window"
     filter_speed_min: float = 0.5
     filter_speed_max: float = 1.5
     filter_speed_step: float = 0.1
