@@ -4,12 +4,16 @@ A robot builds the map once (:meth:`ReferenceMap.build`), saves it (:meth:`Refer
 and loads it at start-up (:meth:`ReferenceMap.load`), then matches camera frames against it
 (:meth:`ReferenceMap.match`), prepared with the very parameters the map was built with.
 
-File format (version 1): a numpy ``.npz`` archive (zip, no pickled objects) with the arrays
+File format (version 2): a numpy ``.npz`` archive (zip, no pickled objects) with the arrays
 ``images`` ``(N, Ry, Rx)`` uint8, ``positions`` ``(N, 2)`` float64, optionally ``headings``
-``(N,)`` float64, and ``header``: UTF-8 JSON bytes holding ``format`` ("nightloc-reference-map"),
-``format_version``, the preparation parameters, the frame names, the source traverse, the
-nightloc version and a SHA-256 checksum of every array. Saving writes a temporary file in the
-same folder and renames it over the target, so an interrupted save never leaves a partial map.
+``(N,)`` float64 and ``covariances`` ``(N, 3, 3)`` float64 (each pose's marginal covariance of
+``x, y, heading``: m², m·rad, rad²), and ``header``: UTF-8 JSON bytes holding ``format``
+("nightloc-reference-map"), ``format_version``, the preparation parameters, the frame names,
+the source traverse, ``pose_source`` (where the poses came from: :data:`POSE_SOURCES`), the
+nightloc version and a SHA-256 checksum of every array. Version 1 files (before the teach run:
+no ``pose_source``, no covariances) still load, as surveyed maps. Saving writes a temporary file
+in the same folder and renames it over the target, so an interrupted save never leaves a
+partial map.
 """
 
 from __future__ import annotations
@@ -38,12 +42,15 @@ from .files import open_regular
 from .poses import finite_headings
 from .traverse import Traverse, load_traverse
 
-__all__ = ["MAP_FORMAT", "MAP_FORMAT_VERSION", "MAX_MAP_EXPANSION", "ReferenceMap"]
+__all__ = ["MAP_FORMAT", "MAP_FORMAT_VERSION", "MAX_MAP_EXPANSION", "POSE_SOURCES", "ReferenceMap"]
 
 #: The ``format`` string in every map file's header.
 MAP_FORMAT = "nightloc-reference-map"
 #: The newest map format version this nightloc reads and the one it writes.
-MAP_FORMAT_VERSION = 1
+MAP_FORMAT_VERSION = 2
+#: Where a map's poses came from: a survey (``poses.csv``), the robot's wheel odometry alone, or
+#: the teach run's pose graph (odometry corrected by the images; :mod:`nightloc.mapping`).
+POSE_SOURCES = ("surveyed", "dead-reckoned", "optimised")
 #: A map file is refused when its arrays declare more than this many times the file's size (plus
 #: 1 MiB): a small file that would decompress to gigabytes is refused before anything is read.
 #: ``np.savez`` stores arrays uncompressed (1x); ``np.savez_compressed`` maps of prepared images
@@ -65,7 +72,7 @@ def _frozen(array: np.ndarray) -> np.ndarray:
     return np.frombuffer(contiguous.tobytes(), dtype=contiguous.dtype).reshape(contiguous.shape)
 
 
-_MEMBERS = ("header", "images", "positions", "headings")
+_MEMBERS = ("header", "images", "positions", "headings", "covariances")
 
 
 def _read_member(file: Path, archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> np.ndarray:
@@ -126,9 +133,21 @@ class ReferenceMap:
         names: the N frame names (image file names of the source traverse).
         params: the :class:`PreparationParams` the images were prepared with.
         source: where the images came from (the traverse path), or "".
+        pose_source: where the poses came from, one of :data:`POSE_SOURCES`.
+        covariances: ``(N, 3, 3)`` float64 marginal covariance of each pose's ``(x, y, heading)``
+            (m², m·rad, rad²), or None (a survey states none).
     """
 
-    __slots__ = ("_headings", "_images", "_names", "_params", "_positions", "_source")
+    __slots__ = (
+        "_covariances",
+        "_headings",
+        "_images",
+        "_names",
+        "_params",
+        "_pose_source",
+        "_positions",
+        "_source",
+    )
 
     def __init__(
         self,
@@ -138,11 +157,15 @@ class ReferenceMap:
         names: Sequence[str] | None = None,
         params: PreparationParams | None = None,
         source: str = "",
+        *,
+        pose_source: str = "surveyed",
+        covariances: Any | None = None,
     ):
         """Wraps already prepared images; see :meth:`build` to prepare a traverse.
 
         Raises TypeError/ValueError for a wrong dtype or shape, sizes that disagree with
-        ``params`` (width x height), non-finite positions or headings, or repeated names.
+        ``params`` (width x height), non-finite positions, headings or covariances, repeated
+        names, or an unknown ``pose_source``.
         """
         params = PreparationParams() if params is None else params
         if not isinstance(params, PreparationParams):
@@ -182,12 +205,17 @@ class ReferenceMap:
                 raise ValueError(f"names must be {n} strings, got {len(name_tuple)} items")
             if len(set(name_tuple)) != n:
                 raise ValueError("names must not repeat")
+        if pose_source not in POSE_SOURCES:
+            raise ValueError(f"pose_source must be one of {', '.join(POSE_SOURCES)}, got {pose_source!r}")
+        cov = None if covariances is None else _checked_covariances(covariances, n)
         self._images = _frozen(stack)
         self._positions = _frozen(pos)
         self._headings = None if head is None else _frozen(head)
         self._names = name_tuple
         self._params = params
         self._source = str(source)
+        self._pose_source = str(pose_source)
+        self._covariances = None if cov is None else _frozen(cov)
 
     def __getstate__(self) -> dict:
         return {name: getattr(self, name) for name in self.__slots__}
@@ -231,6 +259,16 @@ class ReferenceMap:
         return self._source
 
     @property
+    def pose_source(self) -> str:
+        """Where the poses came from: ``"surveyed"``, ``"dead-reckoned"`` or ``"optimised"``."""
+        return self._pose_source
+
+    @property
+    def covariances(self) -> np.ndarray | None:
+        """``(N, 3, 3)`` marginal covariance of each pose's ``(x, y, heading)``, or None."""
+        return self._covariances
+
+    @property
     def preparer(self) -> Preparer:
         """A :class:`Preparer` with the map's parameters, for query frames."""
         return Preparer(self._params)
@@ -240,7 +278,9 @@ class ReferenceMap:
 
     def __repr__(self) -> str:
         p = self._params
-        return f"ReferenceMap({len(self)} images {p.width}x{p.height}, source={self._source!r})"
+        return (
+            f"ReferenceMap({len(self)} images {p.width}x{p.height}, source={self._source!r}, poses {self._pose_source})"
+        )
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, ReferenceMap):
@@ -250,8 +290,15 @@ class ReferenceMap:
             and other._headings is not None
             and np.array_equal(self._headings, other._headings)
         )
+        same_covariances = (self._covariances is None and other._covariances is None) or (
+            self._covariances is not None
+            and other._covariances is not None
+            and np.array_equal(self._covariances, other._covariances)
+        )
         return (
             self._params == other._params
+            and self._pose_source == other._pose_source
+            and same_covariances
             and self._names == other._names
             and np.array_equal(self._images, other._images)
             and np.array_equal(self._positions, other._positions)
@@ -307,6 +354,8 @@ class ReferenceMap:
         checksums = {"images": _sha256(self._images), "positions": _sha256(self._positions)}
         if self._headings is not None:
             checksums["headings"] = _sha256(self._headings)
+        if self._covariances is not None:
+            checksums["covariances"] = _sha256(self._covariances)
         return {
             "format": MAP_FORMAT,
             "format_version": MAP_FORMAT_VERSION,
@@ -316,6 +365,7 @@ class ReferenceMap:
             "params": params_to_dict(self._params),
             "names": list(self._names),
             "source": self._source,
+            "pose_source": self._pose_source,
             "checksums": checksums,
         }
 
@@ -336,6 +386,8 @@ class ReferenceMap:
         arrays = {"header": header, "images": self._images, "positions": self._positions}
         if self._headings is not None:
             arrays["headings"] = self._headings
+        if self._covariances is not None:
+            arrays["covariances"] = self._covariances
         with atomic_file(target, "wb", overwrite=overwrite) as stream:
             np.savez(stream, **arrays)  # type: ignore[arg-type]  # numpy's stub: allow_pickle
         return target
@@ -424,7 +476,12 @@ class ReferenceMap:
             raise MapFormatError(f"{file}: the header's checksums are not a table (corrupt file)")
         if isinstance(count, bool) or not isinstance(count, int) or count < 1:
             raise MapFormatError(f"{file}: the header's image count {count!r} is not a positive integer")
-        optional = ("headings",) if "headings" in checksums or "headings" in arrays else ()
+        optional = tuple(name for name in ("headings", "covariances") if name in checksums or name in arrays)
+        pose_source = header.get("pose_source", "surveyed") if version >= 2 else "surveyed"
+        if pose_source not in POSE_SOURCES:
+            raise MapFormatError(
+                f"{file}: the header's pose_source {pose_source!r} is not one of {', '.join(POSE_SOURCES)}"
+            )
         for name in ("images", "positions", *optional):
             if name not in arrays:
                 raise MapFormatError(f"{file}: the map lacks its '{name}' array (corrupt file)")
@@ -458,6 +515,27 @@ class ReferenceMap:
                 names,
                 map_params,
                 str(header.get("source", "")),
+                pose_source=pose_source,
+                covariances=arrays.get("covariances"),
             )
         except (TypeError, ValueError) as error:
             raise MapFormatError(f"{file}: inconsistent map contents: {error}") from None
+
+
+def _checked_covariances(covariances: Any, n: int) -> np.ndarray:
+    """``(n, 3, 3)`` float64 covariances: finite, symmetric, non-negative variances."""
+    not_masked(covariances, "covariances")
+    try:
+        cov = np.array(covariances, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"covariances must be ({n}, 3, 3) numbers: {error}") from None
+    if cov.shape != (n, 3, 3):
+        raise ValueError(f"covariances must be ({n}, 3, 3) (x, y, heading per pose), got shape {cov.shape}")
+    if not np.isfinite(cov).all():
+        raise ValueError("covariances hold NaN or infinity")
+    diagonal = np.diagonal(cov, axis1=1, axis2=2)
+    if (diagonal < 0).any():
+        raise ValueError("covariances have negative variances")
+    if not np.allclose(cov, np.swapaxes(cov, 1, 2), rtol=1e-6, atol=1e-12):
+        raise ValueError("covariances must be symmetric")
+    return cov
