@@ -7,7 +7,7 @@ use :class:`NightlocError`, a ``ValueError`` that names the file and, where it a
 
 from __future__ import annotations
 
-__all__ = ["DatasetError", "MapFormatError", "NightlocError"]
+__all__ = ["DatasetError", "MapFormatError", "MappingError", "MissingDependencyError", "NightlocError"]
 
 
 class NightlocError(ValueError):
@@ -20,3 +20,12 @@ class DatasetError(NightlocError):
 
 class MapFormatError(NightlocError):
     """A reference map file is corrupt, truncated, of another format version or other parameters."""
+
+
+class MappingError(NightlocError):
+    """A teach run cannot build its map: odometry that does not fit the frames, or a pose graph
+    the optimiser cannot solve."""
+
+
+class MissingDependencyError(NightlocError, ImportError):
+    """An optional dependency is not installed; the message names the ``pip install`` command."""
