@@ -126,6 +126,7 @@ class TeachReport:
         seconds: wall time of the whole run.
         warnings: what the map lacks, in words (also issued as :class:`TeachWarning`).
         accept_gate: the gate the counts used (standard deviations).
+        covariances: ``(N, 3, 3)`` the map's pose covariances.
     """
 
     frames: int
@@ -140,6 +141,16 @@ class TeachReport:
     seconds: float
     warnings: tuple[str, ...] = ()
     accept_gate: float = 3.0
+    covariances: np.ndarray | None = None
+
+    @property
+    def covariances_summary(self) -> tuple[float, float] | None:
+        """Median and largest position standard deviation (metres, the larger axis of each
+        pose's covariance ellipse), or None without covariances."""
+        if self.covariances is None:
+            return None
+        largest = np.sqrt(np.linalg.eigvalsh(self.covariances[:, :2, :2])[:, -1].clip(min=0.0))
+        return float(np.median(largest)), float(largest.max())
 
     def counts_by_kind(self) -> dict[str, tuple[int, int]]:
         """``{kind: (accepted, rejected)}`` for ``"sequence"`` and ``"place"`` constraints."""
@@ -308,5 +319,6 @@ def teach_run(
         seconds=time.perf_counter() - start,
         warnings=tuple(notes),
         accept_gate=teach.accept_gate,
+        covariances=covariances,
     )
     return reference_map, report
