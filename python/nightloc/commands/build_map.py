@@ -50,9 +50,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="teach run on a traverse that also has poses.csv: build from the odometry, report the ATE of dead "
         "reckoning and of the map against poses.csv",
     )
-    parser.add_argument(
-        "--closed-loop", action="store_true", help="teach run: the drive ends where it began (a dock)"
-    )
+    parser.add_argument("--closed-loop", action="store_true", help="teach run: the drive ends where it began (a dock)")
     parser.add_argument("--figure", type=Path, help="teach run: draw the paths to this PNG, PDF or SVG file")
     parser.add_argument("--overwrite", action="store_true", help="replace OUT.map when it exists")
     parser.set_defaults(run=run)
@@ -104,8 +102,8 @@ def _teach(args: argparse.Namespace, traverse, params: PreparationParams) -> int
     require_gtsam()  # one line naming the install command, before any work
     if not traverse.is_video and not (Path(traverse.root) / ODOMETRY_FILE).exists():
         raise DatasetError(
-            f"{traverse.root} has neither poses.csv nor {ODOMETRY_FILE}: a reference map needs the position of every "
-            f"image (poses.csv: image,x,y[,heading]) or the drive's wheel odometry for a teach run "
+            f"{traverse.root} has no poses (poses.csv) and no {ODOMETRY_FILE}: a reference map needs the position "
+            f"of every image (poses.csv: image,x,y[,heading]) or the drive's wheel odometry for a teach run "
             f"({ODOMETRY_FILE}: image,forward,left,turn)"
         )
     print(f"teach run: {len(traverse)} frames of {traverse.root}, wheel odometry from {ODOMETRY_FILE}", flush=True)
@@ -120,11 +118,11 @@ def _teach(args: argparse.Namespace, traverse, params: PreparationParams) -> int
     print(
         f"visual constraints: {report.accepted} accepted, {report.rejected} rejected "
         f"(sequence {kinds['sequence'][0]}/{kinds['sequence'][1]}, revisits {kinds['place'][0]}/{kinds['place'][1]}); "
-        f"{report.gated_out} candidate pairs too far apart"
-        + (", closed loop" if args.closed_loop else "")
+        f"{report.gated_out} candidate pairs too far apart" + (", closed loop" if args.closed_loop else "")
     )
     if report.covariances_summary is not None:
-        print(f"pose uncertainty: median {report.covariances_summary[0]:.3f} m, largest {report.covariances_summary[1]:.3f} m (1 sigma)")
+        median, largest = report.covariances_summary
+        print(f"pose uncertainty (1 sigma, larger axis): median {median:.3f} m, largest {largest:.3f} m")
     surveyed = None
     if args.evaluate_poses and traverse.positions is not None:
         truth = np.asarray(traverse.positions)

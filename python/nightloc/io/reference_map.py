@@ -310,22 +310,36 @@ class ReferenceMap:
     # --- building and matching
 
     @classmethod
-    def build(cls, traverse: Traverse | PathLike, params: PreparationParams | None = None) -> ReferenceMap:
-        """Prepares every frame of a traverse (with poses) into a map.
+    def build(
+        cls, traverse: Traverse | PathLike, params: PreparationParams | None = None, *, teach: Any = None
+    ) -> ReferenceMap:
+        """Prepares every frame of a traverse into a map: with its surveyed poses, or by a teach run.
 
         Args:
             traverse: a :class:`Traverse`, or a path given to :func:`load_traverse`.
             params: preparation parameters (default: the paper's).
+            teach: None (default): the traverse's poses, or -- a folder without ``poses.csv`` but
+                with ``odometry.csv`` -- a teach run; True or a
+                :class:`~nightloc.mapping.TeachParams`: a teach run even when poses exist
+                (:func:`nightloc.mapping.teach_run`; GTSAM needed: ``pip install
+                "nightloc[mapping]"``).
 
         Raises:
-            DatasetError: the traverse has no poses, or a frame cannot be read.
+            DatasetError: the traverse has neither poses nor odometry, or a frame cannot be read.
+            MappingError, MissingDependencyError: see :func:`nightloc.mapping.teach_run`.
         """
         if not isinstance(traverse, Traverse):
             traverse = load_traverse(traverse)
+        odometry_log = not traverse.is_video and (Path(traverse.root) / "odometry.csv").exists()
+        if (teach is not None and teach is not False) or (traverse.positions is None and odometry_log):
+            from ..mapping import TeachParams, teach_run
+
+            return teach_run(traverse, params, teach if isinstance(teach, TeachParams) else None)[0]
         if traverse.positions is None:
             raise DatasetError(
                 f"traverse {traverse.root} has no poses; a reference map needs the position of every "
-                f"image (add poses.csv with columns image,x,y[,heading])"
+                f"image (add poses.csv with columns image,x,y[,heading]) or the drive's wheel odometry for a "
+                f"teach run (odometry.csv with columns image,forward,left,turn)"
             )
         preparer = Preparer(params)
         images = preparer.prepare(traverse)

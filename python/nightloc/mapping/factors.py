@@ -70,16 +70,15 @@ def build_graph(
     """
     gtsam = require_gtsam()
     graph = gtsam.NonlinearFactorGraph()
-    graph.add(
-        gtsam.PriorFactorPose2(0, gtsam.Pose2(0.0, 0.0, 0.0), gtsam.noiseModel.Isotropic.Sigma(3, ORIGIN_STD))
-    )
+    graph.add(gtsam.PriorFactorPose2(0, gtsam.Pose2(0.0, 0.0, 0.0), gtsam.noiseModel.Isotropic.Sigma(3, ORIGIN_STD)))
     for k, (step, cov) in enumerate(zip(steps, step_covariances)):
         noise = gtsam.noiseModel.Gaussian.Covariance(np.asarray(cov, dtype=np.float64))
         graph.add(gtsam.BetweenFactorPose2(k, k + 1, gtsam.Pose2(*(float(v) for v in step)), noise))
     for c in constraints:
         position_std = FREE_TRANSLATION_STD if c.position_std is None else c.position_std
         base = gtsam.noiseModel.Diagonal.Sigmas(np.array([position_std, position_std, c.heading_std]))
-        graph.add(gtsam.BetweenFactorPose2(c.i, c.j, gtsam.Pose2(0.0, 0.0, c.heading), _robust(gtsam, base, robust_scale)))
+        noise = _robust(gtsam, base, robust_scale)
+        graph.add(gtsam.BetweenFactorPose2(c.i, c.j, gtsam.Pose2(0.0, 0.0, c.heading), noise))
     if closed_loop_std is not None and len(steps) > 0:
         base = gtsam.noiseModel.Diagonal.Sigmas(np.array([closed_loop_std, closed_loop_std, FREE_TRANSLATION_STD]))
         graph.add(gtsam.BetweenFactorPose2(0, len(steps), gtsam.Pose2(0.0, 0.0, 0.0), base))

@@ -115,7 +115,7 @@ def solve_positions(
             residual = np.hypot(*(positions[[c.j for c in strong]] - positions[[c.i for c in strong]]).T) / std
             scale = _cauchy(residual, robust_scale) / std**2
             weights.append(scale[:, None, None] * np.eye(2))
-        if loop:
+        if closed_loop_std is not None:
             weights.append(np.eye(2)[None] / closed_loop_std**2)
         w = np.concatenate(weights)
         normal = _block_laplacian(n, fi, fj, w)
@@ -191,7 +191,9 @@ def optimise_graph(
         MappingError: the optimiser fails or returns non-finite poses or covariances.
     """
     gtsam = require_gtsam()
-    graph = build_graph(steps, step_covariances, constraints, robust_scale=robust_scale, closed_loop_std=closed_loop_std)
+    graph = build_graph(
+        steps, step_covariances, constraints, robust_scale=robust_scale, closed_loop_std=closed_loop_std
+    )
     values = gtsam.Values()
     for k, (x, y, h) in enumerate(initial):
         values.insert(k, gtsam.Pose2(float(x), float(y), float(h)))
@@ -206,7 +208,7 @@ def optimise_graph(
         poses = np.array([[p.x(), p.y(), p.theta()] for p in (result.atPose2(k) for k in range(n))])
         marginals = gtsam.Marginals(graph, result)
         local = np.array([marginals.marginalCovariance(k) for k in range(n)])
-    except RuntimeError as error:  # gtsam's IndeterminantLinearSystemException and others
+    except (RuntimeError, IndexError, ValueError) as error:  # gtsam's IndeterminantLinearSystemException, ...
         raise MappingError(f"the pose graph of {n} frames could not be solved: {error}") from None
     if not (np.isfinite(poses).all() and np.isfinite(local).all() and math.isfinite(final_error)):
         raise MappingError(f"the pose graph of {n} frames has no finite solution (a degenerate odometry log?)")

@@ -106,7 +106,8 @@ class TeachParams:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
                 raise TypeError(f"TeachParams.{name} must be a number, got {type(value).__name__}")
-            if not math.isfinite(value) or value < 0 or (value == 0 and name not in ("strong_score", "heading_std_per_metre")):
+            zero_allowed = name in ("strong_score", "heading_std_per_metre")
+            if not math.isfinite(value) or value < 0 or (value == 0 and not zero_allowed):
                 raise ValueError(f"TeachParams.{name} must be a finite number > 0, got {value!r}")
 
 

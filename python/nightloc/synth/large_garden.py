@@ -40,7 +40,8 @@ def _ground(rng: np.random.Generator) -> GroundMap:
         beds |= (xs - cx) ** 2 + (ys - cy) ** 2 < r**2
     albedo = np.where(beds[..., None], soil, albedo)
     patio = ys > 15.6
-    albedo = np.where(patio[..., None], np.array([0.45, 0.42, 0.38], np.float32) * (0.85 + 0.3 * fine)[..., None], albedo)
+    paving = np.array([0.45, 0.42, 0.38], np.float32) * (0.85 + 0.3 * fine)[..., None]
+    albedo = np.where(patio[..., None], paving, albedo)
     return GroundMap(np.ascontiguousarray(albedo, dtype=np.float32), x0, y0, ppm)
 
 
@@ -63,15 +64,25 @@ def large_garden(seed: int) -> World:
     post = material("post", "wood", 0.5, 2.0, colour=(0.22, 0.14, 0.08))
     brick = material("brick", "brick", 6.0, 3.2)
     roof = material("roof", "tiles", 6.0, 1.0)
-    siding = material("shed", "planks", 4.0, 2.1, colour=(0.20, 0.30, 0.22), plank=0.12, gap=0.01, rails=(), vertical=False)
+    siding = material(
+        "shed", "planks", 4.0, 2.1, colour=(0.20, 0.30, 0.22), plank=0.12, gap=0.01, rails=(), vertical=False
+    )
     door = material("door", "panels", 0.9, 2.0, colour=(0.08, 0.18, 0.35))
     bark = material("bark", "bark", 1.0, 2.0)
     stone = material("stone", "plain", 1.0, 1.0, colour=(0.45, 0.43, 0.40), noise=0.4)
     metal = material("metal", "plain", 0.5, 1.0, colour=(0.15, 0.15, 0.16))
     lamp = material("lamp", "plain", 0.5, 0.3, colour=(0.9, 0.85, 0.7), noise=0.05)
     leaves = [
-        material(f"leaves_{i}", "foliage", 3.0, 2.0, dark=jitter_colour(rng, d, 0.2), light=jitter_colour(rng, lit, 0.2),
-                 flowers=f, flower=fc)
+        material(
+            f"leaves_{i}",
+            "foliage",
+            3.0,
+            2.0,
+            dark=jitter_colour(rng, d, 0.2),
+            light=jitter_colour(rng, lit, 0.2),
+            flowers=f,
+            flower=fc,
+        )
         for i, (d, lit, f, fc) in enumerate(
             [
                 ((0.03, 0.10, 0.02), (0.16, 0.36, 0.07), 0.0, (1, 1, 1)),
@@ -103,7 +114,16 @@ def large_garden(seed: int) -> World:
     objects.append(box(x0 - 0.3, y1 - 0.25, x1 + 0.3, y1 + 3.3, 3.4, 3.65, roof))
     for i, (x, w) in enumerate([(1.5, 1.4), (5.0, 1.0), (9.0, 1.6), (15.5, 1.2), (20.0, 1.4), (24.0, 1.0)]):
         objects.append(
-            panel((x, y1 - 0.01), w, 0.02, -np.pi / 2, 0.9, 2.1, windows[i % 3], emission="house_window" if i % 2 else None)
+            panel(
+                (x, y1 - 0.01),
+                w,
+                0.02,
+                -np.pi / 2,
+                0.9,
+                2.1,
+                windows[i % 3],
+                emission="house_window" if i % 2 else None,
+            )
         )
     objects.append(panel((12.0, y1 - 0.01), 0.9, 0.02, -np.pi / 2, 0.0, 2.0, door))
     objects.append(Cylinder((12.8, y1 - 0.08), 0.07, 2.05, 2.3, lamp, emission="porch_lamp"))

@@ -19,6 +19,7 @@ seed draws the wobble, the sideways error and the living room's random query pos
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -117,7 +118,7 @@ def _spaced_polyline(waypoints: np.ndarray, step: float) -> tuple[np.ndarray, np
     """Points every ``step`` metres along each segment of a polyline (its corners included, not
     repeated) and the travel direction at each; the first point is the polyline's start."""
     points, directions = [waypoints[:1]], [np.zeros(1)]
-    for a, b in zip(waypoints[:-1], waypoints[1:]):
+    for a, b in itertools.pairwise(waypoints):
         length = float(np.hypot(*(b - a)))
         count = max(1, int(round(length / step)))
         t = np.arange(1, count + 1) / count
@@ -135,9 +136,7 @@ def _large_garden_plans(rng: np.random.Generator) -> list[TraversePlan]:
     headings = wrap_angle(directions + rng.normal(0.0, LARGE_HEADING_WOBBLE, len(directions)))
     day = TraversePlan("day_reference", "day", _sideways(rng, points, directions, 0.03), headings)
     points, directions = _spaced_polyline(LARGE_NIGHT_WAYPOINTS, LARGE_STEP)
-    night = TraversePlan(
-        "night_query", "night", _sideways(rng, points, directions, 0.08), _wobble(rng, directions)
-    )
+    night = TraversePlan("night_query", "night", _sideways(rng, points, directions, 0.08), _wobble(rng, directions))
     return [day, night]
 
 
