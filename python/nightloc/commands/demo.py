@@ -96,6 +96,12 @@ def comparison_table(errors: dict[str, dict[str, list[np.ndarray]]], models: tup
     return "\n".join(lines)
 
 
+def _median_m(errors: np.ndarray) -> str:
+    import numpy as np
+
+    return f"{np.median(errors):.2f} m" if len(errors) else "-"
+
+
 def teach_comparison(
     surveyed_map: ReferenceMap,
     day: Path,
@@ -104,6 +110,7 @@ def teach_comparison(
     settings: EvaluationSettings,
     params: LocalizationParams,
     figure: Path | None = None,
+    progress_desc: str | None = None,
 ) -> list[str]:
     """The demo's teach-run lines: the map from the day drive's wheel odometry, its ATE beside
     the dead reckoning's, the filter's night error on it beside ``surveyed_errors`` (the same
@@ -129,7 +136,7 @@ def teach_comparison(
     if alignment is None:  # a teach run's map is never surveyed
         raise AssertionError("a teach-run map needs aligning")
     matches = align_to_map(match_traverse(teach_map, query, tables=True), alignment[0])
-    evaluation = evaluate(teach_map, matches, settings, params)
+    evaluation = evaluate(teach_map, matches, settings, params, progress_desc=progress_desc)
     later = evaluation.frame_index() >= COMPARE_FROM - 1
     teach_errors = evaluation.columns["error_m"][evaluation.select(method="filter") & later]
     if figure is not None:
@@ -150,8 +157,9 @@ def teach_comparison(
         f"{report.rejected} rejected; map ATE {map_ate:.2f} m (dead reckoning {reckoned_ate:.2f} m)"
     )
     second = (
-        f"night median error, Bayes filter with wheel odometry (noise model 1), frames {COMPARE_FROM} on: "
-        f"surveyed map {np.median(surveyed_errors):.2f} m, teach-run map {np.median(teach_errors):.2f} m"
+        f"night median error, Bayes filter with wheel odometry (noise model {settings.noise_models[0]}), frames "
+        f"{COMPARE_FROM} on: "
+        f"surveyed map {_median_m(surveyed_errors)}, teach-run map {_median_m(teach_errors)}"
     )
     return [first, second]
 
@@ -248,12 +256,12 @@ def run(args: argparse.Namespace) -> int:
                 f"error (m) over frames {COMPARE_FROM}-{frames}, {args.repeats} noise draw(s):"
             )
             print(comparison_table(errors, evaluation.settings.noise_models))
+            models = list(evaluation.settings.noise_models)
+            model = 1 if 1 in models else models[0]  # the robot's wheel odometry noise, as the demo's
             wheel_filter = EvaluationSettings(
-                seq_lengths=(1,), noise_models=(1,), interpolation=(True,), odometry="robot", methods=("filter",)
+                seq_lengths=(1,), noise_models=(model,), interpolation=(True,), odometry="robot", methods=("filter",)
             )
-            surveyed_errors = errors["wheel odometry (RobotMotion)"]["filter"][
-                list(evaluation.settings.noise_models).index(1)
-            ]
+            surveyed_errors = errors["wheel odometry (RobotMotion)"]["filter"][models.index(model)]
             teach_figure = None if args.no_figures else target / f"teach_run.{args.figure_format}"
             lines = teach_comparison(
                 ref_map,
@@ -263,6 +271,7 @@ def run(args: argparse.Namespace) -> int:
                 wheel_filter,
                 params,
                 teach_figure,
+                progress_desc=f"{world}: teach-run map",
             )
             print()
             print("\n".join(lines))

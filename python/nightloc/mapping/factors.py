@@ -6,8 +6,10 @@
   step ``(forward, left, turn)`` with the wheel-noise model's covariance;
 * a **visual** factor per :class:`~nightloc.mapping.candidates.VisualConstraint`: the relative
   heading (a ``BetweenFactorPose2`` whose translation is free, standard deviation
-  :data:`FREE_TRANSLATION_STD`) or, for a strong place pair, heading and coinciding positions;
-  both under a Cauchy robust kernel, so a false match pulls with a bounded force;
+  :data:`FREE_TRANSLATION_STD`); for a strong place pair, heading and coinciding positions; for
+  a pair placed along the other frame's pass, heading and that one position component (the
+  information matrix of ``BetweenFactorPose2(j, i)`` along ``j``'s direction of travel); all
+  under a Cauchy robust kernel, so a false match pulls with a bounded force;
 * optionally the **closed loop**: the last frame's position is the first's (a dock).
 
 GTSAM (PyPI ``gtsam``) is an optional dependency (``pip install "nightloc[mapping]"``):
@@ -51,6 +53,19 @@ def _robust(gtsam: ModuleType, base: Any, scale: float) -> Any:
     return gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Cauchy.Create(scale), base)
 
 
+def _along_factor(gtsam: ModuleType, c: VisualConstraint, robust_scale: float) -> Any:
+    """``BetweenFactorPose2(j, i)``: ``i`` lies ``c.along`` metres along ``j``'s direction of
+    travel (free across it), turned by ``-c.heading``."""
+    u = np.array([np.cos(c.along_direction), np.sin(c.along_direction)])
+    info = np.zeros((3, 3))
+    info[:2, :2] = np.outer(u, u) / c.along_std**2 + np.eye(2) / FREE_TRANSLATION_STD**2
+    info[2, 2] = 1.0 / c.heading_std**2
+    along = float(c.along)  # type: ignore[arg-type]  # set for this kind of constraint
+    measured = gtsam.Pose2(along * u[0], along * u[1], -c.heading)
+    noise = _robust(gtsam, gtsam.noiseModel.Gaussian.Information(info), robust_scale)
+    return gtsam.BetweenFactorPose2(c.j, c.i, measured, noise)
+
+
 def build_graph(
     steps: np.ndarray,
     step_covariances: np.ndarray,
@@ -75,6 +90,9 @@ def build_graph(
         noise = gtsam.noiseModel.Gaussian.Covariance(np.asarray(cov, dtype=np.float64))
         graph.add(gtsam.BetweenFactorPose2(k, k + 1, gtsam.Pose2(*(float(v) for v in step)), noise))
     for c in constraints:
+        if c.along is not None and c.position_std is None:
+            graph.add(_along_factor(gtsam, c, robust_scale))
+            continue
         position_std = FREE_TRANSLATION_STD if c.position_std is None else c.position_std
         base = gtsam.noiseModel.Diagonal.Sigmas(np.array([position_std, position_std, c.heading_std]))
         noise = _robust(gtsam, base, robust_scale)

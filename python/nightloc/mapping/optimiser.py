@@ -103,18 +103,32 @@ def solve_positions(
     pairs_i = list(range(n - 1))
     pairs_j = list(range(1, n))
     strong = [c for c in constraints if c.position_std is not None]
+    abeam = [c for c in constraints if c.along is not None and c.position_std is None]
+    # abeam rows: x_i - x_j = along * u (u: j's direction of travel in the map frame), weighed along u only
+    if abeam:
+        angle = np.array([headings[c.j] + c.along_direction for c in abeam])
+        u = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+        along = np.array([c.along for c in abeam], dtype=np.float64)
+        along_std = np.array([c.along_std for c in abeam])
+        outer = np.einsum("ka,kb->kab", u, u) + np.eye(2) * 1e-9
     loop = [] if closed_loop_std is None else [(0, n - 1)]
     positions = np.zeros((n, 2))
-    for _ in range(iterations if strong else 1):
-        fi = np.array(pairs_i + [c.i for c in strong] + [p[0] for p in loop], dtype=np.intp)
-        fj = np.array(pairs_j + [c.j for c in strong] + [p[1] for p in loop], dtype=np.intp)
-        targets = np.concatenate([delta, np.zeros((len(strong) + len(loop), 2))])
+    for _ in range(iterations if strong or abeam else 1):
+        fi = np.array(pairs_i + [c.i for c in strong] + [c.j for c in abeam] + [p[0] for p in loop], dtype=np.intp)
+        fj = np.array(pairs_j + [c.j for c in strong] + [c.i for c in abeam] + [p[1] for p in loop], dtype=np.intp)
+        targets = np.concatenate([delta, np.zeros((len(strong), 2))] + ([u * along[:, None]] if abeam else []))
+        targets = np.concatenate([targets, np.zeros((len(loop), 2))])
         weights = [info]
         if strong:
             std = np.array([c.position_std for c in strong])
             residual = np.hypot(*(positions[[c.j for c in strong]] - positions[[c.i for c in strong]]).T) / std
             scale = _cauchy(residual, robust_scale) / std**2
             weights.append(scale[:, None, None] * np.eye(2))
+        if abeam:
+            offset = positions[[c.i for c in abeam]] - positions[[c.j for c in abeam]]
+            residual = np.abs(np.sum(offset * u, axis=1) - along) / along_std
+            scale = _cauchy(residual, robust_scale) / along_std**2
+            weights.append(scale[:, None, None] * outer)
         if closed_loop_std is not None:
             weights.append(np.eye(2)[None] / closed_loop_std**2)
         w = np.concatenate(weights)
@@ -171,6 +185,11 @@ def constraint_residuals(poses: np.ndarray, constraints: list[VisualConstraint])
         residual = abs(math.remainder(turn, 2 * math.pi)) / c.heading_std
         if c.position_std is not None:
             residual = max(residual, float(np.hypot(*(poses[c.j, :2] - poses[c.i, :2]))) / c.position_std)
+        elif c.along is not None:
+            angle = poses[c.j, 2] + c.along_direction
+            offset = poses[c.i, :2] - poses[c.j, :2]
+            along = offset[0] * math.cos(angle) + offset[1] * math.sin(angle)
+            residual = max(residual, abs(along - c.along) / c.along_std)
         out[k] = residual
     return out
 

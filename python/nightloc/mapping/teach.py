@@ -241,7 +241,10 @@ def teach_run(
         scores, _ = difference_matrix(images, images, threads=threads)
         poses = reckoned.copy()
         turn_std = np.sqrt(step_cov[:, 2, 2])
+        covariances_now = reckoned_cov
         for _ in range(teach.rounds):
+            position_std = np.sqrt(np.linalg.eigvalsh(covariances_now[:, :2, :2])[:, -1].clip(min=0.0))
+            heading_std = np.sqrt(covariances_now[:, 2, 2].clip(min=0.0))
             pairs, gated_out = candidate_pairs(
                 scores,
                 poses,
@@ -249,6 +252,7 @@ def teach_run(
                 max_distance=teach.max_distance,
                 place_candidates=teach.place_candidates,
                 strong_score=teach.strong_score,
+                position_std=position_std,
             )
             constraints = measure_constraints(
                 images,
@@ -259,6 +263,9 @@ def teach_run(
                 axis_half_width=teach.axis_half_width,
                 strong_score=teach.strong_score,
                 place_position_std=teach.place_position_std,
+                max_distance=teach.max_distance,
+                scores=scores,
+                heading_uncertainty=heading_std,
             )
             if not constraints:
                 break
@@ -281,6 +288,7 @@ def teach_run(
             )
             poses = solution.poses.copy()
             poses[:, 2] = np.unwrap(poses[:, 2])
+            covariances_now = solution.covariances
     else:
         notes.append("a forward camera (wrap=False) gives no relative headings")
     if solution is None or not constraints:
