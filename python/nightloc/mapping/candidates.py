@@ -23,7 +23,11 @@ A place pair also says where along the other pass the frame was taken: frame ``i
 frame ``j`` more than ``j``'s neighbours ``j - 1`` and ``j + 1`` when it was taken abeam of ``j``
 (two passes side by side, a mowing row beside the last); the V fit of those three scores places
 ``i`` between them, ``along`` metres along ``j``'s direction of travel (``along_std``, growing
-with the distance between the passes). Across the pass the distance stays free.
+with the distance between the passes). Across the pass the distance stays free. It is measured
+only between passes more than ``along_min_path`` metres of driving apart, which the odometry
+cannot keep in register (3 % scale error and noise: over a metre of along-track uncertainty
+after 30 m); nearer passes, e.g. the rows of a room, rely on the odometry, as the along-pass
+match is biased where walls are near.
 """
 
 from __future__ import annotations
@@ -145,6 +149,8 @@ def measure_constraints(
     scores: np.ndarray | None = None,
     along_std: float = 0.05,
     along_std_per_metre: float = 0.15,
+    path_length: np.ndarray | None = None,
+    along_min_path: float = 30.0,
     heading_uncertainty: np.ndarray | None = None,
     unsure_heading: float = 0.15,
     min_axis_distance: float = 0.1,
@@ -159,6 +165,8 @@ def measure_constraints(
         scores: ``(N, N)`` whole-image scores (for the along-pass position); None: none measured.
         along_std, along_std_per_metre: the along-pass position's standard deviation, metres,
             ``along_std + along_std_per_metre * distance`` between the passes.
+        path_length: ``(N,)`` metres driven up to each frame (None: no along-pass position).
+        along_min_path: metres of driving between two passes for an along-pass position.
         heading_uncertainty: ``(N,)`` radians, each frame's heading uncertainty (None: 0).
         unsure_heading: radians; a pair whose relative heading is less sure than this is
             measured over the whole image.
@@ -177,7 +185,8 @@ def measure_constraints(
         heading, score = relative_heading(images[j], images[i], axis, axis_half_width, prior=prior)
         spread = 0.0 if strong else max_distance if lost else distance  # a strong pair's places coincide
         along = None
-        if pair.kind == "place" and not strong and scores is not None:
+        far = path_length is not None and abs(float(path_length[j] - path_length[i])) >= along_min_path
+        if pair.kind == "place" and not strong and scores is not None and far:
             along = _along_pass(scores, poses, i, j)
         out.append(
             VisualConstraint(

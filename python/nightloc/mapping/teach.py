@@ -59,6 +59,14 @@ class TeachParams:
         heading_std, heading_std_per_metre: a visual heading's standard deviation, radians,
             ``heading_std + heading_std_per_metre * distance`` (parallax grows with distance).
         place_position_std: metres; how far apart a strong pair's places may be.
+        along_std, along_std_per_metre: metres; the standard deviation of where a place pair's
+            frame lies along the other frame's pass, ``along_std + along_std_per_metre *
+            distance``; ``along_std`` 0 measures none.
+        along_min_path: metres of driving between two passes for an along-pass position.
+        gate_sigmas: a place pair's distance gate widens by this many standard deviations of
+            the two positions (the estimate's marginal covariances).
+        unsure_heading: radians; a place pair whose relative heading the estimate knows less
+            well than this is measured over the whole image (no prior, no axis).
         axis_half_width: radians; columns compared either side of the line between two places.
         robust_scale: the Cauchy kernel's scale, in standard deviations.
         accept_gate: standard deviations; a visual constraint whose residual at the solution is
@@ -76,12 +84,17 @@ class TeachParams:
     heading_std: float = 0.005
     heading_std_per_metre: float = 0.05
     place_position_std: float = 0.25
+    along_std: float = 0.05
+    along_std_per_metre: float = 0.15
+    along_min_path: float = 30.0
+    gate_sigmas: float = 3.0
+    unsure_heading: float = 0.15
     axis_half_width: float = math.radians(30.0)
     robust_scale: float = 1.0
     accept_gate: float = 3.0
     closed_loop: bool = False
     closed_loop_std: float = 0.05
-    rounds: int = 2
+    rounds: int = 4
 
     def __post_init__(self) -> None:
         if not isinstance(self.wheel_noise, WheelNoise):
@@ -98,6 +111,11 @@ class TeachParams:
             "heading_std",
             "heading_std_per_metre",
             "place_position_std",
+            "along_std",
+            "along_std_per_metre",
+            "along_min_path",
+            "gate_sigmas",
+            "unsure_heading",
             "axis_half_width",
             "robust_scale",
             "accept_gate",
@@ -106,7 +124,13 @@ class TeachParams:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
                 raise TypeError(f"TeachParams.{name} must be a number, got {type(value).__name__}")
-            zero_allowed = name in ("strong_score", "heading_std_per_metre")
+            zero_allowed = name in (
+                "strong_score",
+                "heading_std_per_metre",
+                "along_std",
+                "along_std_per_metre",
+                "gate_sigmas",
+            )
             if not math.isfinite(value) or value < 0 or (value == 0 and not zero_allowed):
                 raise ValueError(f"TeachParams.{name} must be a finite number > 0, got {value!r}")
 
@@ -242,6 +266,7 @@ def teach_run(
         poses = reckoned.copy()
         turn_std = np.sqrt(step_cov[:, 2, 2])
         covariances_now = reckoned_cov
+        path_length = np.concatenate([[0.0], np.cumsum(np.hypot(steps[:, 0], steps[:, 1]))])
         for _ in range(teach.rounds):
             position_std = np.sqrt(np.linalg.eigvalsh(covariances_now[:, :2, :2])[:, -1].clip(min=0.0))
             heading_std = np.sqrt(covariances_now[:, 2, 2].clip(min=0.0))
@@ -253,6 +278,7 @@ def teach_run(
                 place_candidates=teach.place_candidates,
                 strong_score=teach.strong_score,
                 position_std=position_std,
+                gate_sigmas=teach.gate_sigmas,
             )
             constraints = measure_constraints(
                 images,
@@ -264,8 +290,13 @@ def teach_run(
                 strong_score=teach.strong_score,
                 place_position_std=teach.place_position_std,
                 max_distance=teach.max_distance,
-                scores=scores,
+                scores=scores if teach.along_std > 0 else None,
+                along_std=teach.along_std,
+                along_std_per_metre=teach.along_std_per_metre,
+                path_length=path_length,
+                along_min_path=teach.along_min_path,
                 heading_uncertainty=heading_std,
+                unsure_heading=teach.unsure_heading,
             )
             if not constraints:
                 break
