@@ -31,11 +31,11 @@ from ..matching.sad import difference_matrix
 from ..preparation.params import PreparationParams
 from ..preparation.preparer import Preparer
 from .candidates import VisualConstraint, candidate_pairs, measure_constraints
-from .dead_reckoning import dead_reckoning
+from .dead_reckoning import compose_steps, dead_reckoning
 from .factors import require_gtsam
 from .optimiser import GraphSolution, optimise_graph, solve_headings, solve_positions
 
-__all__ = ["TeachParams", "TeachReport", "TeachWarning", "odometry_steps", "teach_run"]
+__all__ = ["TeachParams", "TeachReport", "TeachWarning", "odometry_steps", "teach_poses", "teach_run"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -251,17 +251,77 @@ def teach_run(
     if len(traverse) < 2:
         raise MappingError(f"{traverse.root} has {len(traverse)} frame; a teach run needs a drive of at least 2")
     steps = odometry_steps(list(odometry), traverse.names)
-    step_cov = teach.wheel_noise.step_covariances(steps[:, 0], steps[:, 1])
-    reckoned, reckoned_cov = dead_reckoning(steps, teach.wheel_noise)
     preparer = Preparer(params)
     images = preparer.prepare(traverse)
     if images.ndim == 2:
         images = images[np.newaxis]
+    final, covariances, source, constraints, solution, gated_out, notes = teach_poses(
+        images, steps, teach, panoramic=preparer.params.wrap, threads=threads
+    )
+    for note in notes:
+        warnings.warn(note, TeachWarning, stacklevel=2)
+    headings_out = np.pi - np.mod(np.pi - final[:, 2], 2 * np.pi)
+    reference_map = ReferenceMap(
+        images,
+        final[:, :2],
+        headings_out,
+        traverse.names,
+        preparer.params,
+        str(traverse.root),
+        pose_source=source,
+        covariances=covariances,
+    )
+    residuals = solution.residuals if solution is not None else np.zeros(0)
+    accepted = int(np.sum(residuals <= teach.accept_gate))
+    report = TeachReport(
+        frames=len(traverse),
+        pose_source=source,
+        dead_reckoning=compose_steps(steps),
+        poses=np.column_stack([final[:, :2], headings_out]),
+        constraints=tuple(constraints) if solution is not None else (),
+        accepted=accepted,
+        rejected=int(len(residuals) - accepted),
+        gated_out=gated_out,
+        solution=solution,
+        seconds=time.perf_counter() - start,
+        warnings=tuple(notes),
+        accept_gate=teach.accept_gate,
+        covariances=covariances,
+    )
+    return reference_map, report
+
+
+def teach_poses(
+    images: np.ndarray,
+    steps: np.ndarray,
+    teach: TeachParams | None = None,
+    *,
+    panoramic: bool = True,
+    threads: int | None = None,
+) -> tuple[np.ndarray, np.ndarray, str, list[VisualConstraint], GraphSolution | None, int, list[str]]:
+    """The teach run on prepared images: poses from the odometry and the images.
+
+    Args:
+        images: ``(N, H, W)`` uint8 prepared panoramas of the drive's frames, in order.
+        steps: ``(N - 1, 3)`` wheel odometry between them (robot frame: forward, left, turn).
+        teach: parameters (default :class:`TeachParams`).
+        panoramic: the images are 360-degree panoramas (else no relative heading is measured).
+        threads: matching threads.
+
+    Returns:
+        ``(poses, covariances, source, constraints, solution, gated_out, notes)``: ``(N, 3)``
+        poses (headings unwrapped), ``(N, 3, 3)`` covariances, ``"optimised"`` or
+        ``"dead-reckoned"``, the last round's constraints, the optimiser's solution (or None),
+        the candidates the distance gate dropped, and what the map lacks in words.
+    """
+    teach = teach or TeachParams()
+    step_cov = teach.wheel_noise.step_covariances(steps[:, 0], steps[:, 1])
+    reckoned, reckoned_cov = dead_reckoning(steps, teach.wheel_noise)
     notes: list[str] = []
     constraints: list[VisualConstraint] = []
     gated_out = 0
     solution = None
-    if preparer.params.wrap:
+    if panoramic:
         scores, _ = difference_matrix(images, images, threads=threads)
         poses = reckoned.copy()
         turn_std = np.sqrt(step_cov[:, 2, 2])
@@ -328,37 +388,5 @@ def teach_run(
             "no two frames of the drive matched as one place (images that never overlap?): the map is the "
             "dead reckoning of the wheel odometry alone"
         )
-        final, covariances, source = reckoned, reckoned_cov, "dead-reckoned"
-    else:
-        final, covariances, source = solution.poses, solution.covariances, "optimised"
-    for note in notes:
-        warnings.warn(note, TeachWarning, stacklevel=2)
-    headings_out = np.pi - np.mod(np.pi - final[:, 2], 2 * np.pi)
-    reference_map = ReferenceMap(
-        images,
-        final[:, :2],
-        headings_out,
-        traverse.names,
-        preparer.params,
-        str(traverse.root),
-        pose_source=source,
-        covariances=covariances,
-    )
-    residuals = solution.residuals if solution is not None else np.zeros(0)
-    accepted = int(np.sum(residuals <= teach.accept_gate))
-    report = TeachReport(
-        frames=len(traverse),
-        pose_source=source,
-        dead_reckoning=reckoned,
-        poses=np.column_stack([final[:, :2], headings_out]),
-        constraints=tuple(constraints) if solution is not None else (),
-        accepted=accepted,
-        rejected=int(len(residuals) - accepted),
-        gated_out=gated_out,
-        solution=solution,
-        seconds=time.perf_counter() - start,
-        warnings=tuple(notes),
-        accept_gate=teach.accept_gate,
-        covariances=covariances,
-    )
-    return reference_map, report
+        return reckoned, reckoned_cov, "dead-reckoned", [], None, gated_out, notes
+    return solution.poses, solution.covariances, "optimised", constraints, solution, gated_out, notes
