@@ -63,7 +63,7 @@ def test_route_command_writes_matches_pr_and_figures(synthetic_traverses, tmp_pa
     assert thresholds == sorted(thresholds)
     summary = json.loads((out / "summary.json").read_text())
     assert summary["ground_truth"] == "names" and summary["recall_at_100_precision"] > 0.8
-    assert summary["params"]["divisor"] == "references"
+    assert summary["method_params"]["divisor"] == "references"
     assert summary["figures"] == ["difference_matrix.png", "pr_curve.png", "correspondence.png"]
     for name in summary["figures"]:
         assert cv2.imread(str(out / name)).shape[2] == 3
@@ -102,7 +102,7 @@ def test_route_command_options(synthetic_traverses, tmp_path):
     assert [r[1] for r in rows[1:6]] == ["-1"] * 5 and rows[6][1] != "-1"  # causal: ds-1 undefined
     assert not (out / "pr.csv").exists() and not (out / "difference_matrix.png").exists()
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["params"]["mode"] == "causal" and summary["params"]["ds"] == 6
+    assert summary["method_params"]["mode"] == "causal" and summary["method_params"]["ds"] == 6
 
 
 def test_route_command_positions_ground_truth(tmp_path):
@@ -148,7 +148,11 @@ def test_params_file(synthetic_traverses, tmp_path):
     out = tmp_path / "out"
     assert main(["route", str(day), str(night), "--out", str(out), "--params", str(params), "--no-figures"]) == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["params"]["ds"] == 8 and summary["preparation"]["width"] == 32
+    assert summary["preparation"]["width"] == 32
+    # a filter run lists the filter's settings only: none of SeqSLAM's (ds, mode, uniqueness_radius)
+    listed = json.dumps({key: value for key, value in summary.items() if key != "preparation"})
+    assert '"ds"' not in listed and '"mode"' not in listed and "uniqueness_radius" not in listed
+    assert summary["method_params"]["filter_sharpness"] == route.RouteParams().filter_sharpness
     assert (
         main(["route", str(day), str(night), "--out", str(out), "--params", str(params), "--preset", "openseqslam"])
         == 2

@@ -22,8 +22,11 @@ from ..errors import DatasetError
 from ..io.atomic import check_output_path
 from ..io.odometry_csv import ODOMETRY_FILE
 from ..io.reference_map import ReferenceMap
-from ..io.traverse import load_traverse
+from ..io.traverse import Traverse, load_traverse
+from ..preparation.camera import shape_camera
 from ..preparation.params import PreparationParams
+from .camera_option import add_camera_option, preparation_for_camera
+from .wording import duration
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -42,6 +45,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("traverse", type=Path, help="traverse folder, or a video file")
     parser.add_argument("output", type=Path, help="map file to write (e.g. garden.map)")
     parser.add_argument("--params", type=Path, help="TOML file with a [preparation] table (default: paper values)")
+    add_camera_option(parser, "Stored in the map; default panoramic, or the wrap of --params.")
     parser.add_argument("--poses", type=Path, help="poses CSV (for a video: frame,x,y[,heading])")
     parser.add_argument("--frame-step", type=int, default=1, help="keep every k-th frame (default 1)")
     parser.add_argument(
@@ -56,14 +60,30 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.set_defaults(run=run)
 
 
+def no_poses_error(traverse: Traverse) -> DatasetError:
+    """What to do with a traverse without poses: add them, or match along the route."""
+    return DatasetError(
+        f"{traverse.root} has no poses, and a 2D map needs the position of every frame: add them (poses.csv with "
+        f"columns image,x,y[,heading], a video's --poses CSV, or a bag's pose topic). Without positions, a robot "
+        f"that drives the same route again can localize along it: nightloc route {traverse.root} NIGHT_LOG --out OUT; "
+        f"or, with the drive's wheel odometry ({ODOMETRY_FILE}: image,forward,left,turn) beside images/, build-map "
+        f"builds the map by a teach run"
+    )
+
+
 def run(args: argparse.Namespace) -> int:
-    params = load_params(args.params, PreparationParams) if args.params is not None else PreparationParams()
+    if args.frame_step < 1:
+        raise ValueError(f"--frame-step must be >= 1, got {args.frame_step}")
+    params = load_params(args.params, PreparationParams) if args.params is not None else None
+    params = preparation_for_camera(params, args.camera, args.params) or PreparationParams()
     traverse = load_traverse(args.traverse, frame_step=args.frame_step, poses=args.poses)  # names and poses only
-    teach = args.evaluate_poses or traverse.positions is None
-    if args.evaluate_poses and traverse.positions is None:
+    teach = args.evaluate_poses or not traverse.has_poses
+    if args.evaluate_poses and not traverse.has_poses:
         raise DatasetError(f"--evaluate-poses needs {args.traverse}/poses.csv to compare the teach run with")
     if not teach and (args.closed_loop or args.figure is not None):
         raise ValueError("--closed-loop and --figure apply to a teach run (no poses.csv, or --evaluate-poses)")
+    if teach and (traverse.is_video or not (Path(traverse.root) / ODOMETRY_FILE).is_file()):
+        raise no_poses_error(traverse)
     # Fail before preparing every frame: a folder, a missing parent, an existing map without
     # --overwrite, or a map that would land on or inside an input (a frame of the traverse).
     check_output_path(args.output, overwrite=args.overwrite, inputs=(args.traverse, args.poses, args.params))
@@ -75,23 +95,34 @@ def run(args: argparse.Namespace) -> int:
     reference_map = ReferenceMap.build(traverse, params)
     elapsed = time.perf_counter() - start
     written = reference_map.save(args.output, overwrite=args.overwrite)
-    _describe(reference_map, traverse.root, params, elapsed)
+    _describe(args, reference_map, traverse.root, params, elapsed)
     print(f"wrote {written} ({written.stat().st_size / 1024:.1f} KiB)")
     return 0
 
 
-def _describe(reference_map: ReferenceMap, root: Path, params: PreparationParams, elapsed: float) -> None:
+def _describe(
+    args: argparse.Namespace, reference_map: ReferenceMap, root: Path, params: PreparationParams, elapsed: float
+) -> None:
     kind = "360-degree panoramas" if params.wrap else "forward camera"
     print(
         f"{len(reference_map)} frames of {root} prepared to {params.width}x{params.height} "
-        f"({kind}, equalize={params.equalize}) in {elapsed:.2f} s "
+        f"({kind}, equalize={params.equalize}) in {duration(elapsed)} "
         f"({len(reference_map) / max(elapsed, 1e-9):.0f} frames/s)"
     )
+    if reference_map.frame_size is not None:
+        width, height = reference_map.frame_size
+        looks = shape_camera(width, height)
+        if looks != reference_map.camera and args.camera is None:
+            print(
+                f"note: the frames are {width}x{height}, the shape of a {looks} camera's, but the map is prepared "
+                f"for a {reference_map.camera} camera; if the camera is {looks}, rebuild with --camera {looks}"
+            )
     extent_min = reference_map.positions.min(axis=0)
     extent_max = reference_map.positions.max(axis=0)
     print(
         f"positions span x {extent_min[0]:.2f}..{extent_max[0]:.2f} m, y {extent_min[1]:.2f}..{extent_max[1]:.2f} m; "
-        f"headings {'yes' if reference_map.headings is not None else 'no'}; pose source {reference_map.pose_source}"
+        f"headings {'yes' if reference_map.headings is not None else 'no'}; camera {reference_map.camera}; "
+        f"pose source {reference_map.pose_source}"
     )
 
 
@@ -100,12 +131,6 @@ def _teach(args: argparse.Namespace, traverse, params: PreparationParams) -> int
     from ..mapping.factors import require_gtsam
 
     require_gtsam()  # one line naming the install command, before any work
-    if not traverse.is_video and not (Path(traverse.root) / ODOMETRY_FILE).exists():
-        raise DatasetError(
-            f"{traverse.root} has no poses (poses.csv) and no {ODOMETRY_FILE}: a reference map needs the position "
-            f"of every image (poses.csv: image,x,y[,heading]) or the drive's wheel odometry for a teach run "
-            f"({ODOMETRY_FILE}: image,forward,left,turn)"
-        )
     print(f"teach run: {len(traverse)} frames of {traverse.root}, wheel odometry from {ODOMETRY_FILE}", flush=True)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TeachWarning)
@@ -113,7 +138,7 @@ def _teach(args: argparse.Namespace, traverse, params: PreparationParams) -> int
     for warning in caught:
         print(f"warning: {warning.message}")
     written = reference_map.save(args.output, overwrite=args.overwrite)
-    _describe(reference_map, traverse.root, params, report.seconds)
+    _describe(args, reference_map, traverse.root, params, report.seconds)
     kinds = report.counts_by_kind()
     print(
         f"visual constraints: {report.accepted} accepted, {report.rejected} rejected "

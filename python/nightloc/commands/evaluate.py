@@ -43,6 +43,7 @@ from .._validate import MAX_REPEATS
 from ..config import load_params_file
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set
+from ..io.kinds import bag_kind
 from ..io.reference_map import ReferenceMap
 from ..io.traverse import load_traverse
 from ..localization.evaluation import (
@@ -56,6 +57,8 @@ from ..localization.evaluation import (
 from ..localization.localizer import MAX_SEQ_LEN, LocalizationParams
 from ..localization.odometry import NoiseModel, noise_model
 from ..preparation.params import PreparationParams
+from .camera_option import add_camera_option, preparation_for_camera
+from .wording import refuse_map_as_traverse
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -93,6 +96,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "standard deviations per frame in metres and radians (default 1)",
     )
     parser.add_argument("--params", type=Path, help="TOML file with [localization] and/or [preparation] tables")
+    add_camera_option(
+        parser, "The query's camera: it must be the map's (a reference folder is prepared for it; default panoramic)."
+    )
     parser.add_argument("--heatmap-frames", help="query frames (0-based) for heat-map figures (default: one, chosen)")
     parser.add_argument(
         "--survey",
@@ -200,11 +206,14 @@ def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
     )
 
 
-def load_reference(path: Path, preparation: PreparationParams | None) -> ReferenceMap:
-    """The map of a reference traverse folder, or a map file (anything but a regular file is
-    refused, naming what it is)."""
-    if path.is_dir():
-        return ReferenceMap.build(load_traverse(path), preparation)
+def load_reference(
+    path: Path, preparation: PreparationParams | None, camera: str | None = None, params_file: Path | None = None
+) -> ReferenceMap:
+    """The map of a reference traverse (a folder or a bag; prepared for ``camera`` when given),
+    or a map file (anything but a regular file is refused, naming what it is; its camera is
+    checked against the frames by :meth:`ReferenceMap.check_frames`)."""
+    if path.is_dir() or bag_kind(path) is not None:
+        return ReferenceMap.build(load_traverse(path), preparation_for_camera(preparation, camera, params_file))
     return ReferenceMap.load(path, preparation)
 
 
@@ -222,6 +231,7 @@ def run(args: argparse.Namespace) -> int:
     preparation = sections.get("preparation")
     inputs = (args.reference, args.query, args.params, args.survey)
     check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
+    refuse_map_as_traverse(args.query, "QUERY", "the reference comes first: nightloc evaluate REFERENCE QUERY")
     query = load_traverse(args.query)  # names and poses only
     if query.positions is None:
         raise ValueError(
@@ -232,7 +242,8 @@ def run(args: argparse.Namespace) -> int:
     # Checked and locked before the work; the files appear together at the end, or not at all.
     with output_set(args.out, command="evaluate", inputs=inputs) as out:
         start = time.perf_counter()
-        ref_map = load_reference(args.reference, preparation)
+        ref_map = load_reference(args.reference, preparation, args.camera, args.params)
+        ref_map.check_frames(query.read(0).shape, f"the query {query.root}", args.camera)
         matches = match_traverse(
             ref_map,
             query,

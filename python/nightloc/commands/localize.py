@@ -36,11 +36,14 @@ from ..config import load_params_file
 from ..errors import DatasetError
 from ..figures import add_figure_format_option
 from ..io.atomic import atomic_file, check_output_path, output_set
+from ..io.odometry_csv import ODOMETRY_FILE
 from ..io.reference_map import ReferenceMap
-from ..io.traverse import load_traverse
+from ..io.traverse import Traverse, load_traverse
 from ..localization.localizer import LocalizationParams, Localizer
 from ..localization.odometry import traverse_odometry
+from .camera_option import add_camera_option
 from .evaluate import load_reference, parse_noise
+from .wording import duration, refuse_map_as_traverse
 
 #: Columns of ``trajectory.csv``.
 TRAJECTORY_HEADER = ("image", "x", "y", "heading", "confidence", "credible_radius", "ref_index")
@@ -68,18 +71,37 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "metres and radians (default 1: 0.1 m, 0.02 rad)",
     )
     parser.add_argument("--params", type=Path, help="TOML file with [localization], [filter] and/or [preparation]")
+    add_camera_option(
+        parser, "The log's camera: it must be the map's (a reference folder is prepared for it; default panoramic)."
+    )
     parser.add_argument("--threads", type=int, default=1, help="matching threads (default 1, as on a robot)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw trajectory.png")
     add_figure_format_option(parser)
     parser.set_defaults(run=run)
 
 
-def _load_map(path: Path, preparation) -> ReferenceMap:
+def _load_map(path: Path, preparation, camera: str | None, params_file: Path | None) -> ReferenceMap:
     if not os.path.lexists(path):
         raise DatasetError(
             f"map {path} does not exist (a map file from nightloc build-map or a reference traverse folder)"
         )
-    return load_reference(path, preparation)  # a FIFO, device or link loop is named
+    return load_reference(path, preparation, camera, params_file)  # a FIFO, device or link loop is named
+
+
+def _log_odometry(log: Traverse, option: str | None) -> list:
+    """The log's odometry: ``--odometry FILE``, or the log's own (its ``odometry.csv``)."""
+    if option is None and not log.is_video and not os.path.lexists(Path(log.root) / ODOMETRY_FILE):
+        raise DatasetError(
+            f"the log {log.root} has no {ODOMETRY_FILE} (its wheel odometry, one row per frame: "
+            f"image,forward,left,turn or image,dx,dy); name one with --odometry FILE, or localize without odometry: "
+            f"--odometry none"
+        )
+    try:
+        return traverse_odometry(log, None if option is None else Path(option))
+    except DatasetError as error:
+        if log.is_video and option is None:
+            raise DatasetError(f"{error}: --odometry FILE, or localize without odometry: --odometry none") from None
+        raise
 
 
 def write_trajectory_csv(path: Path, names, estimates) -> Path:
@@ -111,13 +133,15 @@ def run(args: argparse.Namespace) -> int:
     params = sections.get("localization", LocalizationParams())
     inputs = (args.map, args.log, args.params, args.odometry if args.odometry not in (None, "none") else None)
     check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
+    refuse_map_as_traverse(args.log, "LOG", "the map comes first: nightloc localize MAP LOG --out OUT")
     log = load_traverse(args.log)
     no_odometry = args.odometry is not None and args.odometry.strip().lower() == "none"
     if no_odometry:
         odometry: list = [None] * len(log)
     else:
-        odometry = traverse_odometry(log, None if args.odometry is None else Path(args.odometry))
-    ref_map = _load_map(args.map, sections.get("preparation"))
+        odometry = _log_odometry(log, args.odometry)
+    ref_map = _load_map(args.map, sections.get("preparation"), args.camera, args.params)
+    ref_map.check_frames(log.read(0).shape, f"the log {log.root}", args.camera)
     localizer = Localizer(
         ref_map, params, odometry_noise=noise, filter_params=sections.get("filter"), threads=args.threads
     )
@@ -154,8 +178,8 @@ def run(args: argparse.Namespace) -> int:
             )
             written.append(figure.name)
     print(
-        f"{len(estimates)} frames of {log.root} localized against {len(ref_map)} references in {seconds:.1f} s "
-        f"({1000 * seconds / max(len(estimates), 1):.1f} ms per frame)"
+        f"{len(estimates)} frames of {log.root} localized against {len(ref_map)} references in {duration(seconds)} "
+        f"({duration(seconds / max(len(estimates), 1))} per frame)"
     )
     if truth is not None:
         errors = np.hypot(*(positions - truth).T)

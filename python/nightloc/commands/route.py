@@ -56,12 +56,15 @@ from ..config import load_params_file
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set, write_text
 from ..io.traverse import Traverse, load_traverse
+from ..preparation.camera import check_frames_fit
 from ..preparation.params import PreparationParams
 from ..route.evaluation import GroundTruth, RouteEvaluation, evaluate_matches
 from ..route.filter import texture_weights
 from ..route.params import PRESETS, RouteParams, resolve_params
 from ..route.pipeline import RouteResult, match_difference, route_difference_matrix
 from ..route.preparation import RoutePreparer
+from .camera_option import add_camera_option, preparation_for_camera
+from .wording import duration, in_option_words, refuse_map_as_traverse
 
 #: Default tolerances: frames for frame correspondence, metres for positions.
 DEFAULT_FRAME_TOLERANCE = 2
@@ -99,6 +102,13 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--mode", choices=["centred", "causal"], help="centred (OpenSeqSLAM) or causal (online)")
     parser.add_argument(
         "--circular-shifts", action="store_true", default=None, help="360-degree panoramas: search every column shift"
+    )
+    add_camera_option(parser, "Default forward (--camera panoramic is --circular-shifts).")
+    parser.add_argument(
+        "--shift-window",
+        metavar="COLUMNS,ROWS",
+        help="viewpoint tolerance: compare each pair at its best alignment within +-COLUMNS columns (forward "
+        "cameras) and +-ROWS rows, over the overlap; 0,0 compares one alignment",
     )
     parser.add_argument(
         "--tolerance",
@@ -144,6 +154,11 @@ def route_params_from_args(args: argparse.Namespace) -> tuple:
         tables = load_params_file(args.params)
         route_params = tables.get("route")
         preparation = tables.get("preparation")
+    if args.camera is not None:
+        if args.circular_shifts and args.camera == "forward":
+            raise ValueError("--circular-shifts (a panoramic camera's search) contradicts --camera forward")
+        args.circular_shifts = args.camera == "panoramic"
+        preparation = preparation_for_camera(preparation, args.camera, args.params)
     if args.preset is not None:
         if route_params is not None:
             raise ValueError(f"give --preset or a [route] table in {args.params}, not both")
@@ -155,8 +170,23 @@ def route_params_from_args(args: argparse.Namespace) -> tuple:
         vmax=args.vmax,
         mode=args.mode,
         circular_shifts=args.circular_shifts,
+        shift_window=parse_shift_window(args.shift_window),
     )
     return params, preparation
+
+
+def parse_shift_window(text: str | None) -> tuple[int, int] | None:
+    """``--shift-window COLUMNS,ROWS`` as a pair of ints >= 0 (None when not given)."""
+    if text is None:
+        return None
+    parts = str(text).split(",")
+    try:
+        values = tuple(int(part) for part in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 2 or min(values) < 0:
+        raise ValueError(f"--shift-window {text!r}: expected COLUMNS,ROWS, two integers >= 0 such as 8,2")
+    return (values[0], values[1])
 
 
 # --------------------------------------------------------------------------------------------
@@ -305,20 +335,42 @@ def _check_can_match(p: RouteParams, n_refs: int, n_queries: int) -> None:
         )
 
 
+#: Route parameters that are options of the command (their names in errors become --ds, ...).
+_OPTIONS = ("threads", "ds", "vmin", "vmax", "mode")
+
+
 def run(args: argparse.Namespace) -> int:
     if args.frame_step < 1:
         raise ValueError(f"--frame-step must be >= 1, got {args.frame_step}")
-    if args.tolerance is not None and not math.isfinite(args.tolerance):
-        raise ValueError(f"--tolerance must be a finite number, got {args.tolerance}")
-    thread_count(args.threads)
-    params, preparation = route_params_from_args(args)
-    methods = methods_from_args(args, params)
+    if args.tolerance is not None and not (math.isfinite(args.tolerance) and args.tolerance >= 0):
+        raise ValueError(f"--tolerance must be a finite number >= 0, got {args.tolerance}")
+    try:
+        thread_count(args.threads)
+        params, preparation = route_params_from_args(args)
+        methods = methods_from_args(args, params)
+        per_method = [resolve_params(params, method=method) for method in methods]
+    except ValueError as error:  # raised by the parameter classes in their field names
+        if args.params is not None and str(error).startswith(str(args.params)):
+            raise  # about the file's keys, in its words
+        raise in_option_words(error, _OPTIONS) from None
     inputs = (args.reference, args.query, args.params)
     check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
+    usage = "nightloc route compares two traverses: nightloc route REFERENCE QUERY --out OUT"
+    refuse_map_as_traverse(args.reference, "REFERENCE", usage)
+    refuse_map_as_traverse(args.query, "QUERY", usage)
     reference = load_traverse(args.reference, frame_step=args.frame_step)  # names and poses only
     query = load_traverse(args.query, frame_step=args.frame_step)
+    reference_shape = reference.read(0).shape
+    check_frames_fit(
+        query.read(0).shape,
+        (reference_shape[1], reference_shape[0]),
+        "panoramic" if params.circular_shifts else "forward",
+        f"the query {query.root}",
+        f"the reference {reference.root}",
+        args.camera,
+        remedy="route mode matches two traverses of one camera",
+    )
     truth, truth_kind, no_truth = ground_truth_for(args.ground_truth, reference, query, args.tolerance)
-    per_method = [resolve_params(params, method=method) for method in methods]
     for p in per_method:
         _check_can_match(p, len(reference), len(query))
 
@@ -399,8 +451,7 @@ def _write_method(
         "n_refs": result.n_refs,
         "n_queries": result.n_queries,
         "n_matched": int(result.defined.sum()),
-        "method_params": p.method_params(),
-        "params": {field: getattr(p, field) for field in p.__dataclass_fields__},
+        "method_params": p.method_params(),  # the settings this method uses (no other method's)
         "preparation": None
         if preparer.preparation is None
         else {field: getattr(preparer.preparation, field) for field in preparer.preparation.__dataclass_fields__},
@@ -439,8 +490,8 @@ def _print_method(result: RouteResult, evaluation, truth, truth_kind, no_truth, 
     )
     print(
         f"{result.n_queries} query frames against {result.n_refs} reference frames: {int(result.defined.sum())} "
-        f"matched ({how}); matching {compute:.2f} s (search {result.timings['search']:.2f} s), "
-        f"reading and preparing {result.timings['preparation']:.2f} s"
+        f"matched ({how}); matching {duration(compute)} (search {duration(result.timings['search'])}), "
+        f"reading and preparing {duration(result.timings['preparation'])}"
     )
     if evaluation is not None:
         unit = "m" if truth.kind == "positions" else "frames"

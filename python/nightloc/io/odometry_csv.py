@@ -27,6 +27,7 @@ from typing import Any, Union, cast
 from ..errors import DatasetError
 from .atomic import atomic_file
 from .files import open_regular
+from .poses import check_heading, refuse_other_delimiter
 
 __all__ = ["MAP_COLUMNS", "ODOMETRY_FILE", "ROBOT_COLUMNS", "OdometryRow", "read_odometry_rows", "write_odometry_csv"]
 
@@ -78,6 +79,7 @@ def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[
                 if not any(f.strip() for f in fields):
                     continue
                 if header is None:
+                    refuse_other_delimiter(fields, path, line, f"{key_column},forward,left,turn or {key_column},dx,dy")
                     header = [f.strip().lower() for f in fields]
                     if key_column not in header:
                         raise DatasetError(
@@ -112,7 +114,10 @@ def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[
                 if key in seen:
                     raise DatasetError(f"{path} line {line}: {key_column} {key!r} is listed twice (line {seen[key]})")
                 seen[key] = line
-                rows.append((key, tuple(_number(fields[i], c, path, line) for i, c in zip(index, columns)), line))
+                values = tuple(_number(fields[i], c, path, line) for i, c in zip(index, columns))
+                if form == "robot":
+                    check_heading(values[2], "turn", path, line)
+                rows.append((key, values, line))
     except UnicodeDecodeError as error:
         raise DatasetError(f"{path} is not UTF-8 text ({error.reason} at byte {error.start})") from None
     except csv.Error as error:

@@ -20,7 +20,48 @@ from .._validate import MAX_COORDINATE_M, coordinates, not_masked
 from ..errors import DatasetError
 from .files import open_regular
 
-__all__ = ["PoseRow", "checked_poses", "poses_from_rows", "read_pose_csv", "wrap_headings", "write_pose_csv"]
+__all__ = [
+    "MAX_HEADING_RAD",
+    "PoseRow",
+    "check_heading",
+    "checked_poses",
+    "poses_from_rows",
+    "read_pose_csv",
+    "refuse_other_delimiter",
+    "wrap_headings",
+    "write_pose_csv",
+]
+
+#: Largest |heading| (and |turn| per frame) a CSV may hold: beyond a full turn a value is not an
+#: angle in radians (degrees, most likely).
+MAX_HEADING_RAD = 2.0 * math.pi
+
+_OTHER_DELIMITERS = {";": "semicolons", "\t": "tabs", "|": "vertical bars"}
+
+
+def refuse_other_delimiter(fields: Sequence[str], file: Path, line: int, header: str) -> None:
+    """DatasetError when a CSV's header row is one field holding semicolons, tabs or bars (a
+    spreadsheet's export in a locale whose list separator is not the comma); ``header`` is the
+    header nightloc expects, for the message."""
+    if len(fields) != 1:
+        return
+    for mark, words in _OTHER_DELIMITERS.items():
+        if mark in fields[0]:
+            raise DatasetError(
+                f"{file} line {line}: the columns are separated by {words} ({fields[0].strip()!r}); nightloc reads "
+                f"comma-separated values: save it with commas ({header})"
+            )
+
+
+def check_heading(value: float, column: str, file: Path, line: int) -> float:
+    """``value`` when it can be an angle in radians (|value| <= 2 pi), else DatasetError naming
+    the file and line: headings in degrees would otherwise be taken as radians silently."""
+    if abs(value) > MAX_HEADING_RAD:
+        raise DatasetError(
+            f"{file} line {line}: column '{column}' is {value:g}, beyond a full turn (2 pi = 6.283): angles are "
+            f"radians, counter-clockwise; degrees? multiply by pi/180 (0.017453)"
+        )
+    return value
 
 
 def finite_headings(headings: np.ndarray) -> np.ndarray:
@@ -106,6 +147,7 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
                 if not any(field.strip() for field in fields):
                     continue
                 if header is None:
+                    refuse_other_delimiter(fields, file, line, f"{key_column},x,y[,heading]")
                     header = [field.strip().lower() for field in fields]
                     header_line = line
                     for column in (key_column, "x", "y"):
@@ -142,7 +184,11 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
                 seen[key] = line
                 x = _parse_number(fields[index["x"]], "x", file, line)
                 y = _parse_number(fields[index["y"]], "y", file, line)
-                heading = _parse_number(fields[index["heading"]], "heading", file, line) if has_heading else None
+                heading = None
+                if has_heading:
+                    heading = check_heading(
+                        _parse_number(fields[index["heading"]], "heading", file, line), "heading", file, line
+                    )
                 rows.append(PoseRow(line, key, x, y, heading))
     except UnicodeDecodeError as error:
         raise DatasetError(f"{file} is not UTF-8 text ({error.reason} at byte {error.start})") from None

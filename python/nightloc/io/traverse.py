@@ -32,11 +32,12 @@ import numpy as np
 
 from .. import _validate
 from .._validate import thread_count
-from ..errors import DatasetError
+from ..errors import DatasetError, with_cli_words
 from ..progress import progress
 from .atomic import atomic_folder
 from .files import check_regular
 from .images import IMAGE_SUFFIXES, list_images, read_image_file, write_image_file
+from .kinds import MAP, path_kind
 from .odometry_csv import ODOMETRY_FILE, odometry_values, write_odometry_csv
 from .poses import checked_poses, poses_from_rows, read_pose_csv, write_pose_csv
 from .video import VIDEO_SUFFIXES, read_video_frames, video_frame_count
@@ -308,8 +309,10 @@ def _image_folder(root: Path) -> tuple[Path, list[str] | None]:
     names = list_images(root)
     if names:
         return root, names
+    kind = path_kind(root)
+    what = f" (it is {kind})" if kind != "a folder without images" else ""
     raise DatasetError(
-        f"{root} is not a traverse: it has no '{_IMAGE_DIR}/' folder and no image files "
+        f"{root} is not a traverse{what}: it has no '{_IMAGE_DIR}/' folder and no image files "
         f"(expected {root}/{_IMAGE_DIR}/<frames> and optionally {root}/{_POSE_FILE})"
     )
 
@@ -412,7 +415,25 @@ def load_traverse(path: PathLike, *, frame_step: int = 1, poses: PathLike | None
     check_regular(root, "traverse", DatasetError)  # missing, a link loop, a FIFO, a device, ...
     if root.suffix.lower() in IMAGE_SUFFIXES or root.suffix.lower() == ".csv":
         raise DatasetError(f"{root} is a single file; a traverse is a folder ({_IMAGE_DIR}/ + {_POSE_FILE}) or a video")
-    return _load_video(root, step, pose_path)
+    kind = path_kind(root)
+    if root.suffix.lower() not in VIDEO_SUFFIXES and kind not in ("a video file", "a file of another kind"):
+        raise DatasetError(f"{root} is {kind}, not a traverse ({_TRAVERSE_FORMS}){_swap_hint(kind)}")
+    try:
+        return _load_video(root, step, pose_path)
+    except DatasetError:
+        if root.suffix.lower() in VIDEO_SUFFIXES:
+            raise
+        raise DatasetError(
+            f"{root} is not a traverse ({_TRAVERSE_FORMS}): it is not a folder, and OpenCV cannot read it as a video"
+        ) from None
+
+
+#: The forms a traverse takes, for error messages.
+_TRAVERSE_FORMS = "a folder of images, a video or a ROS bag"
+
+
+def _swap_hint(kind: str) -> str:
+    return "; check the order of the arguments (a map comes before a traverse)" if kind == MAP else ""
 
 
 # --------------------------------------------------------------------------------------------
@@ -520,7 +541,10 @@ def save_traverse(
     with atomic_folder(target) as staging:  # one writer at a time; the parent folder must exist
         if target.exists():
             if not overwrite:
-                raise FileExistsError(f"{target} exists; pass overwrite=True to replace it")
+                raise with_cli_words(
+                    FileExistsError(f"{target} exists; pass overwrite=True to replace it"),
+                    f"{target} exists; pass --overwrite to replace it",
+                )
             if not target.is_dir() or not _looks_like_traverse(target):
                 raise FileExistsError(
                     f"{target} exists and is not a traverse folder (only images/, poses.csv and odometry.csv); "

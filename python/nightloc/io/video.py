@@ -28,7 +28,7 @@ def open_video(file: Path) -> cv2.VideoCapture:
     capture = cv2.VideoCapture(str(file))
     if not capture.isOpened():
         capture.release()
-        raise DatasetError(f"video {file} cannot be opened (missing, corrupt, or a codec OpenCV lacks)")
+        raise DatasetError(f"video {file} cannot be opened (corrupt, or a codec OpenCV lacks)")
     return capture
 
 

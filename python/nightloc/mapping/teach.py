@@ -252,6 +252,7 @@ def teach_run(
         raise MappingError(f"{traverse.root} has {len(traverse)} frame; a teach run needs a drive of at least 2")
     steps = odometry_steps(list(odometry), traverse.names)
     preparer = Preparer(params)
+    first = traverse.read(0)  # the camera's frame size, recorded for the queries' check
     images = preparer.prepare(traverse)
     if images.ndim == 2:
         images = images[np.newaxis]
@@ -268,6 +269,7 @@ def teach_run(
         traverse.names,
         preparer.params,
         str(traverse.root),
+        frame_size=(first.shape[1], first.shape[0]),
         pose_source=source,
         covariances=covariances,
     )
