@@ -25,6 +25,7 @@ from ..io.reference_map import ReferenceMap
 from ..io.traverse import Traverse, load_traverse
 from ..preparation.camera import shape_camera
 from ..preparation.params import PreparationParams
+from .bag_options import add_bag_options, bag_options
 from .camera_option import add_camera_option, preparation_for_camera
 from .wording import duration
 
@@ -34,7 +35,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "build-map",
         help="prepare a traverse (poses.csv, or wheel odometry: a teach run) into a reference map file",
         description=(
-            "Reads TRAVERSE (a folder with images/ and poses.csv, or a video with --poses), prepares "
+            "Reads TRAVERSE (a folder with images/ and poses.csv, a video with --poses, or a ROS bag with a pose "
+            "topic), prepares "
             "every frame (crop, greyscale, equalization, 48x24 area downsample, patch normalization) "
             "and writes one reference map file that nightloc.ReferenceMap.load reads on the robot. A folder "
             "with odometry.csv (image,forward,left,turn) and no poses.csv is a teach run: the poses come from "
@@ -42,7 +44,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
             "An existing map is replaced only with --overwrite; the map may not lie inside the traverse."
         ),
     )
-    parser.add_argument("traverse", type=Path, help="traverse folder, or a video file")
+    parser.add_argument("traverse", type=Path, help="traverse folder, a video file or a ROS bag")
     parser.add_argument("output", type=Path, help="map file to write (e.g. garden.map)")
     parser.add_argument("--params", type=Path, help="TOML file with a [preparation] table (default: paper values)")
     add_camera_option(parser, "Stored in the map; default panoramic, or the wrap of --params.")
@@ -57,6 +59,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--closed-loop", action="store_true", help="teach run: the drive ends where it began (a dock)")
     parser.add_argument("--figure", type=Path, help="teach run: draw the paths to this PNG, PDF or SVG file")
     parser.add_argument("--overwrite", action="store_true", help="replace OUT.map when it exists")
+    add_bag_options(parser)
     parser.set_defaults(run=run)
 
 
@@ -76,13 +79,18 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--frame-step must be >= 1, got {args.frame_step}")
     params = load_params(args.params, PreparationParams) if args.params is not None else None
     params = preparation_for_camera(params, args.camera, args.params) or PreparationParams()
-    traverse = load_traverse(args.traverse, frame_step=args.frame_step, poses=args.poses)  # names and poses only
+    # names, times and poses only
+    traverse = load_traverse(args.traverse, frame_step=args.frame_step, poses=args.poses, **bag_options(args))
     teach = args.evaluate_poses or not traverse.has_poses
     if args.evaluate_poses and not traverse.has_poses:
         raise DatasetError(f"--evaluate-poses needs {args.traverse}/poses.csv to compare the teach run with")
     if not teach and (args.closed_loop or args.figure is not None):
         raise ValueError("--closed-loop and --figure apply to a teach run (no poses.csv, or --evaluate-poses)")
-    if teach and (traverse.is_video or not (Path(traverse.root) / ODOMETRY_FILE).is_file()):
+    if traverse.is_bag:
+        has_odometry = traverse.motions is not None
+    else:
+        has_odometry = not traverse.is_video and (Path(traverse.root) / ODOMETRY_FILE).is_file()
+    if teach and not has_odometry:
         raise no_poses_error(traverse)
     # Fail before preparing every frame: a folder, a missing parent, an existing map without
     # --overwrite, or a map that would land on or inside an input (a frame of the traverse).

@@ -57,6 +57,7 @@ from ..localization.evaluation import (
 from ..localization.localizer import MAX_SEQ_LEN, LocalizationParams
 from ..localization.odometry import NoiseModel, noise_model
 from ..preparation.params import PreparationParams
+from .bag_options import add_bag_options, bag_options
 from .camera_option import add_camera_option, preparation_for_camera
 from .wording import refuse_map_as_traverse
 
@@ -69,8 +70,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         description="Localizes every frame of QUERY against REFERENCE for each sequence length, odometry "
         "noise model and interpolation setting, and writes OUT/errors.csv, OUT/summary.csv and figures.",
     )
-    parser.add_argument("reference", type=Path, help="reference traverse folder (with poses) or map file")
-    parser.add_argument("query", type=Path, help="query traverse folder with poses (ground truth)")
+    parser.add_argument("reference", type=Path, help="reference traverse (folder or bag, with poses) or map file")
+    parser.add_argument("query", type=Path, help="query traverse (folder, video or bag) with poses (ground truth)")
     parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
     parser.add_argument("--seq-lengths", default="1-10", help="sequence lengths, e.g. 1-10 or 1,3,7 (default 1-10)")
     parser.add_argument("--noise-models", default="0,1,2,3", help="Table III noise models (default 0,1,2,3)")
@@ -109,6 +110,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--threads", type=int, help="matching threads (default all cores)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     add_figure_format_option(parser)
+    add_bag_options(parser)
     parser.set_defaults(run=run)
 
 
@@ -207,13 +209,21 @@ def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
 
 
 def load_reference(
-    path: Path, preparation: PreparationParams | None, camera: str | None = None, params_file: Path | None = None
+    path: Path,
+    preparation: PreparationParams | None,
+    camera: str | None = None,
+    params_file: Path | None = None,
+    bag: dict | None = None,
 ) -> ReferenceMap:
     """The map of a reference traverse (a folder or a bag; prepared for ``camera`` when given),
     or a map file (anything but a regular file is refused, naming what it is; its camera is
-    checked against the frames by :meth:`ReferenceMap.check_frames`)."""
+    checked against the frames by :meth:`ReferenceMap.check_frames`). ``bag``: the topics of a bag
+    (:func:`nightloc.commands.bag_options.bag_options`)."""
     if path.is_dir() or bag_kind(path) is not None:
-        return ReferenceMap.build(load_traverse(path), preparation_for_camera(preparation, camera, params_file))
+        options = (bag or {}) if bag_kind(path) is not None else {}
+        return ReferenceMap.build(
+            load_traverse(path, **options), preparation_for_camera(preparation, camera, params_file)
+        )
     return ReferenceMap.load(path, preparation)
 
 
@@ -232,7 +242,8 @@ def run(args: argparse.Namespace) -> int:
     inputs = (args.reference, args.query, args.params, args.survey)
     check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
     refuse_map_as_traverse(args.query, "QUERY", "the reference comes first: nightloc evaluate REFERENCE QUERY")
-    query = load_traverse(args.query)  # names and poses only
+    bag = bag_options(args)
+    query = load_traverse(args.query, **bag)  # names, times and poses only
     if query.positions is None:
         raise ValueError(
             f"query {args.query} has no poses: evaluation needs poses.csv with columns image,x,y[,heading]"
@@ -242,7 +253,7 @@ def run(args: argparse.Namespace) -> int:
     # Checked and locked before the work; the files appear together at the end, or not at all.
     with output_set(args.out, command="evaluate", inputs=inputs) as out:
         start = time.perf_counter()
-        ref_map = load_reference(args.reference, preparation, args.camera, args.params)
+        ref_map = load_reference(args.reference, preparation, args.camera, args.params, bag)
         ref_map.check_frames(query.read(0).shape, f"the query {query.root}", args.camera)
         matches = match_traverse(
             ref_map,

@@ -369,7 +369,10 @@ class ReferenceMap:
         """
         if not isinstance(traverse, Traverse):
             traverse = load_traverse(traverse)
-        odometry_log = not traverse.is_video and (Path(traverse.root) / "odometry.csv").exists()
+        if traverse.is_bag:
+            odometry_log = traverse.motions is not None
+        else:
+            odometry_log = not traverse.is_video and (Path(traverse.root) / "odometry.csv").is_file()
         if (teach is not None and teach is not False) or (traverse.positions is None and odometry_log):
             from ..mapping import TeachParams, teach_run
 
