@@ -48,9 +48,9 @@ def test_route_command_writes_matches_pr_and_figures(synthetic_traverses, tmp_pa
     printed = capsys.readouterr().out
     assert "recall at 100% precision" in printed and "ground truth from names" in printed
     rows = read_csv(out / "matches.csv")
-    assert rows[0] == ["query", "ref", "score", "query_image", "ref_image"] and len(rows) == 101
+    assert rows[0] == ["query", "ref", "score", "query_image", "ref_image", "timestamp"] and len(rows) == 101
     expected = route.match_prepared(nightloc.block_normalize(refs), nightloc.block_normalize(queries), "openseqslam")
-    for q, (query, ref, score, query_image, ref_image) in enumerate(rows[1:]):
+    for q, (query, ref, score, query_image, ref_image, _) in enumerate(rows[1:]):
         assert int(query) == q and query_image == f"frame{q:04d}.png"
         if expected.refs[q] < 0:
             assert ref == "-1" and score == "nan" and ref_image == ""
@@ -231,8 +231,15 @@ def test_route_command_compares_methods(synthetic_traverses, tmp_path, capsys):
         assert comparison["results"][method]["best_f1"] == summary["best_f1"]
         assert 0 <= summary["correct_any_score"] <= 1
     filtered = read_csv(out / "filter" / "matches.csv")
-    assert filtered[0] == ["query", "ref", "score", "query_image", "ref_image", "confidence", "off_route"]
-    assert read_csv(out / "seqslam" / "matches.csv")[0] == ["query", "ref", "score", "query_image", "ref_image"]
+    assert filtered[0] == ["query", "ref", "score", "query_image", "ref_image", "confidence", "off_route", "timestamp"]
+    assert read_csv(out / "seqslam" / "matches.csv")[0] == [
+        "query",
+        "ref",
+        "score",
+        "query_image",
+        "ref_image",
+        "timestamp",
+    ]
     # The filter from the comparison run equals a plain default run.
     single = tmp_path / "single"
     assert main(["route", str(day), str(night), "--out", str(single), "--no-figures"]) == 0

@@ -21,6 +21,11 @@ into OUT at the same time refuses; files in OUT that nightloc did not write are 
 Bayes filter, or both; ``--odometry`` simulated map-frame displacements (the paper), simulated
 wheel odometry, or ``log``: the query's own ``odometry.csv`` (a robot's real odometry evaluated
 against its poses; ``--odometry-noise`` is then the noise the filter assumes).
+
+A map built by a teach run (``build-map`` from wheel odometry) lives in its day drive's odometry
+frame: the query's true poses are moved into it by the best rigid 2D fit of the map onto the day
+drive's survey (``--survey DAY``, default the map's source traverse, whose ``poses.csv`` must list
+the map's frames) before any error is computed, and the command says so.
 * figures (unless ``--no-figures``): ``error_vs_seq_len.png``, ``error_vs_noise.png``,
   ``error_vs_interpolation.png`` (the paper's Figures 10-12) and ``heatmap_frame<i>.png``
   (Figure 9); ``.pdf`` or ``.svg`` with ``--figure-format``.
@@ -41,10 +46,18 @@ from ..io.atomic import check_output_path, output_set
 from ..io.kinds import bag_kind
 from ..io.reference_map import ReferenceMap
 from ..io.traverse import load_traverse
-from ..localization.evaluation import EVALUATION_METHODS, EvaluationSettings, evaluate, match_traverse
+from ..localization.evaluation import (
+    EVALUATION_METHODS,
+    EvaluationSettings,
+    align_to_map,
+    evaluate,
+    map_alignment,
+    match_traverse,
+)
 from ..localization.localizer import MAX_SEQ_LEN, LocalizationParams
 from ..localization.odometry import NoiseModel, noise_model
 from ..preparation.params import PreparationParams
+from .bag_options import add_bag_options, bag_options
 from .camera_option import add_camera_option, preparation_for_camera
 from .wording import refuse_map_as_traverse
 
@@ -57,8 +70,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         description="Localizes every frame of QUERY against REFERENCE for each sequence length, odometry "
         "noise model and interpolation setting, and writes OUT/errors.csv, OUT/summary.csv and figures.",
     )
-    parser.add_argument("reference", type=Path, help="reference traverse folder (with poses) or map file")
-    parser.add_argument("query", type=Path, help="query traverse folder with poses (ground truth)")
+    parser.add_argument("reference", type=Path, help="reference traverse (folder or bag, with poses) or map file")
+    parser.add_argument("query", type=Path, help="query traverse (folder, video or bag) with poses (ground truth)")
     parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
     parser.add_argument("--seq-lengths", default="1-10", help="sequence lengths, e.g. 1-10 or 1,3,7 (default 1-10)")
     parser.add_argument("--noise-models", default="0,1,2,3", help="Table III noise models (default 0,1,2,3)")
@@ -88,9 +101,16 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         parser, "The query's camera: it must be the map's (a reference folder is prepared for it; default panoramic)."
     )
     parser.add_argument("--heatmap-frames", help="query frames (0-based) for heat-map figures (default: one, chosen)")
+    parser.add_argument(
+        "--survey",
+        type=Path,
+        help="a teach-run map (no survey of its own): the day traverse whose poses.csv aligns the map's frame with "
+        "the query's (default the map's source traverse)",
+    )
     parser.add_argument("--threads", type=int, help="matching threads (default all cores)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     add_figure_format_option(parser)
+    add_bag_options(parser)
     parser.set_defaults(run=run)
 
 
@@ -189,13 +209,21 @@ def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
 
 
 def load_reference(
-    path: Path, preparation: PreparationParams | None, camera: str | None = None, params_file: Path | None = None
+    path: Path,
+    preparation: PreparationParams | None,
+    camera: str | None = None,
+    params_file: Path | None = None,
+    bag: dict | None = None,
 ) -> ReferenceMap:
     """The map of a reference traverse (a folder or a bag; prepared for ``camera`` when given),
     or a map file (anything but a regular file is refused, naming what it is; its camera is
-    checked against the frames by :meth:`ReferenceMap.check_frames`)."""
+    checked against the frames by :meth:`ReferenceMap.check_frames`). ``bag``: the topics of a bag
+    (:func:`nightloc.commands.bag_options.bag_options`)."""
     if path.is_dir() or bag_kind(path) is not None:
-        return ReferenceMap.build(load_traverse(path), preparation_for_camera(preparation, camera, params_file))
+        options = (bag or {}) if bag_kind(path) is not None else {}
+        return ReferenceMap.build(
+            load_traverse(path, **options), preparation_for_camera(preparation, camera, params_file)
+        )
     return ReferenceMap.load(path, preparation)
 
 
@@ -211,10 +239,11 @@ def run(args: argparse.Namespace) -> int:
     localization = sections.get("localization", LocalizationParams())
     filter_params = sections.get("filter")
     preparation = sections.get("preparation")
-    inputs = (args.reference, args.query, args.params)
+    inputs = (args.reference, args.query, args.params, args.survey)
     check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
     refuse_map_as_traverse(args.query, "QUERY", "the reference comes first: nightloc evaluate REFERENCE QUERY")
-    query = load_traverse(args.query)  # names and poses only
+    bag = bag_options(args)
+    query = load_traverse(args.query, **bag)  # names, times and poses only
     if query.positions is None:
         raise ValueError(
             f"query {args.query} has no poses: evaluation needs poses.csv with columns image,x,y[,heading]"
@@ -224,7 +253,7 @@ def run(args: argparse.Namespace) -> int:
     # Checked and locked before the work; the files appear together at the end, or not at all.
     with output_set(args.out, command="evaluate", inputs=inputs) as out:
         start = time.perf_counter()
-        ref_map = load_reference(args.reference, preparation, args.camera, args.params)
+        ref_map = load_reference(args.reference, preparation, args.camera, args.params, bag)
         ref_map.check_frames(query.read(0).shape, f"the query {query.root}", args.camera)
         matches = match_traverse(
             ref_map,
@@ -234,6 +263,9 @@ def run(args: argparse.Namespace) -> int:
             odometry=settings.odometry == "log",
         )
         matching_s = time.perf_counter() - start
+        alignment = map_alignment(ref_map, args.survey)
+        if alignment is not None:
+            matches = align_to_map(matches, alignment[0])
         evaluation = evaluate(ref_map, matches, settings, localization, filter_params=filter_params)
         total_s = time.perf_counter() - start
 
@@ -256,6 +288,8 @@ def run(args: argparse.Namespace) -> int:
                 )
             ]
 
+    if alignment is not None:
+        print(alignment[1])
     configs = len(evaluation) // max(len(matches.results), 1)
     print(
         f"{len(matches.results)} query frames of {query.root} against {len(ref_map)} references: "

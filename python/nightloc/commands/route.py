@@ -63,6 +63,7 @@ from ..route.filter import texture_weights
 from ..route.params import PRESETS, RouteParams, resolve_params
 from ..route.pipeline import RouteResult, match_difference, route_difference_matrix
 from ..route.preparation import RoutePreparer
+from .bag_options import add_bag_options, bag_options
 from .camera_option import add_camera_option, preparation_for_camera
 from .wording import duration, in_option_words, refuse_map_as_traverse
 
@@ -81,8 +82,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "enhancement, then the causal route filter or SeqSLAM's trajectory search) and writes OUT/matches.csv, "
         "OUT/pr.csv (with ground truth), OUT/summary.json and figures.",
     )
-    parser.add_argument("reference", help="reference traverse: folder or video")
-    parser.add_argument("query", help="query traverse: folder or video")
+    parser.add_argument("reference", help="reference traverse: folder, video or ROS bag")
+    parser.add_argument("query", help="query traverse: folder, video or ROS bag")
     parser.add_argument("--out", required=True, help="output folder (created if missing)")
     parser.add_argument(
         "--preset",
@@ -126,6 +127,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--threads", type=int, help="worker threads (default all cores)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     add_figure_format_option(parser)
+    add_bag_options(parser)
     parser.set_defaults(run=run)
 
 
@@ -273,16 +275,30 @@ def _number(value: float) -> str:
     return "nan" if math.isnan(value) else repr(float(value))
 
 
-def matches_csv(result: RouteResult, query_names: Sequence[str], ref_names: Sequence[str]) -> str:
+def matches_csv(
+    result: RouteResult,
+    query_names: Sequence[str],
+    ref_names: Sequence[str],
+    query_times: Sequence[float] | np.ndarray | None = None,
+) -> str:
     """``query,ref,score,query_image,ref_image`` rows (and ``confidence,off_route`` for the
-    filter): ``ref`` -1, ``score`` nan and ``ref_image`` empty where a query has no match (so
-    ``numpy.loadtxt(..., usecols=(0, 1, 2))`` reads the numbers)."""
+    filter), then ``timestamp``, the query frame's time in seconds (``nan`` when the traverse
+    carries none): ``ref`` -1, ``score`` nan and ``ref_image`` empty where a query has no match
+    (so ``numpy.loadtxt(..., usecols=(0, 1, 2))`` reads the numbers)."""
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     confidence, off_route = result.confidence, result.off_route
     filtered = confidence is not None and off_route is not None
     writer.writerow(
-        ["query", "ref", "score", "query_image", "ref_image", *(["confidence", "off_route"] if filtered else [])]
+        [
+            "query",
+            "ref",
+            "score",
+            "query_image",
+            "ref_image",
+            *(["confidence", "off_route"] if filtered else []),
+            "timestamp",
+        ]
     )
     for q in range(result.n_queries):
         ref = int(result.refs[q])
@@ -296,6 +312,7 @@ def matches_csv(result: RouteResult, query_names: Sequence[str], ref_names: Sequ
         ]
         if confidence is not None and off_route is not None:
             row += [_number(confidence[q]), _number(off_route[q])]
+        row.append("nan" if query_times is None else _number(query_times[q]))
         writer.writerow(row)
     return buffer.getvalue()
 
@@ -358,8 +375,9 @@ def run(args: argparse.Namespace) -> int:
     usage = "nightloc route compares two traverses: nightloc route REFERENCE QUERY --out OUT"
     refuse_map_as_traverse(args.reference, "REFERENCE", usage)
     refuse_map_as_traverse(args.query, "QUERY", usage)
-    reference = load_traverse(args.reference, frame_step=args.frame_step)  # names and poses only
-    query = load_traverse(args.query, frame_step=args.frame_step)
+    bag = bag_options(args)
+    reference = load_traverse(args.reference, frame_step=args.frame_step, **bag)  # names, times and poses only
+    query = load_traverse(args.query, frame_step=args.frame_step, **bag)
     reference_shape = reference.read(0).shape
     check_frames_fit(
         query.read(0).shape,
@@ -422,7 +440,7 @@ def _write_method(
 ) -> dict:
     """Writes one method's files into ``folder`` (inside the output set); returns its summary."""
     folder.mkdir(exist_ok=True)
-    write_text(folder / "matches.csv", matches_csv(result, query.names, reference.names), newline="")
+    write_text(folder / "matches.csv", matches_csv(result, query.names, reference.names, query.timestamps), newline="")
     if evaluation is not None:
         write_text(folder / "pr.csv", pr_csv(evaluation), newline="")
     figures = []

@@ -98,7 +98,7 @@ def bag_kind(path: PathLike) -> str | None:
             return ROS2_BAG
         return None
     head = _head(target)
-    if head.startswith(_ROS1_MAGIC) or (target.suffix.lower() == ".bag" and not head):
+    if head.startswith(_ROS1_MAGIC) or (target.suffix.lower() == ".bag" and not head and target.is_file()):
         return ROS1_BAG
     if head.startswith(_MCAP_MAGIC) or (head.startswith(_SQLITE_MAGIC) and target.suffix.lower() == ".db3"):
         return ROS2_STORAGE

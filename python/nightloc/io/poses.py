@@ -25,6 +25,8 @@ __all__ = [
     "PoseRow",
     "check_heading",
     "checked_poses",
+    "checked_timestamps",
+    "parse_timestamp",
     "poses_from_rows",
     "read_pose_csv",
     "refuse_other_delimiter",
@@ -84,12 +86,41 @@ def wrap_headings(headings: np.ndarray) -> np.ndarray:
 
 
 class PoseRow:
-    """One row of a pose file: its line number, key (image name or frame index), x, y, heading."""
+    """One row of a pose file: its line number, key (image name or frame index), x, y, heading,
+    timestamp (seconds; None without the column)."""
 
-    __slots__ = ("heading", "key", "line", "x", "y")
+    __slots__ = ("heading", "key", "line", "timestamp", "x", "y")
 
-    def __init__(self, line: int, key: str | int, x: float, y: float, heading: float | None):
+    def __init__(
+        self, line: int, key: str | int, x: float, y: float, heading: float | None, timestamp: float | None = None
+    ):
         self.line, self.key, self.x, self.y, self.heading = line, key, x, y, heading
+        self.timestamp = timestamp
+
+
+def parse_timestamp(text: str, file: Path, line: int) -> float:
+    """A ``timestamp`` cell: finite seconds (any epoch), or DatasetError naming file and line."""
+    cell = text.strip()
+    try:
+        value = float(cell)
+    except ValueError:
+        raise DatasetError(f"{file} line {line}: column 'timestamp' holds {cell!r}, not a number of seconds") from None
+    if not math.isfinite(value):
+        raise DatasetError(f"{file} line {line}: column 'timestamp' is {cell!r}; times must be finite seconds")
+    return value
+
+
+def checked_timestamps(values: Sequence[float], lines: Sequence[int], file: Path) -> np.ndarray:
+    """``(N,)`` float64 seconds in frame order, or DatasetError at the first that goes back in time."""
+    times = np.array(values, dtype=np.float64)
+    backwards = np.flatnonzero(np.diff(times) < 0)
+    if backwards.size:
+        k = int(backwards[0]) + 1
+        raise DatasetError(
+            f"{file} line {lines[k]}: timestamp {values[k]!r} is before the previous frame's ({values[k - 1]!r}, "
+            f"line {lines[k - 1]}); frames must be in the order they were recorded"
+        )
+    return times
 
 
 def _parse_number(text: str, column: str, file: Path, line: int) -> float:
@@ -129,7 +160,7 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
     """Rows of a poses CSV: ``(rows, has_heading)``.
 
     The CSV must have a header with ``key_column`` (``image`` or ``frame``), ``x`` and ``y``;
-    ``heading`` is optional and other columns are ignored. Column names are matched without
+    ``heading`` and ``timestamp`` (seconds) are optional and other columns are ignored. Column names are matched without
     case and surrounding blanks; a UTF-8 byte-order mark and CRLF line ends are accepted; blank
     lines are skipped. Keys must be unique.
     """
@@ -164,6 +195,8 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
                     has_heading = "heading" in header
                     if has_heading:
                         index["heading"] = header.index("heading")
+                    if "timestamp" in header:
+                        index["timestamp"] = header.index("timestamp")
                     continue
                 if len(fields) != len(header):
                     raise DatasetError(
@@ -189,7 +222,8 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
                     heading = check_heading(
                         _parse_number(fields[index["heading"]], "heading", file, line), "heading", file, line
                     )
-                rows.append(PoseRow(line, key, x, y, heading))
+                stamp = parse_timestamp(fields[index["timestamp"]], file, line) if "timestamp" in index else None
+                rows.append(PoseRow(line, key, x, y, heading, stamp))
     except UnicodeDecodeError as error:
         raise DatasetError(f"{file} is not UTF-8 text ({error.reason} at byte {error.start})") from None
     except csv.Error as error:
