@@ -207,6 +207,8 @@ private:
     void begin_prediction(std::vector<float> taps, std::vector<std::size_t> offsets);
     void materialize() const;
     void measure_predicted(detail::UpdateArgs& args);
+    // The measurement of bins [d0, d1) over all cells; their priors' slices from slices_[first_slice].
+    void measure_group(detail::UpdateArgs& args, std::size_t d0, std::size_t d1, std::size_t first_slice);
     void translate_blur_slice(const float* src, float* dst, const SliceMotion& m) const;
     void compute_marginal() const;
 
@@ -228,6 +230,8 @@ private:
     std::vector<std::int32_t> ell_index_;
     std::vector<std::int32_t> block_start_, block_places_;  // the measurement's dense blocks
     detail::LineVector<float> block_weights_;
+    bool has_sparse_blocks_ = false;              // blocks with more than kDensePlaces places
+    detail::LineVector<float> sparse_y_;          // their cells' log2-likelihoods, a few bins x cells
     mutable detail::LineVector<float> belief_;
     mutable detail::LineVector<float> work_;  // predicted slices (materialize: all bins; an update: a pool)
     std::vector<std::int32_t> slot_of_, free_slots_;
@@ -238,7 +242,10 @@ private:
     mutable detail::LineVector<float> row_buf_, zeros_, padded_, wide_a_, wide_b_;
     mutable std::vector<float> taps_x_, taps_y_;
     mutable std::vector<float> sums_;  // running sums of the box passes
-    std::vector<float> table_, mins_, place_scores_, log_lik_;
+    std::vector<float> table_, mins_, sorted_, bin_high_, place_scores_, log_lik_;
+    std::vector<std::int32_t> row_of_ref_, ref_c0_;  // ref_c0_, ref_fraction_: a frame's shift of bin 0 per reference
+    std::vector<double> ref_fraction_;  // each reference's row of the per-place arrays (see the constructor)
+    std::vector<std::int32_t> empty_places_;  // places no reference stands at (take the bin's highest score)
     std::vector<std::int32_t> best_shifts_;
     mutable std::vector<double> xs_, dx2_, hist_;  // the estimate's scratch
     struct RingCell {
