@@ -85,6 +85,13 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
     }
     for (std::size_t p = 0; p < places_; ++p)
         if (!has_ref[p]) empty_places_.push_back(static_cast<std::int32_t>(p));
+    first_of_place_.assign(map_.place_of_ref.size(), 0);
+    std::fill(has_ref.begin(), has_ref.end(), false);
+    for (std::size_t i = 0; i < map_.place_of_ref.size(); ++i) {
+        const auto p = static_cast<std::size_t>(map_.place_of_ref[i]);
+        first_of_place_[i] = has_ref[p] ? 0 : 1;
+        has_ref[p] = true;
+    }
     require(map_.ref_headings.empty() || map_.ref_headings.size() == map_.place_of_ref.size(),
             "grid filter: ref_headings must be empty or hold one heading per reference");
     for (double h : map_.ref_headings) require(std::isfinite(h), "grid filter: reference headings must be finite");
@@ -114,6 +121,8 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
             "grid filter: credibility must be in (0, 1]");
     require(finite_nonnegative(s.confidence_radius), "grid filter: confidence_radius must be finite and >= 0");
     require(s.estimate_window <= 1000, "grid filter: estimate_window must be <= 1000 cells");
+    require(std::isfinite(s.negligible) && s.negligible >= 0 && s.negligible < 1,
+            "grid filter: negligible must be in [0, 1)");
 
     can_pose_ = s.heading_bins > 1 && !map_.ref_headings.empty() && full;
     bins_ = can_pose_ ? s.heading_bins : 1;
@@ -210,13 +219,14 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
     best_shifts_.resize(n_refs());
     ref_c0_.resize(n_refs());
     ref_fraction_.resize(n_refs());
-    place_scores_.resize(bins_ * places_);
+    bin_max_.resize(bins_);
     log_lik_.resize((bins_ + detail::kGroupBins - 1) / detail::kGroupBins * (places_ + 1) * detail::kGroupBins);
     reset();
 }
 
 void GridFilter::reset() {
     pending_ = false;
+    bin_max_valid_ = false;
     pose_ = can_pose_;
     offset_ = 0;
     lambda_ = 0;
@@ -375,6 +385,7 @@ void GridFilter::translate_blur_slice(const float* src, float* dst, const SliceM
 
 void GridFilter::to_position() {
     if (!pose_) return;
+    bin_max_valid_ = false;
     materialize();
     const auto& k = detail::filter_kernels(active_simd_backend());
     k.sum_slices(belief_.data(), bins_, cells_, work_.data());
@@ -384,6 +395,7 @@ void GridFilter::to_position() {
 
 void GridFilter::to_pose() {
     if (pose_ || !can_pose_) return;
+    bin_max_valid_ = false;
     materialize();
     for (std::size_t b = 1; b < bins_; ++b) {
         std::copy(belief_.begin(), belief_.begin() + static_cast<std::ptrdiff_t>(cells_),
@@ -410,6 +422,7 @@ void GridFilter::begin_prediction(std::vector<float> taps, std::vector<std::size
 
 void GridFilter::materialize() const {
     if (!pending_) return;
+    bin_max_valid_ = false;
     const auto& k = detail::filter_kernels(active_simd_backend());
     const std::size_t B = active_bins();
     for (std::size_t d = 0; d < B; ++d) {
@@ -459,6 +472,11 @@ void GridFilter::predict_robot(double forward, double left, double turn) {
     if (new_offset < 0) new_offset = 0;
     const auto B = static_cast<long long>(bins_);
     const auto k_roll = static_cast<std::size_t>(((roll % B) + B) % B);
+    // negligible bins (see grid_filter.hpp): shifted, not blurred
+    float negligible_below = 0.f;
+    if (bin_max_valid_ && s.negligible > 0) {
+        negligible_below = static_cast<float>(s.negligible * *std::max_element(bin_max_.begin(), bin_max_.end()));
+    }
     pending_motion_.resize(bins_);
     for (std::size_t b = 0; b < bins_; ++b) {
         const double theta = offset_ + step * static_cast<double>(b);
@@ -466,7 +484,8 @@ void GridFilter::predict_robot(double forward, double left, double turn) {
         const double mx = c * forward - sn * left, my = sn * forward + c * left;
         double wx, wy;
         axis_shares(theta + along, wx, wy);
-        const double sigma_x = std::sqrt(sd2 * wx + pf2), sigma_y = std::sqrt(sd2 * wy + pf2);
+        const bool blur = !(bin_max_[b] < negligible_below);
+        const double sigma_x = blur ? std::sqrt(sd2 * wx + pf2) : 0.0, sigma_y = blur ? std::sqrt(sd2 * wy + pf2) : 0.0;
         pending_motion_[(b + k_roll) % bins_] = {b, mx / map_.dx, my / map_.dy, sigma_x / map_.dx, sigma_y / map_.dy};
     }
     offset_ = new_offset;
@@ -536,9 +555,22 @@ void GridFilter::update_image(const std::uint8_t* query, const std::uint8_t* ref
     if (query == nullptr || refs == nullptr) throw std::invalid_argument("grid filter: null image");
     require(n_refs_in == n_refs(), "grid filter: the reference stack has " + std::to_string(n_refs_in) +
                                        " images but the map has " + std::to_string(n_refs()));
-    rotational_sad(query, refs, n_refs_in, image_height, map_.columns, map_.shifts.data(), map_.shifts.size(),
-                   table_.data(), threads);
+    // the sums into a buffer kept between frames (no 4 bytes per entry allocated, zeroed and
+    // faulted in per frame), then rotational_sad's scores: float(double(sum) / pixels)
+    sums_table_.resize(table_.size());
+    rotational_sad_sums(query, refs, n_refs_in, image_height, map_.columns, map_.shifts.data(), map_.shifts.size(),
+                        sums_table_.data(), threads);
+    detail::filter_kernels(active_simd_backend())
+        .scale_sums(sums_table_.data(), table_.size(), static_cast<double>(image_height * map_.columns), table_.data());
     update(table_.data());
+}
+
+double GridFilter::shift_of_bin0(std::size_t i, double W) const {
+    // the fractional column shift of heading bin 0 for reference i, reduced to [0, W)
+    double c = (offset_ - map_.ref_headings[i]) * W / kTwoPi;
+    c -= W * std::floor(c / W);
+    if (!(c < W) || c < 0) c = 0.0;  // rounding at the ends of the range
+    return c;
 }
 
 void GridFilter::update(const float* table) {
@@ -568,67 +600,84 @@ void GridFilter::update(const float* table) {
     const double spread = median - s_min;
     lambda_ = spread > 0 ? settings_.likelihood_gain / spread : 0.0;
 
-    // per place and bin: the lowest score of its references; place p's bins at p * B (one row
-    // per place: a reference writes one contiguous row)
+    // per place and bin the log2-likelihood y = max(-lambda log2(e) (score - s_min), -60) of the
+    // place's lowest score (of its references), in groups of kGroupBins bins (a pass of the
+    // measurement reads one group: places_ + 1 rows); row places_: the fill, the y of the bin's
+    // highest place score (cells without weights; places without references take it too: never
+    // preferred). y falls with the score: the lowest score's y is the highest y.
     const std::size_t B = active_bins();
-    const float inf = std::numeric_limits<float>::infinity();
-    std::fill(place_scores_.begin(), place_scores_.begin() + static_cast<std::ptrdiff_t>(B * places_), inf);
-    if (pose_) {
-        const auto W = static_cast<double>(map_.columns);
-        const auto columns = static_cast<std::int32_t>(map_.columns);
-        const double per_bin = W / static_cast<double>(bins_);
-        const bool per_column = bins_ == map_.columns;  // bin b is shift b + c: one fraction per reference
-        for (std::size_t i = 0; i < n; ++i) {
-            const float* row = table + i * S;
-            // the fractional shift of bin 0, reduced to [0, W): bin b's is per_bin b + c in [0, 2 W)
-            double c = (offset_ - map_.ref_headings[i]) * W / kTwoPi;
-            c -= W * std::floor(c / W);
-            if (!(c < W)) c = 0.0;  // rounding at the top of the range
-            if (c < 0) c = 0.0;
-            if (per_column) {  // bin b is k = c0 + b (mod W), the same fraction for every bin
-                ref_c0_[i] = static_cast<std::int32_t>(c);
-                ref_fraction_[i] = c - static_cast<double>(ref_c0_[i]);
-                continue;
-            }
-            float* ps = place_scores_.data() + static_cast<std::size_t>(row_of_ref_[i]) * B;
-            for (std::size_t b = 0; b < bins_; ++b) {
-                const double shift = per_bin * static_cast<double>(b) + c;
-                const auto kf = static_cast<std::int32_t>(shift);  // shift >= 0: truncation is the floor
-                const double a = shift - static_cast<double>(kf);
-                const std::int32_t k0 = kf >= columns ? kf - columns : kf;
-                const std::int32_t k1 = k0 + 1 == columns ? 0 : k0 + 1;
-                const auto v = static_cast<float>((1.0 - a) * row[k0] + a * row[k1]);
-                ps[b] = std::min(ps[b], v);
-            }
-        }
-        if (per_column) {
-            k.lerp_rows(table, n, map_.columns, row_of_ref_.data(), ref_c0_.data(), ref_fraction_.data(),
-                        place_scores_.data());
-        }
-    } else {
-        for (std::size_t i = 0; i < n; ++i) {
-            float& slot = place_scores_[static_cast<std::size_t>(row_of_ref_[i])];
-            slot = std::min(slot, mins_[i]);
-        }
-    }
-    // per bin the highest place score (places without references, none in practice, take it:
-    // never preferred; so do cells without weights, through the fill row)
-    for (std::int32_t p : empty_places_) {
-        std::fill_n(place_scores_.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(p) * B), B, -inf);
-    }
-    bin_high_.assign(B, -inf);
-    k.column_max(place_scores_.data(), places_, B, bin_high_.data());
-    for (std::int32_t p : empty_places_) {
-        std::copy(bin_high_.begin(), bin_high_.end(),
-                  place_scores_.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(p) * B));
-    }
-
-    // per place and bin the log2-likelihood y = max(-lambda log2(e) (score - s_min), -60), in
-    // groups of kGroupBins bins (a pass of the measurement reads one group: places_ + 1 rows);
-    // row places_: the fill (the bin's highest place score)
     const double gain = -lambda_ * kLog2e;
-    k.log_lik(place_scores_.data(), places_, B, gain, s_min, kLowestLog2, log_lik_.data(), places_ + 1, 0);
-    k.log_lik(bin_high_.data(), 1, B, gain, s_min, kLowestLog2, log_lik_.data(), places_ + 1, places_);
+    const std::size_t group_rows = places_ + 1;
+    const float inf = std::numeric_limits<float>::infinity();
+    auto place_row = [&](std::size_t p, float value) {  // every bin of place row p
+        for (std::size_t b = 0; b < B; ++b) log_lik_[(b / detail::kGroupBins * group_rows + p) * detail::kGroupBins +
+                                                    b % detail::kGroupBins] = value;
+    };
+    auto set_fill = [&](const float* fill) {
+        for (std::size_t b = 0; b < B; ++b) {
+            for (std::int32_t p : empty_places_) {
+                log_lik_[(b / detail::kGroupBins * group_rows + static_cast<std::size_t>(p)) * detail::kGroupBins +
+                         b % detail::kGroupBins] = fill[b];
+            }
+            log_lik_[(b / detail::kGroupBins * group_rows + places_) * detail::kGroupBins + b % detail::kGroupBins] =
+                fill[b];
+        }
+    };
+    if (pose_ && bins_ == map_.columns) {  // bin b is column shift c0 + b: one fraction per reference
+        const auto W = static_cast<double>(map_.columns);
+        for (std::size_t i = 0; i < n; ++i) {
+            ref_c0_[i] = static_cast<std::int32_t>(shift_of_bin0(i, W));
+            ref_fraction_[i] = shift_of_bin0(i, W) - static_cast<double>(ref_c0_[i]);
+        }
+        for (std::int32_t p : empty_places_) place_row(static_cast<std::size_t>(p), inf);
+        twice_.resize(4 * map_.columns);
+        row_y_.resize(map_.columns);
+        k.lerp_log_lik(table, n, map_.columns, row_of_ref_.data(), first_of_place_.data(), ref_c0_.data(),
+                       ref_fraction_.data(), gain, s_min, kLowestLog2, log_lik_.data(), group_rows, twice_.data(),
+                       row_y_.data());
+        bin_high_.assign(B, inf);  // here the bins' lowest y
+        k.group_min(log_lik_.data(), places_, B, group_rows, bin_high_.data());
+        set_fill(bin_high_.data());
+    } else {
+        // per place and bin the lowest score of its references; place p's bins at p * B (made
+        // here only: the common case above needs none)
+        place_scores_.assign(B * places_, inf);
+        if (pose_) {
+            const auto W = static_cast<double>(map_.columns);
+            const auto columns = static_cast<std::int32_t>(map_.columns);
+            const double per_bin = W / static_cast<double>(bins_);
+            for (std::size_t i = 0; i < n; ++i) {
+                const float* row = table + i * S;
+                const double c = shift_of_bin0(i, W);  // bin b's shift: per_bin b + c in [0, 2 W)
+                float* ps = place_scores_.data() + static_cast<std::size_t>(row_of_ref_[i]) * B;
+                for (std::size_t b = 0; b < bins_; ++b) {
+                    const double shift = per_bin * static_cast<double>(b) + c;
+                    const auto kf = static_cast<std::int32_t>(shift);  // shift >= 0: truncation is the floor
+                    const double a = shift - static_cast<double>(kf);
+                    const std::int32_t k0 = kf >= columns ? kf - columns : kf;
+                    const std::int32_t k1 = k0 + 1 == columns ? 0 : k0 + 1;
+                    const auto v = static_cast<float>((1.0 - a) * row[k0] + a * row[k1]);
+                    ps[b] = std::min(ps[b], v);
+                }
+            }
+        } else {
+            for (std::size_t i = 0; i < n; ++i) {
+                float& slot = place_scores_[static_cast<std::size_t>(row_of_ref_[i])];
+                slot = std::min(slot, mins_[i]);
+            }
+        }
+        for (std::int32_t p : empty_places_) {
+            std::fill_n(place_scores_.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(p) * B), B, -inf);
+        }
+        bin_high_.assign(B, -inf);
+        k.column_max(place_scores_.data(), places_, B, bin_high_.data());
+        k.log_lik(place_scores_.data(), places_, B, gain, s_min, kLowestLog2, log_lik_.data(), group_rows, 0);
+        std::vector<float>& fill = row_y_;
+        fill.resize(B);
+        k.log_lik(bin_high_.data(), 1, B, gain, s_min, kLowestLog2, fill.data(), 1, 0);
+        // fill is grouped with one row: bin b at (b / 4) * 4 + b % 4 = b
+        set_fill(fill.data());
+    }
     const float one = 1.f;
     detail::UpdateArgs args{block_start_.data(),
                             block_places_.data(),
@@ -672,6 +721,7 @@ void GridFilter::update(const float* table) {
     }
     scale_ = 1.0 / total;
     marginal_valid_ = true;
+    bin_max_valid_ = pose_;
 }
 
 void GridFilter::measure_group(detail::UpdateArgs& args, std::size_t d0, std::size_t d1, std::size_t first_slice) {
@@ -682,6 +732,7 @@ void GridFilter::measure_group(detail::UpdateArgs& args, std::size_t d0, std::si
         args.sparse_y = sparse_y_.data();
         k.interpolate(args, d1 - d0, sparse_y_.data());
     }
+    args.bin_max = bin_max_.data();
     k.measure(args, d0, d1 - d0, slices_.data() + first_slice * args.n_taps, 0, cells_);
 }
 
@@ -949,6 +1000,26 @@ GridEstimate GridFilter::estimate() const {
     return e;
 }
 
+std::size_t GridFilter::sparse_blocks() const noexcept {
+    std::size_t count = 0;
+    for (std::size_t block = 0; block + 1 < block_start_.size(); ++block) count += block_start_[block + 1] == block_start_[block];
+    return count;
+}
+
+std::size_t GridFilter::memory_bytes() const noexcept {
+    std::size_t bytes = sizeof(*this);
+    auto add = [&](const auto& v) { bytes += v.capacity() * sizeof(v[0]); };
+    add(pending_motion_), add(pending_taps_), add(pending_offsets_), add(ell_data_), add(ell_index_);
+    add(block_start_), add(block_places_), add(block_weights_), add(sparse_y_), add(belief_), add(work_);
+    add(slot_of_), add(free_slots_), add(slices_), add(last_use_), add(dest_of_source_), add(marginal_);
+    add(row_buf_), add(zeros_), add(padded_), add(wide_a_), add(wide_b_), add(taps_x_), add(taps_y_), add(sums_);
+    add(sums_table_), add(table_), add(mins_), add(sorted_), add(bin_high_), add(place_scores_), add(log_lik_);
+    add(row_of_ref_), add(ref_c0_), add(ref_fraction_), add(twice_), add(row_y_), add(first_of_place_);
+    add(empty_places_), add(bin_max_), add(best_shifts_), add(xs_), add(dx2_), add(hist_), add(ring_);
+    add(map_.place_of_ref), add(map_.ref_headings), add(map_.shifts);
+    return bytes;
+}
+
 void GridFilter::set_belief(const float* belief, bool pose, double offset) {
     if (belief == nullptr) throw std::invalid_argument("grid filter: null belief");
     require(!pose || can_pose_, "grid filter: this filter has no pose mode");
@@ -964,6 +1035,7 @@ void GridFilter::set_belief(const float* belief, bool pose, double offset) {
     require(total > 0, "grid filter: a belief must have a positive sum");
     std::copy(belief, belief + n, belief_.begin());
     pending_ = false;
+    bin_max_valid_ = false;
     pose_ = pose;
     offset_ = offset;
     scale_ = 1.0 / total;

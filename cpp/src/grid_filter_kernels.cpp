@@ -474,13 +474,15 @@ NL_INLINE void measure_one(const UpdateArgs& u, const float* const* in, std::siz
     const float p = (acc * u.a + u.f) * exp2_scalar(y);
     u.belief[b * u.n + c] = p;
     u.marginal[c] = (b == 0 ? 0.f : u.marginal[c]) + p;
+    if (u.bin_max != nullptr) u.bin_max[b] = p > u.bin_max[b] ? p : u.bin_max[b];
 }
 
 // One full block of kBlock cells from c in Q bins from b (in: per bin its n_taps slices): the
 // block's weights are read once for all Q bins (each bin alone would stream the map's weights
 // from L2 once per bin), and the Q kBlock / L vectors are independent chains.
 template <int L, int Q>
-NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* const* in, std::size_t c) {
+NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* const* in, std::size_t c,
+                             typename Vec<L>::F* high) {
     using F = typename Vec<L>::F;
     constexpr int V = static_cast<int>(kBlock) / L;  // vectors per block
     const F zero = {}, lowest = zero + kLowest;
@@ -549,6 +551,7 @@ NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* co
             const F p = (acc[v] * a + f) * l;
             store<L>(belief + L * v, p);
             mg[v] = mg[v] + p;
+            high[q] = p > high[q] ? p : high[q];
         }
     }
     NL_UNROLL
@@ -562,13 +565,22 @@ constexpr int kMeasureBins = L == 4 ? 2 : 4;
 template <int L, int Q>
 NL_INLINE void measure_bins(const UpdateArgs& u, std::size_t b, const float* const* in, std::size_t c0,
                             std::size_t full) {
-    for (std::size_t c = c0; c < full; c += kBlock) measure_block<L, Q>(u, b, in, c);
+    typename Vec<L>::F high[Q] = {};  // the bins' largest values (beliefs are >= 0)
+    for (std::size_t c = c0; c < full; c += kBlock) measure_block<L, Q>(u, b, in, c, high);
+    if (u.bin_max == nullptr) return;
+    for (int q = 0; q < Q; ++q) {
+        float m = u.bin_max[b + static_cast<std::size_t>(q)];
+        for (int l = 0; l < L; ++l) m = high[q][l] > m ? high[q][l] : m;
+        u.bin_max[b + static_cast<std::size_t>(q)] = m;
+    }
 }
 
 template <int L>
 NL_INLINE void measure_body(const UpdateArgs& u, std::size_t b, std::size_t bins, const float* const* in,
                             std::size_t c0, std::size_t m) {
     const std::size_t full = L == 1 ? c0 : c0 + m - m % kBlock;
+    if (u.bin_max != nullptr && c0 == 0)
+        for (std::size_t q = 0; q < bins; ++q) u.bin_max[b + q] = 0.f;
     if constexpr (L != 1) {
         constexpr std::size_t Q = kMeasureBins<L>;
         std::size_t q = 0;
@@ -677,17 +689,18 @@ constexpr std::size_t kMinLanes = 16;  // independent running minima per row (ex
 NL_INLINE bool row_minima_body(const float* __restrict table, std::size_t n, std::size_t S, float* __restrict mins,
                                std::int32_t* __restrict best) {
     std::uint32_t bad = 0;
-    for (std::size_t i = 0; i < n * S; ++i) {  // a NaN or infinity: all exponent bits set
+    for (std::size_t i = 0; i < n * S; ++i) {  // a NaN or an infinity: all exponent bits set
         std::uint32_t bits;
         std::memcpy(&bits, table + i, sizeof(bits));
         bad |= static_cast<std::uint32_t>((bits & 0x7f800000u) == 0x7f800000u);
     }
     if (bad) return true;
+    const auto none = static_cast<std::int32_t>(S);
     for (std::size_t i = 0; i < n; ++i) {
         const float* row = table + i * S;
         float low = row[0];
         std::size_t k = 0;
-        if (S >= kMinLanes) {
+        if (S >= kMinLanes) {  // independent minima (exact in any order): they vectorize
             float lane[kMinLanes];
             for (std::size_t l = 0; l < kMinLanes; ++l) lane[l] = row[l];
             for (k = kMinLanes; k + kMinLanes <= S; k += kMinLanes)
@@ -695,33 +708,99 @@ NL_INLINE bool row_minima_body(const float* __restrict table, std::size_t n, std
             for (std::size_t l = 0; l < kMinLanes; ++l) low = lane[l] < low ? lane[l] : low;
         }
         for (; k < S; ++k) low = row[k] < low ? row[k] : low;
-        std::size_t first = 0;
-        while (row[first] != low) ++first;
+        std::int32_t first = none;  // the first column holding it: a minimum of indices (it vectorizes)
+        for (std::size_t c = 0; c < S; ++c) {
+            const std::int32_t candidate = row[c] == low ? static_cast<std::int32_t>(c) : none;
+            first = candidate < first ? candidate : first;
+        }
         mins[i] = low;
-        best[i] = static_cast<std::int32_t>(first);
+        best[i] = first < none ? first : 0;
     }
     return false;
 }
 
-NL_INLINE void lerp_run(const float* __restrict x, std::size_t count, double a0, double a, float* __restrict ps) {
-    for (std::size_t b = 0; b < count; ++b) {
-        const auto v = static_cast<float>(a0 * static_cast<double>(x[b]) + a * static_cast<double>(x[b + 1]));
-        ps[b] = v < ps[b] ? v : ps[b];
+NL_INLINE void lerp_rows_body(const float* __restrict table, std::size_t n, std::size_t W,
+                              const std::int32_t* __restrict rows, const std::int32_t* __restrict c0s,
+                              const double* __restrict fractions, float* __restrict ps, float* __restrict twice) {
+    for (std::size_t i = 0; i < n; ++i) {
+        const float* row = table + i * W;
+        for (std::size_t k = 0; k < W; ++k) twice[k] = twice[W + k] = row[k];  // the row twice: k + 1 needs no wrap
+        float* out = ps + static_cast<std::size_t>(rows[i]) * W;
+        const float* x = twice + c0s[i];
+        const double a = fractions[i], a0 = 1.0 - a;
+        for (std::size_t b = 0; b < W; ++b) {
+            const auto v = static_cast<float>(a0 * static_cast<double>(x[b]) + a * static_cast<double>(x[b + 1]));
+            out[b] = v < out[b] ? v : out[b];
+        }
     }
 }
 
-NL_INLINE void lerp_rows_body(const float* table, std::size_t n, std::size_t W, const std::int32_t* rows,
-                              const std::int32_t* c0s, const double* fractions, float* ps) {
-    for (std::size_t i = 0; i < n; ++i) {
+NL_INLINE void lerp_log_lik_body(const float* __restrict table, std::size_t n, std::size_t W,
+                                 const std::int32_t* __restrict rows, const std::uint8_t* __restrict first,
+                                 const std::int32_t* __restrict c0s, const double* __restrict fractions, double gain,
+                                 double s_min, double lowest, float* __restrict y, std::size_t group_rows,
+                                 float* __restrict twice, float* __restrict row_y) {
+    // each row twice (k + 1 needs no wrap), one reference ahead in two alternating buffers: the
+    // unaligned loads from it would otherwise wait for the stores just made
+    auto copy_twice = [&](std::size_t i) {
+        float* to = twice + (i % 2) * 2 * W;
         const float* row = table + i * W;
-        float* out = ps + static_cast<std::size_t>(rows[i]) * W;
-        const auto c0 = static_cast<std::size_t>(c0s[i]);
+        for (std::size_t k = 0; k < W; ++k) to[k] = to[W + k] = row[k];
+    };
+    if (n > 0) copy_twice(0);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (i + 1 < n) copy_twice(i + 1);
+        const float* x = twice + (i % 2) * 2 * W + c0s[i];
         const double a = fractions[i], a0 = 1.0 - a;
-        const std::size_t wrap_at = W - 1 - c0;  // the bin whose k + 1 wraps to column 0
-        lerp_run(row + c0, wrap_at, a0, a, out);
-        const auto v = static_cast<float>(a0 * static_cast<double>(row[W - 1]) + a * static_cast<double>(row[0]));
-        out[wrap_at] = v < out[wrap_at] ? v : out[wrap_at];
-        lerp_run(row, c0, a0, a, out + wrap_at + 1);
+        for (std::size_t b = 0; b < W; ++b) {
+            const auto v = static_cast<float>(a0 * static_cast<double>(x[b]) + a * static_cast<double>(x[b + 1]));
+            const double t = gain * (static_cast<double>(v) - s_min);
+            row_y[b] = static_cast<float>(t > lowest ? t : lowest);
+        }
+        const auto r = static_cast<std::size_t>(rows[i]);
+        std::size_t b0 = 0;
+        using F4 = Vec<kGroupBins>::F;
+        for (; b0 + kGroupBins <= W; b0 += kGroupBins) {  // whole groups: one 4-float chunk each
+            float* out = y + ((b0 / kGroupBins) * group_rows + r) * kGroupBins;
+            F4 v;
+            load<kGroupBins>(v, row_y + b0);
+            if (!first[i]) {
+                F4 kept;
+                load<kGroupBins>(kept, out);
+                v = v > kept ? v : kept;
+            }
+            store<kGroupBins>(out, v);
+        }
+        for (; b0 < W; ++b0) {
+            float* out = y + ((b0 / kGroupBins) * group_rows + r) * kGroupBins + b0 % kGroupBins;
+            *out = first[i] || row_y[b0] > *out ? row_y[b0] : *out;
+        }
+    }
+}
+
+NL_INLINE void group_min_body(const float* __restrict y, std::size_t rows, std::size_t B, std::size_t group_rows,
+                              float* __restrict low) {
+    for (std::size_t b0 = 0; b0 < B; b0 += kGroupBins) {
+        const float* group = y + (b0 / kGroupBins) * group_rows * kGroupBins;
+        const std::size_t width = B - b0 < kGroupBins ? B - b0 : kGroupBins;
+        using F4 = Vec<kGroupBins>::F;
+        F4 m = {}, m2 = {};  // two independent chains
+        for (std::size_t q = 0; q < kGroupBins; ++q) m[q] = m2[q] = q < width ? low[b0 + q] : 0.f;
+        std::size_t r = 0;
+        for (; r + 2 <= rows; r += 2) {
+            F4 v, v2;
+            load<kGroupBins>(v, group + r * kGroupBins);
+            load<kGroupBins>(v2, group + (r + 1) * kGroupBins);
+            m = v < m ? v : m;
+            m2 = v2 < m2 ? v2 : m2;
+        }
+        if (r < rows) {
+            F4 v;
+            load<kGroupBins>(v, group + r * kGroupBins);
+            m = v < m ? v : m;
+        }
+        m = m2 < m ? m2 : m;
+        for (std::size_t q = 0; q < width; ++q) low[b0 + q] = m[q];
     }
 }
 
@@ -744,6 +823,25 @@ NL_INLINE void log_lik_body(const float* __restrict score, std::size_t rows, std
             }
         }
     }
+}
+
+NL_INLINE void scale_sums_body(const std::uint32_t* __restrict sums, std::size_t n, double divisor,
+                               float* __restrict scores) {
+    for (std::size_t k = 0; k < n; ++k) scores[k] = static_cast<float>(static_cast<double>(sums[k]) / divisor);
+}
+
+NL_INLINE float max_value_body(const float* __restrict values, std::size_t n) {
+    float high = values[0];
+    std::size_t c = 0;
+    if (n >= kMinLanes) {  // independent maxima (exact in any order): they vectorize
+        float lane[kMinLanes];
+        for (std::size_t l = 0; l < kMinLanes; ++l) lane[l] = values[l];
+        for (c = kMinLanes; c + kMinLanes <= n; c += kMinLanes)
+            for (std::size_t l = 0; l < kMinLanes; ++l) lane[l] = values[c + l] > lane[l] ? values[c + l] : lane[l];
+        for (std::size_t l = 0; l < kMinLanes; ++l) high = lane[l] > high ? lane[l] : high;
+    }
+    for (; c < n; ++c) high = values[c] > high ? values[c] : high;
+    return high;
 }
 
 template <int L>
@@ -793,8 +891,18 @@ NL_INLINE void sum_body(const float* values, std::size_t n, double* lanes) {
         return row_minima_body(table, n, S, mins, best);                                                              \
     }                                                                                                                 \
     attributes void lerp_rows_##suffix(const float* table, std::size_t n, std::size_t W, const std::int32_t* rows,    \
-                                       const std::int32_t* c0, const double* fraction, float* ps) {                   \
-        lerp_rows_body(table, n, W, rows, c0, fraction, ps);                                                          \
+                                       const std::int32_t* c0, const double* fraction, float* ps, float* twice) {     \
+        lerp_rows_body(table, n, W, rows, c0, fraction, ps, twice);                                                   \
+    }                                                                                                                 \
+    attributes void lerp_log_lik_##suffix(const float* table, std::size_t n, std::size_t W, const std::int32_t* rows, \
+                                          const std::uint8_t* first, const std::int32_t* c0, const double* fraction,  \
+                                          double gain, double s_min, double lowest, float* y, std::size_t group_rows, \
+                                          float* twice, float* row_y) {                                               \
+        lerp_log_lik_body(table, n, W, rows, first, c0, fraction, gain, s_min, lowest, y, group_rows, twice, row_y);  \
+    }                                                                                                                 \
+    attributes void group_min_##suffix(const float* y, std::size_t rows, std::size_t B, std::size_t group_rows,       \
+                                       float* low) {                                                                  \
+        group_min_body(y, rows, B, group_rows, low);                                                                  \
     }                                                                                                                 \
     attributes void column_max_##suffix(const float* values, std::size_t rows, std::size_t B, float* high) {          \
         column_max_body(values, rows, B, high);                                                                       \
@@ -803,6 +911,10 @@ NL_INLINE void sum_body(const float* values, std::size_t n, double* lanes) {
                                      double lowest, float* y, std::size_t group_rows, std::size_t first_row) {        \
         log_lik_body(score, rows, B, gain, s_min, lowest, y, group_rows, first_row);                                  \
     }                                                                                                                 \
+    attributes void scale_sums_##suffix(const std::uint32_t* sums, std::size_t n, double divisor, float* scores) {    \
+        scale_sums_body(sums, n, divisor, scores);                                                                    \
+    }                                                                                                                 \
+    attributes float max_value_##suffix(const float* values, std::size_t n) { return max_value_body(values, n); }     \
     attributes void sum_##suffix(const float* values, std::size_t n, double* lanes_out) {                             \
         sum_body<lanes>(values, n, lanes_out);                                                                        \
     }                                                                                                                 \
@@ -812,8 +924,10 @@ NL_INLINE void sum_body(const float* values, std::size_t n, double* lanes) {
     const FilterKernels kernels_##suffix{box_rows_##suffix,   conv_rows_##suffix, conv_cols_##suffix,                 \
                                          shift_blur_##suffix, transpose_##suffix, heading_conv_##suffix,              \
                                          measure_##suffix,    interpolate_##suffix, row_minima_##suffix,      \
-                                         lerp_rows_##suffix,  column_max_##suffix,  log_lik_##suffix,         \
-                                         sum_##suffix,        sum_slices_##suffix};
+                                         lerp_rows_##suffix,  lerp_log_lik_##suffix, group_min_##suffix,      \
+                                         column_max_##suffix, log_lik_##suffix,                               \
+                                         scale_sums_##suffix, max_value_##suffix,   sum_##suffix,             \
+                                         sum_slices_##suffix};
 
 #if defined(__GNUC__) && !defined(__clang__)
 #define NL_NO_VECTORIZE __attribute__((optimize("no-tree-vectorize")))
