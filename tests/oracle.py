@@ -122,3 +122,107 @@ def best_numpy_rotational_sums(query: np.ndarray, refs: np.ndarray, block: int =
         mins = np.minimum(flat_refs[start : start + block, None, :], rolled[None]).sum(axis=2, dtype=np.uint32)
         out[start : start + block] = ref_totals[start : start + block, None] + rolled_totals[None] - 2 * mins
     return out
+
+
+# --------------------------------------------------------------------------------------------
+# Translation window (nightloc.matching.sad's module docstring): plain slicing over the overlap.
+
+
+def _offset_rank(value: int) -> int:
+    """Order of an offset among equal means: 0, -1, +1, -2, +2, ..."""
+    return 2 * abs(value) - (1 if value < 0 else 0)
+
+
+def window_candidates(query: np.ndarray, refs: np.ndarray, shifts, window: tuple[int, int]):
+    """Every candidate of a window search: a list of (sums int64 (N,), overlap, rank, column
+    value, dy), column candidates in table order per row offset. ``window = (columns, rows)``;
+    columns > 0 means shifts == [0] and non-wrapping column offsets."""
+    h, w = query.shape
+    columns, rows = window
+    q = query.astype(np.int64)
+    r = refs.astype(np.int64)
+    values = list(range(-columns, columns + 1)) if columns else [int(k) for k in shifts]
+    out = []
+    for dy in range(-rows, rows + 1):
+        r0, r1 = max(0, -dy), min(h, h - dy)
+        for j, value in enumerate(values):
+            if columns:
+                c0, c1 = max(0, -value), min(w, w - value)
+                part_q = q[r0 + dy : r1 + dy, c0 + value : c1 + value]
+                part_r = r[:, r0:r1, c0:c1]
+                col_rank = _offset_rank(value)
+            else:
+                part_q = np.roll(q, -value, axis=1)[r0 + dy : r1 + dy]
+                part_r = r[:, r0:r1]
+                col_rank = j
+            sums = np.abs(part_r - part_q[None]).sum(axis=(1, 2))
+            overlap = part_q.size
+            rank = _offset_rank(dy) * len(values) + col_rank
+            out.append((sums, overlap, rank, value, dy))
+    return out
+
+
+def window_score(sums, overlap: int, pixels: int, divisor: float | None) -> np.ndarray:
+    """float32(double(sum) / d): d = overlap (divisor None), divisor at full overlap, else
+    divisor * overlap / pixels."""
+    if divisor is None:
+        d = float(overlap)
+    elif overlap == pixels:
+        d = float(divisor)
+    else:
+        d = float(divisor) * float(overlap) / float(pixels)
+    return (np.asarray(sums, dtype=np.float64) / d).astype(np.float32)
+
+
+def _best_of(candidates):
+    """Per reference, the best candidate: lowest exact mean (Python integers), then lowest rank.
+    Returns (sums, overlaps, values, dys) arrays (N,)."""
+    n = len(candidates[0][0])
+    best = [None] * n
+    for sums, overlap, rank, value, dy in candidates:
+        for i in range(n):
+            s = int(sums[i])
+            b = best[i]
+            if b is None or s * b[1] < b[0] * overlap or (s * b[1] == b[0] * overlap and rank < b[2]):
+                best[i] = (s, overlap, rank, value, dy)
+    return tuple(np.array([b[k] for b in best], dtype=np.int64) for k in (0, 1, 3, 4))
+
+
+def window_table(query, refs, shifts, window, divisor=None):
+    """(scores float32 (N, n_columns), rows int32 (N, n_columns)): per column candidate, the best
+    over the row offsets."""
+    h, w = query.shape
+    candidates = window_candidates(query, refs, shifts, window)
+    n_columns = 2 * window[0] + 1 if window[0] else len(shifts)
+    scores = np.empty((len(refs), n_columns), np.float32)
+    rows = np.empty((len(refs), n_columns), np.int32)
+    for j in range(n_columns):
+        sums, overlaps, _values, dys = _best_of(candidates[j::n_columns])
+        scores[:, j] = [window_score(s, o, h * w, divisor) for s, o in zip(sums, overlaps)]
+        rows[:, j] = dys
+    return scores, rows
+
+
+def window_difference_matrix(queries, refs, shifts, window, divisor=None):
+    """(scores float32 (M, N), best column candidates int32, best row offsets int32)."""
+    h, w = queries.shape[1:]
+    m, n = len(queries), len(refs)
+    scores = np.empty((m, n), np.float32)
+    values = np.empty((m, n), np.int32)
+    rows = np.empty((m, n), np.int32)
+    for k, query in enumerate(queries):
+        sums, overlaps, best_values, dys = _best_of(window_candidates(query, refs, shifts, window))
+        scores[k] = [window_score(s, o, h * w, divisor) for s, o in zip(sums, overlaps)]
+        values[k] = best_values
+        rows[k] = dys
+    return scores, values, rows
+
+
+def window_best_reference(query, refs, shifts, window) -> int:
+    """The reference with the lowest exact mean; ties: the lowest index."""
+    sums, overlaps, _values, _dys = _best_of(window_candidates(query, refs, shifts, window))
+    best = 0
+    for i in range(1, len(refs)):
+        if int(sums[i]) * int(overlaps[best]) < int(sums[best]) * int(overlaps[i]):
+            best = i
+    return best

@@ -55,6 +55,76 @@ def _cell(values):
     return f"{np.median(values):.2f} ({values.min():.2f}-{values.max():.2f})"
 
 
+#: Kidnapping cases: (world, query traverse, frame order, the frame where the robot is carried off).
+KIDNAPS = (
+    ("garden", "night_query", [*range(20), *range(30, 41)], 20),
+    ("garden", "night_query", [*range(13), *range(28, 41)], 13),
+    ("garden", "night_reference", [*range(20), *range(40, 53)], 20),
+    ("garden", "night_reference", [*range(30), *range(5, 25)], 30),
+    ("living_room", "night_query", list(range(32)), 16),
+)
+
+
+def filter_rows(folders, draws: int = 3, overrides: dict | None = None) -> list[dict]:
+    """One row per world, odometry kind ("robot" or "map") and noise model (0, 3), each over
+    ``draws`` draws: the filter's and the paper's median errors from frame 10 on (m), their
+    ratio, the filter's median heading error (degrees) and, per draw, which frames had the
+    truth within the credible radius (``hits``)."""
+    rows = []
+    for world in ("garden", "living_room"):
+        ref_map = nightloc.ReferenceMap.build(folders[world]["day_reference"])
+        matches = match_traverse(ref_map, folders[world]["night_query"], tables=True)
+        for kind in ("robot", "map"):
+            settings = EvaluationSettings(odometry=kind, repeats=draws)
+            for model in (0, 3):
+                row: dict = {"world": world, "kind": kind, "model": model, "filter": [], "paper": [], "ratio": []}
+                row.update(heading=[], hits=[])
+                for repeat in range(settings.repeats_of(model)):
+                    odometry = simulated_odometry(matches, model, repeat, settings)
+                    estimates = _run_filter(ref_map, matches.tables, odometry, model, overrides or {})
+                    errors = _errors(estimates, matches.positions)
+                    paper_errors = _errors(_run_paper(ref_map, matches.results, odometry), matches.positions)
+                    row["filter"].append(np.median(errors[FIRST - 1 :]))
+                    row["paper"].append(np.median(paper_errors[FIRST - 1 :]))
+                    row["ratio"].append(row["filter"][-1] / row["paper"][-1])
+                    turn = wrap_angle(np.array([e.heading for e in estimates]) - matches.headings)
+                    row["heading"].append(math.degrees(np.median(np.abs(turn[FIRST - 1 :]))))
+                    row["hits"].append(errors <= np.array([e.credible_radius for e in estimates]))
+                rows.append(row)
+    return rows
+
+
+def kidnap_rows(folders, draws: int = 3, overrides: dict | None = None) -> list[dict]:
+    """One row per odometry kind and noise model (0, 3): for every case of :data:`KIDNAPS` and
+    draw, the frames after the kidnapping until the error is below 1 m (-1: never)."""
+    rows = []
+    maps: dict = {}
+    for kind in ("robot", "map"):
+        for model in (0, 3):
+            recoveries = []
+            for world, query, order, jump in KIDNAPS:
+                if world not in maps:
+                    maps[world] = nightloc.ReferenceMap.build(folders[world]["day_reference"])
+                ref_map = maps[world]
+                traverse = nightloc.load_traverse(folders[world][query]).subset(order)
+                matches = match_traverse(ref_map, traverse, tables=True)
+                settings = EvaluationSettings(odometry=kind, repeats=draws)
+                for repeat in range(settings.repeats_of(model)):
+                    odometry = simulated_odometry(matches, model, repeat, settings)
+                    odometry[jump] = RobotMotion(0.0) if kind == "robot" else MapDisplacement(0.0, 0.0)
+                    errors = _errors(
+                        _run_filter(ref_map, matches.tables, odometry, model, overrides or {}), matches.positions
+                    )
+                    after = errors[jump:] < 1.0
+                    recoveries.append(int(np.argmax(after)) if after.any() else -1)
+            rows.append({"kind": kind, "model": model, "recoveries": recoveries})
+    return rows
+
+
+def _label(kind: str) -> str:
+    return "wheel (RobotMotion)" if kind == "robot" else "map frame"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--draws", type=int, default=3, help="noise draws per noise model (default 3)")
@@ -65,74 +135,30 @@ def main() -> None:
     args = parser.parse_args()
     overrides = {k: float(v) for k, v in (p.split("=") for p in args.param)}
     folders = default_dataset(cache_dir=args.cache)
-    covered: list[np.ndarray] = []
     emit(
         "| world | odometry | noise | filter (m) | paper n=10 (m) | filter / paper | filter heading (deg) "
         "| within credible radius |"
     )
     emit("| --- | --- | --- | --- | --- | --- | --- | --- |")
-    for world in ("garden", "living_room"):
-        ref_map = nightloc.ReferenceMap.build(folders[world]["day_reference"])
-        matches = match_traverse(ref_map, folders[world]["night_query"], tables=True)
-        for kind in ("robot", "map"):
-            settings = EvaluationSettings(odometry=kind, repeats=args.draws)
-            for model in (0, 3):
-                filt, paper, ratio, heading, inside = [], [], [], [], []
-                for repeat in range(settings.repeats_of(model)):
-                    odometry = simulated_odometry(matches, model, repeat, settings)
-                    estimates = _run_filter(ref_map, matches.tables, odometry, model, overrides)
-                    errors = _errors(estimates, matches.positions)
-                    paper_errors = _errors(_run_paper(ref_map, matches.results, odometry), matches.positions)
-                    filt.append(np.median(errors[FIRST - 1 :]))
-                    paper.append(np.median(paper_errors[FIRST - 1 :]))
-                    ratio.append(filt[-1] / paper[-1])
-                    turn = wrap_angle(np.array([e.heading for e in estimates]) - matches.headings)
-                    heading.append(math.degrees(np.median(np.abs(turn[FIRST - 1 :]))))
-                    hits = errors <= np.array([e.credible_radius for e in estimates])
-                    inside.append(hits.mean())
-                    covered.append(hits)
-                label = "wheel (RobotMotion)" if kind == "robot" else "map frame"
-                emit(
-                    f"| {world} | {label} | {model} | {_cell(filt)} | {_cell(paper)} | {_cell(ratio)} | "
-                    f"{_cell(heading)} | {np.mean(inside):.0%} |"
-                )
-    share = np.mean(np.concatenate(covered))
+    rows = filter_rows(folders, args.draws, overrides)
+    for row in rows:
+        inside = np.mean([hits.mean() for hits in row["hits"]])
+        emit(
+            f"| {row['world']} | {_label(row['kind'])} | {row['model']} | {_cell(row['filter'])} | "
+            f"{_cell(row['paper'])} | {_cell(row['ratio'])} | {_cell(row['heading'])} | {inside:.0%} |"
+        )
+    share = np.mean(np.concatenate([hits for row in rows for hits in row["hits"]]))
     emit(f"\nAll frames of these runs: the truth within credible_radius in {share:.1%}.\n")
 
     # kidnapping: frames [0, j) then the traverse continues elsewhere; the odometry says "no motion"
-    cases = [
-        ("garden", "night_query", [*range(20), *range(30, 41)], 20),
-        ("garden", "night_query", [*range(13), *range(28, 41)], 13),
-        ("garden", "night_reference", [*range(20), *range(40, 53)], 20),
-        ("garden", "night_reference", [*range(30), *range(5, 25)], 30),
-        ("living_room", "night_query", list(range(32)), 16),
-    ]
     emit(
         "| odometry | noise | frames after the kidnapping until the error is below 1 m (every case and draw) | worst |"
     )
     emit("| --- | --- | --- | --- |")
-    maps = {}
-    for kind in ("robot", "map"):
-        for model in (0, 3):
-            recoveries = []
-            for world, query, order, jump in cases:
-                if world not in maps:
-                    maps[world] = nightloc.ReferenceMap.build(folders[world]["day_reference"])
-                ref_map = maps[world]
-                traverse = nightloc.load_traverse(folders[world][query]).subset(order)
-                matches = match_traverse(ref_map, traverse, tables=True)
-                settings = EvaluationSettings(odometry=kind, repeats=args.draws)
-                for repeat in range(settings.repeats_of(model)):
-                    odometry = simulated_odometry(matches, model, repeat, settings)
-                    odometry[jump] = RobotMotion(0.0) if kind == "robot" else MapDisplacement(0.0, 0.0)
-                    errors = _errors(
-                        _run_filter(ref_map, matches.tables, odometry, model, overrides), matches.positions
-                    )
-                    after = errors[jump:] < 1.0
-                    recoveries.append(int(np.argmax(after)) if after.any() else -1)
-            label = "wheel (RobotMotion)" if kind == "robot" else "map frame"
-            worst = "never" if -1 in recoveries else max(recoveries)
-            emit(f"| {label} | {model} | {' '.join(map(str, recoveries))} | {worst} |")
+    for row in kidnap_rows(folders, args.draws, overrides):
+        recoveries = row["recoveries"]
+        worst = "never" if -1 in recoveries else max(recoveries)
+        emit(f"| {_label(row['kind'])} | {row['model']} | {' '.join(map(str, recoveries))} | {worst} |")
 
 
 if __name__ == "__main__":

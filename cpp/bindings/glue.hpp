@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "nightloc/sad.hpp"
+
 namespace py = pybind11;
 
 namespace nightloc::glue {
@@ -107,6 +109,16 @@ inline std::vector<std::int32_t> shift_list(const py::array& shifts, bool non_em
     std::vector<std::int32_t> out(static_cast<std::size_t>(view.shape(0)));
     for (py::ssize_t i = 0; i < view.shape(0); ++i) out[static_cast<std::size_t>(i)] = view(i);
     return out;
+}
+
+/// A translation window (columns, rows) from a pair of non-negative ints, or ValueError. Sizes
+/// against the images are checked by the core.
+inline nightloc::ShiftWindow shift_window(const std::pair<long long, long long>& window) {
+    if (window.first < 0 || window.second < 0) {
+        throw py::value_error("the shift window (columns, rows) must be two ints >= 0, got (" +
+                              std::to_string(window.first) + ", " + std::to_string(window.second) + ")");
+    }
+    return nightloc::ShiftWindow{static_cast<std::size_t>(window.first), static_cast<std::size_t>(window.second)};
 }
 
 /// Runs work() with the GIL released and returns its result: the inputs it reads must be

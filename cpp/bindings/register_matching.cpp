@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "glue.hpp"
@@ -18,6 +19,8 @@ using nightloc::glue::require_same_image_size;
 using nightloc::glue::shift_list;
 using nightloc::glue::without_gil;
 
+using WindowPair = std::pair<long long, long long>;
+
 nightloc::SimdBackend backend_from_name(const std::string& name) {
     nightloc::SimdBackend backend;
     if (!nightloc::parse_simd_backend(name, backend)) {
@@ -26,29 +29,41 @@ nightloc::SimdBackend backend_from_name(const std::string& name) {
     return backend;
 }
 
-py::array rotational_sad(const py::array& query_in, const py::array& refs_in, const py::array& shifts_in, int threads,
-                         double divisor) {
+// The (n_ref, n_columns) table with a translation window: (scores, best row offsets).
+py::tuple shift_table(const py::array& query_in, const py::array& refs_in, const py::array& shifts_in, int threads,
+                      double divisor, const WindowPair& window_in) {
     const auto query = checked_array<std::uint8_t>(query_in, "query", 2);
     const auto refs = checked_array<std::uint8_t>(refs_in, "refs", 3);
     require_images(refs, "refs");
     require_same_image_size(query, 0, refs, "query");
     const std::vector<std::int32_t> shifts = shift_list(shifts_in);
-    py::array_t<float> out({refs.shape(0), static_cast<py::ssize_t>(shifts.size())});
+    const nightloc::ShiftWindow window = nightloc::glue::shift_window(window_in);
+    // Checks sizes, shifts and window (std::invalid_argument -> ValueError) before allocating.
+    const auto n_columns = static_cast<py::ssize_t>(
+        nightloc::window_column_offsets(extent(refs, 1), extent(refs, 2), shifts.data(), shifts.size(), window).size());
+    py::array_t<float> out({refs.shape(0), n_columns});
+    py::array_t<std::int32_t> rows({refs.shape(0), n_columns});
     const std::uint8_t* q = query.data();
     const std::uint8_t* r = refs.data();
     float* o = out.mutable_data();
+    std::int32_t* b = rows.mutable_data();
     without_gil([&] {
         nightloc::rotational_sad(q, r, extent(refs, 0), extent(refs, 1), extent(refs, 2), shifts.data(), shifts.size(),
-                                 o, threads, divisor);
+                                 window, o, b, threads, divisor);
     });
-    return std::move(out);
+    return py::make_tuple(std::move(out), std::move(rows));
 }
 
-// (n_query, n_ref) best sums or scores (Out) and best shifts, by
-// compute(queries, n_queries, refs, n_refs, height, width, shifts, values, best_shifts).
+py::array rotational_sad(const py::array& query_in, const py::array& refs_in, const py::array& shifts_in, int threads,
+                         double divisor, const WindowPair& window) {
+    return shift_table(query_in, refs_in, shifts_in, threads, divisor, window)[0].cast<py::array>();
+}
+
+// (n_query, n_ref) best sums or scores (Out), best shifts and best row offsets, by
+// compute(queries, n_queries, refs, n_refs, height, width, shifts, values, best_shifts, best_rows).
 template <class Out, class Compute>
 py::tuple difference_table(const py::array& queries_in, const py::array& refs_in, const py::array& shifts_in,
-                           Compute&& compute) {
+                           bool with_rows, Compute&& compute) {
     const auto queries = checked_array<std::uint8_t>(queries_in, "queries", 3);
     const auto refs = checked_array<std::uint8_t>(refs_in, "refs", 3);
     require_images(queries, "queries");
@@ -57,40 +72,49 @@ py::tuple difference_table(const py::array& queries_in, const py::array& refs_in
     const std::vector<std::int32_t> shifts = shift_list(shifts_in);
     py::array_t<Out> values({queries.shape(0), refs.shape(0)});
     py::array_t<std::int32_t> best_shifts({queries.shape(0), refs.shape(0)});
+    py::array_t<std::int32_t> best_rows({with_rows ? queries.shape(0) : 0, with_rows ? refs.shape(0) : 0});
     const std::uint8_t* q = queries.data();
     const std::uint8_t* r = refs.data();
     Out* v = values.mutable_data();
     std::int32_t* b = best_shifts.mutable_data();
-    without_gil(
-        [&] { compute(q, extent(queries, 0), r, extent(refs, 0), extent(refs, 1), extent(refs, 2), shifts, v, b); });
-    return py::make_tuple(std::move(values), std::move(best_shifts));
+    std::int32_t* rows = with_rows ? best_rows.mutable_data() : nullptr;
+    without_gil([&] {
+        compute(q, extent(queries, 0), r, extent(refs, 0), extent(refs, 1), extent(refs, 2), shifts, v, b, rows);
+    });
+    if (!with_rows) return py::make_tuple(std::move(values), std::move(best_shifts));
+    return py::make_tuple(std::move(values), std::move(best_shifts), std::move(best_rows));
 }
 
 using Shifts = std::vector<std::int32_t>;
 
+// (scores, best shifts, best row offsets).
 py::tuple difference_matrix(const py::array& queries, const py::array& refs, const py::array& shifts, int threads,
-                            double divisor) {
-    return difference_table<float>(queries, refs, shifts,
-                                   [&](const std::uint8_t* q, std::size_t n_q, const std::uint8_t* r, std::size_t n_r,
-                                       std::size_t h, std::size_t w, const Shifts& s, float* scores, std::int32_t* b) {
-                                       nightloc::difference_matrix(q, n_q, r, n_r, h, w, s.data(), s.size(), scores, b,
-                                                                   threads, divisor);
-                                   });
+                            double divisor, const WindowPair& window_in) {
+    const nightloc::ShiftWindow window = nightloc::glue::shift_window(window_in);
+    return difference_table<float>(
+        queries, refs, shifts, true,
+        [&](const std::uint8_t* q, std::size_t n_q, const std::uint8_t* r, std::size_t n_r, std::size_t h,
+            std::size_t w, const Shifts& s, float* scores, std::int32_t* b, std::int32_t* rows) {
+            nightloc::difference_matrix(q, n_q, r, n_r, h, w, s.data(), s.size(), window, scores, b, rows, threads,
+                                        divisor);
+        });
 }
 
 py::tuple difference_matrix_sums(const py::array& queries, const py::array& refs, const py::array& shifts,
                                  int threads) {
     return difference_table<std::uint32_t>(
-        queries, refs, shifts,
+        queries, refs, shifts, false,
         [&](const std::uint8_t* q, std::size_t n_q, const std::uint8_t* r, std::size_t n_r, std::size_t h,
-            std::size_t w, const Shifts& s, std::uint32_t* sums, std::int32_t* b) {
+            std::size_t w, const Shifts& s, std::uint32_t* sums, std::int32_t* b, std::int32_t*) {
             nightloc::difference_matrix_sums(q, n_q, r, n_r, h, w, s.data(), s.size(), sums, b, threads);
         });
 }
 
 // One query against all references, the core's per-frame call (nightloc::match): (best index,
-// float32 scores, int32 shifts, float64 headings) in one crossing of the binding.
-py::tuple match(const py::array& query_in, const py::array& refs_in, const py::array& shifts_in, int threads) {
+// float32 scores, int32 shifts, float64 headings, int32 row offsets) in one crossing of the binding.
+py::tuple match(const py::array& query_in, const py::array& refs_in, const py::array& shifts_in, int threads,
+                const WindowPair& window_in) {
+    const nightloc::ShiftWindow window = nightloc::glue::shift_window(window_in);
     const auto query = checked_array<std::uint8_t>(query_in, "query", 2);
     const auto refs = checked_array<std::uint8_t>(refs_in, "refs", 3);
     require_images(refs, "refs");
@@ -99,16 +123,18 @@ py::tuple match(const py::array& query_in, const py::array& refs_in, const py::a
     py::array_t<float> scores(refs.shape(0));
     py::array_t<std::int32_t> best_shifts(refs.shape(0));
     py::array_t<double> headings(refs.shape(0));
+    py::array_t<std::int32_t> best_rows(refs.shape(0));
     const std::uint8_t* q = query.data();
     const std::uint8_t* r = refs.data();
     float* s = scores.mutable_data();
     std::int32_t* b = best_shifts.mutable_data();
     double* hd = headings.mutable_data();
+    std::int32_t* rows = best_rows.mutable_data();
     const std::size_t best = without_gil([&] {
-        return nightloc::match(q, r, extent(refs, 0), extent(refs, 1), extent(refs, 2), shifts.data(), shifts.size(), s,
-                               b, hd, threads);
+        return nightloc::match(q, r, extent(refs, 0), extent(refs, 1), extent(refs, 2), shifts.data(), shifts.size(),
+                               window, s, b, rows, hd, threads);
     });
-    return py::make_tuple(best, std::move(scores), std::move(best_shifts), std::move(headings));
+    return py::make_tuple(best, std::move(scores), std::move(best_shifts), std::move(headings), std::move(best_rows));
 }
 
 std::vector<std::string> names_of(const std::vector<nightloc::SimdBackend>& backends) {
@@ -177,11 +203,16 @@ void register_matching(py::module_& m) {
         },
         py::arg("name"), "Forces the avx512bw all-shift SAD variant process-wide (None: the per-CPU choice).");
 
+    const WindowPair no_window{0, 0};
     m.def("rotational_sad", &rotational_sad, py::arg("query"), py::arg("refs"), py::arg("shifts"), py::arg("threads"),
-          py::arg("divisor") = 0.0);
+          py::arg("divisor") = 0.0, py::arg("window") = no_window);
+    m.def("shift_table", &shift_table, py::arg("query"), py::arg("refs"), py::arg("shifts"), py::arg("threads"),
+          py::arg("divisor") = 0.0, py::arg("window") = no_window,
+          "(n_ref, n_columns) float32 scores and int32 best row offsets of a translation-window search.");
     m.def("difference_matrix", &difference_matrix, py::arg("queries"), py::arg("refs"), py::arg("shifts"),
-          py::arg("threads"), py::arg("divisor") = 0.0);
-    m.def("match", &match, py::arg("query"), py::arg("refs"), py::arg("shifts"), py::arg("threads"));
+          py::arg("threads"), py::arg("divisor") = 0.0, py::arg("window") = no_window);
+    m.def("match", &match, py::arg("query"), py::arg("refs"), py::arg("shifts"), py::arg("threads"),
+          py::arg("window") = no_window);
     m.def("difference_matrix_sums", &difference_matrix_sums, py::arg("queries"), py::arg("refs"), py::arg("shifts"),
           py::arg("threads"));
 }

@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "glue.hpp"
@@ -123,7 +124,9 @@ py::dict trajectory_plan(int ds, double vmin, double vmax, int uniqueness_radius
 }
 
 void difference_matrix_into(const py::array& queries_in, const py::array& refs_in, const py::array& shifts_in,
-                            int threads, double divisor, const py::array& out_in) {
+                            int threads, double divisor, const py::array& out_in,
+                            const std::pair<long long, long long>& window_in) {
+    const nightloc::ShiftWindow window = nightloc::glue::shift_window(window_in);
     const auto queries = checked_stack(queries_in, "queries");
     const auto refs = checked_stack(refs_in, "refs");
     nightloc::glue::require_same_image_size(queries, 1, refs, "query");
@@ -141,7 +144,8 @@ void difference_matrix_into(const py::array& queries_in, const py::array& refs_i
         // Best shifts are not needed by route mode: a scratch buffer for this block of queries.
         std::vector<std::int32_t> best_shifts(extent(queries, 0) * extent(refs, 0));
         nightloc::difference_matrix(q, extent(queries, 0), r, extent(refs, 0), extent(refs, 1), extent(refs, 2),
-                                    shifts.data(), shifts.size(), o, best_shifts.data(), threads, divisor);
+                                    shifts.data(), shifts.size(), window, o, best_shifts.data(), nullptr, threads,
+                                    divisor);
     });
 }
 
@@ -231,7 +235,8 @@ py::array_t<double> texture_weights(const py::array& stack_in, double min_textur
 // `row_out` (the enhanced row, float32 (n_refs,)).
 py::tuple filter_frame(nightloc::RouteFilter& filter, const py::array& image_in, const py::array& refs_in,
                        const py::array& shifts_in, double divisor, int enhance_radius, double min_texture, int threads,
-                       const py::array& row_in) {
+                       const py::array& row_in, const std::pair<long long, long long>& window_in) {
+    const nightloc::ShiftWindow window = nightloc::glue::shift_window(window_in);
     const auto refs = checked_stack(refs_in, "refs");
     if (!py::isinstance<py::array_t<std::uint8_t>>(image_in) || image_in.ndim() != 2 ||
         !(image_in.flags() & py::array::c_style)) {
@@ -266,8 +271,8 @@ py::tuple filter_frame(nightloc::RouteFilter& filter, const py::array& image_in,
     {
         py::gil_scoped_release release;
         std::vector<std::int32_t> best_shifts(n_refs);
-        nightloc::difference_matrix(q, 1, r, n_refs, h, w, shifts.data(), shifts.size(), out, best_shifts.data(),
-                                    threads, divisor);
+        nightloc::difference_matrix(q, 1, r, n_refs, h, w, shifts.data(), shifts.size(), window, out,
+                                    best_shifts.data(), nullptr, threads, divisor);
         nightloc::enhance_contrast(out, out, 1, n_refs, static_cast<std::size_t>(enhance_radius),
                                    nightloc::EnhanceOffset::kZscoreBound, 1);
         weight = nightloc::texture_weight(q, h * w, min_texture);
@@ -311,6 +316,7 @@ void register_route_filter(py::module_& m) {
              "Consecutive frames' rows (n, n_refs) float32: returns (best, confidence, off_route) arrays.")
         .def("frame", &filter_frame, py::arg("image"), py::arg("refs"), py::arg("shifts"), py::arg("divisor"),
              py::arg("enhance_radius"), py::arg("min_texture"), py::arg("threads"), py::arg("row"),
+             py::arg("window") = std::pair<long long, long long>{0, 0},
              "One prepared frame: difference row, enhancement, texture weight and step; returns "
              "(best, confidence, off_route, weight).")
         .def("reset", &nightloc::RouteFilter::reset)
@@ -367,6 +373,8 @@ void register_route(py::module_& m) {
           py::arg("uniqueness_radius"), py::arg("causal"), "The speeds and row offsets the search uses.");
     m.def("difference_matrix_into", &difference_matrix_into, py::arg("queries"), py::arg("refs"), py::arg("shifts"),
           py::arg("threads"), py::arg("divisor"), py::arg("out"),
-          "Writes the (n_query, n_ref) float32 difference matrix into out (rows = queries).");
+          py::arg("window") = std::pair<long long, long long>{0, 0},
+          "Writes the (n_query, n_ref) float32 difference matrix into out (rows = queries), with the translation "
+          "window (columns, rows).");
     register_route_filter(m);
 }

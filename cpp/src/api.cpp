@@ -62,7 +62,7 @@ ImageStack block_normalize(const ImageStack& images, int side) {
 }
 
 MatchResult match(const Eigen::Ref<const ImageU8>& query, const ImageStack& refs,
-                  const std::vector<std::int32_t>& shifts, int threads) {
+                  const std::vector<std::int32_t>& shifts, const ShiftWindow& window, int threads) {
     require_consistent(refs);
     require_same_geometry(query.rows(), query.cols(), refs);
     const ImageU8 q = contiguous(query);
@@ -71,29 +71,46 @@ MatchResult match(const Eigen::Ref<const ImageU8>& query, const ImageStack& refs
     result.scores.resize(refs.count());
     result.shifts.resize(refs.count());
     result.headings.resize(refs.count());
-    const std::size_t best =
-        nightloc::match(q.data(), refs.data(), static_cast<std::size_t>(refs.count()),
-                        static_cast<std::size_t>(refs.height), static_cast<std::size_t>(refs.width), shift_list.data(),
-                        shift_list.size(), result.scores.data(), result.shifts.data(), result.headings.data(), threads);
+    result.rows.resize(refs.count());
+    const std::size_t best = nightloc::match(
+        q.data(), refs.data(), static_cast<std::size_t>(refs.count()), static_cast<std::size_t>(refs.height),
+        static_cast<std::size_t>(refs.width), shift_list.data(), shift_list.size(), window, result.scores.data(),
+        result.shifts.data(), result.rows.data(), result.headings.data(), threads);
     result.best = static_cast<Index>(best);
     return result;
 }
 
-MatrixXfR rotational_sad(const Eigen::Ref<const ImageU8>& query, const ImageStack& refs,
-                         const std::vector<std::int32_t>& shifts, int threads) {
+MatchResult match(const Eigen::Ref<const ImageU8>& query, const ImageStack& refs,
+                  const std::vector<std::int32_t>& shifts, int threads) {
+    return match(query, refs, shifts, ShiftWindow{}, threads);
+}
+
+ShiftTable shift_table(const Eigen::Ref<const ImageU8>& query, const ImageStack& refs,
+                       const std::vector<std::int32_t>& shifts, const ShiftWindow& window, int threads) {
     require_consistent(refs);
     require_same_geometry(query.rows(), query.cols(), refs);
     const ImageU8 q = contiguous(query);
     const std::vector<std::int32_t> shift_list = resolve_shifts(shifts, refs.width);
-    MatrixXfR table(refs.count(), static_cast<Index>(shift_list.size()));
+    ShiftTable table;
+    table.columns = window_column_offsets(static_cast<std::size_t>(refs.height), static_cast<std::size_t>(refs.width),
+                                          shift_list.data(), shift_list.size(), window);
+    const auto n_columns = static_cast<Index>(table.columns.size());
+    table.scores.resize(refs.count(), n_columns);
+    table.rows.resize(refs.count(), n_columns);
     nightloc::rotational_sad(q.data(), refs.data(), static_cast<std::size_t>(refs.count()),
                              static_cast<std::size_t>(refs.height), static_cast<std::size_t>(refs.width),
-                             shift_list.data(), shift_list.size(), table.data(), threads);
+                             shift_list.data(), shift_list.size(), window, table.scores.data(), table.rows.data(),
+                             threads);
     return table;
 }
 
+MatrixXfR rotational_sad(const Eigen::Ref<const ImageU8>& query, const ImageStack& refs,
+                         const std::vector<std::int32_t>& shifts, int threads) {
+    return shift_table(query, refs, shifts, ShiftWindow{}, threads).scores;
+}
+
 DifferenceMatrix difference_matrix(const ImageStack& queries, const ImageStack& refs,
-                                   const std::vector<std::int32_t>& shifts, int threads) {
+                                   const std::vector<std::int32_t>& shifts, const ShiftWindow& window, int threads) {
     require_consistent(queries);
     require_consistent(refs);
     require_same_geometry(queries.height, queries.width, refs);
@@ -101,11 +118,17 @@ DifferenceMatrix difference_matrix(const ImageStack& queries, const ImageStack& 
     DifferenceMatrix result;
     result.scores.resize(queries.count(), refs.count());
     result.shifts.resize(queries.count(), refs.count());
+    result.rows.resize(queries.count(), refs.count());
     nightloc::difference_matrix(queries.data(), static_cast<std::size_t>(queries.count()), refs.data(),
                                 static_cast<std::size_t>(refs.count()), static_cast<std::size_t>(refs.height),
-                                static_cast<std::size_t>(refs.width), shift_list.data(), shift_list.size(),
-                                result.scores.data(), result.shifts.data(), threads);
+                                static_cast<std::size_t>(refs.width), shift_list.data(), shift_list.size(), window,
+                                result.scores.data(), result.shifts.data(), result.rows.data(), threads);
     return result;
+}
+
+DifferenceMatrix difference_matrix(const ImageStack& queries, const ImageStack& refs,
+                                   const std::vector<std::int32_t>& shifts, int threads) {
+    return difference_matrix(queries, refs, shifts, ShiftWindow{}, threads);
 }
 
 }  // namespace nightloc

@@ -93,8 +93,8 @@ Choice measure(const CpuIdentity& cpu) {
     auto seconds = [&](detail::AllShiftKernel kernel) {
         const auto start = std::chrono::steady_clock::now();
         for (int call = 0; call < 4; ++call) {
-            kernel(layout.data(), kWidth, refs.data(), kRefs, kPixels, nullptr, 0, selected.data(), sums.data(),
-                   shifts.data());
+            kernel(layout.data(), kWidth, refs.data(), kPixels, kRefs, kPixels, nullptr, 0, selected.data(),
+                   sums.data(), shifts.data());
         }
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     };

@@ -27,6 +27,34 @@ void write_rolled(const std::uint8_t* query, std::size_t height, std::size_t wid
     std::memset(dst + height * width, 0, stride - height * width);
 }
 
+// Writes dst(r, c) = query(r, c + offset) where 0 <= c + offset < width, else 0; zeros up to
+// `stride`. |offset| < width.
+void write_offset(const std::uint8_t* query, std::size_t height, std::size_t width, std::int32_t offset,
+                  std::uint8_t* dst, std::size_t stride) {
+    const std::size_t shift = static_cast<std::size_t>(offset < 0 ? -offset : offset);
+    for (std::size_t r = 0; r < height; ++r) {
+        const std::uint8_t* src_row = query + r * width;
+        std::uint8_t* dst_row = dst + r * width;
+        if (offset >= 0) {
+            std::memcpy(dst_row, src_row + shift, width - shift);
+            std::memset(dst_row + (width - shift), 0, shift);
+        } else {
+            std::memset(dst_row, 0, shift);
+            std::memcpy(dst_row + shift, src_row, width - shift);
+        }
+    }
+    std::memset(dst + height * width, 0, stride - height * width);
+}
+
+void write_copy(const SearchShape& shape, const std::uint8_t* query, std::int32_t shift, std::uint8_t* dst,
+                std::size_t stride) {
+    if (shape.wrap) {
+        write_rolled(query, shape.height, shape.width, static_cast<std::size_t>(shift), dst, stride);
+    } else {
+        write_offset(query, shape.height, shape.width, shift, dst, stride);
+    }
+}
+
 CopiesKernel copies_kernel_for(SimdBackend backend) {
     switch (backend) {
 #if NIGHTLOC_X86_KERNELS
@@ -80,7 +108,7 @@ SearchShape make_search_shape(std::size_t height, std::size_t width, const std::
         }
         seen[static_cast<std::size_t>(s)] = true;
     }
-    return SearchShape{height, width, height * width, shifts, n_shifts};
+    return SearchShape{height, width, height * width, shifts, n_shifts, height * width, true};
 }
 
 namespace {
@@ -88,7 +116,7 @@ namespace {
 bool use_all_shift_layout(SimdBackend backend, const SearchShape& shape) {
 #if NIGHTLOC_X86_KERNELS
     const std::size_t interleaved_bytes = round_up(shape.pixels, kChunk) * (shape.width / 2);
-    return backend == SimdBackend::avx512bw && shape.width % 8 == 0 && shape.width <= kAllShiftMaxWidth &&
+    return backend == SimdBackend::avx512bw && shape.wrap && shape.width % 8 == 0 && shape.width <= kAllShiftMaxWidth &&
            2 * shape.n_shifts > shape.width && interleaved_bytes <= kPlanBudget;
 #else
     (void)backend, (void)shape;
@@ -143,23 +171,23 @@ QueryPlan::QueryPlan(SimdBackend backend, const SearchShape& shape) : shape_(sha
     }
 }
 
-void QueryPlan::prepare(const std::uint8_t* queries, std::size_t count, std::size_t slot_begin) {
+void QueryPlan::prepare(const std::uint8_t* queries, std::size_t count, std::size_t query_stride,
+                        std::size_t slot_begin) {
     query_count_ = count;
     slot_begin_ = slot_begin;
     slot_count_ = std::min(slots_per_block_, shape_.n_shifts - slot_begin);
     if (all_shifts_) {
         buffer_.assign_zero(count * interleaved_bytes_);
         for (std::size_t k = 0; k < count; ++k) {
-            interleave_query(queries + k * shape_.pixels, shape_.height, shape_.width, rolled_temp_.get(),
+            interleave_query(queries + k * query_stride, shape_.height, shape_.width, rolled_temp_.get(),
                              buffer_.data() + k * interleaved_bytes_);
         }
     } else {
         buffer_.assign_zero(count * slot_count_ * stride_);
         for (std::size_t k = 0; k < count; ++k) {
             for (std::size_t j = 0; j < slot_count_; ++j) {
-                const auto shift = static_cast<std::size_t>(shape_.shifts[slot_begin + j]);
-                write_rolled(queries + k * shape_.pixels, shape_.height, shape_.width, shift,
-                             buffer_.data() + (k * slot_count_ + j) * stride_, stride_);
+                write_copy(shape_, queries + k * query_stride, shape_.shifts[slot_begin + j],
+                           buffer_.data() + (k * slot_count_ + j) * stride_, stride_);
             }
         }
     }
@@ -172,8 +200,8 @@ void QueryPlan::evaluate(const std::uint8_t* refs, std::size_t n_refs, std::uint
     if (all_shifts_) {
         const std::size_t width = shape_.width;
         for (std::size_t k = 0; k < query_count_; ++k) {
-            all_shift_kernel_(buffer_.data() + k * interleaved_bytes_, width, refs, n_refs, shape_.pixels, scratch,
-                              width, nullptr, nullptr, nullptr);
+            all_shift_kernel_(buffer_.data() + k * interleaved_bytes_, width, refs, shape_.ref_stride, n_refs,
+                              shape_.pixels, scratch, width, nullptr, nullptr, nullptr);
             for (std::size_t i = 0; i < n_refs; ++i) {
                 const std::uint32_t* row = scratch + i * width;
                 std::uint32_t* dst = out + i * out_stride + k * slot_count_;
@@ -186,7 +214,8 @@ void QueryPlan::evaluate(const std::uint8_t* refs, std::size_t n_refs, std::uint
     }
 #endif
     (void)scratch;
-    copies_kernel_(buffer_.data(), stride_, query_count_ * slot_count_, refs, n_refs, shape_.pixels, out, out_stride);
+    copies_kernel_(buffer_.data(), stride_, query_count_ * slot_count_, refs, shape_.ref_stride, n_refs, shape_.pixels,
+                   out, out_stride);
 }
 
 void QueryPlan::evaluate_min(std::size_t query, const std::uint8_t* refs, std::size_t n_refs, std::uint32_t* best_sums,
@@ -196,8 +225,8 @@ void QueryPlan::evaluate_min(std::size_t query, const std::uint8_t* refs, std::s
             "QueryPlan::evaluate_min needs the all-shift layout, sorted shifts and a prepared query");
     }
 #if NIGHTLOC_X86_KERNELS
-    all_shift_kernel_(buffer_.data() + query * interleaved_bytes_, shape_.width, refs, n_refs, shape_.pixels, nullptr,
-                      0, selected_.data(), best_sums, best_shifts);
+    all_shift_kernel_(buffer_.data() + query * interleaved_bytes_, shape_.width, refs, shape_.ref_stride, n_refs,
+                      shape_.pixels, nullptr, 0, selected_.data(), best_sums, best_shifts);
 #else
     (void)refs, (void)n_refs, (void)best_sums, (void)best_shifts;
 #endif

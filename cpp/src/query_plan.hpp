@@ -25,13 +25,20 @@ private:
     std::size_t capacity_ = 0;
 };
 
-/// Image geometry and the shift list a search covers.
+/// Image geometry and the column shifts a search covers. A search may compare a band of rows:
+/// `height` rows of the query (from where the caller points) with `height` rows of each
+/// reference, references `ref_stride` bytes apart (the whole image; ref_stride >= pixels).
+///  - wrap: shifts[j] is a circular shift k in [0, width): copy j is the query rolled left by k;
+///  - !wrap: shifts[j] is a column offset dx in (-width, width): copy j holds Q(r, c + dx) where
+///    0 <= c + dx < width and 0 elsewhere (the caller subtracts the reference's bytes there).
 struct SearchShape {
     std::size_t height = 0;
     std::size_t width = 0;
     std::size_t pixels = 0;
     const std::int32_t* shifts = nullptr;
     std::size_t n_shifts = 0;
+    std::size_t ref_stride = 0;
+    bool wrap = true;
 };
 
 /// Checks sizes and shifts; throws std::invalid_argument naming the problem.
@@ -59,15 +66,15 @@ public:
     /// Shift-list slots per block (the whole list for the all-shift layout).
     std::size_t slots_per_block() const { return slots_per_block_; }
 
-    /// Prepares `count` queries (contiguous, `pixels` bytes each) for slots
-    /// [slot_begin, slot_begin + slots_per_block()).
-    void prepare(const std::uint8_t* queries, std::size_t count, std::size_t slot_begin);
+    /// Prepares `count` queries (query k at queries + k * query_stride, its `height` rows read) for
+    /// slots [slot_begin, slot_begin + slots_per_block()).
+    void prepare(const std::uint8_t* queries, std::size_t count, std::size_t query_stride, std::size_t slot_begin);
     std::size_t query_count() const { return query_count_; }
     std::size_t slot_begin() const { return slot_begin_; }
     std::size_t slot_count() const { return slot_count_; }
 
-    /// out[i * out_stride + k * slot_count() + j] = sum for reference i, query k and slot
-    /// slot_begin() + j. `scratch` must hold scratch_size(n_refs) words.
+    /// out[i * out_stride + k * slot_count() + j] = sum for reference i (refs + i * ref_stride),
+    /// query k and slot slot_begin() + j. `scratch` must hold scratch_size(n_refs) words.
     void evaluate(const std::uint8_t* refs, std::size_t n_refs, std::uint32_t* out, std::size_t out_stride,
                   std::uint32_t* scratch) const;
     std::size_t scratch_size(std::size_t n_refs) const { return all_shifts_ ? n_refs * shape_.width : 0; }

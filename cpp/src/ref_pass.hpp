@@ -37,11 +37,12 @@ public:
         std::memset(base_, 0, bytes);
     }
 
-    void load(const std::uint8_t* refs, std::size_t first, std::size_t n_refs) {
+    /// References first .. first+7 of `refs` (reference i at refs + i * ref_stride).
+    void load(const std::uint8_t* refs, std::size_t ref_stride, std::size_t first, std::size_t n_refs) {
         count = n_refs - first < kRefsPerPass ? n_refs - first : kRefsPerPass;
         const std::size_t full = pixels_ / V * V;
         for (std::size_t k = 0; k < kRefsPerPass; ++k) {
-            const std::uint8_t* src = refs + (first + (k < count ? k : count - 1)) * pixels_;
+            const std::uint8_t* src = refs + (first + (k < count ? k : count - 1)) * ref_stride;
             if (staged_) {
                 std::uint8_t* dst = base_ + k * padded_;
                 std::memcpy(dst, src, pixels_);

@@ -10,12 +10,14 @@
 #include "nightloc/simd.hpp"
 #include "parallel.hpp"
 #include "query_plan.hpp"
+#include "shift_window.hpp"
 
 namespace nightloc {
 namespace {
 
 using detail::QueryPlan;
 using detail::SearchShape;
+using detail::Window;
 
 // A block of references should stay in L2 while every query of a query block scans it.
 constexpr std::size_t kRefBlockBytes = std::size_t{256} * 1024;
@@ -42,65 +44,163 @@ int useful_threads(int threads, double comparisons) {
     return by_work < threads ? static_cast<int>(by_work) : threads;
 }
 
-float scaled(std::uint32_t sum, double divisor) { return static_cast<float>(static_cast<double>(sum) / divisor); }
-
-// One task's results: rows = its queries, columns = its references.
+// One task's results: rows = its queries, columns = its references; the best candidate of each
+// pair as its sum over the overlap and its rank (Window: rank -> column candidate, row offset).
 struct Tile {
     std::size_t q_first, q_count, r_first, r_count;
     const std::uint32_t* sums;   // q_count x r_count
-    const std::int32_t* shifts;  // q_count x r_count
+    const std::uint32_t* ranks;  // q_count x r_count
 };
 
-// One task: queries [q_first, q_first + q_count) against references [r_first, r_first + r_count),
-// with `plan` prepared for those queries and the first shift block when `prepared`, else
-// prepared here (block by block). Returns the tile through sink.
-template <class Sink>
-void compute_tile(Tile tile, QueryPlan& plan, bool prepared, const std::uint8_t* queries, const std::uint8_t* refs,
-                  const SearchShape& shape, Sink&& sink) {
-    const std::size_t pixels = shape.pixels, n_shifts = shape.n_shifts;
-    const std::size_t r_block = ref_block_size(pixels);
-    std::vector<std::uint32_t> best(tile.q_count * tile.r_count, std::numeric_limits<std::uint32_t>::max());
-    std::vector<std::int32_t> best_shift(tile.q_count * tile.r_count, shape.shifts[0]);
-    // Per-(reference, query, slot) sums are only materialised when the kernel cannot take the
-    // minimum itself.
-    std::vector<std::uint32_t> slot_sums, scratch;
-    if (!plan.fused_min()) {
-        const std::size_t r_max = std::min(r_block, tile.r_count);
-        slot_sums.resize(r_max * tile.q_count * plan.slots_per_block());
-        scratch.resize(plan.scratch_size(r_max));
+// The query plans of one block of queries, one per band (row offset) of the window.
+class PlanSet {
+public:
+    PlanSet(SimdBackend backend, const Window& window) {
+        plans_.reserve(window.n_bands());
+        for (std::size_t t = 0; t < window.n_bands(); ++t) plans_.emplace_back(backend, window.band(t));
     }
-    for (std::size_t slot = 0; slot < n_shifts; slot += plan.slots_per_block()) {
-        if (!prepared) plan.prepare(queries + tile.q_first * pixels, tile.q_count, slot);
-        const std::size_t n_slots = plan.slot_count();
+    QueryPlan& operator[](std::size_t band) { return plans_[band]; }
+    /// True when every band's plan covers all slots in one block (prepared once per query block).
+    bool single_block(std::size_t n_slots) const {
+        return std::all_of(plans_.begin(), plans_.end(),
+                           [&](const QueryPlan& p) { return p.slots_per_block() >= n_slots; });
+    }
+    /// Prepares `count` queries (whole images, `pixels` bytes apart) in every band (single_block only).
+    void prepare_all(const std::uint8_t* queries, std::size_t count, const Window& window) {
+        for (std::size_t t = 0; t < plans_.size(); ++t) {
+            plans_[t].prepare(queries + window.query_offset(t), count, window.full().pixels, 0);
+        }
+    }
+    std::size_t max_slots_per_block() const {
+        std::size_t most = 0;
+        for (const QueryPlan& p : plans_) most = std::max(most, p.slots_per_block());
+        return most;
+    }
+    bool any_fused() const {
+        return std::any_of(plans_.begin(), plans_.end(), [](const QueryPlan& p) { return p.fused_min(); });
+    }
+    std::size_t max_scratch(std::size_t n_refs) const {
+        std::size_t most = 0;
+        for (const QueryPlan& p : plans_) most = std::max(most, p.scratch_size(n_refs));
+        return most;
+    }
+
+private:
+    std::vector<QueryPlan> plans_;
+};
+
+std::size_t plan_set_bytes(SimdBackend backend, const Window& window) {
+    std::size_t total = 0;
+    for (std::size_t t = 0; t < window.n_bands(); ++t) total += detail::plan_bytes(backend, window.band(t));
+    return total;
+}
+
+// One task: queries [q_first, q_first + q_count) against references [r_first, r_first + r_count),
+// with `plans` prepared for those queries when `prepared` (single-block plans only), else prepared
+// here. Every candidate (band, slot) of every pair is merged into the pair's best (Window::better:
+// the order of the merges does not matter). Returns the tile through sink.
+template <class Sink>
+void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* queries, const std::uint8_t* refs,
+                  const Window& window, Sink&& sink) {
+    const std::size_t pixels = window.full().pixels, n_slots_total = window.n_columns(), n_bands = window.n_bands();
+    const std::size_t r_block = ref_block_size(pixels);
+    const std::size_t r_max = std::min(r_block, tile.r_count);
+    std::vector<std::uint32_t> best(tile.q_count * tile.r_count, std::numeric_limits<std::uint32_t>::max());
+    std::vector<std::uint32_t> best_rank(tile.q_count * tile.r_count, Window::kNoRank);
+    std::vector<std::uint32_t> slot_sums(r_max * tile.q_count * plans.max_slots_per_block());
+    std::vector<std::uint32_t> scratch(plans.max_scratch(r_max));
+    std::vector<std::uint32_t> mins(plans.any_fused() ? r_max : 0);
+    std::vector<std::int32_t> min_shifts(mins.size());
+    std::vector<std::uint32_t> edges, edge_scratch;
+
+    // Band t of references [r0, r0 + r_count) of the tile; edge(i) = the edge sums of reference
+    // r0 + i for this band's slots (non-wrapping searches).
+    auto evaluate_band = [&](std::size_t t, std::size_t r0, std::size_t r_count, const std::uint32_t* edge,
+                             std::size_t edge_stride) {
+        QueryPlan& plan = plans[t];
+        const std::uint8_t* block = refs + (tile.r_first + r0) * pixels + window.ref_offset(t);
+        if (plan.fused_min()) {  // the kernel takes the minimum over the band's shifts itself
+            for (std::size_t k = 0; k < tile.q_count; ++k) {
+                plan.evaluate_min(k, block, r_count, mins.data(), min_shifts.data());
+                std::uint32_t* row_best = best.data() + k * tile.r_count + r0;
+                std::uint32_t* row_rank = best_rank.data() + k * tile.r_count + r0;
+                for (std::size_t i = 0; i < r_count; ++i) {
+                    const std::uint32_t rank = window.rank(t, window.slot_of_shift(min_shifts[i]));
+                    if (window.better(mins[i], rank, row_best[i], row_rank[i])) {
+                        row_best[i] = mins[i];
+                        row_rank[i] = rank;
+                    }
+                }
+            }
+            return;
+        }
+        const std::size_t n_slots = plan.slot_count(), slot0 = plan.slot_begin();
         const std::size_t row_width = tile.q_count * n_slots;
+        plan.evaluate(block, r_count, slot_sums.data(), row_width, scratch.data());
+        for (std::size_t k = 0; k < tile.q_count; ++k) {
+            std::uint32_t* row_best = best.data() + k * tile.r_count + r0;
+            std::uint32_t* row_rank = best_rank.data() + k * tile.r_count + r0;
+            for (std::size_t i = 0; i < r_count; ++i) {
+                const std::uint32_t* s = slot_sums.data() + i * row_width + k * n_slots;
+                if (window.wrap()) {  // one overlap in the band: the first minimum of the block
+                    std::size_t j_best = 0;
+                    for (std::size_t j = 1; j < n_slots; ++j)
+                        if (s[j] < s[j_best]) j_best = j;
+                    const std::uint32_t rank = window.rank(t, slot0 + j_best);
+                    if (window.better(s[j_best], rank, row_best[i], row_rank[i])) {
+                        row_best[i] = s[j_best];
+                        row_rank[i] = rank;
+                    }
+                    continue;
+                }
+                const std::uint32_t* e = edge + i * edge_stride + slot0;
+                for (std::size_t j = 0; j < n_slots; ++j) {
+                    const std::uint32_t sum = s[j] - e[j];
+                    const std::uint32_t rank = window.rank(t, slot0 + j);
+                    if (window.better(sum, rank, row_best[i], row_rank[i])) {
+                        row_best[i] = sum;
+                        row_rank[i] = rank;
+                    }
+                }
+            }
+        }
+    };
+
+    if (plans.single_block(n_slots_total)) {
+        if (!prepared) plans.prepare_all(queries + tile.q_first * pixels, tile.q_count, window);
+        if (!window.wrap()) edges.resize(r_max * n_bands * n_slots_total);
         for (std::size_t r0 = 0; r0 < tile.r_count; r0 += r_block) {
             const std::size_t r_count = std::min(r_block, tile.r_count - r0);
-            const std::uint8_t* block = refs + (tile.r_first + r0) * pixels;
-            if (plan.fused_min()) {  // a single shift block: the kernel takes the minimum itself
-                for (std::size_t k = 0; k < tile.q_count; ++k) {
-                    plan.evaluate_min(k, block, r_count, best.data() + k * tile.r_count + r0,
-                                      best_shift.data() + k * tile.r_count + r0);
-                }
-                continue;
-            }
-            plan.evaluate(block, r_count, slot_sums.data(), row_width, scratch.data());
-            for (std::size_t k = 0; k < tile.q_count; ++k) {
-                std::uint32_t* row_best = best.data() + k * tile.r_count + r0;
-                std::int32_t* row_shift = best_shift.data() + k * tile.r_count + r0;
+            if (!window.wrap()) {
                 for (std::size_t i = 0; i < r_count; ++i) {
-                    const std::uint32_t* s = slot_sums.data() + i * row_width + k * n_slots;
-                    for (std::size_t j = 0; j < n_slots; ++j) {
-                        if (s[j] < row_best[i]) {  // strict: the earliest slot wins ties
-                            row_best[i] = s[j];
-                            row_shift[i] = shape.shifts[slot + j];
+                    window.edge_sums(refs + (tile.r_first + r0 + i) * pixels, 0, n_bands,
+                                     edges.data() + i * n_bands * n_slots_total, edge_scratch);
+                }
+            }
+            for (std::size_t t = 0; t < n_bands; ++t) {
+                evaluate_band(t, r0, r_count, edges.data() + t * n_slots_total, n_bands * n_slots_total);
+            }
+        }
+    } else {  // large images: blocks of slots, each prepared in turn
+        if (!window.wrap()) edges.resize(r_max * n_slots_total);
+        for (std::size_t t = 0; t < n_bands; ++t) {
+            for (std::size_t slot = 0; slot < n_slots_total; slot += plans[t].slots_per_block()) {
+                plans[t].prepare(queries + tile.q_first * pixels + window.query_offset(t), tile.q_count, pixels, slot);
+                for (std::size_t r0 = 0; r0 < tile.r_count; r0 += r_block) {
+                    const std::size_t r_count = std::min(r_block, tile.r_count - r0);
+                    if (!window.wrap()) {
+                        for (std::size_t i = 0; i < r_count; ++i) {
+                            window.edge_sums(refs + (tile.r_first + r0 + i) * pixels, t, t + 1,
+                                             edges.data() + i * n_slots_total, edge_scratch);
                         }
                     }
+                    evaluate_band(t, r0, r_count, edges.data(), n_slots_total);
                 }
             }
         }
     }
     tile.sums = best.data();
-    tile.shifts = best_shift.data();
+    tile.ranks = best_rank.data();
     sink(tile);
 }
 
@@ -116,17 +216,15 @@ void compute_tile(Tile tile, QueryPlan& plan, bool prepared, const std::uint8_t*
 // idle for up to a chunk at the end. Several query blocks: 4 equal chunks per thread and block.
 template <class Sink>
 void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs,
-                              std::size_t n_refs, const SearchShape& shape, int threads, Sink&& sink) {
+                              std::size_t n_refs, const Window& window, int threads, Sink&& sink) {
     if (n_queries == 0 || n_refs == 0) return;
     const SimdBackend backend = active_simd_backend();
-    const std::size_t pixels = shape.pixels;
-    const std::size_t n_shifts = shape.n_shifts;
 
     const std::size_t q_block =
-        std::clamp<std::size_t>(kQueryBlockBytes / detail::plan_bytes(backend, shape), 1, kMaxQueryBlock);
+        std::clamp<std::size_t>(kQueryBlockBytes / plan_set_bytes(backend, window), 1, kMaxQueryBlock);
     const std::size_t n_q_blocks = (n_queries + q_block - 1) / q_block;
-    const int n_threads = useful_threads(threads, static_cast<double>(n_queries) * static_cast<double>(n_refs) *
-                                                      static_cast<double>(n_shifts) * static_cast<double>(pixels));
+    const int n_threads =
+        useful_threads(threads, static_cast<double>(n_queries) * static_cast<double>(n_refs) * window.comparisons());
     const auto n_workers = static_cast<std::size_t>(n_threads);
 
     // Chunk c of the references is [bounds[c], bounds[c + 1]), multiples of 8 but the last.
@@ -158,12 +256,12 @@ void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries
     };
 
     if (n_q_blocks == 1) {
-        QueryPlan shared(backend, shape);
-        if (shared.slots_per_block() >= n_shifts) {
-            shared.prepare(queries, n_queries, 0);
+        PlanSet shared(backend, window);
+        if (shared.single_block(window.n_columns())) {
+            shared.prepare_all(queries, n_queries, window);
             detail::parallel_for(n_r_chunks, n_threads, [&](std::size_t task) {
                 const Tile tile = tile_of(task);
-                if (tile.r_count > 0) compute_tile(tile, shared, true, queries, refs, shape, sink);
+                if (tile.r_count > 0) compute_tile(tile, shared, true, queries, refs, window, sink);
             });
             return;
         }
@@ -171,8 +269,8 @@ void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries
     detail::parallel_for(n_q_blocks * n_r_chunks, n_threads, [&](std::size_t task) {
         const Tile tile = tile_of(task);
         if (tile.r_count == 0) return;
-        QueryPlan plan(backend, shape);
-        compute_tile(tile, plan, false, queries, refs, shape, sink);
+        PlanSet plans(backend, window);
+        compute_tile(tile, plans, false, queries, refs, window, sink);
     });
 }
 
@@ -195,7 +293,7 @@ void rotational_sad_sums(const std::uint8_t* query, const std::uint8_t* refs, st
     const int n_threads = useful_threads(
         threads, static_cast<double>(n_refs) * static_cast<double>(n_shifts) * static_cast<double>(shape.pixels));
     for (std::size_t slot = 0; slot < n_shifts; slot += plan.slots_per_block()) {
-        plan.prepare(query, 1, slot);
+        plan.prepare(query, 1, shape.pixels, slot);
         detail::parallel_for(n_blocks, n_threads, [&](std::size_t b) {
             const std::size_t first = b * block;
             const std::size_t count = std::min(block, n_refs - first);
@@ -206,24 +304,91 @@ void rotational_sad_sums(const std::uint8_t* query, const std::uint8_t* refs, st
 }
 
 void rotational_sad(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
+                    std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, const ShiftWindow& window,
+                    float* scores, std::int32_t* best_rows, int threads, double divisor) {
+    const Window win(height, width, shifts, n_shifts, window);
+    if (divisor != 0.0) check_divisor(divisor);
+    if (n_refs == 0) return;
+    const SimdBackend backend = active_simd_backend();
+    const std::size_t pixels = win.full().pixels, n_cols = win.n_columns();
+    std::vector<std::uint32_t> best(n_refs * n_cols, std::numeric_limits<std::uint32_t>::max());
+    std::vector<std::uint32_t> best_rank(n_refs * n_cols, Window::kNoRank);
+    const std::size_t block = ref_block_size(pixels);
+    const std::size_t n_blocks = (n_refs + block - 1) / block;
+    const int n_threads = useful_threads(threads, static_cast<double>(n_refs) * win.comparisons());
+    for (std::size_t t = 0; t < win.n_bands(); ++t) {
+        QueryPlan plan(backend, win.band(t));
+        for (std::size_t slot = 0; slot < n_cols; slot += plan.slots_per_block()) {
+            plan.prepare(query + win.query_offset(t), 1, pixels, slot);
+            const std::size_t n_slots = plan.slot_count();
+            detail::parallel_for(n_blocks, n_threads, [&](std::size_t b) {
+                const std::size_t first = b * block;
+                const std::size_t count = std::min(block, n_refs - first);
+                std::vector<std::uint32_t> sums(count * n_slots), scratch(plan.scratch_size(count));
+                plan.evaluate(refs + first * pixels + win.ref_offset(t), count, sums.data(), n_slots, scratch.data());
+                std::vector<std::uint32_t> edges(win.wrap() ? 0 : n_cols), edge_scratch;
+                for (std::size_t i = 0; i < count; ++i) {
+                    if (!win.wrap()) win.edge_sums(refs + (first + i) * pixels, t, t + 1, edges.data(), edge_scratch);
+                    for (std::size_t j = 0; j < n_slots; ++j) {
+                        const std::uint32_t sum = sums[i * n_slots + j] - (win.wrap() ? 0u : edges[slot + j]);
+                        const std::uint32_t rank = win.rank(t, slot + j);
+                        const std::size_t entry = (first + i) * n_cols + slot + j;
+                        if (win.better(sum, rank, best[entry], best_rank[entry])) {
+                            best[entry] = sum;
+                            best_rank[entry] = rank;
+                        }
+                    }
+                }
+            });
+        }
+    }
+    for (std::size_t e = 0; e < n_refs * n_cols; ++e) {
+        scores[e] = window_score(best[e], win.overlap_of(best_rank[e]), pixels, divisor);
+        if (best_rows != nullptr) best_rows[e] = win.dy_of(best_rank[e]);
+    }
+}
+
+void rotational_sad(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
                     std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, float* scores, int threads,
                     double divisor) {
-    if (divisor == 0.0) divisor = static_cast<double>(height * width);
-    check_divisor(divisor);
-    std::vector<std::uint32_t> sums(n_refs * n_shifts);
-    rotational_sad_sums(query, refs, n_refs, height, width, shifts, n_shifts, sums.data(), threads);
-    for (std::size_t k = 0; k < sums.size(); ++k) scores[k] = scaled(sums[k], divisor);
+    rotational_sad(query, refs, n_refs, height, width, shifts, n_shifts, ShiftWindow{}, scores, nullptr, threads,
+                   divisor);
 }
 
 void difference_matrix_sums(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs,
                             std::size_t n_refs, std::size_t height, std::size_t width, const std::int32_t* shifts,
                             std::size_t n_shifts, std::uint32_t* best_sums, std::int32_t* best_shifts, int threads) {
-    const SearchShape shape = detail::make_search_shape(height, width, shifts, n_shifts);
-    for_each_difference_tile(queries, n_queries, refs, n_refs, shape, threads, [&](const Tile& tile) {
+    const Window window(height, width, shifts, n_shifts, ShiftWindow{});
+    for_each_difference_tile(queries, n_queries, refs, n_refs, window, threads, [&](const Tile& tile) {
         for (std::size_t k = 0; k < tile.q_count; ++k) {
             const std::size_t offset = (tile.q_first + k) * n_refs + tile.r_first;
             std::memcpy(best_sums + offset, tile.sums + k * tile.r_count, tile.r_count * sizeof(std::uint32_t));
-            std::memcpy(best_shifts + offset, tile.shifts + k * tile.r_count, tile.r_count * sizeof(std::int32_t));
+            for (std::size_t i = 0; i < tile.r_count; ++i) {
+                best_shifts[offset + i] = window.value_of(tile.ranks[k * tile.r_count + i]);
+            }
+        }
+    });
+}
+
+void difference_matrix(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs, std::size_t n_refs,
+                       std::size_t height, std::size_t width, const std::int32_t* shifts, std::size_t n_shifts,
+                       const ShiftWindow& shift_window, float* scores, std::int32_t* best_shifts,
+                       std::int32_t* best_rows, int threads, double divisor) {
+    const Window window(height, width, shifts, n_shifts, shift_window);
+    if (divisor != 0.0) check_divisor(divisor);
+    const std::size_t pixels = window.full().pixels;
+    for_each_difference_tile(queries, n_queries, refs, n_refs, window, threads, [&](const Tile& tile) {
+        for (std::size_t k = 0; k < tile.q_count; ++k) {
+            const std::size_t offset = (tile.q_first + k) * n_refs + tile.r_first;
+            const std::uint32_t* sums = tile.sums + k * tile.r_count;
+            const std::uint32_t* ranks = tile.ranks + k * tile.r_count;
+            for (std::size_t i = 0; i < tile.r_count; ++i) {
+                scores[offset + i] = window_score(sums[i], window.overlap_of(ranks[i]), pixels, divisor);
+                best_shifts[offset + i] = window.value_of(ranks[i]);
+            }
+            if (best_rows != nullptr) {
+                for (std::size_t i = 0; i < tile.r_count; ++i) best_rows[offset + i] = window.dy_of(ranks[i]);
+            }
         }
     });
 }
@@ -231,53 +396,60 @@ void difference_matrix_sums(const std::uint8_t* queries, std::size_t n_queries, 
 void difference_matrix(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs, std::size_t n_refs,
                        std::size_t height, std::size_t width, const std::int32_t* shifts, std::size_t n_shifts,
                        float* scores, std::int32_t* best_shifts, int threads, double divisor) {
-    const SearchShape shape = detail::make_search_shape(height, width, shifts, n_shifts);
-    if (divisor == 0.0) divisor = static_cast<double>(shape.pixels);
+    if (divisor == 0.0) divisor = static_cast<double>(height * width);
     check_divisor(divisor);
-    for_each_difference_tile(queries, n_queries, refs, n_refs, shape, threads, [&](const Tile& tile) {
-        for (std::size_t k = 0; k < tile.q_count; ++k) {
-            const std::size_t offset = (tile.q_first + k) * n_refs + tile.r_first;
-            for (std::size_t i = 0; i < tile.r_count; ++i) {
-                scores[offset + i] = scaled(tile.sums[k * tile.r_count + i], divisor);
+    difference_matrix(queries, n_queries, refs, n_refs, height, width, shifts, n_shifts, ShiftWindow{}, scores,
+                      best_shifts, nullptr, threads, divisor);
+}
+
+std::size_t match(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
+                  std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, const ShiftWindow& shift_window,
+                  float* scores, std::int32_t* best_shifts, std::int32_t* best_rows, double* headings, int threads) {
+    if (n_refs == 0) throw std::invalid_argument("the reference stack is empty");
+    const Window window(height, width, shifts, n_shifts, shift_window);
+    const std::size_t pixels = window.full().pixels;
+    // Scores, shifts and headings are written by the thread that computed the tile (no serial
+    // pass after the threads); the best reference is the lowest (mean, index) over the tiles.
+    std::mutex best_mutex;
+    std::size_t best = n_refs;
+    std::uint64_t best_sum = 0, best_overlap = 1;
+    for_each_difference_tile(query, 1, refs, n_refs, window, threads, [&](const Tile& tile) {
+        std::size_t tile_best = 0;
+        std::uint64_t tile_sum = tile.sums[0], tile_overlap = window.overlap_of(tile.ranks[0]);
+        for (std::size_t i = 0; i < tile.r_count; ++i) {
+            const std::size_t r = tile.r_first + i;
+            const std::uint32_t overlap = window.overlap_of(tile.ranks[i]);
+            scores[r] = window_score(tile.sums[i], overlap, pixels, 0.0);
+            best_shifts[r] = window.value_of(tile.ranks[i]);
+            if (best_rows != nullptr) best_rows[r] = window.dy_of(tile.ranks[i]);
+            if (tile.sums[i] * tile_overlap < tile_sum * overlap) {  // the first minimum of the tile
+                tile_best = i;
+                tile_sum = tile.sums[i];
+                tile_overlap = overlap;
             }
-            std::memcpy(best_shifts + offset, tile.shifts + k * tile.r_count, tile.r_count * sizeof(std::int32_t));
+        }
+        if (headings != nullptr) {
+            for (std::size_t i = 0; i < tile.r_count; ++i) {
+                headings[tile.r_first + i] = shift_heading(window.value_of(tile.ranks[i]), width);
+            }
+        }
+        const std::size_t index = tile.r_first + tile_best;
+        std::lock_guard<std::mutex> lock(best_mutex);
+        const std::uint64_t lhs = tile_sum * best_overlap, rhs = best_sum * tile_overlap;
+        if (best == n_refs || lhs < rhs || (lhs == rhs && index < best)) {  // ties: lowest index
+            best = index;
+            best_sum = tile_sum;
+            best_overlap = tile_overlap;
         }
     });
+    return best;
 }
 
 std::size_t match(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
                   std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, float* scores,
                   std::int32_t* best_shifts, double* headings, int threads) {
-    if (n_refs == 0) throw std::invalid_argument("the reference stack is empty");
-    const SearchShape shape = detail::make_search_shape(height, width, shifts, n_shifts);
-    const auto pixels = static_cast<double>(height * width);
-    // Scores, shifts and headings are written by the thread that computed the tile (no serial
-    // pass after the threads); the best reference is the lowest (sum, index) over the tiles.
-    std::mutex best_mutex;
-    std::size_t best = n_refs;
-    std::uint32_t best_sum = 0;
-    for_each_difference_tile(query, 1, refs, n_refs, shape, threads, [&](const Tile& tile) {
-        std::size_t tile_best = 0;
-        for (std::size_t i = 0; i < tile.r_count; ++i) {
-            const std::size_t r = tile.r_first + i;
-            scores[r] = score_from_sum(tile.sums[i], pixels);
-            best_shifts[r] = tile.shifts[i];
-            if (tile.sums[i] < tile.sums[tile_best]) tile_best = i;  // the first minimum of the tile
-        }
-        if (headings != nullptr) {
-            for (std::size_t i = 0; i < tile.r_count; ++i) {
-                headings[tile.r_first + i] = shift_heading(tile.shifts[i], width);
-            }
-        }
-        const std::uint32_t sum = tile.sums[tile_best];
-        const std::size_t index = tile.r_first + tile_best;
-        std::lock_guard<std::mutex> lock(best_mutex);
-        if (best == n_refs || sum < best_sum || (sum == best_sum && index < best)) {  // ties: lowest index
-            best = index;
-            best_sum = sum;
-        }
-    });
-    return best;
+    return match(query, refs, n_refs, height, width, shifts, n_shifts, ShiftWindow{}, scores, best_shifts, nullptr,
+                 headings, threads);
 }
 
 double shift_heading(std::int32_t shift, std::size_t width) noexcept {

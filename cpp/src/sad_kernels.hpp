@@ -27,34 +27,40 @@ inline std::size_t round_up(std::size_t value, std::size_t granule) {
     return (value + granule - 1) / granule * granule;
 }
 
-/// "Copies" kernels. `copies` holds n_copies rolled versions of one query, copy j at
+/// "Copies" kernels. `copies` holds n_copies rolled (or offset) versions of one query, copy j at
 /// copies + j * stride (stride a multiple of 64, base 64-byte aligned), each `pixels` bytes
-/// followed by zero padding up to stride. For every reference i (refs + i * pixels, no padding):
+/// followed by zero padding up to stride. For every reference i (refs + i * ref_stride, the
+/// first `pixels` bytes compared; ref_stride >= pixels):
 ///     out[i * out_stride + j] = sum_{p < pixels} |copy_j[p] - ref_i[p]|.
 using CopiesKernel = void (*)(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
-                              const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
-                              std::size_t out_stride);
+                              const std::uint8_t* refs, std::size_t ref_stride, std::size_t n_refs, std::size_t pixels,
+                              std::uint32_t* out, std::size_t out_stride);
 
 void sad_copies_scalar(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs,
-                       std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride);
+                       std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                       std::size_t out_stride);
 
 #if NIGHTLOC_ARM_KERNELS
 /// NEON: vabdq_u8 + vpadalq_u8 into 16-bit lanes (flushed to 32 bits before they can overflow).
 void sad_copies_neon(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs,
-                     std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride);
+                     std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                     std::size_t out_stride);
 /// NEON with the dot-product extension (ARMv8.2 udot): vabdq_u8 + vdotq_u32 against ones.
 void sad_copies_neon_dotprod(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
-                             const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
-                             std::size_t out_stride);
+                             const std::uint8_t* refs, std::size_t ref_stride, std::size_t n_refs, std::size_t pixels,
+                             std::uint32_t* out, std::size_t out_stride);
 #endif
 
 #if NIGHTLOC_X86_KERNELS
 void sad_copies_sse2(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs,
-                     std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride);
+                     std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                     std::size_t out_stride);
 void sad_copies_avx2(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs,
-                     std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride);
+                     std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                     std::size_t out_stride);
 void sad_copies_avx512bw(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs,
-                         std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride);
+                         std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                         std::size_t out_stride);
 
 /// Widest panorama the all-shift kernel takes (its per-reference state lives on the stack).
 inline constexpr std::size_t kAllShiftMaxWidth = 384;
@@ -68,17 +74,20 @@ inline constexpr std::size_t kAllShiftMaxWidth = 384;
 ///    (width/8 16-bit masks: bit 4l + d of mask g selects shift 8g + 2l + d, d < 2), lowest
 ///    shift winning ties; written to best_sums[i] and best_shifts[i].
 void sad_all_shifts_avx512bw(const std::uint8_t* interleaved, std::size_t width, const std::uint8_t* refs,
-                             std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride,
-                             const std::uint16_t* selected, std::uint32_t* best_sums, std::int32_t* best_shifts);
+                             std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                             std::size_t out_stride, const std::uint16_t* selected, std::uint32_t* best_sums,
+                             std::int32_t* best_shifts);
 
 /// The same, accumulating with AVX-512 VNNI's vpdpwssd (needs a CPU with avx512vnni); same results.
 void sad_all_shifts_avx512vnni(const std::uint8_t* interleaved, std::size_t width, const std::uint8_t* refs,
-                               std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride,
-                               const std::uint16_t* selected, std::uint32_t* best_sums, std::int32_t* best_shifts);
+                               std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                               std::size_t out_stride, const std::uint16_t* selected, std::uint32_t* best_sums,
+                               std::int32_t* best_shifts);
 
 /// Signature of the two all-shift kernels above.
 using AllShiftKernel = void (*)(const std::uint8_t*, std::size_t, const std::uint8_t*, std::size_t, std::size_t,
-                                std::uint32_t*, std::size_t, const std::uint16_t*, std::uint32_t*, std::int32_t*);
+                                std::size_t, std::uint32_t*, std::size_t, const std::uint16_t*, std::uint32_t*,
+                                std::int32_t*);
 
 /// The all-shift kernel of the variant in use (nightloc::avx512_sad_variant(), avx512_variant.cpp).
 AllShiftKernel all_shift_kernel();

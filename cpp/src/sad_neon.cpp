@@ -42,8 +42,9 @@ struct PairwiseAccumulation {
 namespace nightloc::detail {
 
 void sad_copies_neon(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs,
-                     std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride) {
-    copies_kernel<PairwiseAccumulation>(copies, stride, n_copies, refs, n_refs, pixels, out, out_stride);
+                     std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                     std::size_t out_stride) {
+    copies_kernel<PairwiseAccumulation>(copies, stride, n_copies, refs, ref_stride, n_refs, pixels, out, out_stride);
 }
 
 }  // namespace nightloc::detail

@@ -63,17 +63,17 @@ NL_INLINE void pass_sums(const std::uint8_t* const* q, const RefPass<kVector>& p
 // The copies kernel (see sad_kernels.hpp): for each pass of 8 references, pairs of copies.
 template <class Acc>
 NL_INLINE void copies_kernel(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
-                             const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
-                             std::size_t out_stride) {
+                             const std::uint8_t* refs, std::size_t ref_stride, std::size_t n_refs, std::size_t pixels,
+                             std::uint32_t* out, std::size_t out_stride) {
     const std::size_t n_full = pixels / kVector;
     const bool tail = pixels % kVector != 0;
     RefPass<kVector> pass(pixels, n_copies);
     // While a pass computes, the next pass's references are prefetched, spread over its copies.
-    const std::size_t pass_lines = kRefsPerPass * pixels / 64 + 1;
+    const std::size_t pass_lines = kRefsPerPass * ref_stride / 64 + 1;
     const std::size_t lines_per_copy = (pass_lines + n_copies - 1) / n_copies;
     for (std::size_t first = 0; first < n_refs; first += kRefsPerPass) {
-        pass.load(refs, first, n_refs);
-        const char* next = reinterpret_cast<const char*>(refs + (first + kRefsPerPass) * pixels);
+        pass.load(refs, ref_stride, first, n_refs);
+        const char* next = reinterpret_cast<const char*>(refs + (first + kRefsPerPass) * ref_stride);
         for (std::size_t j = 0; j < n_copies;) {
             const std::size_t q_count = n_copies - j >= kCopiesPerPass ? kCopiesPerPass : 1;
             if (first + kRefsPerPass < n_refs) {

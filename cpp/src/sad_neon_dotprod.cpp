@@ -38,9 +38,9 @@ struct DotAccumulation {
 namespace nightloc::detail {
 
 void sad_copies_neon_dotprod(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
-                             const std::uint8_t* refs, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
-                             std::size_t out_stride) {
-    copies_kernel<DotAccumulation>(copies, stride, n_copies, refs, n_refs, pixels, out, out_stride);
+                             const std::uint8_t* refs, std::size_t ref_stride, std::size_t n_refs, std::size_t pixels,
+                             std::uint32_t* out, std::size_t out_stride) {
+    copies_kernel<DotAccumulation>(copies, stride, n_copies, refs, ref_stride, n_refs, pixels, out, out_stride);
 }
 
 }  // namespace nightloc::detail

@@ -10,9 +10,10 @@ namespace nightloc::detail {
 __attribute__((optimize("no-tree-vectorize")))
 #endif
 void sad_copies_scalar(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs,
-                       std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride) {
+                       std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                       std::size_t out_stride) {
     for (std::size_t i = 0; i < n_refs; ++i) {
-        const std::uint8_t* ref = refs + i * pixels;
+        const std::uint8_t* ref = refs + i * ref_stride;
         for (std::size_t j = 0; j < n_copies; ++j) {
             const std::uint8_t* copy = copies + j * stride;
             std::uint32_t sum = 0;

@@ -51,16 +51,17 @@ NL_TARGET_AVX512 NL_INLINE std::uint32_t hsum_avx512(__m512i v) {
 // Written once as a macro because each instance must carry its own target attribute.
 #define NL_DEFINE_COPIES_KERNEL(NAME, TARGET, VEC, V, ZERO, LOAD, SAD, ADD, HSUM)                                    \
     TARGET void NAME(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs, \
-                     std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride) {           \
+                     std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,             \
+                     std::size_t out_stride) {                                                                       \
         const std::size_t n_full = pixels / (V);                                                                     \
         const bool has_tail = pixels % (V) != 0;                                                                     \
         RefPass<(V)> pass(pixels, n_copies);                                                                         \
         /* While a pass computes, the next pass's references are prefetched, spread over its copies. */              \
-        const std::size_t pass_lines = kRefsPerPass * pixels / 64 + 1;                                               \
+        const std::size_t pass_lines = kRefsPerPass * ref_stride / 64 + 1;                                           \
         const std::size_t lines_per_copy = (pass_lines + n_copies - 1) / n_copies;                                   \
         for (std::size_t first = 0; first < n_refs; first += kRefsPerPass) {                                         \
-            pass.load(refs, first, n_refs);                                                                          \
-            const char* next = reinterpret_cast<const char*>(refs + (first + kRefsPerPass) * pixels);                \
+            pass.load(refs, ref_stride, first, n_refs);                                                              \
+            const char* next = reinterpret_cast<const char*>(refs + (first + kRefsPerPass) * ref_stride);            \
             for (std::size_t j = 0; j < n_copies; ++j) {                                                             \
                 const std::uint8_t* q = copies + j * stride;                                                         \
                 if (first + kRefsPerPass < n_refs) {                                                                 \
@@ -191,7 +192,8 @@ NL_TARGET_AVX512 NL_INLINE __m512i reduce4(__m512i a, __m512i b, __m512i c, __m5
 // Computes P_m[0..3] for copies m0 .. m0+G-1 of one reference into part[m * 4 + p].
 template <std::size_t G, bool Vnni>
 NL_TARGET_AVX512 NL_INLINE void dbsad_group(const std::uint8_t* interleaved, std::size_t chunk_stride, std::size_t m0,
-                                            const std::uint8_t* ref, std::size_t pixels, std::uint32_t* part) {
+                                            const std::uint8_t* ref, std::size_t ref_stride, std::size_t pixels,
+                                            std::uint32_t* part) {
     static_assert(G % 4 == 0 && G <= kMaxGroup, "group size");
     const std::size_t n_full = pixels / kChunk;
     const std::size_t tail = pixels % kChunk;
@@ -209,7 +211,7 @@ NL_TARGET_AVX512 NL_INLINE void dbsad_group(const std::uint8_t* interleaved, std
                                          : _mm512_maskz_loadu_epi8(tail_mask, ref + c * kChunk);
             // References stream from memory once per query: fetch two references ahead (a
             // prefetch never faults, also past the end of the array).
-            _mm_prefetch(reinterpret_cast<const char*>(ref + 2 * pixels + c * kChunk), _MM_HINT_T0);
+            _mm_prefetch(reinterpret_cast<const char*>(ref + 2 * ref_stride + c * kChunk), _MM_HINT_T0);
             const std::uint8_t* base = interleaved + c * chunk_stride + m0 * kChunk;
 #pragma GCC unroll 24
             for (std::size_t g = 0; g < G; ++g) {
@@ -237,8 +239,8 @@ NL_TARGET_AVX512 NL_INLINE __m512i group_totals(const std::uint32_t* part, std::
 
 template <bool Vnni>
 NL_TARGET_AVX512 void sad_all_shifts(const std::uint8_t* interleaved, std::size_t width, const std::uint8_t* refs,
-                                     std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride,
-                                     const std::uint16_t* selected, std::uint32_t* best_sums,
+                                     std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                                     std::size_t out_stride, const std::uint16_t* selected, std::uint32_t* best_sums,
                                      std::int32_t* best_shifts) {
     const std::size_t n_even = width / 2;    // copies, a multiple of 4 since width % 8 == 0
     const std::size_t n_groups = width / 8;  // groups of 4 copies = 8 shifts
@@ -248,32 +250,32 @@ NL_TARGET_AVX512 void sad_all_shifts(const std::uint8_t* interleaved, std::size_
     const __m512i pack = _mm512_setr_epi32(0, 1, 4, 5, 8, 9, 12, 13, 0, 1, 4, 5, 8, 9, 12, 13);
     const __m512i none = _mm512_set1_epi32(-1);
     for (std::size_t i = 0; i < n_refs; ++i) {
-        const std::uint8_t* ref = refs + i * pixels;
+        const std::uint8_t* ref = refs + i * ref_stride;
         for (std::size_t m0 = 0; m0 < n_even;) {
             const std::size_t left = n_even - m0;
             switch (left >= kMaxGroup ? kMaxGroup : left) {
                 case 24:
-                    dbsad_group<24, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part);
+                    dbsad_group<24, Vnni>(interleaved, chunk_stride, m0, ref, ref_stride, pixels, part);
                     m0 += 24;
                     break;
                 case 20:
-                    dbsad_group<20, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part);
+                    dbsad_group<20, Vnni>(interleaved, chunk_stride, m0, ref, ref_stride, pixels, part);
                     m0 += 20;
                     break;
                 case 16:
-                    dbsad_group<16, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part);
+                    dbsad_group<16, Vnni>(interleaved, chunk_stride, m0, ref, ref_stride, pixels, part);
                     m0 += 16;
                     break;
                 case 12:
-                    dbsad_group<12, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part);
+                    dbsad_group<12, Vnni>(interleaved, chunk_stride, m0, ref, ref_stride, pixels, part);
                     m0 += 12;
                     break;
                 case 8:
-                    dbsad_group<8, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part);
+                    dbsad_group<8, Vnni>(interleaved, chunk_stride, m0, ref, ref_stride, pixels, part);
                     m0 += 8;
                     break;
                 default:
-                    dbsad_group<4, Vnni>(interleaved, chunk_stride, m0, ref, pixels, part);
+                    dbsad_group<4, Vnni>(interleaved, chunk_stride, m0, ref, ref_stride, pixels, part);
                     m0 += 4;
                     break;
             }
@@ -312,15 +314,19 @@ NL_TARGET_AVX512 void sad_all_shifts(const std::uint8_t* interleaved, std::size_
 }  // namespace
 
 void sad_all_shifts_avx512bw(const std::uint8_t* interleaved, std::size_t width, const std::uint8_t* refs,
-                             std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride,
-                             const std::uint16_t* selected, std::uint32_t* best_sums, std::int32_t* best_shifts) {
-    sad_all_shifts<false>(interleaved, width, refs, n_refs, pixels, out, out_stride, selected, best_sums, best_shifts);
+                             std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                             std::size_t out_stride, const std::uint16_t* selected, std::uint32_t* best_sums,
+                             std::int32_t* best_shifts) {
+    sad_all_shifts<false>(interleaved, width, refs, ref_stride, n_refs, pixels, out, out_stride, selected, best_sums,
+                          best_shifts);
 }
 
 void sad_all_shifts_avx512vnni(const std::uint8_t* interleaved, std::size_t width, const std::uint8_t* refs,
-                               std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride,
-                               const std::uint16_t* selected, std::uint32_t* best_sums, std::int32_t* best_shifts) {
-    sad_all_shifts<true>(interleaved, width, refs, n_refs, pixels, out, out_stride, selected, best_sums, best_shifts);
+                               std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                               std::size_t out_stride, const std::uint16_t* selected, std::uint32_t* best_sums,
+                               std::int32_t* best_shifts) {
+    sad_all_shifts<true>(interleaved, width, refs, ref_stride, n_refs, pixels, out, out_stride, selected, best_sums,
+                         best_shifts);
 }
 
 }  // namespace nightloc::detail

@@ -71,13 +71,13 @@ void check_kernel(nightloc::detail::AllShiftKernel kernel, const char* name, con
     std::memcpy(aligned, layout.data(), layout.size());
 
     std::vector<std::uint32_t> table(c.n_refs * w, 0);
-    kernel(aligned, w, refs.data(), c.n_refs, pixels, table.data(), w, nullptr, nullptr, nullptr);
+    kernel(aligned, w, refs.data(), pixels, c.n_refs, pixels, table.data(), w, nullptr, nullptr, nullptr);
 
     // Min mode over the odd shifts only (bit 4l + 1 of each group mask: shift 8g + 2l + 1).
     std::vector<std::uint16_t> odd(w / 8, 0x2222);
     std::vector<std::uint32_t> best(c.n_refs);
     std::vector<std::int32_t> best_shift(c.n_refs);
-    kernel(aligned, w, refs.data(), c.n_refs, pixels, nullptr, 0, odd.data(), best.data(), best_shift.data());
+    kernel(aligned, w, refs.data(), pixels, c.n_refs, pixels, nullptr, 0, odd.data(), best.data(), best_shift.data());
 
     bool same = true;
     for (std::size_t i = 0; i < c.n_refs; ++i) {

@@ -26,20 +26,31 @@ def rotational_sad(
     shifts: npt.NDArray[np.int32],
     threads: int,
     divisor: float = 0.0,
+    window: tuple[int, int] = (0, 0),
 ) -> npt.NDArray[np.float32]: ...
+def shift_table(
+    query: npt.NDArray[np.uint8],
+    refs: npt.NDArray[np.uint8],
+    shifts: npt.NDArray[np.int32],
+    threads: int,
+    divisor: float = 0.0,
+    window: tuple[int, int] = (0, 0),
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.int32]]: ...
 def difference_matrix(
     queries: npt.NDArray[np.uint8],
     refs: npt.NDArray[np.uint8],
     shifts: npt.NDArray[np.int32],
     threads: int,
     divisor: float = 0.0,
-) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.int32]]: ...
+    window: tuple[int, int] = (0, 0),
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.int32], npt.NDArray[np.int32]]: ...
 def match(
     query: npt.NDArray[np.uint8],
     refs: npt.NDArray[np.uint8],
     shifts: npt.NDArray[np.int32],
     threads: int,
-) -> tuple[int, npt.NDArray[np.float32], npt.NDArray[np.int32], npt.NDArray[np.float64]]: ...
+    window: tuple[int, int] = (0, 0),
+) -> tuple[int, npt.NDArray[np.float32], npt.NDArray[np.int32], npt.NDArray[np.float64], npt.NDArray[np.int32]]: ...
 def difference_matrix_sums(
     queries: npt.NDArray[np.uint8],
     refs: npt.NDArray[np.uint8],
@@ -71,6 +82,7 @@ def difference_matrix_into(
     threads: int,
     divisor: float,
     out: npt.NDArray[np.float32],
+    window: tuple[int, int] = (0, 0),
 ) -> None: ...
 
 # Route filter (cpp/bindings/register_route.cpp, nightloc/route_filter.hpp; use nightloc.route.filter)
@@ -103,6 +115,7 @@ class RouteFilter:
         min_texture: float,
         threads: int,
         row: npt.NDArray[np.float32],
+        window: tuple[int, int] = (0, 0),
     ) -> tuple[int, float, float, float]: ...
     def reset(self) -> None: ...
     def __copy__(self) -> RouteFilter: ...

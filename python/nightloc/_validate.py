@@ -167,6 +167,26 @@ def shift_list(shifts: ShiftSpec, width: int) -> np.ndarray:
     return np.ascontiguousarray(array, dtype=np.int32)
 
 
+WindowSpec = None | tuple[int, int] | Sequence[int]
+
+
+def shift_window(window: WindowSpec, name: str = "shift_window") -> tuple[int, int]:
+    """``(columns, rows)`` of a translation window: None is ``(0, 0)``; two ints >= 0. Sizes
+    against the images are checked by the core (an offset must be smaller than the image)."""
+    if window is None:
+        return (0, 0)
+    if isinstance(window, (str, bytes)) or not isinstance(window, (Sequence, np.ndarray)) or len(window) != 2:
+        raise TypeError(f"{name} must be a pair (columns, rows) of ints >= 0, got {window!r}")
+    values = []
+    for value in window:
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+            raise TypeError(f"{name} must be a pair (columns, rows) of ints >= 0, got {window!r}")
+        if value < 0:
+            raise ValueError(f"{name} must be a pair (columns, rows) of ints >= 0, got {tuple(window)!r}")
+        values.append(int(value))
+    return (values[0], values[1])
+
+
 @functools.lru_cache(maxsize=1)
 def _usable_cores() -> int:
     """Cores this process may run on (looked up once: it is a system call)."""

@@ -16,6 +16,7 @@ import os
 import sys
 
 from . import __version__
+from .errors import cli_message
 
 # Sub-command modules; each defines register(subparsers) which adds its parser and sets
 # `run=<function(args) -> int>` as a default.
@@ -46,10 +47,14 @@ def build_parser() -> argparse.ArgumentParser:
 def error_message(error: BaseException) -> str:
     """One line describing ``error`` for the user.
 
-    Operating-system errors read "<reason>: <path>" (not "[Errno 2] ..."), memory errors say so,
-    and line breaks inside a message are folded so the output stays one line.
+    An error worded for the command line too (:func:`nightloc.errors.with_cli_words`) gives those
+    words; operating-system errors read "<reason>: <path>" (not "[Errno 2] ..."), memory errors
+    say so, and line breaks inside a message are folded so the output stays one line.
     """
-    if isinstance(error, OSError) and error.strerror and error.filename is not None:
+    worded = cli_message(error)
+    if worded is not None:
+        message = worded
+    elif isinstance(error, OSError) and error.strerror and error.filename is not None:
         message = f"{error.strerror}: {error.filename}"
         if error.filename2 is not None:
             message += f" -> {error.filename2}"

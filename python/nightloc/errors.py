@@ -7,7 +7,27 @@ use :class:`NightlocError`, a ``ValueError`` that names the file and, where it a
 
 from __future__ import annotations
 
-__all__ = ["DatasetError", "MapFormatError", "NightlocError"]
+from typing import TypeVar
+
+__all__ = ["DatasetError", "MapFormatError", "NightlocError", "cli_message", "with_cli_words"]
+
+E = TypeVar("E", bound=BaseException)
+
+#: Attribute of an exception holding its message in the command line's words.
+_CLI_ATTRIBUTE = "nightloc_cli_message"
+
+
+def with_cli_words(error: E, message: str) -> E:
+    """``error`` (worded for the API: "pass overwrite=True") with ``message``, the same in the
+    command line's words ("pass --overwrite"), which the ``nightloc`` commands print instead."""
+    setattr(error, _CLI_ATTRIBUTE, message)
+    return error
+
+
+def cli_message(error: BaseException) -> str | None:
+    """The message :func:`with_cli_words` attached to ``error``, or None."""
+    message = getattr(error, _CLI_ATTRIBUTE, None)
+    return message if isinstance(message, str) else None
 
 
 class NightlocError(ValueError):

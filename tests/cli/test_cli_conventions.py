@@ -95,7 +95,8 @@ def test_matches_csv_reads_with_numpy_and_names_the_frames(route_pair, tmp_path)
     np.testing.assert_array_equal(np.isnan(numbers[:, 2]), result.refs < 0)
     np.testing.assert_allclose(numbers[result.refs >= 0, 2], result.scores[result.refs >= 0])
     rows = [line.split(",") for line in (out / "matches.csv").read_text().splitlines()]
-    assert rows[0] == ["query", "ref", "score", "query_image", "ref_image"]
+    assert rows[0] == ["query", "ref", "score", "query_image", "ref_image", "timestamp"]
+    assert {row[5] for row in rows[1:]} == {"nan"}  # folders without a timestamp column: no times
     for q, row in enumerate(rows[1:]):
         assert row[3] == f"n{q:03d}.png"
         assert row[4] == ("" if result.refs[q] < 0 else f"d{result.refs[q]:03d}.png")

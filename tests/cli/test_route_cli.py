@@ -48,9 +48,9 @@ def test_route_command_writes_matches_pr_and_figures(synthetic_traverses, tmp_pa
     printed = capsys.readouterr().out
     assert "recall at 100% precision" in printed and "ground truth from names" in printed
     rows = read_csv(out / "matches.csv")
-    assert rows[0] == ["query", "ref", "score", "query_image", "ref_image"] and len(rows) == 101
+    assert rows[0] == ["query", "ref", "score", "query_image", "ref_image", "timestamp"] and len(rows) == 101
     expected = route.match_prepared(nightloc.block_normalize(refs), nightloc.block_normalize(queries), "openseqslam")
-    for q, (query, ref, score, query_image, ref_image) in enumerate(rows[1:]):
+    for q, (query, ref, score, query_image, ref_image, _) in enumerate(rows[1:]):
         assert int(query) == q and query_image == f"frame{q:04d}.png"
         if expected.refs[q] < 0:
             assert ref == "-1" and score == "nan" and ref_image == ""
@@ -63,7 +63,7 @@ def test_route_command_writes_matches_pr_and_figures(synthetic_traverses, tmp_pa
     assert thresholds == sorted(thresholds)
     summary = json.loads((out / "summary.json").read_text())
     assert summary["ground_truth"] == "names" and summary["recall_at_100_precision"] > 0.8
-    assert summary["params"]["divisor"] == "references"
+    assert summary["method_params"]["divisor"] == "references"
     assert summary["figures"] == ["difference_matrix.png", "pr_curve.png", "correspondence.png"]
     for name in summary["figures"]:
         assert cv2.imread(str(out / name)).shape[2] == 3
@@ -102,7 +102,7 @@ def test_route_command_options(synthetic_traverses, tmp_path):
     assert [r[1] for r in rows[1:6]] == ["-1"] * 5 and rows[6][1] != "-1"  # causal: ds-1 undefined
     assert not (out / "pr.csv").exists() and not (out / "difference_matrix.png").exists()
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["params"]["mode"] == "causal" and summary["params"]["ds"] == 6
+    assert summary["method_params"]["mode"] == "causal" and summary["method_params"]["ds"] == 6
 
 
 def test_route_command_positions_ground_truth(tmp_path):
@@ -148,7 +148,11 @@ def test_params_file(synthetic_traverses, tmp_path):
     out = tmp_path / "out"
     assert main(["route", str(day), str(night), "--out", str(out), "--params", str(params), "--no-figures"]) == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["params"]["ds"] == 8 and summary["preparation"]["width"] == 32
+    assert summary["preparation"]["width"] == 32
+    # a filter run lists the filter's settings only: none of SeqSLAM's (ds, mode, uniqueness_radius)
+    listed = json.dumps({key: value for key, value in summary.items() if key != "preparation"})
+    assert '"ds"' not in listed and '"mode"' not in listed and "uniqueness_radius" not in listed
+    assert summary["method_params"]["filter_sharpness"] == route.RouteParams().filter_sharpness
     assert (
         main(["route", str(day), str(night), "--out", str(out), "--params", str(params), "--preset", "openseqslam"])
         == 2
@@ -227,8 +231,15 @@ def test_route_command_compares_methods(synthetic_traverses, tmp_path, capsys):
         assert comparison["results"][method]["best_f1"] == summary["best_f1"]
         assert 0 <= summary["correct_any_score"] <= 1
     filtered = read_csv(out / "filter" / "matches.csv")
-    assert filtered[0] == ["query", "ref", "score", "query_image", "ref_image", "confidence", "off_route"]
-    assert read_csv(out / "seqslam" / "matches.csv")[0] == ["query", "ref", "score", "query_image", "ref_image"]
+    assert filtered[0] == ["query", "ref", "score", "query_image", "ref_image", "confidence", "off_route", "timestamp"]
+    assert read_csv(out / "seqslam" / "matches.csv")[0] == [
+        "query",
+        "ref",
+        "score",
+        "query_image",
+        "ref_image",
+        "timestamp",
+    ]
     # The filter from the comparison run equals a plain default run.
     single = tmp_path / "single"
     assert main(["route", str(day), str(night), "--out", str(single), "--no-figures"]) == 0

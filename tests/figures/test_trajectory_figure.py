@@ -51,3 +51,39 @@ def test_wrong_shapes_are_named():
         trajectory_figure(references, estimates, truth[:-1])
     with pytest.raises(ValueError, match="estimates must be"):
         trajectory_figure(references, estimates[:, 0])
+
+
+def test_a_log_without_truth_fits_the_view_caps_the_disks_and_keeps_the_title_on_the_page():
+    """A real robot's log has no truth and a lost filter's credible radius reaches 100+ m: the
+    view fits the trajectory, the disks are drawn at most a share of it, and a long caption
+    wraps inside the figure (it was clipped)."""
+    from matplotlib.patches import Circle
+
+    from nightloc.figures.trajectory import MAX_DRAWN_RADIUS_SHARE
+
+    t = np.linspace(0, 2 * np.pi, 60)
+    estimates = np.column_stack([10 + 2 * np.cos(t), 20 + 1.5 * np.sin(t)])
+    radius = np.where(np.arange(60) < 5, 180.0, 0.3)
+    references = np.column_stack([np.linspace(-50, 50, 40), np.linspace(-30, 60, 40)])
+    caption = (
+        "600 frames of a_rather_long_night_log_folder_name against 1234 references; odometry: the log's, "
+        "noise 0.1,0.02; disks: credible radius (95%); parameters from garden_params.toml"
+    )
+    fig = trajectory_figure(references, estimates, credible_radius=radius, caption=caption)
+    [ax] = fig.axes
+    fig.canvas.draw()
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    assert x0 <= estimates[:, 0].min() and x1 >= estimates[:, 0].max()
+    assert y0 <= estimates[:, 1].min() and y1 >= estimates[:, 1].max()
+    assert max(x1 - x0, y1 - y0) < 3 * 4.0 + 2, "the view must fit the 4 m trajectory, not the map or the disks"
+    disks = [artist for artist in ax.get_children() if isinstance(artist, Circle)]
+    assert len(disks) == 60
+    largest = max(disk.get_radius() for disk in disks)
+    assert largest <= MAX_DRAWN_RADIUS_SHARE * max(x1 - x0, y1 - y0) + 1e-9
+    assert sorted(disk.get_radius() for disk in disks)[0] == pytest.approx(0.3)
+    assert "drawn up to" in " ".join(text.get_text() for text in ax.get_legend().get_texts())
+    page = fig.bbox
+    title = fig._suptitle.get_window_extent()
+    assert title.x0 >= page.x0 and title.x1 <= page.x1 and title.y1 <= page.y1, (title, page)
+    assert "garden_params.toml" in fig.get_suptitle()

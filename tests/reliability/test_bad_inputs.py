@@ -256,7 +256,12 @@ TRAVERSES = [
         DatasetError,
         "single file",
     ),
-    ("traverse is a text file", lambda ws: nightloc.load_traverse(ws.text_file), DatasetError, "cannot be opened"),
+    (
+        "traverse is a text file",
+        lambda ws: nightloc.load_traverse(ws.text_file),
+        DatasetError,
+        "is a text file, not a traverse",
+    ),
     (
         "traverse zero-byte video",
         lambda ws: nightloc.load_traverse(ws.write("v.mp4", b"")),
@@ -470,7 +475,7 @@ MAPS = [
     ("map missing", lambda ws: nightloc.ReferenceMap.load(ws.root / "nope.map"), FileNotFoundError, "does not exist"),
     ("map is a folder", lambda ws: nightloc.ReferenceMap.load(ws.root), MapFormatError, "folder"),
     ("map zero bytes", lambda ws: nightloc.ReferenceMap.load(ws.write("z.map", b"")), MapFormatError, "empty file"),
-    ("map text file", lambda ws: nightloc.ReferenceMap.load(ws.text_file), MapFormatError, "not an .npz"),
+    ("map text file", lambda ws: nightloc.ReferenceMap.load(ws.text_file), MapFormatError, "(it is a text file)"),
     ("map is a PNG", lambda ws: nightloc.ReferenceMap.load(ws.write("p.map", _png(ws))), MapFormatError, "not an .npz"),
     (
         "map truncated to 100 bytes",

@@ -77,7 +77,7 @@ def test_concurrent_route_runs_leave_one_whole_set(pair, tmp_path):
     command = [sys.executable, "-m", "nightloc", "route", str(ref), str(query), "--out", str(out)]
     runs = [
         subprocess.Popen(
-            [*command, "--ds", str(ds), "--no-figures", "--ground-truth", "frames"],
+            [*command, "--method", "seqslam", "--ds", str(ds), "--no-figures", "--ground-truth", "frames"],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
@@ -96,6 +96,6 @@ def test_concurrent_route_runs_leave_one_whole_set(pair, tmp_path):
     assert sorted(p.name for p in out.iterdir()) == sorted([MANIFEST_NAME, *manifest["files"]])
     summary = json.loads((out / "summary.json").read_text())
     matches = (out / "matches.csv").read_text().splitlines()[1:]
-    ds = summary["params"]["ds"]
+    ds = summary["method_params"]["ds"]
     assert sum(row.split(",")[1] != "-1" for row in matches) == summary["n_matched"]  # one run's files
     assert ds in (4, 5, 6, 7)

@@ -1,6 +1,6 @@
 // A recursive grid Bayes filter (histogram filter, Markov localization) over position x heading
 // for robot firmware that links nightloc::core: the robot's 2D localizer beyond the paper's sum of
-// shifted heat maps (DESIGN.md item 9; python/nightloc/localization/grid_filter.py is its Python
+// shifted heat maps (docs/localization.md; python/nightloc/localization/grid_filter.py is its Python
 // face and documents the model; the numpy oracle in tests/ does the same arithmetic in float64).
 //
 //   nightloc::GridFilterMap map{weights, x0, y0, dx, dy, place_of_ref, ref_headings, 48, shifts};

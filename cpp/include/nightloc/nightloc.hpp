@@ -52,14 +52,25 @@ struct ImageStack {
 struct MatchResult {
     Index best = -1;           ///< index of the reference with the lowest score
     Eigen::VectorXf scores;    ///< (n_ref,) minimum mean absolute difference, grey levels
-    Eigen::VectorXi shifts;    ///< (n_ref,) column shift attaining it (see sad.hpp)
+    Eigen::VectorXi shifts;    ///< (n_ref,) column shift attaining it (see sad.hpp); column offset dx
+                               ///< with a column window
     Eigen::VectorXd headings;  ///< (n_ref,) query heading relative to each reference, radians in (-pi, pi]
+    Eigen::VectorXi rows;      ///< (n_ref,) row offset dy of the best candidate (0 without a row window)
 };
 
 /// Difference matrix of a query stack against a reference stack.
 struct DifferenceMatrix {
     MatrixXfR scores;  ///< (n_query, n_ref) minimum mean absolute difference
-    MatrixXiR shifts;  ///< (n_query, n_ref) best column shift
+    MatrixXiR shifts;  ///< (n_query, n_ref) best column shift (column offset dx with a column window)
+    MatrixXiR rows;    ///< (n_query, n_ref) best row offset dy (0 without a row window)
+};
+
+/// Scores of one query for every reference and column candidate, each the best over the row
+/// offsets of a translation window (sad.hpp).
+struct ShiftTable {
+    MatrixXfR scores;                   ///< (n_ref, n_columns) mean absolute difference over the overlap
+    MatrixXiR rows;                     ///< (n_ref, n_columns) row offset dy of each entry
+    std::vector<std::int32_t> columns;  ///< (n_columns) the shift k or column offset dx of each column
 };
 
 /// All shifts 0..width-1 (a full panorama).
@@ -84,5 +95,14 @@ MatrixXfR rotational_sad(const Eigen::Ref<const ImageU8>& query, const ImageStac
 /// (n_query, n_ref) difference matrix, multithreaded.
 DifferenceMatrix difference_matrix(const ImageStack& queries, const ImageStack& refs,
                                    const std::vector<std::int32_t>& shifts = {}, int threads = 1);
+
+/// The same three with a translation window (sad.hpp: row offsets, and column offsets for a
+/// forward camera searched at shifts {0}); scores are means over the overlap.
+MatchResult match(const Eigen::Ref<const ImageU8>& query, const ImageStack& refs,
+                  const std::vector<std::int32_t>& shifts, const ShiftWindow& window, int threads = 1);
+ShiftTable shift_table(const Eigen::Ref<const ImageU8>& query, const ImageStack& refs,
+                       const std::vector<std::int32_t>& shifts, const ShiftWindow& window, int threads = 1);
+DifferenceMatrix difference_matrix(const ImageStack& queries, const ImageStack& refs,
+                                   const std::vector<std::int32_t>& shifts, const ShiftWindow& window, int threads = 1);
 
 }  // namespace nightloc

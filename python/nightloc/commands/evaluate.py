@@ -38,12 +38,16 @@ from .._validate import MAX_REPEATS
 from ..config import load_params_file
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set
+from ..io.kinds import bag_kind
 from ..io.reference_map import ReferenceMap
 from ..io.traverse import load_traverse
 from ..localization.evaluation import EVALUATION_METHODS, EvaluationSettings, evaluate, match_traverse
 from ..localization.localizer import MAX_SEQ_LEN, LocalizationParams
 from ..localization.odometry import NoiseModel, noise_model
 from ..preparation.params import PreparationParams
+from .bag_options import add_bag_options, bag_options
+from .camera_option import add_camera_option, preparation_for_camera
+from .wording import refuse_map_as_traverse
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -54,8 +58,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         description="Localizes every frame of QUERY against REFERENCE for each sequence length, odometry "
         "noise model and interpolation setting, and writes OUT/errors.csv, OUT/summary.csv and figures.",
     )
-    parser.add_argument("reference", type=Path, help="reference traverse folder (with poses) or map file")
-    parser.add_argument("query", type=Path, help="query traverse folder with poses (ground truth)")
+    parser.add_argument("reference", type=Path, help="reference traverse (folder or bag, with poses) or map file")
+    parser.add_argument("query", type=Path, help="query traverse (folder, video or bag) with poses (ground truth)")
     parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
     parser.add_argument("--seq-lengths", default="1-10", help="sequence lengths, e.g. 1-10 or 1,3,7 (default 1-10)")
     parser.add_argument("--noise-models", default="0,1,2,3", help="Table III noise models (default 0,1,2,3)")
@@ -81,10 +85,14 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "standard deviations per frame in metres and radians (default 1)",
     )
     parser.add_argument("--params", type=Path, help="TOML file with [localization] and/or [preparation] tables")
+    add_camera_option(
+        parser, "The query's camera: it must be the map's (a reference folder is prepared for it; default panoramic)."
+    )
     parser.add_argument("--heatmap-frames", help="query frames (0-based) for heat-map figures (default: one, chosen)")
     parser.add_argument("--threads", type=int, help="matching threads (default all cores)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     add_figure_format_option(parser)
+    add_bag_options(parser)
     parser.set_defaults(run=run)
 
 
@@ -182,11 +190,22 @@ def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
     )
 
 
-def load_reference(path: Path, preparation: PreparationParams | None) -> ReferenceMap:
-    """The map of a reference traverse folder, or a map file (anything but a regular file is
-    refused, naming what it is)."""
-    if path.is_dir():
-        return ReferenceMap.build(load_traverse(path), preparation)
+def load_reference(
+    path: Path,
+    preparation: PreparationParams | None,
+    camera: str | None = None,
+    params_file: Path | None = None,
+    bag: dict | None = None,
+) -> ReferenceMap:
+    """The map of a reference traverse (a folder or a bag; prepared for ``camera`` when given),
+    or a map file (anything but a regular file is refused, naming what it is; its camera is
+    checked against the frames by :meth:`ReferenceMap.check_frames`). ``bag``: the topics of a bag
+    (:func:`nightloc.commands.bag_options.bag_options`)."""
+    if path.is_dir() or bag_kind(path) is not None:
+        options = (bag or {}) if bag_kind(path) is not None else {}
+        return ReferenceMap.build(
+            load_traverse(path, **options), preparation_for_camera(preparation, camera, params_file)
+        )
     return ReferenceMap.load(path, preparation)
 
 
@@ -204,7 +223,9 @@ def run(args: argparse.Namespace) -> int:
     preparation = sections.get("preparation")
     inputs = (args.reference, args.query, args.params)
     check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
-    query = load_traverse(args.query)  # names and poses only
+    refuse_map_as_traverse(args.query, "QUERY", "the reference comes first: nightloc evaluate REFERENCE QUERY")
+    bag = bag_options(args)
+    query = load_traverse(args.query, **bag)  # names, times and poses only
     if query.positions is None:
         raise ValueError(
             f"query {args.query} has no poses: evaluation needs poses.csv with columns image,x,y[,heading]"
@@ -214,7 +235,8 @@ def run(args: argparse.Namespace) -> int:
     # Checked and locked before the work; the files appear together at the end, or not at all.
     with output_set(args.out, command="evaluate", inputs=inputs) as out:
         start = time.perf_counter()
-        ref_map = load_reference(args.reference, preparation)
+        ref_map = load_reference(args.reference, preparation, args.camera, args.params, bag)
+        ref_map.check_frames(query.read(0).shape, f"the query {query.root}", args.camera)
         matches = match_traverse(
             ref_map,
             query,

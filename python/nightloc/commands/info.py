@@ -16,7 +16,13 @@ MAX_SPEED_TEST_REFS = 100_000
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    parser = subparsers.add_parser("info", help="version, SIMD paths and matching speed on this machine")
+    parser = subparsers.add_parser(
+        "info",
+        help="version, SIMD paths and matching speed on this machine",
+        description="Prints nightloc's version, the SIMD paths this CPU supports (and the one in use) and the "
+        "speed of the rotation-invariant match on each: one 48x24 query against --refs references at all 48 "
+        "shifts, on one thread, in byte comparisons per second.",
+    )
     parser.add_argument("--refs", type=int, default=5000, help="references in the speed test (default 5000)")
     parser.set_defaults(run=run)
 

@@ -1,31 +1,37 @@
 """``nightloc localize``: a recorded night log (frames + odometry) turned into a trajectory.
 
-    nightloc localize MAP_OR_REFERENCE LOG --out OUT [--odometry FILE|none]
-                      [--odometry-noise 1|DIST,HEADING] [--params FILE.toml] [--threads N]
-                      [--no-figures]
+    nightloc localize MAP_OR_REFERENCE LOG --out OUT [--format csv|tum|csv,tum] [--odometry FILE|none]
+                      [--odometry-noise 1|DIST,HEADING] [--params FILE.toml] [--camera panoramic|forward]
+                      [--image-topic T] [--odometry-topic T] [--pose-topic T] [--sync-tolerance S]
+                      [--threads N] [--no-figures]
 
-MAP_OR_REFERENCE is a map file written by ``nightloc build-map`` or a reference traverse folder
-with poses. LOG is a traverse folder (``images/``, no poses needed) or a video file; its odometry
-is ``LOG/odometry.csv`` by default (``--odometry FILE`` for another, which a video needs; keyed by
-``frame``), one row per frame: ``image,forward,left,turn`` (wheel odometry, the motion since the
-previous frame in the robot's frame, metres and radians) or ``image,dx,dy`` (map frame);
-``--odometry none`` localizes without odometry (every motion unknown). Each frame goes through
-the grid Bayes filter (:class:`nightloc.Localizer`, ``--odometry-noise`` its noise model).
+MAP_OR_REFERENCE is a map file written by ``nightloc build-map`` or a reference traverse (a folder
+with poses, or a bag with a pose topic). LOG is a traverse folder (``images/``, no poses needed),
+a video file or a ROS bag (:mod:`nightloc.io.bag`: its image topic, its odometry topic or TF
+``odom -> base_link`` matched to each frame by time). A folder's odometry is ``LOG/odometry.csv``
+by default (``--odometry FILE`` for another, which a video needs; keyed by ``frame``), one row per
+frame: ``image,forward,left,turn`` (wheel odometry, the motion since the previous frame in the
+robot's frame, metres and radians) or ``image,dx,dy`` (map frame), optionally with a
+``timestamp`` column (seconds); ``--odometry none`` localizes without odometry (every motion
+unknown). Each frame goes through the grid Bayes filter (:class:`nightloc.Localizer`,
+``--odometry-noise`` its noise model).
 
 Writes, each file atomically:
 
-* ``OUT/trajectory.csv``: ``image,x,y,heading,confidence,credible_radius,ref_index`` per frame
-  (metres, radians; heading ``nan`` when the map has no headings);
+* ``OUT/trajectory.csv`` (``--format csv``, the default):
+  ``image,x,y,heading,confidence,credible_radius,ref_index,timestamp`` per frame (metres,
+  radians, seconds; heading ``nan`` when the map has no headings, timestamp ``nan`` when the log
+  carries no times);
+* ``OUT/trajectory.tum`` (``--format tum``): ``timestamp x y z qx qy qz qw`` per frame, the TUM
+  format ``evo`` reads (:mod:`nightloc.io.trajectory`); needs the frames' times and headings;
 * ``OUT/trajectory.png`` (unless ``--no-figures``; ``--figure-format pdf|svg`` for another
   format): the references, the estimated path with its credible radius, and the true path when
-  LOG has ``poses.csv`` — then the command also prints the median and 90th-percentile distance
-  errors.
+  LOG has poses — then the command also prints the median and 90th-percentile distance errors.
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import time
 from pathlib import Path
@@ -35,15 +41,19 @@ import numpy as np
 from ..config import load_params_file
 from ..errors import DatasetError
 from ..figures import add_figure_format_option
-from ..io.atomic import atomic_file, check_output_path, output_set
+from ..io.atomic import check_output_path, output_set
+from ..io.odometry_csv import ODOMETRY_FILE
 from ..io.reference_map import ReferenceMap
-from ..io.traverse import load_traverse
+from ..io.trajectory import TRAJECTORY_FORMATS, TRAJECTORY_HEADER, write_trajectory_csv, write_tum
+from ..io.traverse import Traverse, load_traverse
 from ..localization.localizer import LocalizationParams, Localizer
 from ..localization.odometry import traverse_odometry
+from .bag_options import add_bag_options, bag_options
+from .camera_option import add_camera_option
 from .evaluate import load_reference, parse_noise
+from .wording import duration, refuse_map_as_traverse
 
-#: Columns of ``trajectory.csv``.
-TRAJECTORY_HEADER = ("image", "x", "y", "heading", "confidence", "credible_radius", "ref_index")
+__all__ = ["TRAJECTORY_HEADER", "parse_formats", "register", "run"]
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -52,11 +62,18 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "localize",
         help="localize a recorded night log (frames + odometry) against a map: trajectory.csv and a figure",
         description="Runs the grid Bayes filter over every frame of LOG with its odometry and writes "
-        "OUT/trajectory.csv (image,x,y,heading,confidence,credible_radius,ref_index) and OUT/trajectory.png.",
+        "OUT/trajectory.csv (image,x,y,heading,confidence,credible_radius,ref_index,timestamp), OUT/trajectory.tum "
+        "(--format tum: timestamp x y z qx qy qz qw) and OUT/trajectory.png.",
     )
-    parser.add_argument("map", type=Path, help="map file (nightloc build-map) or reference traverse folder")
-    parser.add_argument("log", type=Path, help="the night log: a traverse folder (images/) or a video file")
+    parser.add_argument("map", type=Path, help="map file (nightloc build-map) or reference traverse (folder or bag)")
+    parser.add_argument("log", type=Path, help="the night log: a traverse folder (images/), a video file or a ROS bag")
     parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
+    parser.add_argument(
+        "--format",
+        default="csv",
+        help="csv (trajectory.csv, default), tum (trajectory.tum: timestamp x y z qx qy qz qw, as evo reads), "
+        "or csv,tum",
+    )
     parser.add_argument(
         "--odometry",
         help="odometry CSV (default LOG/odometry.csv; a video needs one, keyed by frame), or 'none' for no odometry",
@@ -68,56 +85,80 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "metres and radians (default 1: 0.1 m, 0.02 rad)",
     )
     parser.add_argument("--params", type=Path, help="TOML file with [localization], [filter] and/or [preparation]")
+    add_camera_option(
+        parser, "The log's camera: it must be the map's (a reference folder is prepared for it; default panoramic)."
+    )
     parser.add_argument("--threads", type=int, default=1, help="matching threads (default 1, as on a robot)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw trajectory.png")
     add_figure_format_option(parser)
+    add_bag_options(parser)
     parser.set_defaults(run=run)
 
 
-def _load_map(path: Path, preparation) -> ReferenceMap:
+def parse_formats(text: str) -> list[str]:
+    """``"csv,tum"`` -> ``["csv", "tum"]``; ValueError naming --format."""
+    formats = list(dict.fromkeys(part.strip().lower() for part in str(text).split(",")))
+    bad = [f for f in formats if f not in TRAJECTORY_FORMATS]
+    if bad or not formats:
+        raise ValueError(f"--format: {bad[0] if bad else text!r} is not csv or tum (e.g. --format tum or csv,tum)")
+    return formats
+
+
+def _load_map(path: Path, preparation, camera: str | None, params_file: Path | None, bag: dict) -> ReferenceMap:
     if not os.path.lexists(path):
         raise DatasetError(
             f"map {path} does not exist (a map file from nightloc build-map or a reference traverse folder)"
         )
-    return load_reference(path, preparation)  # a FIFO, device or link loop is named
+    return load_reference(path, preparation, camera, params_file, bag)  # a FIFO, device or link loop is named
 
 
-def write_trajectory_csv(path: Path, names, estimates) -> Path:
-    """Writes ``trajectory.csv`` (header :data:`TRAJECTORY_HEADER`) atomically."""
-    with atomic_file(path, "w", newline="") as stream:
-        writer = csv.writer(stream, lineterminator="\n")
-        writer.writerow(TRAJECTORY_HEADER)
-        for name, e in zip(names, estimates):
-            writer.writerow(
-                [
-                    name,
-                    f"{e.x:.4f}",
-                    f"{e.y:.4f}",
-                    f"{e.heading:.5f}",
-                    f"{e.confidence:.4f}",
-                    f"{e.credible_radius:.4f}",
-                    e.ref_index,
-                ]
-            )
-    return path
+def _log_odometry(log: Traverse, option: str | None) -> list:
+    """The log's odometry: ``--odometry FILE``, or the log's own (its ``odometry.csv``)."""
+    if option is None and log.is_bag:
+        return traverse_odometry(log)  # the bag's own odometry topic (or names what is missing)
+    if option is None and not log.is_video and not os.path.lexists(Path(log.root) / ODOMETRY_FILE):
+        raise DatasetError(
+            f"the log {log.root} has no {ODOMETRY_FILE} (its wheel odometry, one row per frame: "
+            f"image,forward,left,turn or image,dx,dy); name one with --odometry FILE, or localize without odometry: "
+            f"--odometry none"
+        )
+    try:
+        return traverse_odometry(log, None if option is None else Path(option))
+    except DatasetError as error:
+        if log.is_video and option is None:
+            raise DatasetError(f"{error}: --odometry FILE, or localize without odometry: --odometry none") from None
+        raise
 
 
 def run(args: argparse.Namespace) -> int:
     """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
     noise = parse_noise(args.odometry_noise)
+    formats = parse_formats(args.format)
     if args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
     sections = load_params_file(args.params) if args.params is not None else {}
     params = sections.get("localization", LocalizationParams())
     inputs = (args.map, args.log, args.params, args.odometry if args.odometry not in (None, "none") else None)
     check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
-    log = load_traverse(args.log)
+    refuse_map_as_traverse(args.log, "LOG", "the map comes first: nightloc localize MAP LOG --out OUT")
+    log = load_traverse(args.log, **bag_options(args))
+    if "tum" in formats and log.timestamps is None:
+        raise DatasetError(
+            f"--format tum needs each frame's time, and the log {log.root} carries none: add a timestamp column "
+            f"(seconds) to its odometry.csv or poses.csv, or localize a bag or a video; --format csv needs none"
+        )
     no_odometry = args.odometry is not None and args.odometry.strip().lower() == "none"
     if no_odometry:
         odometry: list = [None] * len(log)
     else:
-        odometry = traverse_odometry(log, None if args.odometry is None else Path(args.odometry))
-    ref_map = _load_map(args.map, sections.get("preparation"))
+        odometry = _log_odometry(log, args.odometry)
+    ref_map = _load_map(args.map, sections.get("preparation"), args.camera, args.params, bag_options(args))
+    ref_map.check_frames(log.read(0).shape, f"the log {log.root}", args.camera)
+    if "tum" in formats and ref_map.headings is None:
+        raise DatasetError(
+            f"--format tum needs a heading per frame, and the map {args.map} has no headings (its reference poses "
+            f"lack them): use --format csv"
+        )
     localizer = Localizer(
         ref_map, params, odometry_noise=noise, filter_params=sections.get("filter"), threads=args.threads
     )
@@ -128,14 +169,22 @@ def run(args: argparse.Namespace) -> int:
             localizer.update(frame, odometry[i]) for i, frame in log.frames(progress_desc=f"localizing {log.root.name}")
         ]
         seconds = time.perf_counter() - start
-        written = [write_trajectory_csv(out / "trajectory.csv", log.names, estimates).name]
+        written = []
+        if "csv" in formats:
+            written.append(write_trajectory_csv(out / "trajectory.csv", log.names, estimates, log.timestamps).name)
+        if "tum" in formats and log.timestamps is not None:
+            written.append(write_tum(out / "trajectory.tum", log.timestamps, estimates).name)
         positions = np.array([(e.x, e.y) for e in estimates])
         truth = None if log.positions is None else np.asarray(log.positions, dtype=np.float64)
         if not args.no_figures:
             from ..figures._common import figure_path
             from ..figures.trajectory import trajectory_figure
 
-            source = "none" if no_odometry else "the log's"
+            source = (
+                "none"
+                if no_odometry
+                else (f"the bag's {(log.bag_topics or {}).get('odometry')}" if log.is_bag else "the log's")
+            )
             caption = (
                 f"{len(estimates)} frames of {log.root.name} against {len(ref_map)} references; odometry: "
                 f"{source}, noise {args.odometry_noise}; disks: credible radius "
@@ -154,8 +203,8 @@ def run(args: argparse.Namespace) -> int:
             )
             written.append(figure.name)
     print(
-        f"{len(estimates)} frames of {log.root} localized against {len(ref_map)} references in {seconds:.1f} s "
-        f"({1000 * seconds / max(len(estimates), 1):.1f} ms per frame)"
+        f"{len(estimates)} frames of {log.root} localized against {len(ref_map)} references in {duration(seconds)} "
+        f"({duration(seconds / max(len(estimates), 1))} per frame)"
     )
     if truth is not None:
         errors = np.hypot(*(positions - truth).T)

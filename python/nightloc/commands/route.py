@@ -56,12 +56,16 @@ from ..config import load_params_file
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set, write_text
 from ..io.traverse import Traverse, load_traverse
+from ..preparation.camera import check_frames_fit
 from ..preparation.params import PreparationParams
 from ..route.evaluation import GroundTruth, RouteEvaluation, evaluate_matches
 from ..route.filter import texture_weights
 from ..route.params import PRESETS, RouteParams, resolve_params
 from ..route.pipeline import RouteResult, match_difference, route_difference_matrix
 from ..route.preparation import RoutePreparer
+from .bag_options import add_bag_options, bag_options
+from .camera_option import add_camera_option, preparation_for_camera
+from .wording import duration, in_option_words, refuse_map_as_traverse
 
 #: Default tolerances: frames for frame correspondence, metres for positions.
 DEFAULT_FRAME_TOLERANCE = 2
@@ -78,8 +82,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "enhancement, then the causal route filter or SeqSLAM's trajectory search) and writes OUT/matches.csv, "
         "OUT/pr.csv (with ground truth), OUT/summary.json and figures.",
     )
-    parser.add_argument("reference", help="reference traverse: folder or video")
-    parser.add_argument("query", help="query traverse: folder or video")
+    parser.add_argument("reference", help="reference traverse: folder, video or ROS bag")
+    parser.add_argument("query", help="query traverse: folder, video or ROS bag")
     parser.add_argument("--out", required=True, help="output folder (created if missing)")
     parser.add_argument(
         "--preset",
@@ -100,6 +104,13 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument(
         "--circular-shifts", action="store_true", default=None, help="360-degree panoramas: search every column shift"
     )
+    add_camera_option(parser, "Default forward (--camera panoramic is --circular-shifts).")
+    parser.add_argument(
+        "--shift-window",
+        metavar="COLUMNS,ROWS",
+        help="viewpoint tolerance: compare each pair at its best alignment within +-COLUMNS columns (forward "
+        "cameras) and +-ROWS rows, over the overlap; 0,0 compares one alignment",
+    )
     parser.add_argument(
         "--tolerance",
         type=float,
@@ -116,6 +127,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--threads", type=int, help="worker threads (default all cores)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     add_figure_format_option(parser)
+    add_bag_options(parser)
     parser.set_defaults(run=run)
 
 
@@ -144,6 +156,11 @@ def route_params_from_args(args: argparse.Namespace) -> tuple:
         tables = load_params_file(args.params)
         route_params = tables.get("route")
         preparation = tables.get("preparation")
+    if args.camera is not None:
+        if args.circular_shifts and args.camera == "forward":
+            raise ValueError("--circular-shifts (a panoramic camera's search) contradicts --camera forward")
+        args.circular_shifts = args.camera == "panoramic"
+        preparation = preparation_for_camera(preparation, args.camera, args.params)
     if args.preset is not None:
         if route_params is not None:
             raise ValueError(f"give --preset or a [route] table in {args.params}, not both")
@@ -155,8 +172,23 @@ def route_params_from_args(args: argparse.Namespace) -> tuple:
         vmax=args.vmax,
         mode=args.mode,
         circular_shifts=args.circular_shifts,
+        shift_window=parse_shift_window(args.shift_window),
     )
     return params, preparation
+
+
+def parse_shift_window(text: str | None) -> tuple[int, int] | None:
+    """``--shift-window COLUMNS,ROWS`` as a pair of ints >= 0 (None when not given)."""
+    if text is None:
+        return None
+    parts = str(text).split(",")
+    try:
+        values = tuple(int(part) for part in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 2 or min(values) < 0:
+        raise ValueError(f"--shift-window {text!r}: expected COLUMNS,ROWS, two integers >= 0 such as 8,2")
+    return (values[0], values[1])
 
 
 # --------------------------------------------------------------------------------------------
@@ -243,16 +275,30 @@ def _number(value: float) -> str:
     return "nan" if math.isnan(value) else repr(float(value))
 
 
-def matches_csv(result: RouteResult, query_names: Sequence[str], ref_names: Sequence[str]) -> str:
+def matches_csv(
+    result: RouteResult,
+    query_names: Sequence[str],
+    ref_names: Sequence[str],
+    query_times: Sequence[float] | np.ndarray | None = None,
+) -> str:
     """``query,ref,score,query_image,ref_image`` rows (and ``confidence,off_route`` for the
-    filter): ``ref`` -1, ``score`` nan and ``ref_image`` empty where a query has no match (so
-    ``numpy.loadtxt(..., usecols=(0, 1, 2))`` reads the numbers)."""
+    filter), then ``timestamp``, the query frame's time in seconds (``nan`` when the traverse
+    carries none): ``ref`` -1, ``score`` nan and ``ref_image`` empty where a query has no match
+    (so ``numpy.loadtxt(..., usecols=(0, 1, 2))`` reads the numbers)."""
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     confidence, off_route = result.confidence, result.off_route
     filtered = confidence is not None and off_route is not None
     writer.writerow(
-        ["query", "ref", "score", "query_image", "ref_image", *(["confidence", "off_route"] if filtered else [])]
+        [
+            "query",
+            "ref",
+            "score",
+            "query_image",
+            "ref_image",
+            *(["confidence", "off_route"] if filtered else []),
+            "timestamp",
+        ]
     )
     for q in range(result.n_queries):
         ref = int(result.refs[q])
@@ -266,6 +312,7 @@ def matches_csv(result: RouteResult, query_names: Sequence[str], ref_names: Sequ
         ]
         if confidence is not None and off_route is not None:
             row += [_number(confidence[q]), _number(off_route[q])]
+        row.append("nan" if query_times is None else _number(query_times[q]))
         writer.writerow(row)
     return buffer.getvalue()
 
@@ -305,20 +352,43 @@ def _check_can_match(p: RouteParams, n_refs: int, n_queries: int) -> None:
         )
 
 
+#: Route parameters that are options of the command (their names in errors become --ds, ...).
+_OPTIONS = ("threads", "ds", "vmin", "vmax", "mode")
+
+
 def run(args: argparse.Namespace) -> int:
     if args.frame_step < 1:
         raise ValueError(f"--frame-step must be >= 1, got {args.frame_step}")
-    if args.tolerance is not None and not math.isfinite(args.tolerance):
-        raise ValueError(f"--tolerance must be a finite number, got {args.tolerance}")
-    thread_count(args.threads)
-    params, preparation = route_params_from_args(args)
-    methods = methods_from_args(args, params)
+    if args.tolerance is not None and not (math.isfinite(args.tolerance) and args.tolerance >= 0):
+        raise ValueError(f"--tolerance must be a finite number >= 0, got {args.tolerance}")
+    try:
+        thread_count(args.threads)
+        params, preparation = route_params_from_args(args)
+        methods = methods_from_args(args, params)
+        per_method = [resolve_params(params, method=method) for method in methods]
+    except ValueError as error:  # raised by the parameter classes in their field names
+        if args.params is not None and str(error).startswith(str(args.params)):
+            raise  # about the file's keys, in its words
+        raise in_option_words(error, _OPTIONS) from None
     inputs = (args.reference, args.query, args.params)
     check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
-    reference = load_traverse(args.reference, frame_step=args.frame_step)  # names and poses only
-    query = load_traverse(args.query, frame_step=args.frame_step)
+    usage = "nightloc route compares two traverses: nightloc route REFERENCE QUERY --out OUT"
+    refuse_map_as_traverse(args.reference, "REFERENCE", usage)
+    refuse_map_as_traverse(args.query, "QUERY", usage)
+    bag = bag_options(args)
+    reference = load_traverse(args.reference, frame_step=args.frame_step, **bag)  # names, times and poses only
+    query = load_traverse(args.query, frame_step=args.frame_step, **bag)
+    reference_shape = reference.read(0).shape
+    check_frames_fit(
+        query.read(0).shape,
+        (reference_shape[1], reference_shape[0]),
+        "panoramic" if params.circular_shifts else "forward",
+        f"the query {query.root}",
+        f"the reference {reference.root}",
+        args.camera,
+        remedy="route mode matches two traverses of one camera",
+    )
     truth, truth_kind, no_truth = ground_truth_for(args.ground_truth, reference, query, args.tolerance)
-    per_method = [resolve_params(params, method=method) for method in methods]
     for p in per_method:
         _check_can_match(p, len(reference), len(query))
 
@@ -370,7 +440,7 @@ def _write_method(
 ) -> dict:
     """Writes one method's files into ``folder`` (inside the output set); returns its summary."""
     folder.mkdir(exist_ok=True)
-    write_text(folder / "matches.csv", matches_csv(result, query.names, reference.names), newline="")
+    write_text(folder / "matches.csv", matches_csv(result, query.names, reference.names, query.timestamps), newline="")
     if evaluation is not None:
         write_text(folder / "pr.csv", pr_csv(evaluation), newline="")
     figures = []
@@ -399,8 +469,7 @@ def _write_method(
         "n_refs": result.n_refs,
         "n_queries": result.n_queries,
         "n_matched": int(result.defined.sum()),
-        "method_params": p.method_params(),
-        "params": {field: getattr(p, field) for field in p.__dataclass_fields__},
+        "method_params": p.method_params(),  # the settings this method uses (no other method's)
         "preparation": None
         if preparer.preparation is None
         else {field: getattr(preparer.preparation, field) for field in preparer.preparation.__dataclass_fields__},
@@ -439,8 +508,8 @@ def _print_method(result: RouteResult, evaluation, truth, truth_kind, no_truth, 
     )
     print(
         f"{result.n_queries} query frames against {result.n_refs} reference frames: {int(result.defined.sum())} "
-        f"matched ({how}); matching {compute:.2f} s (search {result.timings['search']:.2f} s), "
-        f"reading and preparing {result.timings['preparation']:.2f} s"
+        f"matched ({how}); matching {duration(compute)} (search {duration(result.timings['search'])}), "
+        f"reading and preparing {duration(result.timings['preparation'])}"
     )
     if evaluation is not None:
         unit = "m" if truth.kind == "positions" else "frames"

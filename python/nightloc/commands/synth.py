@@ -64,6 +64,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--seed must be >= 0")
     if not (math.isfinite(args.darkness) and 0.0 <= args.darkness <= 3.0):
         raise ValueError(f"--darkness must be in [0, 3], got {args.darkness}")
+    if args.threads is not None and args.threads < 1:
+        raise ValueError(f"--threads must be >= 1, got {args.threads}")
     camera = Camera(*parse_size(args.size))
     start = time.perf_counter()
     if args.world == "all":  # one set holding every world: all appear together, or none changes

@@ -11,12 +11,30 @@ import os
 import textwrap
 from typing import Union
 
+import matplotlib as mpl
 import numpy as np
 from matplotlib.figure import Figure
 
 from ._common import new_figure, save_figure, styled
 
-__all__ = ["trajectory_figure"]
+__all__ = ["MAX_DRAWN_RADIUS_SHARE", "trajectory_figure"]
+
+#: Credible-radius disks are drawn at most this share of the view's larger side.
+MAX_DRAWN_RADIUS_SHARE = 0.15
+
+
+def _view(track: np.ndarray, references: np.ndarray) -> tuple[float, float, float, float]:
+    """``(x0, x1, y0, y1)`` metres around the trajectory ``track`` (its finite points; the
+    references when it has none), with a margin of 8 % and at least 0.5 m."""
+    points = track[np.isfinite(track).all(axis=1)]
+    if points.size == 0:
+        points = references[np.isfinite(references).all(axis=1)]
+    if points.size == 0:
+        return (-1.0, 1.0, -1.0, 1.0)
+    low, high = points.min(axis=0), points.max(axis=0)
+    margin = np.maximum(0.08 * (high - low).max(), 0.5)
+    return (float(low[0] - margin), float(high[0] + margin), float(low[1] - margin), float(high[1] + margin))
+
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -61,23 +79,33 @@ def trajectory_figure(
         radius = np.asarray(credible_radius, dtype=np.float64).reshape(-1)
         if radius.shape[0] != est.shape[0]:
             raise ValueError(f"credible_radius must have one value per estimate ({est.shape[0]}), got {radius.shape}")
-    fig, axes = new_figure(11.0, 5.2, 1, 2, width_ratios=[1.3, 1.0]) if true is not None else new_figure(7.0, 5.6)
+    width = 11.0 if true is not None else 7.0
+    fig, axes = new_figure(width, 5.2, 1, 2, width_ratios=[1.3, 1.0]) if true is not None else new_figure(width, 5.6)
     ax = axes[0] if true is not None else axes
+    view = _view(est if true is None else np.vstack([est, true]), refs)
+    cap = MAX_DRAWN_RADIUS_SHARE * max(view[1] - view[0], view[3] - view[2])
     ax.scatter(refs[:, 0], refs[:, 1], s=12, color="0.6", linewidths=0, label=f"references ({len(refs)})", zorder=1)
     if radius is not None:
         from matplotlib.patches import Circle
 
         for (x, y), r in zip(est, radius):
             if np.isfinite([x, y, r]).all():
-                # an artist, not a patch: large early disks must not widen the axes
-                ax.add_artist(Circle((x, y), r, facecolor="tab:blue", edgecolor="none", alpha=0.06, zorder=0))
-        ax.plot([], [], "o", color="tab:blue", alpha=0.25, markersize=10, label="credible radius")
+                # an artist, not a patch: large early disks must not widen the axes; radii beyond a
+                # share of the view are drawn at that share (a lost filter's 100 m would hide the plot)
+                ax.add_artist(Circle((x, y), min(r, cap), facecolor="tab:blue", edgecolor="none", alpha=0.06, zorder=0))
+        capped = bool(np.nanmax(radius, initial=0.0) > cap)
+        label = f"credible radius (drawn up to {cap:.2g} m)" if capped else "credible radius"
+        ax.plot([], [], "o", color="tab:blue", alpha=0.25, markersize=10, label=label)
     if true is not None:
         ax.plot(true[:, 0], true[:, 1], color="black", linewidth=1.5, label="truth", zorder=2)
         segments = np.full((3 * len(est), 2), np.nan)
         segments[0::3], segments[1::3] = est, true
         ax.plot(segments[:, 0], segments[:, 1], color="tab:red", linewidth=0.6, alpha=0.7, zorder=2, label="error")
     ax.plot(est[:, 0], est[:, 1], color="tab:blue", linewidth=1.0, marker="o", markersize=3, label="estimate", zorder=3)
+    # the view fits the trajectory (not the references, not the disks); matplotlib widens it for
+    # equal axes when drawing (the limits stay automatic, so it may)
+    ax.dataLim.set_points(np.array([[view[0], view[2]], [view[1], view[3]]]))
+    ax.autoscale_view(tight=True)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
@@ -96,9 +124,16 @@ def trajectory_figure(
             panel.legend(loc="upper right")
         panel.set_xlabel("frame")
         panel.set_ylabel("distance error (m)")
-        panel.set_ylim(bottom=0)
+        # a lost filter's first radii (100+ m) must not flatten the errors: the scale fits the
+        # errors and most radii, what lies above is cut off
+        tallest = [finite.max()] if finite.size else []
+        if radius is not None and np.isfinite(radius).any():
+            tallest.append(float(np.nanpercentile(radius, 90)))
+        panel.set_ylim(bottom=0, top=1.15 * max(tallest) if tallest and max(tallest) > 0 else None)
         panel.set_title(f"distance error per frame (n={finite.size})")
-    fig.suptitle(title if not caption else f"{title}\n{textwrap.fill(caption, 140)}")
+    # wrapped to the figure's width (about 0.6 em a character), so no line runs off the page
+    characters = int(width * 72 / (0.6 * float(mpl.rcParams["figure.titlesize"])))
+    fig.suptitle("\n".join(textwrap.wrap(title, characters) + (textwrap.wrap(caption, characters) if caption else [])))
     if path is not None:
         save_figure(fig, path, figure_format)
     return fig

@@ -47,6 +47,8 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import IO, Union
 
+from ..errors import with_cli_words
+
 try:  # POSIX; elsewhere writes are not locked against each other
     import fcntl
 except ImportError:  # pragma: no cover - Windows
@@ -146,7 +148,10 @@ def check_output_path(
     _check_parent(target, user)
     refuse_overlap(user, inputs, folder)
     if not folder and not overwrite and os.path.lexists(target):
-        raise FileExistsError(f"{user} exists; pass overwrite=True (--overwrite) to replace it")
+        raise with_cli_words(
+            FileExistsError(f"{user} exists; pass overwrite=True to replace it"),
+            f"{user} exists; pass --overwrite to replace it",
+        )
     return user
 
 
@@ -318,7 +323,10 @@ def atomic_file(
         if target.is_dir():
             raise IsADirectoryError(f"{user} is a folder, not a file name")
         if not overwrite and os.path.lexists(target):
-            raise FileExistsError(f"{user} exists; pass overwrite=True (--overwrite) to replace it")
+            raise with_cli_words(
+                FileExistsError(f"{user} exists; pass overwrite=True to replace it"),
+                f"{user} exists; pass --overwrite to replace it",
+            )
         temporary = _temporary_name(target)
         handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # the umask applies
         try:
@@ -536,7 +544,10 @@ def _read_previous(target: Path, user: Path, overwrite: bool, overwrite_hint: st
         ) from None
     if not overwrite and (previous.files or previous.folders or previous.foreign(target)):
         what = f"the output of nightloc {previous.command}" if previous.command else "nightloc's output"
-        raise FileExistsError(f"{user} exists and holds {what}; pass {overwrite_hint} to replace it")
+        raise with_cli_words(
+            FileExistsError(f"{user} exists and holds {what}; pass {overwrite_hint} to replace it"),
+            f"{user} exists and holds {what}; pass --overwrite to replace it",
+        )
     return previous
 
 

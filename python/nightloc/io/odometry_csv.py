@@ -27,8 +27,17 @@ from typing import Any, Union, cast
 from ..errors import DatasetError
 from .atomic import atomic_file
 from .files import open_regular
+from .poses import check_heading, parse_timestamp, refuse_other_delimiter
 
-__all__ = ["MAP_COLUMNS", "ODOMETRY_FILE", "ROBOT_COLUMNS", "OdometryRow", "read_odometry_rows", "write_odometry_csv"]
+__all__ = [
+    "MAP_COLUMNS",
+    "ODOMETRY_FILE",
+    "ROBOT_COLUMNS",
+    "OdometryRow",
+    "read_odometry_rows",
+    "read_odometry_timestamps",
+    "write_odometry_csv",
+]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -78,6 +87,7 @@ def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[
                 if not any(f.strip() for f in fields):
                     continue
                 if header is None:
+                    refuse_other_delimiter(fields, path, line, f"{key_column},forward,left,turn or {key_column},dx,dy")
                     header = [f.strip().lower() for f in fields]
                     if key_column not in header:
                         raise DatasetError(
@@ -112,7 +122,10 @@ def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[
                 if key in seen:
                     raise DatasetError(f"{path} line {line}: {key_column} {key!r} is listed twice (line {seen[key]})")
                 seen[key] = line
-                rows.append((key, tuple(_number(fields[i], c, path, line) for i, c in zip(index, columns)), line))
+                values = tuple(_number(fields[i], c, path, line) for i, c in zip(index, columns))
+                if form == "robot":
+                    check_heading(values[2], "turn", path, line)
+                rows.append((key, values, line))
     except UnicodeDecodeError as error:
         raise DatasetError(f"{path} is not UTF-8 text ({error.reason} at byte {error.start})") from None
     except csv.Error as error:
@@ -122,6 +135,45 @@ def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[
     if header is None or not rows:
         raise DatasetError(f"{path} has no odometry rows; it needs a header and one row per frame")
     return rows, form
+
+
+def read_odometry_timestamps(file: PathLike, key_column: str = "image") -> dict[object, tuple[float, int]] | None:
+    """``{key: (timestamp seconds, line)}`` from an odometry CSV's ``timestamp`` column, or None
+    when it has none (the rest of the file is read by :func:`read_odometry_rows`)."""
+    path = Path(file)
+    try:
+        with io.TextIOWrapper(
+            open_regular(path, "odometry file", DatasetError), newline="", encoding="utf-8-sig"
+        ) as handle:
+            reader = csv.reader(handle)
+            header = None
+            found: dict[object, tuple[float, int]] = {}
+            for fields in reader:
+                if not any(f.strip() for f in fields):
+                    continue
+                if header is None:  # a header without the column (or a malformed one): no times from here
+                    header = [f.strip().lower() for f in fields]
+                    if "timestamp" not in header or key_column not in header:
+                        return None
+                    key_index, time_index = header.index(key_column), header.index("timestamp")
+                    continue
+                if len(fields) != len(header):
+                    raise DatasetError(
+                        f"{path} line {reader.line_num}: {len(fields)} fields, but the header has {len(header)}"
+                    )
+                raw = fields[key_index].strip()
+                key: object = raw
+                if key_column == "frame":
+                    try:
+                        key = int(raw)
+                    except ValueError:
+                        raise DatasetError(f"{path} line {reader.line_num}: frame {raw!r} is not an integer") from None
+                found[key] = (parse_timestamp(fields[time_index], path, reader.line_num), reader.line_num)
+    except UnicodeDecodeError as error:
+        raise DatasetError(f"{path} is not UTF-8 text ({error.reason} at byte {error.start})") from None
+    except csv.Error as error:
+        raise DatasetError(f"{path}: malformed CSV ({error})") from None
+    return found if header is not None else None
 
 
 def odometry_values(motions: Sequence[object]) -> tuple[str, list[tuple[float, ...]]]:

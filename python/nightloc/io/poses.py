@@ -20,7 +20,50 @@ from .._validate import MAX_COORDINATE_M, coordinates, not_masked
 from ..errors import DatasetError
 from .files import open_regular
 
-__all__ = ["PoseRow", "checked_poses", "poses_from_rows", "read_pose_csv", "wrap_headings", "write_pose_csv"]
+__all__ = [
+    "MAX_HEADING_RAD",
+    "PoseRow",
+    "check_heading",
+    "checked_poses",
+    "checked_timestamps",
+    "parse_timestamp",
+    "poses_from_rows",
+    "read_pose_csv",
+    "refuse_other_delimiter",
+    "wrap_headings",
+    "write_pose_csv",
+]
+
+#: Largest |heading| (and |turn| per frame) a CSV may hold: beyond a full turn a value is not an
+#: angle in radians (degrees, most likely).
+MAX_HEADING_RAD = 2.0 * math.pi
+
+_OTHER_DELIMITERS = {";": "semicolons", "\t": "tabs", "|": "vertical bars"}
+
+
+def refuse_other_delimiter(fields: Sequence[str], file: Path, line: int, header: str) -> None:
+    """DatasetError when a CSV's header row is one field holding semicolons, tabs or bars (a
+    spreadsheet's export in a locale whose list separator is not the comma); ``header`` is the
+    header nightloc expects, for the message."""
+    if len(fields) != 1:
+        return
+    for mark, words in _OTHER_DELIMITERS.items():
+        if mark in fields[0]:
+            raise DatasetError(
+                f"{file} line {line}: the columns are separated by {words} ({fields[0].strip()!r}); nightloc reads "
+                f"comma-separated values: save it with commas ({header})"
+            )
+
+
+def check_heading(value: float, column: str, file: Path, line: int) -> float:
+    """``value`` when it can be an angle in radians (|value| <= 2 pi), else DatasetError naming
+    the file and line: headings in degrees would otherwise be taken as radians silently."""
+    if abs(value) > MAX_HEADING_RAD:
+        raise DatasetError(
+            f"{file} line {line}: column '{column}' is {value:g}, beyond a full turn (2 pi = 6.283): angles are "
+            f"radians, counter-clockwise; degrees? multiply by pi/180 (0.017453)"
+        )
+    return value
 
 
 def finite_headings(headings: np.ndarray) -> np.ndarray:
@@ -43,12 +86,41 @@ def wrap_headings(headings: np.ndarray) -> np.ndarray:
 
 
 class PoseRow:
-    """One row of a pose file: its line number, key (image name or frame index), x, y, heading."""
+    """One row of a pose file: its line number, key (image name or frame index), x, y, heading,
+    timestamp (seconds; None without the column)."""
 
-    __slots__ = ("heading", "key", "line", "x", "y")
+    __slots__ = ("heading", "key", "line", "timestamp", "x", "y")
 
-    def __init__(self, line: int, key: str | int, x: float, y: float, heading: float | None):
+    def __init__(
+        self, line: int, key: str | int, x: float, y: float, heading: float | None, timestamp: float | None = None
+    ):
         self.line, self.key, self.x, self.y, self.heading = line, key, x, y, heading
+        self.timestamp = timestamp
+
+
+def parse_timestamp(text: str, file: Path, line: int) -> float:
+    """A ``timestamp`` cell: finite seconds (any epoch), or DatasetError naming file and line."""
+    cell = text.strip()
+    try:
+        value = float(cell)
+    except ValueError:
+        raise DatasetError(f"{file} line {line}: column 'timestamp' holds {cell!r}, not a number of seconds") from None
+    if not math.isfinite(value):
+        raise DatasetError(f"{file} line {line}: column 'timestamp' is {cell!r}; times must be finite seconds")
+    return value
+
+
+def checked_timestamps(values: Sequence[float], lines: Sequence[int], file: Path) -> np.ndarray:
+    """``(N,)`` float64 seconds in frame order, or DatasetError at the first that goes back in time."""
+    times = np.array(values, dtype=np.float64)
+    backwards = np.flatnonzero(np.diff(times) < 0)
+    if backwards.size:
+        k = int(backwards[0]) + 1
+        raise DatasetError(
+            f"{file} line {lines[k]}: timestamp {values[k]!r} is before the previous frame's ({values[k - 1]!r}, "
+            f"line {lines[k - 1]}); frames must be in the order they were recorded"
+        )
+    return times
 
 
 def _parse_number(text: str, column: str, file: Path, line: int) -> float:
@@ -88,7 +160,7 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
     """Rows of a poses CSV: ``(rows, has_heading)``.
 
     The CSV must have a header with ``key_column`` (``image`` or ``frame``), ``x`` and ``y``;
-    ``heading`` is optional and other columns are ignored. Column names are matched without
+    ``heading`` and ``timestamp`` (seconds) are optional and other columns are ignored. Column names are matched without
     case and surrounding blanks; a UTF-8 byte-order mark and CRLF line ends are accepted; blank
     lines are skipped. Keys must be unique.
     """
@@ -106,6 +178,7 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
                 if not any(field.strip() for field in fields):
                     continue
                 if header is None:
+                    refuse_other_delimiter(fields, file, line, f"{key_column},x,y[,heading]")
                     header = [field.strip().lower() for field in fields]
                     header_line = line
                     for column in (key_column, "x", "y"):
@@ -122,6 +195,8 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
                     has_heading = "heading" in header
                     if has_heading:
                         index["heading"] = header.index("heading")
+                    if "timestamp" in header:
+                        index["timestamp"] = header.index("timestamp")
                     continue
                 if len(fields) != len(header):
                     raise DatasetError(
@@ -142,8 +217,13 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
                 seen[key] = line
                 x = _parse_number(fields[index["x"]], "x", file, line)
                 y = _parse_number(fields[index["y"]], "y", file, line)
-                heading = _parse_number(fields[index["heading"]], "heading", file, line) if has_heading else None
-                rows.append(PoseRow(line, key, x, y, heading))
+                heading = None
+                if has_heading:
+                    heading = check_heading(
+                        _parse_number(fields[index["heading"]], "heading", file, line), "heading", file, line
+                    )
+                stamp = parse_timestamp(fields[index["timestamp"]], file, line) if "timestamp" in index else None
+                rows.append(PoseRow(line, key, x, y, heading, stamp))
     except UnicodeDecodeError as error:
         raise DatasetError(f"{file} is not UTF-8 text ({error.reason} at byte {error.start})") from None
     except csv.Error as error:

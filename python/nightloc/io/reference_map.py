@@ -29,14 +29,17 @@ from .._core import __version__
 from .._validate import MAX_MAP_EXPANSION as _MAX_MAP_EXPANSION
 from .._validate import coordinates, not_masked, uint8_array
 from ..config import params_from_dict, params_to_dict
-from ..errors import DatasetError, MapFormatError
+from ..errors import DatasetError, MapFormatError, with_cli_words
 from ..matching.sad import MatchResult, match
+from ..preparation.camera import camera_of, check_frames_fit
 from ..preparation.params import PreparationParams
 from ..preparation.preparer import Preparer
 from .atomic import atomic_file
 from .files import open_regular
+from .kinds import ROS1_BAG, ROS2_STORAGE, path_kind
 from .poses import finite_headings
 from .traverse import Traverse, load_traverse
+from .video import VIDEO_SUFFIXES
 
 __all__ = ["MAP_FORMAT", "MAP_FORMAT_VERSION", "MAX_MAP_EXPANSION", "ReferenceMap"]
 
@@ -51,6 +54,15 @@ MAP_FORMAT_VERSION = 1
 MAX_MAP_EXPANSION = _MAX_MAP_EXPANSION
 
 PathLike = Union[str, "os.PathLike[str]"]
+
+
+def _checked_frame_size(frame_size: Sequence[int] | None) -> tuple[int, int] | None:
+    if frame_size is None:
+        return None
+    size = tuple(frame_size)
+    if len(size) != 2 or not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v > 0 for v in size):
+        raise ValueError(f"frame_size must be (width, height) in pixels, got {frame_size!r}")
+    return int(size[0]), int(size[1])
 
 
 def _sha256(array: np.ndarray) -> str:
@@ -126,9 +138,13 @@ class ReferenceMap:
         names: the N frame names (image file names of the source traverse).
         params: the :class:`PreparationParams` the images were prepared with.
         source: where the images came from (the traverse path), or "".
+        frame_size: ``(width, height)`` pixels of the camera frames the map was built from, or
+            None (unknown: a map of already prepared images, or written by nightloc < 0.2);
+            with :attr:`camera`, what query frames must fit
+            (:func:`nightloc.preparation.camera.check_frames_fit`).
     """
 
-    __slots__ = ("_headings", "_images", "_names", "_params", "_positions", "_source")
+    __slots__ = ("_frame_size", "_headings", "_images", "_names", "_params", "_positions", "_source")
 
     def __init__(
         self,
@@ -138,6 +154,7 @@ class ReferenceMap:
         names: Sequence[str] | None = None,
         params: PreparationParams | None = None,
         source: str = "",
+        frame_size: Sequence[int] | None = None,
     ):
         """Wraps already prepared images; see :meth:`build` to prepare a traverse.
 
@@ -188,6 +205,7 @@ class ReferenceMap:
         self._names = name_tuple
         self._params = params
         self._source = str(source)
+        self._frame_size = _checked_frame_size(frame_size)
 
     def __getstate__(self) -> dict:
         return {name: getattr(self, name) for name in self.__slots__}
@@ -229,6 +247,26 @@ class ReferenceMap:
     def source(self) -> str:
         """The traverse the map was built from, or ""."""
         return self._source
+
+    @property
+    def camera(self) -> str:
+        """``"panoramic"`` or ``"forward"``: the camera the map's parameters prepare for."""
+        return camera_of(self._params)
+
+    @property
+    def frame_size(self) -> tuple[int, int] | None:
+        """``(width, height)`` of the frames the map was built from, or None when unknown."""
+        return self._frame_size
+
+    def check_frames(self, frame_shape: Sequence[int], frames: str, camera: str | None = None) -> None:
+        """ValueError naming both cameras when frames of ``frame_shape`` (``(H, W[, C])``, from
+        ``frames``, e.g. "the log night") cannot be matched against this map: another shape than
+        the map's frames, or a ``camera`` other than the map's (:func:`check_frames_fit`)."""
+        name = f"the map {self._source_name()}"
+        check_frames_fit(frame_shape, self._frame_size, self.camera, frames, name, camera)
+
+    def _source_name(self) -> str:
+        return f"(built from {self._source})" if self._source else "(of unknown source)"
 
     @property
     def preparer(self) -> Preparer:
@@ -281,8 +319,17 @@ class ReferenceMap:
                 f"image (add poses.csv with columns image,x,y[,heading])"
             )
         preparer = Preparer(params)
+        first = traverse.read(0)  # the camera's frame size, recorded for the queries' check
         images = preparer.prepare(traverse)
-        return cls(images, traverse.positions, traverse.headings, traverse.names, preparer.params, str(traverse.root))
+        return cls(
+            images,
+            traverse.positions,
+            traverse.headings,
+            traverse.names,
+            preparer.params,
+            str(traverse.root),
+            frame_size=(first.shape[1], first.shape[0]),
+        )
 
     def match(self, frame: np.ndarray, *, prepared: bool = False, threads: int | None = None) -> MatchResult:
         """Matches one camera frame against the map (eqs. 2-3).
@@ -314,6 +361,8 @@ class ReferenceMap:
             "count": len(self),
             "image_shape": [self._params.height, self._params.width],
             "params": params_to_dict(self._params),
+            "camera": self.camera,
+            "frame_size": None if self._frame_size is None else list(self._frame_size),
             "names": list(self._names),
             "source": self._source,
             "checksums": checksums,
@@ -365,14 +414,22 @@ class ReferenceMap:
         if not os.path.lexists(file):
             raise FileNotFoundError(f"reference map {file} does not exist")
         if file.is_dir():
-            raise MapFormatError(f"{file} is a folder, not a reference map file (build one with nightloc build-map)")
+            raise MapFormatError(
+                f"{file} is {path_kind(file)}, not a reference map file (build one with nightloc build-map {file} MAP)"
+            )
         # An unreadable file raises its own PermissionError; anything but a regular file a MapFormatError.
         with open_regular(file, "reference map", MapFormatError) as stream:
             magic = stream.read(6)
             if magic.startswith(b"\x93NUMPY"):
                 raise MapFormatError(f"{file} is a single numpy array, not a nightloc reference map")
             if not magic.startswith(b"PK\x03\x04"):
-                what = "an empty file" if not magic else f"not an .npz (zip) archive; it starts with {magic!r}"
+                kind = path_kind(file)
+                if kind in (ROS1_BAG, ROS2_STORAGE) or file.suffix.lower() in VIDEO_SUFFIXES:
+                    what = f"it is {kind}, a traverse: build a map from it with nightloc build-map {file} MAP"
+                elif kind != "a file of another kind":
+                    what = f"it is {kind}"
+                else:
+                    what = f"not an .npz (zip) archive; it starts with {magic!r}"
                 raise MapFormatError(f"{file} is not a nightloc reference map ({what})")
             stream.seek(0)
             try:
@@ -446,10 +503,26 @@ class ReferenceMap:
             different = map_params.differences(params)
             if different:
                 listing = ", ".join(f"{k}: map {a!r}, requested {b!r}" for k, (a, b) in different.items())
-                raise MapFormatError(
-                    f"{file} was built with other preparation parameters ({listing}); rebuild the map with "
-                    f"these parameters or load it without params to use the map's"
+                built = f"{file} was built with other preparation parameters ({listing})"
+                raise with_cli_words(
+                    MapFormatError(
+                        f"{built}; rebuild the map with these parameters or load it without params to use the map's"
+                    ),
+                    f"{built}; rebuild the map with them (nightloc build-map --params), or leave the [preparation] "
+                    f"table out of --params to use the map's",
                 )
+        frame_size = header.get("frame_size")
+        if frame_size is not None and not (
+            isinstance(frame_size, list)
+            and len(frame_size) == 2
+            and all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in frame_size)
+        ):
+            raise MapFormatError(f"{file}: the header's frame_size {frame_size!r} is not [width, height] pixels")
+        camera = header.get("camera", camera_of(map_params))
+        if camera != camera_of(map_params):
+            raise MapFormatError(
+                f"{file}: the header's camera {camera!r} contradicts its parameters (wrap = {map_params.wrap}): corrupt"
+            )
         try:
             return cls(
                 np.ascontiguousarray(images),
@@ -458,6 +531,7 @@ class ReferenceMap:
                 names,
                 map_params,
                 str(header.get("source", "")),
+                frame_size=frame_size,
             )
         except (TypeError, ValueError) as error:
             raise MapFormatError(f"{file}: inconsistent map contents: {error}") from None

@@ -32,14 +32,16 @@ import numpy as np
 
 from .. import _validate
 from .._validate import thread_count
-from ..errors import DatasetError
+from ..errors import DatasetError, with_cli_words
 from ..progress import progress
 from .atomic import atomic_folder
+from .bag import DEFAULT_SYNC_TOLERANCE_S, BagFrames, load_bag
 from .files import check_regular
 from .images import IMAGE_SUFFIXES, list_images, read_image_file, write_image_file
-from .odometry_csv import ODOMETRY_FILE, odometry_values, write_odometry_csv
-from .poses import checked_poses, poses_from_rows, read_pose_csv, write_pose_csv
-from .video import VIDEO_SUFFIXES, read_video_frames, video_frame_count
+from .kinds import MAP, bag_kind, path_kind
+from .odometry_csv import ODOMETRY_FILE, odometry_values, read_odometry_timestamps, write_odometry_csv
+from .poses import checked_poses, checked_timestamps, poses_from_rows, read_pose_csv, write_pose_csv
+from .video import VIDEO_SUFFIXES, read_video_frames, video_frame_count, video_frame_rate
 
 __all__ = ["IMAGE_SUFFIXES", "VIDEO_SUFFIXES", "Traverse", "load_traverse", "save_traverse"]
 
@@ -47,6 +49,22 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 _POSE_FILE = "poses.csv"
 _IMAGE_DIR = "images"
+
+
+def _subset_motions(motions: np.ndarray, chosen: Sequence[int]) -> np.ndarray | None:
+    """The motions between the frames ``chosen`` (ascending, consecutive: the same steps; else
+    the steps skipped are composed into the next kept one)."""
+    out = np.zeros((len(chosen), 3))
+    for k in range(1, len(chosen)):
+        a, b = chosen[k - 1], chosen[k]
+        if b < a:
+            return None  # motions between frames out of order are unknown
+        x = y = heading = 0.0
+        for forward, left, turn in motions[a + 1 : b + 1]:
+            c, s = np.cos(heading), np.sin(heading)
+            x, y, heading = x + c * forward - s * left, y + s * forward + c * left, heading + turn
+        out[k] = (x, y, np.pi - np.mod(np.pi - heading, 2 * np.pi))
+    return out
 
 
 def _frozen(array: np.ndarray | None) -> np.ndarray | None:
@@ -72,17 +90,23 @@ class Traverse:
         headings: ``(N,)`` float64 radians in (-pi, pi] (read-only), or None.
         frame_indices: ``(N,)`` video frame indices, or None for a folder.
         poses_file: the CSV the poses came from, or None.
+        timestamps: ``(N,)`` float64 seconds, the time of each frame (read-only), or None.
+        motions: ``(N, 3)`` float64 ``forward, left, turn`` odometry since the previous frame
+            (metres, radians; row 0 zeros) that came with the frames (a bag's), or None.
     """
 
     __slots__ = (
+        "_bag",
         "_frame_indices",
         "_headings",
         "_image_dir",
         "_lines",
+        "_motions",
         "_names",
         "_poses_file",
         "_positions",
         "_root",
+        "_timestamps",
         "_video",
     )
 
@@ -98,15 +122,22 @@ class Traverse:
         frame_indices: Sequence[int] | None = None,
         poses_file: Path | None = None,
         lines: Sequence[int] | None = None,
+        bag: BagFrames | None = None,
+        timestamps: np.ndarray | None = None,
+        motions: np.ndarray | None = None,
     ):
         """Internal: use :func:`load_traverse`."""
-        if (image_dir is None) == (video is None):
-            raise ValueError("a Traverse reads either an image folder or a video")
+        if sum(source is not None for source in (image_dir, video, bag)) != 1:
+            raise ValueError("a Traverse reads one of an image folder, a video or a bag")
         n = len(names)
         if positions is not None and positions.shape != (n, 2):
             raise ValueError(f"positions must be ({n}, 2), got {positions.shape}")
         if headings is not None and (positions is None or headings.shape != (n,)):
             raise ValueError(f"headings must be ({n},) and need positions")
+        if timestamps is not None and np.shape(timestamps) != (n,):
+            raise ValueError(f"timestamps must be ({n},), got {np.shape(timestamps)}")
+        if motions is not None and np.shape(motions) != (n, 3):
+            raise ValueError(f"motions must be ({n}, 3), got {np.shape(motions)}")
         self._root = Path(root)
         self._names = tuple(names)
         self._positions = _frozen(None if positions is None else np.array(positions, dtype=np.float64))
@@ -116,6 +147,9 @@ class Traverse:
         self._frame_indices = None if frame_indices is None else tuple(int(i) for i in frame_indices)
         self._poses_file = poses_file
         self._lines = None if lines is None else tuple(lines)
+        self._bag = bag
+        self._timestamps = _frozen(None if timestamps is None else np.array(timestamps, dtype=np.float64))
+        self._motions = _frozen(None if motions is None else np.array(motions, dtype=np.float64))
 
     def __getstate__(self) -> dict:
         return {name: getattr(self, name) for name in self.__slots__}
@@ -125,6 +159,8 @@ class Traverse:
             object.__setattr__(self, name, value)
         _frozen(self._positions)
         _frozen(self._headings)
+        _frozen(self._timestamps)
+        _frozen(self._motions)
 
     # --- descriptive properties
 
@@ -159,6 +195,32 @@ class Traverse:
         return self._video is not None
 
     @property
+    def is_bag(self) -> bool:
+        """True when the frames come from a ROS bag's image topic."""
+        return self._bag is not None
+
+    @property
+    def bag_topics(self) -> dict[str, str | None] | None:
+        """A bag traverse's topics, ``{"image": ..., "odometry": ..., "pose": ...}`` (None for a
+        kind it has none of), or None for a folder or video."""
+        if self._bag is None:
+            return None
+        return {"image": self._bag.topic, "odometry": self._bag.odometry_topic, "pose": self._bag.pose_topic}
+
+    @property
+    def timestamps(self) -> np.ndarray | None:
+        """``(N,)`` float64 seconds of each frame (a bag's stamps, a ``timestamp`` column, a
+        video's frame times), or None when the source does not say."""
+        return self._timestamps
+
+    @property
+    def motions(self) -> np.ndarray | None:
+        """``(N, 3)`` float64 odometry that came with the frames (a bag's: ``forward, left,
+        turn`` since the previous frame, row 0 zeros), or None; see
+        :func:`nightloc.traverse_odometry`."""
+        return self._motions
+
+    @property
     def image_dir(self) -> Path | None:
         """The folder the image names are relative to (None for a video)."""
         return self._image_dir
@@ -177,14 +239,15 @@ class Traverse:
         return len(self._names)
 
     def __repr__(self) -> str:
-        kind = "video" if self.is_video else "folder"
+        kind = "video" if self.is_video else "bag" if self.is_bag else "folder"
         poses = "with poses" if self.has_poses else "no poses"
         return f"Traverse({str(self._root)!r}, {kind}, {len(self)} frames, {poses})"
 
     def path(self, index: int) -> Path:
         """The image file of frame ``index`` (folder traverses only)."""
         if self._image_dir is None:
-            raise ValueError(f"{self._root} is a video; its frames have no files of their own")
+            what = "a bag" if self.is_bag else "a video"
+            raise ValueError(f"{self._root} is {what}; its frames have no files of their own")
         return self._image_dir / self._names[self._check_index(index)]
 
     def subset(self, indices: slice | Sequence[int] | np.ndarray) -> Traverse:
@@ -206,6 +269,9 @@ class Traverse:
             frame_indices=None if self._frame_indices is None else [self._frame_indices[i] for i in chosen],
             poses_file=self._poses_file,
             lines=None if self._lines is None else [self._lines[i] for i in chosen],
+            bag=None if self._bag is None else self._bag.subset(chosen),
+            timestamps=None if self._timestamps is None else self._timestamps[pick],
+            motions=None if self._motions is None else _subset_motions(self._motions, chosen),
         )
 
     # --- reading images
@@ -231,6 +297,8 @@ class Traverse:
         index = self._check_index(index)
         if self._image_dir is not None:
             return read_image_file(self._image_dir / self._names[index], self._context(index))
+        if self._bag is not None:
+            return self._bag.read(index)
         return next(self._video_frames([index]))[1]
 
     def frames(self, batch_size: int = 64, *, progress_desc: str | None = None) -> Iterator[tuple[int, np.ndarray]]:
@@ -250,6 +318,8 @@ class Traverse:
         desc = progress_desc if progress_desc is not None else f"reading {self._root.name}"
         if self._video is not None:
             source: Iterator[tuple[int, np.ndarray]] = self._video_frames(range(len(self)))
+        elif self._bag is not None:
+            source = self._bag.frames(range(len(self)))
         else:
             source = self._folder_frames(int(batch_size))
         return progress(source, total=len(self), desc=desc, unit="frame")
@@ -308,8 +378,10 @@ def _image_folder(root: Path) -> tuple[Path, list[str] | None]:
     names = list_images(root)
     if names:
         return root, names
+    kind = path_kind(root)
+    what = f" (it is {kind})" if kind != "a folder without images" else ""
     raise DatasetError(
-        f"{root} is not a traverse: it has no '{_IMAGE_DIR}/' folder and no image files "
+        f"{root} is not a traverse{what}: it has no '{_IMAGE_DIR}/' folder and no image files "
         f"(expected {root}/{_IMAGE_DIR}/<frames> and optionally {root}/{_POSE_FILE})"
     )
 
@@ -326,8 +398,9 @@ def _load_folder(root: Path, frame_step: int, poses: Path | None) -> Traverse:
         names = listed if listed is not None else list_images(image_dir)
         if not names:
             raise DatasetError(f"{image_dir} holds no image files ({', '.join(sorted(IMAGE_SUFFIXES))})")
+        times = _odometry_times(root, names)
         names = names[::frame_step]
-        return Traverse(root=root, names=names, image_dir=image_dir)
+        return Traverse(root=root, names=names, image_dir=image_dir, timestamps=_every(times, frame_step))
     check_regular(pose_file, "poses file", DatasetError)
     rows, has_heading = read_pose_csv(pose_file, "image")
     missing = []
@@ -346,6 +419,12 @@ def _load_folder(root: Path, frame_step: int, poses: Path | None) -> Traverse:
             if os.path.lexists(image_dir / str(first.key)):  # there, but a folder, a FIFO, a link loop, ...
                 raise DatasetError(f"{pose_file} line {first.line}: {error}{more}") from None
         raise DatasetError(f"{pose_file} line {first.line}: image {first.key!r} does not exist in {image_dir}{more}")
+    if rows[0].timestamp is not None:
+        times = checked_timestamps(
+            [r.timestamp for r in rows if r.timestamp is not None], [r.line for r in rows], pose_file
+        )
+    else:
+        times = _odometry_times(root, [str(row.key) for row in rows])
     rows = rows[::frame_step]
     positions, headings = poses_from_rows(rows, has_heading)
     return Traverse(
@@ -356,15 +435,42 @@ def _load_folder(root: Path, frame_step: int, poses: Path | None) -> Traverse:
         image_dir=image_dir,
         poses_file=pose_file,
         lines=[row.line for row in rows],
+        timestamps=_every(times, frame_step),
     )
+
+
+def _every(times: np.ndarray | None, step: int) -> np.ndarray | None:
+    return None if times is None else times[::step]
+
+
+def _odometry_times(root: Path, names: Sequence[str]) -> np.ndarray | None:
+    """The frames' times from ``root/odometry.csv``'s ``timestamp`` column, or None (no file, no
+    column; a file that is not regular is left to the odometry's reader to name)."""
+    file = root / ODOMETRY_FILE
+    if not os.path.isfile(file):
+        return None
+    found = read_odometry_timestamps(file)
+    if found is None:
+        return None
+    missing = [name for name in names if name not in found]
+    if missing:
+        raise DatasetError(
+            f"{file} has a timestamp column but no row for image {missing[0]!r}"
+            + (f" ({len(missing) - 1} more frames lack one)" if len(missing) > 1 else "")
+        )
+    return checked_timestamps([found[n][0] for n in names], [found[n][1] for n in names], file)
 
 
 def _load_video(file: Path, frame_step: int, poses: Path | None) -> Traverse:
     count = video_frame_count(file)
     label = f"frame_{{:0{max(6, len(str(count)))}d}}"
+    rate = video_frame_rate(file)
     if poses is None:
         frames = list(range(0, count, frame_step))
-        return Traverse(root=file, names=[label.format(f) for f in frames], video=file, frame_indices=frames)
+        times = None if rate is None else np.array(frames, dtype=np.float64) / rate
+        return Traverse(
+            root=file, names=[label.format(f) for f in frames], video=file, frame_indices=frames, timestamps=times
+        )
     check_regular(poses, "poses file", DatasetError)
     rows, has_heading = read_pose_csv(poses, "frame")
     for row in rows:
@@ -374,6 +480,12 @@ def _load_video(file: Path, frame_step: int, poses: Path | None) -> Traverse:
     if not rows:
         raise DatasetError(f"{poses}: no frame index is a multiple of frame_step={frame_step}")
     positions, headings = poses_from_rows(rows, has_heading)
+    if rows[0].timestamp is not None:  # the CSV's times, else the video's frame times
+        times = checked_timestamps(
+            [r.timestamp for r in rows if r.timestamp is not None], [r.line for r in rows], poses
+        )
+    else:
+        times = None if rate is None else np.array([int(r.key) for r in rows], dtype=np.float64) / rate
     return Traverse(
         root=file,
         names=[label.format(int(row.key)) for row in rows],
@@ -383,36 +495,98 @@ def _load_video(file: Path, frame_step: int, poses: Path | None) -> Traverse:
         frame_indices=[int(row.key) for row in rows],
         poses_file=poses,
         lines=[row.line for row in rows],
+        timestamps=times,
     )
 
 
-def load_traverse(path: PathLike, *, frame_step: int = 1, poses: PathLike | None = None) -> Traverse:
-    """Opens a traverse: a folder (``images/`` + optional ``poses.csv``) or a video file.
+def load_traverse(
+    path: PathLike,
+    *,
+    frame_step: int = 1,
+    poses: PathLike | None = None,
+    image_topic: str | None = None,
+    odometry_topic: str | None = None,
+    pose_topic: str | None = None,
+    sync_tolerance: float = DEFAULT_SYNC_TOLERANCE_S,
+) -> Traverse:
+    """Opens a traverse: a folder (``images/`` + optional ``poses.csv``), a video file or a ROS bag.
 
-    Only names and poses are read here; images are decoded lazily by :meth:`Traverse.read` and
-    :meth:`Traverse.frames`. Every file named in ``poses.csv`` must exist.
+    Only names, times and poses are read here; images are decoded lazily by
+    :meth:`Traverse.read` and :meth:`Traverse.frames`. Every file named in ``poses.csv`` must exist.
 
     Args:
-        path: the traverse folder, or a video file (any suffix in :data:`VIDEO_SUFFIXES`, or any
-            other file OpenCV can open as a video).
+        path: the traverse folder, a video file (any suffix in :data:`VIDEO_SUFFIXES`, or any
+            other file OpenCV can open as a video), or a ROS bag (a ROS 1 ``.bag``, a ROS 2 bag
+            folder, a lone ``.mcap`` or ``.db3``; :mod:`nightloc.io.bag`).
         frame_step: keep every ``frame_step``-th frame: rows 0, k, 2k, ... of ``poses.csv`` (or of
-            the sorted image list), or for a video the frames whose index is a multiple of k.
+            the sorted image list, or of a bag's image topic), or for a video the frames whose
+            index is a multiple of k.
         poses: a poses CSV to use instead of ``path/poses.csv``; for a video, the CSV keyed by
-            frame index (``frame,x,y[,heading]``). Without it a video has no poses.
+            frame index (``frame,x,y[,heading]``). Without it a video has no poses. Either may
+            hold a ``timestamp`` column (seconds), the frames' times.
+        image_topic, odometry_topic, pose_topic: a bag's topics (default: the only one of each
+            kind; ``odometry_topic`` may be ``/tf`` or ``/tf:PARENT:CHILD``).
+        sync_tolerance: a bag's largest time (s) between a frame and the odometry or pose sample
+            nearest to it.
 
     Raises:
-        DatasetError: missing folder or files, unreadable video, malformed CSV (naming file and
-            line).
+        DatasetError: missing folder or files, unreadable video or bag, malformed CSV (naming file
+            and line), a bag's topics that are missing, ambiguous or do not cover the frames.
     """
     root = Path(path)
     step = _check_step(frame_step)
     pose_path = None if poses is None else Path(poses)
+    if bag_kind(root) is not None:
+        if pose_path is not None:
+            raise ValueError(f"{root} is a ROS bag: its poses come from its pose topic (pose_topic), not a CSV")
+        log = load_bag(
+            root,
+            step,
+            image_topic=image_topic,
+            odometry_topic=odometry_topic,
+            pose_topic=pose_topic,
+            sync_tolerance=sync_tolerance,
+        )
+        return Traverse(
+            root=root,
+            names=log.names,
+            positions=log.positions,
+            headings=log.headings,
+            bag=log.frames,
+            timestamps=log.timestamps,
+            motions=log.motions,
+        )
+    given = [name for name, value in (("image_topic", image_topic), ("odometry_topic", odometry_topic),
+                                      ("pose_topic", pose_topic)) if value is not None]  # fmt: skip
+    if given:
+        raise with_cli_words(
+            ValueError(f"{given[0]} applies to ROS bags; {root} is {path_kind(root)}"),
+            f"--{given[0].replace('_', '-')} applies to ROS bags; {root} is {path_kind(root)}",
+        )
     if root.is_dir():
         return _load_folder(root, step, pose_path)
     check_regular(root, "traverse", DatasetError)  # missing, a link loop, a FIFO, a device, ...
     if root.suffix.lower() in IMAGE_SUFFIXES or root.suffix.lower() == ".csv":
         raise DatasetError(f"{root} is a single file; a traverse is a folder ({_IMAGE_DIR}/ + {_POSE_FILE}) or a video")
-    return _load_video(root, step, pose_path)
+    kind = path_kind(root)
+    if root.suffix.lower() not in VIDEO_SUFFIXES and kind not in ("a video file", "a file of another kind"):
+        raise DatasetError(f"{root} is {kind}, not a traverse ({_TRAVERSE_FORMS}){_swap_hint(kind)}")
+    try:
+        return _load_video(root, step, pose_path)
+    except DatasetError:
+        if root.suffix.lower() in VIDEO_SUFFIXES:
+            raise
+        raise DatasetError(
+            f"{root} is not a traverse ({_TRAVERSE_FORMS}): it is not a folder, and OpenCV cannot read it as a video"
+        ) from None
+
+
+#: The forms a traverse takes, for error messages.
+_TRAVERSE_FORMS = "a folder of images, a video or a ROS bag"
+
+
+def _swap_hint(kind: str) -> str:
+    return "; check the order of the arguments (a map comes before a traverse)" if kind == MAP else ""
 
 
 # --------------------------------------------------------------------------------------------
@@ -520,7 +694,10 @@ def save_traverse(
     with atomic_folder(target) as staging:  # one writer at a time; the parent folder must exist
         if target.exists():
             if not overwrite:
-                raise FileExistsError(f"{target} exists; pass overwrite=True to replace it")
+                raise with_cli_words(
+                    FileExistsError(f"{target} exists; pass overwrite=True to replace it"),
+                    f"{target} exists; pass --overwrite to replace it",
+                )
             if not target.is_dir() or not _looks_like_traverse(target):
                 raise FileExistsError(
                     f"{target} exists and is not a traverse folder (only images/, poses.csv and odometry.csv); "

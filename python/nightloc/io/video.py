@@ -6,6 +6,7 @@ Decoding goes through ``cv2.VideoCapture``; frames come out as OpenCV decodes th
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 
@@ -15,7 +16,7 @@ import numpy as np
 from ..errors import DatasetError
 from .files import check_regular
 
-__all__ = ["VIDEO_SUFFIXES", "open_video", "read_video_frames", "video_frame_count"]
+__all__ = ["VIDEO_SUFFIXES", "open_video", "read_video_frames", "video_frame_count", "video_frame_rate"]
 
 #: File suffixes (lower case) that :func:`~nightloc.load_traverse` opens as videos.
 VIDEO_SUFFIXES = frozenset({".mp4", ".avi", ".mov", ".mkv", ".m4v", ".mpg", ".mpeg", ".webm", ".wmv", ".ogv"})
@@ -28,7 +29,7 @@ def open_video(file: Path) -> cv2.VideoCapture:
     capture = cv2.VideoCapture(str(file))
     if not capture.isOpened():
         capture.release()
-        raise DatasetError(f"video {file} cannot be opened (missing, corrupt, or a codec OpenCV lacks)")
+        raise DatasetError(f"video {file} cannot be opened (corrupt, or a codec OpenCV lacks)")
     return capture
 
 
@@ -46,6 +47,17 @@ def video_frame_count(file: Path) -> int:
     if count <= 0:
         raise DatasetError(f"video {file} holds no frames")
     return count
+
+
+def video_frame_rate(file: Path) -> float | None:
+    """Frames per second the container states, or None when it states none (frame ``i`` of the
+    video is then at ``i / rate`` seconds from its start)."""
+    capture = open_video(file)
+    try:
+        rate = float(capture.get(cv2.CAP_PROP_FPS))
+    finally:
+        capture.release()
+    return rate if math.isfinite(rate) and 0 < rate < 10_000 else None
 
 
 def read_video_frames(

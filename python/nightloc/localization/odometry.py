@@ -389,12 +389,22 @@ def read_odometry(file: PathLike, keys: Sequence[object], key_column: str = "ima
 
 def traverse_odometry(traverse: Traverse, file: PathLike | None = None) -> list[Motion | None]:
     """The odometry of a :class:`~nightloc.Traverse`: :func:`read_odometry` of ``file`` (default
-    ``<traverse folder>/odometry.csv``; a video's log names its CSV, keyed by ``frame``)."""
+    ``<traverse folder>/odometry.csv``; a video's log names its CSV, keyed by ``frame``), or a
+    bag's own (:attr:`Traverse.motions`, from its odometry topic) as :class:`RobotMotion`."""
     from pathlib import Path
 
     from ..errors import DatasetError
 
     video = traverse.is_video
+    if file is None and traverse.is_bag:
+        if traverse.motions is None:
+            raise DatasetError(
+                f"bag {traverse.root} has no odometry (a nav_msgs/Odometry topic or an odom -> base_link transform on "
+                f"/tf); name its topic with --odometry-topic, or localize without odometry: --odometry none"
+            )
+        motions: list[Motion | None] = [None]
+        motions += [RobotMotion(*(float(v) for v in row)) for row in traverse.motions[1:]]
+        return motions
     if file is None:
         if video:
             raise DatasetError(

@@ -6,16 +6,18 @@
 
 from __future__ import annotations
 
-from .sad import MatchResult, difference_matrix, match, rotational_sad, shifts_to_headings
+from .sad import MatchResult, ShiftTable, difference_matrix, match, rotational_sad, shift_table, shifts_to_headings
 from .simd import available_simd_backends, set_simd_backend, simd_backend, use_simd_backend
 
 __all__ = [
     "MatchResult",
+    "ShiftTable",
     "available_simd_backends",
     "difference_matrix",
     "match",
     "rotational_sad",
     "set_simd_backend",
+    "shift_table",
     "shifts_to_headings",
     "simd_backend",
     "use_simd_backend",

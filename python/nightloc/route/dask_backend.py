@@ -80,11 +80,13 @@ def _block_task(
     offset: str,
     keep_difference: bool,
     threads: int,
+    window: tuple[int, int] = (0, 0),
 ) -> tuple[np.ndarray | None, np.ndarray, float]:
-    """Difference rows and their enhancement (offset ``none`` or ``bound``) for one block;
-    returns (difference or None, enhanced, NaN-ignoring minimum of the enhanced block)."""
+    """Difference rows (translation window ``(columns, rows)``) and their enhancement (offset
+    ``none`` or ``bound``) for one block; returns (difference or None, enhanced, NaN-ignoring
+    minimum of the enhanced block)."""
     difference = np.empty((queries.shape[0], refs.shape[0]), dtype=np.float32)
-    _core.difference_matrix_into(queries, refs, shifts, threads, divisor, difference)
+    _core.difference_matrix_into(queries, refs, shifts, threads, divisor, difference, window)
     out = np.empty_like(difference) if keep_difference else difference
     _core.enhance_contrast(difference, radius, offset, threads, out)
     minimum = float(np.fmin.reduce(out, axis=None))  # NaN ignored (NaN only if all are)
@@ -175,6 +177,7 @@ def dask_route_matrices(
             block_offset,
             keep_difference,
             threads_per_task,
+            p.window,
         )
         for start, stop in blocks
     ]

@@ -226,12 +226,19 @@ class RouteLocalizer:
                 p.filter_min_texture,
                 self._threads,
                 self._row,
+                p.window,
             )
             index = self._seen
             self._seen += 1
             return RouteUpdate(index, int(ref), 1.0 - confidence, confidence, off_route)
         _core.difference_matrix_into(
-            np.ascontiguousarray(image)[np.newaxis], self._refs, self._shifts, self._threads, self._divisor, self._row
+            np.ascontiguousarray(image)[np.newaxis],
+            self._refs,
+            self._shifts,
+            self._threads,
+            self._divisor,
+            self._row,
+            p.window,
         )
         # Oldest row first: shift the window up by one and enhance the new row into the last slot.
         self._window[:-1] = self._window[1:]

@@ -50,6 +50,11 @@ class RouteParams:
             image size (mean absolute difference in grey levels).
         circular_shifts: search every circular column shift (360-degree panoramas) instead of
             shift 0 only (forward cameras).
+        shift_window: ``(columns, rows)``: viewpoint tolerance; each difference is the best mean
+            absolute difference over the overlap of the query moved by up to ``rows`` rows and,
+            for a forward camera, ``columns`` columns (:mod:`nightloc.matching.sad`); with
+            ``circular_shifts`` every column shift is searched already and ``columns`` is unused.
+            ``(0, 0)`` compares one alignment (OpenSeqSLAM).
         enhance_radius: contrast enhancement over references i-radius .. i+radius [R/2].
         ds: sequence length in frames [matching.ds]. Centred mode rounds it up to even and uses
             ds+1 frames; causal mode uses ds frames ending at the query.
@@ -85,6 +90,7 @@ class RouteParams:
     block_side: int = 8
     divisor: Literal["pixels", "references"] = "pixels"
     circular_shifts: bool = False
+    shift_window: tuple[int, int] = (0, 0)
     enhance_radius: int = 5
     ds: int = 10
     vmin: float = 0.8
@@ -102,6 +108,8 @@ class RouteParams:
 
     def validate(self) -> None:
         """Checks ranges (called on construction); raises ValueError naming the field."""
+        if min(self.shift_window) < 0:
+            raise ValueError(f"shift_window must be (columns, rows) >= 0 pixels, got {self.shift_window}")
         if self.block_side < 2:
             raise ValueError(f"block_side must be >= 2 pixels, got {self.block_side}")
         if self.enhance_radius < 1:
@@ -159,7 +167,16 @@ class RouteParams:
     def method_params(self) -> dict:
         """The fields that the chosen method uses (for summaries): the shared ones, then the
         method's own."""
-        shared = ("method", "preparation", "divisor", "circular_shifts", "enhance_radius", "vmin", "vmax")
+        shared = (
+            "method",
+            "preparation",
+            "divisor",
+            "circular_shifts",
+            "shift_window",
+            "enhance_radius",
+            "vmin",
+            "vmax",
+        )
         own = (
             tuple(f.name for f in dataclasses.fields(self) if f.name.startswith("filter_"))
             if self.method == "filter"
@@ -177,6 +194,12 @@ class RouteParams:
     def shifts(self) -> list | None:
         """Column shifts searched by the difference matrix: None (all) or ``[0]``."""
         return None if self.circular_shifts else [0]
+
+    @property
+    def window(self) -> tuple[int, int]:
+        """The translation window the difference matrix searches, ``(columns, rows)``: the
+        column part only for a forward camera (panoramas search every circular shift)."""
+        return (0 if self.circular_shifts else self.shift_window[0], self.shift_window[1])
 
     @property
     def enhance_offset(self) -> str:

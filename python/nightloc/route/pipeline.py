@@ -153,7 +153,9 @@ def route_difference_matrix(
 
     ``D[q, r] = float32(double(sum |Q_q - R_r|) / divisor)``, minimum over the circular column
     shifts when ``params.circular_shifts``; the divisor is the number of references
-    (OpenSeqSLAM, bit-exact with its ``D``) or the number of pixels (``params.divisor``).
+    (OpenSeqSLAM, bit-exact with its ``D``) or the number of pixels (``params.divisor``). With a
+    translation window (``params.shift_window``) the minimum is over the window's alignments, each
+    a sum over the overlap scaled as by the divisor (the mean over the overlap with ``"pixels"``).
 
     Args:
         queries: ``(M, H, W)`` uint8 prepared query images.
@@ -174,7 +176,7 @@ def route_difference_matrix(
     starts = range(0, q.shape[0], step)
     for start in progress(starts, total=len(starts), desc=progress_desc, unit="block"):
         stop = min(q.shape[0], start + step)
-        _core.difference_matrix_into(q[start:stop], r, shifts, n_threads, divisor, matrix[start:stop])
+        _core.difference_matrix_into(q[start:stop], r, shifts, n_threads, divisor, matrix[start:stop], p.window)
     return matrix
 
 

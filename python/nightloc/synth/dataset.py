@@ -180,9 +180,7 @@ def make_dataset(
         raise ValueError(f"unknown world {world!r}; choose one of {', '.join(WORLD_NAMES)}")
     scene = SynthScene(world, seed, darkness, camera)
     plans = plan_traverses(world, scene.seed)
-    with output_set(
-        out_dir, command="synth", overwrite=overwrite, overwrite_hint="overwrite=True (--overwrite)"
-    ) as out:
+    with output_set(out_dir, command="synth", overwrite=overwrite, overwrite_hint="overwrite=True") as out:
         for plan in plans:
             frames = progress(
                 scene.render_plan(plan, threads), total=len(plan.positions), desc=f"{world}/{plan.name}", unit="frame"

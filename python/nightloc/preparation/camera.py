@@ -1,0 +1,113 @@
+"""Cameras: a 360-degree panorama or a forward-facing camera, and whether frames fit a map's.
+
+The camera decides how frames are prepared and matched (:attr:`PreparationParams.wrap`): a
+panorama's patch-normalization window wraps around and every column shift is searched (so the
+match also gives the heading); a forward camera's window is clipped at the borders and only shift
+0 is compared. A map records its camera (its parameters) and the size of the frames it was built
+from; frames of another camera give matches that mean nothing, so the commands refuse them:
+
+* frames whose width/height differs from the map's frames by more than
+  :data:`ASPECT_TOLERANCE` come from another camera (the same camera at another resolution keeps
+  its shape);
+* a camera named on the command line (``--camera``) must be the map's.
+
+From its shape alone a frame is taken for a panorama when it is at least
+:data:`PANORAMA_MIN_ASPECT` times as wide as high (unwrapped panoramas are 2:1 to 6:1; forward
+cameras 4:3 to 16:9); that guess only words the messages, it never decides.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+
+from .params import PreparationParams
+
+__all__ = [
+    "ASPECT_TOLERANCE",
+    "CAMERAS",
+    "PANORAMA_MIN_ASPECT",
+    "camera_of",
+    "check_frames_fit",
+    "params_for_camera",
+    "shape_camera",
+]
+
+#: The camera kinds, as ``--camera`` names them.
+CAMERAS = ("panoramic", "forward")
+#: Width/height from which a frame's shape reads as a panorama's (for messages only).
+PANORAMA_MIN_ASPECT = 1.9
+#: Frames whose width/height differs from the map's frames by more than this fraction are refused.
+ASPECT_TOLERANCE = 0.15
+
+
+def camera_of(params: PreparationParams) -> str:
+    """``"panoramic"`` (``wrap=True``) or ``"forward"``."""
+    return "panoramic" if params.wrap else "forward"
+
+
+def params_for_camera(
+    params: PreparationParams | None, camera: str | None, file_wrap: bool | None = None, source: str = ""
+) -> PreparationParams:
+    """``params`` (default: the paper's) set for ``camera`` (None: as they are).
+
+    ``file_wrap`` is the ``wrap`` a parameter file ``source`` sets explicitly (None when it does
+    not): a camera that contradicts it is a ValueError naming both, as is an unknown camera."""
+    base = PreparationParams() if params is None else params
+    if camera is None:
+        return base
+    if camera not in CAMERAS:
+        raise ValueError(f"camera must be one of {', '.join(CAMERAS)}, got {camera!r}")
+    wrap = camera == "panoramic"
+    if file_wrap is not None and file_wrap != wrap:
+        raise ValueError(
+            f"--camera {camera} contradicts {source or 'the parameter file'}, whose [preparation] sets wrap = "
+            f"{str(file_wrap).lower()} (a {'panoramic' if file_wrap else 'forward'} camera); give one of them"
+        )
+    return dataclasses.replace(base, wrap=wrap)
+
+
+def shape_camera(width: int, height: int) -> str:
+    """The camera a frame of ``width x height`` pixels looks like it comes from."""
+    return "panoramic" if width >= PANORAMA_MIN_ASPECT * height else "forward"
+
+
+def _size(shape: Sequence[int]) -> tuple[int, int]:
+    return int(shape[1]), int(shape[0])
+
+
+def check_frames_fit(
+    frame_shape: Sequence[int],
+    map_frame_size: Sequence[int] | None,
+    map_camera: str,
+    frames: str,
+    map_name: str,
+    camera: str | None = None,
+    remedy: str = "use a map built from this camera (nightloc build-map --camera {camera})",
+) -> None:
+    """ValueError, naming both cameras, when frames of ``frame_shape`` (``(H, W[, C])``, from
+    ``frames``, e.g. "the log night_run") do not fit the map ``map_name``: another width/height
+    than the map's frames (``map_frame_size``, ``(width, height)``, None when the map does not
+    record it), or a ``camera`` named for the frames that is not ``map_camera``. ``remedy``
+    ends the message (``{camera}``: the frames' camera)."""
+    width, height = _size(frame_shape)
+    looks = shape_camera(width, height)
+    if camera is not None and camera != map_camera:
+        raise ValueError(
+            f"{frames} is from a {camera} camera, but {map_name} is a {map_camera} camera's; "
+            f"{remedy.format(camera=camera)}"
+        )
+    if map_frame_size is None:
+        return
+    map_width, map_height = int(map_frame_size[0]), int(map_frame_size[1])
+    aspect, map_aspect = width / height, map_width / map_height
+    if abs(aspect / map_aspect - 1.0) <= ASPECT_TOLERANCE:
+        return
+    said = camera if camera is not None else looks
+    advice = f"; {remedy.format(camera=said)}" if remedy else ""
+    shaped = "" if camera is not None else " by their shape"
+    raise ValueError(
+        f"{frames} has {width}x{height} frames (width/height {aspect:.2f}, a {said} camera's{shaped}), but {map_name} "
+        f"comes from {map_width}x{map_height} frames of a {map_camera} camera ({map_aspect:.2f}): frames of another "
+        f"camera cannot be matched against it{advice}"
+    )
