@@ -198,7 +198,8 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
             return first[static_cast<std::size_t>(a)] < first[static_cast<std::size_t>(b)];
         });
         std::vector<std::int32_t> row_of(places_ + 1);
-        for (std::size_t r = 0; r < places_; ++r) row_of[static_cast<std::size_t>(order[r])] = static_cast<std::int32_t>(r);
+        for (std::size_t r = 0; r < places_; ++r)
+            row_of[static_cast<std::size_t>(order[r])] = static_cast<std::int32_t>(r);
         row_of[places_] = static_cast<std::int32_t>(places_);  // the fill stays last
         for (std::int32_t& p : ell_index_) p = row_of[static_cast<std::size_t>(p)];
         for (std::int32_t& p : block_places_) p = row_of[static_cast<std::size_t>(p)];
@@ -610,8 +611,8 @@ void GridFilter::update(const float* table) {
     const std::size_t group_rows = places_ + 1;
     const float inf = std::numeric_limits<float>::infinity();
     auto place_row = [&](std::size_t p, float value) {  // every bin of place row p
-        for (std::size_t b = 0; b < B; ++b) log_lik_[(b / detail::kGroupBins * group_rows + p) * detail::kGroupBins +
-                                                    b % detail::kGroupBins] = value;
+        for (std::size_t b = 0; b < B; ++b)
+            log_lik_[(b / detail::kGroupBins * group_rows + p) * detail::kGroupBins + b % detail::kGroupBins] = value;
     };
     auto set_fill = [&](const float* fill) {
         for (std::size_t b = 0; b < B; ++b) {
@@ -1002,7 +1003,8 @@ GridEstimate GridFilter::estimate() const {
 
 std::size_t GridFilter::sparse_blocks() const noexcept {
     std::size_t count = 0;
-    for (std::size_t block = 0; block + 1 < block_start_.size(); ++block) count += block_start_[block + 1] == block_start_[block];
+    for (std::size_t block = 0; block + 1 < block_start_.size(); ++block)
+        count += block_start_[block + 1] == block_start_[block];
     return count;
 }
 

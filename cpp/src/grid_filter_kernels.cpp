@@ -804,7 +804,8 @@ NL_INLINE void group_min_body(const float* __restrict y, std::size_t rows, std::
     }
 }
 
-NL_INLINE void column_max_body(const float* __restrict values, std::size_t rows, std::size_t B, float* __restrict high) {
+NL_INLINE void column_max_body(const float* __restrict values, std::size_t rows, std::size_t B,
+                               float* __restrict high) {
     for (std::size_t r = 0; r < rows; ++r) {
         const float* v = values + r * B;
         for (std::size_t b = 0; b < B; ++b) high[b] = v[b] > high[b] ? v[b] : high[b];
@@ -921,13 +922,11 @@ NL_INLINE void sum_body(const float* values, std::size_t n, double* lanes) {
     attributes void sum_slices_##suffix(const float* in, std::size_t bins, std::size_t n, float* out) {               \
         sum_slices_body(in, bins, n, out);                                                                            \
     }                                                                                                                 \
-    const FilterKernels kernels_##suffix{box_rows_##suffix,   conv_rows_##suffix, conv_cols_##suffix,                 \
-                                         shift_blur_##suffix, transpose_##suffix, heading_conv_##suffix,              \
-                                         measure_##suffix,    interpolate_##suffix, row_minima_##suffix,      \
-                                         lerp_rows_##suffix,  lerp_log_lik_##suffix, group_min_##suffix,      \
-                                         column_max_##suffix, log_lik_##suffix,                               \
-                                         scale_sums_##suffix, max_value_##suffix,   sum_##suffix,             \
-                                         sum_slices_##suffix};
+    const FilterKernels kernels_##suffix{                                                                             \
+        box_rows_##suffix,     conv_rows_##suffix, conv_cols_##suffix,   shift_blur_##suffix, transpose_##suffix,     \
+        heading_conv_##suffix, measure_##suffix,   interpolate_##suffix, row_minima_##suffix, lerp_rows_##suffix,     \
+        lerp_log_lik_##suffix, group_min_##suffix, column_max_##suffix,  log_lik_##suffix,    scale_sums_##suffix,    \
+        max_value_##suffix,    sum_##suffix,       sum_slices_##suffix};
 
 #if defined(__GNUC__) && !defined(__clang__)
 #define NL_NO_VECTORIZE __attribute__((optimize("no-tree-vectorize")))

@@ -148,7 +148,7 @@ def _many_place_map(rng, n=420, width=16, height=8):
     return nightloc.ReferenceMap(images, positions, headings, params=params)
 
 
-def _settling_tables(rng, n, shifts=16, frames=len(MOTIONS)):
+def _settling_tables(rng, n, shifts=16, frames=8):
     """Random tables in which reference 0 matches best, at shift 3: a belief that settles."""
     tables = rng.uniform(15, 25, (frames, n, shifts)).astype(np.float32)
     tables[:, 0, 3] = 5.0

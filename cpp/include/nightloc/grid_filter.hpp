@@ -23,13 +23,13 @@
 //      where k whole bins of the turn (offset + t = offset' + 2*pi*k/B);
 //   2. position blur (not for a negligible bin: one whose largest value after the last measurement
 //      is below `negligible` of the belief's largest: it moves by the shift alone, each of its
-//      cells off by at most that share of the peak): an isotropic Gaussian of std sqrt(distance_std^2 + position_floor^2) metres
-//      per axis, as three extended-box passes per axis (Gwosdek et al. 2011: the exact variance).
-//      Shift and blur act on the plane (the belief is zero beyond the grid) and the result is cut
-//      to the grid: mass that leaves the grid is dropped. Per axis one linear operator, y first:
-//      short kernels (<= 13 taps: box radius <= 1 cell) composed with the shift and applied as one
-//      explicit pass; wider ones as the shift's two taps then running float sums (O(1) per cell)
-//      over a tile that holds everything the passes spread beyond the grid;
+//      cells off by at most that share of the peak): an isotropic Gaussian of std sqrt(distance_std^2 +
+//      position_floor^2) metres per axis, as three extended-box passes per axis (Gwosdek et al. 2011: the exact
+//      variance). Shift and blur act on the plane (the belief is zero beyond the grid) and the result is cut to the
+//      grid: mass that leaves the grid is dropped. Per axis one linear operator, y first: short kernels (<= 13 taps:
+//      box radius <= 1 cell) composed with the shift and applied as one explicit pass; wider ones as the shift's two
+//      taps then running float sums (O(1) per cell) over a tile that holds everything the passes spread beyond the
+//      grid;
 //   3. heading blur: a circular Gaussian of std sqrt(heading_std^2 + heading_floor^2) radians
 //      over the bins (taps within 3 std, those below 1e-4 of the peak left out);
 //   4. a uniform floor: p = (1 - uniform_floor) p / total + uniform_floor / cells, where total is
@@ -243,8 +243,8 @@ private:
     std::vector<std::int32_t> ell_index_;
     std::vector<std::int32_t> block_start_, block_places_;  // the measurement's dense blocks
     detail::LineVector<float> block_weights_;
-    bool has_sparse_blocks_ = false;              // blocks with more than kDensePlaces places
-    detail::LineVector<float> sparse_y_;          // their cells' log2-likelihoods, a few bins x cells
+    bool has_sparse_blocks_ = false;      // blocks with more than kDensePlaces places
+    detail::LineVector<float> sparse_y_;  // their cells' log2-likelihoods, a few bins x cells
     mutable detail::LineVector<float> belief_;
     mutable detail::LineVector<float> work_;  // predicted slices (materialize: all bins; an update: a pool)
     std::vector<std::int32_t> slot_of_, free_slots_;
@@ -254,17 +254,17 @@ private:
     mutable bool marginal_valid_ = true;
     mutable detail::LineVector<float> row_buf_, zeros_, padded_, wide_a_, wide_b_;
     mutable std::vector<float> taps_x_, taps_y_;
-    mutable std::vector<float> sums_;  // running sums of the box passes
+    mutable std::vector<float> sums_;        // running sums of the box passes
     std::vector<std::uint32_t> sums_table_;  // update_image's sums (kept between frames)
     std::vector<float> table_, mins_, sorted_, bin_high_, place_scores_, log_lik_;
-    std::vector<std::int32_t> row_of_ref_;  // each reference's row of the per-place arrays (see the constructor)
-    std::vector<std::int32_t> ref_c0_;      // per reference: the whole column shift of bin 0 in this frame
-    std::vector<double> ref_fraction_;      // and its fraction (bin b: columns c0 + b, c0 + b + 1)
-    std::vector<float> twice_, row_y_;      // a table row twice, a row of log2-likelihoods (scratch)
+    std::vector<std::int32_t> row_of_ref_;      // each reference's row of the per-place arrays (see the constructor)
+    std::vector<std::int32_t> ref_c0_;          // per reference: the whole column shift of bin 0 in this frame
+    std::vector<double> ref_fraction_;          // and its fraction (bin b: columns c0 + b, c0 + b + 1)
+    std::vector<float> twice_, row_y_;          // a table row twice, a row of log2-likelihoods (scratch)
     std::vector<std::uint8_t> first_of_place_;  // per reference: the first of its place
-    std::vector<std::int32_t> empty_places_;  // places no reference stands at (take the bin's highest score)
-    std::vector<float> bin_max_;           // each bin's largest value after the last measurement (pose mode)
-    mutable bool bin_max_valid_ = false;   // false once the belief changed otherwise (see negligible)
+    std::vector<std::int32_t> empty_places_;    // places no reference stands at (take the bin's highest score)
+    std::vector<float> bin_max_;                // each bin's largest value after the last measurement (pose mode)
+    mutable bool bin_max_valid_ = false;        // false once the belief changed otherwise (see negligible)
     std::vector<std::int32_t> best_shifts_;
     mutable std::vector<double> xs_, dx2_, hist_;  // the estimate's scratch
     struct RingCell {
