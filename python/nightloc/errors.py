@@ -9,7 +9,15 @@ from __future__ import annotations
 
 from typing import TypeVar
 
-__all__ = ["DatasetError", "MapFormatError", "NightlocError", "cli_message", "with_cli_words"]
+__all__ = [
+    "DatasetError",
+    "MapFormatError",
+    "MappingError",
+    "MissingDependencyError",
+    "NightlocError",
+    "cli_message",
+    "with_cli_words",
+]
 
 E = TypeVar("E", bound=BaseException)
 
@@ -40,3 +48,12 @@ class DatasetError(NightlocError):
 
 class MapFormatError(NightlocError):
     """A reference map file is corrupt, truncated, of another format version or other parameters."""
+
+
+class MappingError(NightlocError):
+    """A teach run cannot build its map: odometry that does not fit the frames, or a pose graph
+    the optimiser cannot solve."""
+
+
+class MissingDependencyError(NightlocError, ImportError):
+    """An optional dependency is not installed; the message names the ``pip install`` command."""

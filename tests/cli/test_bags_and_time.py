@@ -133,13 +133,20 @@ def test_a_day_bag_with_a_pose_topic_builds_the_same_map_as_its_folder(garden, t
     np.testing.assert_array_equal(from_bag.images, from_folder.images)
     np.testing.assert_allclose(from_bag.positions, from_folder.positions, atol=1e-12)
     np.testing.assert_allclose(from_bag.headings, from_folder.headings, atol=1e-12)
-    # without poses: the message a folder without poses gives
+    # without poses but with odometry: a teach run (issue 20), as a folder with odometry.csv
     without = write_bag(tmp_path / "day_odometry", [day.read(i) for i in range(len(day))], frame_ns, odometry=odom)
-    assert main(["build-map", str(without), str(tmp_path / "x.map")]) == 2
+    assert main(["build-map", str(without), str(tmp_path / "x.map")]) == 0
+    assert "teach run" in capsys.readouterr().out
+    assert nightloc.ReferenceMap.load(tmp_path / "x.map").pose_source == "optimised"
+    # without poses or odometry: the message a folder without either gives
+    bare = write_bag(tmp_path / "day_bare", [day.read(i) for i in range(len(day))], frame_ns)
+    assert main(["build-map", str(bare), str(tmp_path / "x2.map")]) == 2
     bag_error = capsys.readouterr().err
+    without = bare
     folder = tmp_path / "day_folder"
     shutil.copytree(folders["day_reference"], folder)
     (folder / "poses.csv").unlink()
+    (folder / "odometry.csv").unlink()
     assert main(["build-map", str(folder), str(tmp_path / "y.map")]) == 2
     folder_error = capsys.readouterr().err
     assert bag_error.replace(str(without), "X") == folder_error.replace(str(folder), "X")
@@ -193,10 +200,9 @@ def test_bag_errors_on_the_command_line(garden, tmp_path, capsys):
     assert "--format tum needs each frame's time" in err and "timestamp column" in err
     assert main([*argv, "--format", "kml"]) == 2
     assert "--format" in capsys.readouterr().err
-    # a bag as the map: built into one (it has no poses: named)
-    assert main(["localize", str(garden["bag"]), str(garden["bag"]), "--out", str(tmp_path / "o")]) == 2
-    assert "no poses" in capsys.readouterr().err
-    assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
+    # a bag as the map: it has no poses, but odometry: built by a teach run (issue 20)
+    assert main(["localize", str(garden["bag"]), str(garden["bag"]), "--out", str(tmp_path / "o")]) == 0
+    assert (tmp_path / "o" / "trajectory.csv").is_file()
 
 
 def test_a_folder_log_with_a_timestamp_column_carries_its_times(garden, tmp_path, capsys):

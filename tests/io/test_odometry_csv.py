@@ -98,11 +98,22 @@ def test_save_traverse_rejects_bad_odometry_before_writing(tmp_path):
     assert not (tmp_path / "t").exists()
 
 
-def test_synth_writes_exact_wheel_odometry():
+def test_synth_writes_realistic_wheel_odometry():
+    """Every synthetic drive's odometry.csv is the wheel-noise model applied to the true motions
+    (issue 20): the same draw again from the traverse's own generator, and not the exact motions."""
+    from nightloc.localization.wheel_noise import WheelNoise
+    from nightloc.synth import SynthScene
+
     from synth_support import default_synth_data
 
     folder = default_synth_data()["garden"]["night_query"]
     traverse = nightloc.load_traverse(folder)
     motions = traverse_odometry(traverse)
+    expected = WheelNoise().simulate(
+        traverse.positions, traverse.headings, SynthScene("garden").odometry_rng("night_query")
+    )
     exact = true_robot_motions(traverse.positions, traverse.headings)
-    assert motions[1].forward == pytest.approx(exact[1].forward, abs=1e-9)
+    for got, want in zip(motions[1:], expected[1:]):
+        assert (got.forward, got.left, got.turn) == pytest.approx((want.forward, want.left, want.turn), abs=1e-12)
+    turn_error = np.array([m.turn - e.turn for m, e in zip(motions[1:], exact[1:])])
+    assert 0.02 < turn_error.std() < 0.1  # N(0, 0.05 rad) per step

@@ -55,7 +55,7 @@ def test_save_load_round_trip(garden_map, tmp_path):
     # the file is a plain npz with a JSON header, readable without nightloc
     with np.load(path, allow_pickle=False) as archive:
         header = json.loads(archive["header"].tobytes())
-        assert header["format"] == "nightloc-reference-map" and header["format_version"] == 1
+        assert header["format"] == "nightloc-reference-map" and header["format_version"] == 2
         assert header["params"]["width"] == 48 and len(header["checksums"]) == 3
 
 
@@ -171,7 +171,7 @@ def test_checksum_mismatch(saved):
 @pytest.mark.parametrize(
     ("change", "text"),
     [
-        (lambda h: h.update(format_version=2), "newer nightloc"),
+        (lambda h: h.update(format_version=3), "newer nightloc"),
         (lambda h: h.update(format="something-else"), "not a nightloc reference map"),
         (lambda h: h["params"].update(widht=48), "unknown key 'widht'"),
         (lambda h: h["params"].update(width="48"), "width must be int"),
@@ -307,3 +307,74 @@ def test_pickled_maps_and_traverses_stay_read_only(garden, garden_map):
     twin = pickle.loads(pickle.dumps(traverse))
     assert twin.names == traverse.names and not twin.positions.flags.writeable
     np.testing.assert_array_equal(twin.read(3), traverse.read(3))
+
+
+# --- format version 2: the poses' source and their covariances (issue 20)
+
+
+def _covariances(n, seed=0):
+    rng = np.random.default_rng(seed)
+    a = rng.normal(0.0, 0.05, (n, 3, 3))
+    return a @ np.swapaxes(a, 1, 2) + 1e-4 * np.eye(3)
+
+
+def test_pose_source_and_covariances_round_trip(garden, garden_map, tmp_path):
+    assert garden_map.pose_source == "surveyed" and garden_map.covariances is None
+    cov = _covariances(12)
+    built = ReferenceMap(
+        garden_map.images,
+        garden_map.positions,
+        garden_map.headings,
+        garden_map.names,
+        pose_source="optimised",
+        covariances=cov,
+    )
+    assert built != garden_map  # the source and covariances are part of the map
+    loaded = ReferenceMap.load(built.save(tmp_path / "teach.map"))
+    assert loaded == built and loaded.pose_source == "optimised"
+    np.testing.assert_array_equal(loaded.covariances, cov)
+    assert not loaded.covariances.flags.writeable
+    with np.load(tmp_path / "teach.map", allow_pickle=False) as archive:
+        header = json.loads(archive["header"].tobytes())
+        assert header["pose_source"] == "optimised" and "covariances" in header["checksums"]
+
+
+def test_version_1_map_loads_as_surveyed(saved):
+    """A map written before format 2 (no pose_source, no covariances) still loads, as surveyed."""
+
+    def as_version_1(header):
+        header.update(format_version=1)
+        header.pop("pose_source")
+
+    rewrite_header(saved, as_version_1)
+    loaded = ReferenceMap.load(saved)
+    assert loaded.pose_source == "surveyed" and loaded.covariances is None and len(loaded) == 12
+
+
+@pytest.mark.parametrize(
+    ("change", "text"),
+    [
+        (lambda h: h.update(pose_source="guessed"), "pose_source 'guessed'"),
+        (lambda h: h["checksums"].update(covariances="0" * 64), "lacks its 'covariances' array"),
+    ],
+)
+def test_bad_pose_fields(saved, change, text):
+    rewrite_header(saved, change)
+    with pytest.raises(MapFormatError, match=r"garden\.map") as info:
+        ReferenceMap.load(saved)
+    assert text in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("covariances", "pose_source", "text"),
+    [
+        (np.zeros((11, 3, 3)), "optimised", r"\(12, 3, 3\)"),
+        (np.full((12, 3, 3), np.nan), "optimised", "NaN"),
+        (-np.ones((12, 3, 3)), "optimised", "negative variances"),
+        (np.triu(np.ones((12, 3, 3))), "optimised", "symmetric"),
+        (None, "surveyed-ish", "pose_source must be one of"),
+    ],
+)
+def test_bad_pose_arguments(garden_map, covariances, pose_source, text):
+    with pytest.raises(ValueError, match=text):
+        ReferenceMap(garden_map.images, garden_map.positions, pose_source=pose_source, covariances=covariances)

@@ -515,7 +515,7 @@ MAPS = [
     ),
     (
         "map newer format version",
-        lambda ws: nightloc.ReferenceMap.load(ws.map_variant({"format_version": 2})),
+        lambda ws: nightloc.ReferenceMap.load(ws.map_variant({"format_version": 3})),
         MapFormatError,
         "upgrade nightloc",
     ),

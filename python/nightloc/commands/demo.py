@@ -16,6 +16,12 @@ odometry (rows ``method=filter`` of ``errors.csv``) and with wheel odometry
 (``errors_wheel.csv``: the paper's 10-frame sequences and the filter), prints both methods' median
 errors over the query frames from the 10th on per noise model, and draws
 ``filter_vs_paper.png``.
+
+Then the **teach run** (issue 20): the day map built again from the day drive's own wheel
+odometry (``odometry.csv``, no survey; :func:`nightloc.mapping.teach_run`), its ATE beside the
+dead reckoning's, and the filter's night error on it (the query's truth moved into the map's
+frame by the rigid fit) beside the surveyed map's; ``teach_run.png`` draws the paths. It needs
+GTSAM (``pip install "nightloc[mapping]"``); without it the demo says so in one line and goes on.
 """
 
 from __future__ import annotations
@@ -28,7 +34,14 @@ from typing import TYPE_CHECKING
 from ..figures import add_figure_format_option
 from ..io.atomic import make_folder, output_set
 from ..io.reference_map import ReferenceMap
-from ..localization.evaluation import Evaluation, EvaluationSettings, evaluate, match_traverse
+from ..localization.evaluation import (
+    Evaluation,
+    EvaluationSettings,
+    align_to_map,
+    evaluate,
+    map_alignment,
+    match_traverse,
+)
 from ..localization.localizer import LocalizationParams
 from .evaluate import check_draw_options
 
@@ -81,6 +94,74 @@ def comparison_table(errors: dict[str, dict[str, list[np.ndarray]]], models: tup
             cells = "".join(f"{np.median(e):<10.2f}" if e.size else f"{'-':<10}" for e in by_method[method])
             lines.append(f"{label:<30}{name:<16}{cells}")
     return "\n".join(lines)
+
+
+def _median_m(errors: np.ndarray) -> str:
+    import numpy as np
+
+    return f"{np.median(errors):.2f} m" if len(errors) else "-"
+
+
+def teach_comparison(
+    surveyed_map: ReferenceMap,
+    day: Path,
+    query: Path,
+    surveyed_errors: np.ndarray,
+    settings: EvaluationSettings,
+    params: LocalizationParams,
+    figure: Path | None = None,
+    progress_desc: str | None = None,
+) -> list[str]:
+    """The demo's teach-run lines: the map from the day drive's wheel odometry, its ATE beside
+    the dead reckoning's, the filter's night error on it beside ``surveyed_errors`` (the same
+    query frames on the surveyed map); draws the paths to ``figure``. One line when GTSAM is
+    missing."""
+    import warnings
+
+    import numpy as np
+
+    from ..errors import MissingDependencyError
+    from ..io.traverse import load_traverse
+    from ..mapping import TeachWarning, absolute_trajectory_error, teach_run
+
+    traverse = load_traverse(day)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", TeachWarning)
+            teach_map, report = teach_run(traverse, surveyed_map.params)
+    except MissingDependencyError:
+        return ['teach run: skipped, it needs GTSAM: pip install "nightloc[mapping]"']
+    truth = np.asarray(traverse.positions)
+    alignment = map_alignment(teach_map, traverse)
+    if alignment is None:  # a teach run's map is never surveyed
+        raise AssertionError("a teach-run map needs aligning")
+    matches = align_to_map(match_traverse(teach_map, query, tables=True), alignment[0])
+    evaluation = evaluate(teach_map, matches, settings, params, progress_desc=progress_desc)
+    later = evaluation.frame_index() >= COMPARE_FROM - 1
+    teach_errors = evaluation.columns["error_m"][evaluation.select(method="filter") & later]
+    if figure is not None:
+        from ..figures.teach import teach_figure
+
+        fit = alignment[0]
+        teach_figure(
+            report.dead_reckoning,
+            teach_map.positions,
+            fit.inverse().apply(truth),
+            title=f"Teach run: {traverse.root.parent.name} day drive from its wheel odometry",
+            path=figure,
+        )
+    reckoned_ate = absolute_trajectory_error(report.dead_reckoning[:, :2], truth)
+    map_ate = absolute_trajectory_error(teach_map.positions, truth)
+    first = (
+        f"teach run (the day drive's wheel odometry, no survey): {report.accepted} visual constraints accepted, "
+        f"{report.rejected} rejected; map ATE {map_ate:.2f} m (dead reckoning {reckoned_ate:.2f} m)"
+    )
+    second = (
+        f"night median error, Bayes filter with wheel odometry (noise model {settings.noise_models[0]}), frames "
+        f"{COMPARE_FROM} on: "
+        f"surveyed map {_median_m(surveyed_errors)}, teach-run map {_median_m(teach_errors)}"
+    )
+    return [first, second]
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -175,6 +256,27 @@ def run(args: argparse.Namespace) -> int:
                 f"error (m) over frames {COMPARE_FROM}-{frames}, {args.repeats} noise draw(s):"
             )
             print(comparison_table(errors, evaluation.settings.noise_models))
+            models = list(evaluation.settings.noise_models)
+            model = 1 if 1 in models else models[0]  # the robot's wheel odometry noise, as the demo's
+            wheel_filter = EvaluationSettings(
+                seq_lengths=(1,), noise_models=(model,), interpolation=(True,), odometry="robot", methods=("filter",)
+            )
+            surveyed_errors = errors["wheel odometry (RobotMotion)"]["filter"][models.index(model)]
+            teach_figure = None if args.no_figures else target / f"teach_run.{args.figure_format}"
+            lines = teach_comparison(
+                ref_map,
+                folders[world][reference],
+                folders[world][query],
+                surveyed_errors,
+                wheel_filter,
+                params,
+                teach_figure,
+                progress_desc=f"{world}: teach-run map",
+            )
+            print()
+            print("\n".join(lines))
+            if teach_figure is not None and len(lines) > 1:
+                written.append(teach_figure.name)
             reports.append(f"{args.out / world}/" + ", ".join(written))
     for report in reports:
         print(f"wrote {report}")

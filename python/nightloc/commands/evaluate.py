@@ -21,6 +21,11 @@ into OUT at the same time refuses; files in OUT that nightloc did not write are 
 Bayes filter, or both; ``--odometry`` simulated map-frame displacements (the paper), simulated
 wheel odometry, or ``log``: the query's own ``odometry.csv`` (a robot's real odometry evaluated
 against its poses; ``--odometry-noise`` is then the noise the filter assumes).
+
+A map built by a teach run (``build-map`` from wheel odometry) lives in its day drive's odometry
+frame: the query's true poses are moved into it by the best rigid 2D fit of the map onto the day
+drive's survey (``--survey DAY``, default the map's source traverse, whose ``poses.csv`` must list
+the map's frames) before any error is computed, and the command says so.
 * figures (unless ``--no-figures``): ``error_vs_seq_len.png``, ``error_vs_noise.png``,
   ``error_vs_interpolation.png`` (the paper's Figures 10-12) and ``heatmap_frame<i>.png``
   (Figure 9); ``.pdf`` or ``.svg`` with ``--figure-format``.
@@ -41,7 +46,14 @@ from ..io.atomic import check_output_path, output_set
 from ..io.kinds import bag_kind
 from ..io.reference_map import ReferenceMap
 from ..io.traverse import load_traverse
-from ..localization.evaluation import EVALUATION_METHODS, EvaluationSettings, evaluate, match_traverse
+from ..localization.evaluation import (
+    EVALUATION_METHODS,
+    EvaluationSettings,
+    align_to_map,
+    evaluate,
+    map_alignment,
+    match_traverse,
+)
 from ..localization.localizer import MAX_SEQ_LEN, LocalizationParams
 from ..localization.odometry import NoiseModel, noise_model
 from ..preparation.params import PreparationParams
@@ -89,6 +101,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         parser, "The query's camera: it must be the map's (a reference folder is prepared for it; default panoramic)."
     )
     parser.add_argument("--heatmap-frames", help="query frames (0-based) for heat-map figures (default: one, chosen)")
+    parser.add_argument(
+        "--survey",
+        type=Path,
+        help="a teach-run map (no survey of its own): the day traverse whose poses.csv aligns the map's frame with "
+        "the query's (default the map's source traverse)",
+    )
     parser.add_argument("--threads", type=int, help="matching threads (default all cores)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     add_figure_format_option(parser)
@@ -221,7 +239,7 @@ def run(args: argparse.Namespace) -> int:
     localization = sections.get("localization", LocalizationParams())
     filter_params = sections.get("filter")
     preparation = sections.get("preparation")
-    inputs = (args.reference, args.query, args.params)
+    inputs = (args.reference, args.query, args.params, args.survey)
     check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
     refuse_map_as_traverse(args.query, "QUERY", "the reference comes first: nightloc evaluate REFERENCE QUERY")
     bag = bag_options(args)
@@ -245,6 +263,9 @@ def run(args: argparse.Namespace) -> int:
             odometry=settings.odometry == "log",
         )
         matching_s = time.perf_counter() - start
+        alignment = map_alignment(ref_map, args.survey)
+        if alignment is not None:
+            matches = align_to_map(matches, alignment[0])
         evaluation = evaluate(ref_map, matches, settings, localization, filter_params=filter_params)
         total_s = time.perf_counter() - start
 
@@ -267,6 +288,8 @@ def run(args: argparse.Namespace) -> int:
                 )
             ]
 
+    if alignment is not None:
+        print(alignment[1])
     configs = len(evaluation) // max(len(matches.results), 1)
     print(
         f"{len(matches.results)} query frames of {query.root} against {len(ref_map)} references: "

@@ -11,7 +11,7 @@ from .._validate import MAX_CAMERA_RAYS, MAX_CAMERA_SIDE
 from ..io.atomic import output_set
 from ..synth.dataset import DEFAULT_DARKNESS, DEFAULT_SEED, make_dataset
 from ..synth.render import Camera
-from ..synth.world import WORLD_NAMES
+from ..synth.world import ALL_WORLDS, WORLD_NAMES
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -24,7 +24,13 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
             "--world all, each world goes to OUT/<world>/. Same seed -> byte-identical images."
         ),
     )
-    parser.add_argument("--world", choices=(*WORLD_NAMES, "all"), default="garden", help="which world (default garden)")
+    parser.add_argument(
+        "--world",
+        choices=(*ALL_WORLDS, "all"),
+        default="garden",
+        help="which world (default garden; all = the default dataset's, garden and living_room; large_garden is "
+        "the 25x15 m lawn of the teach run, about 1000 frames)",
+    )
     parser.add_argument("--out", required=True, type=Path, help="output folder")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"random seed (default {DEFAULT_SEED})")
     parser.add_argument(

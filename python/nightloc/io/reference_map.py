@@ -4,12 +4,16 @@ A robot builds the map once (:meth:`ReferenceMap.build`), saves it (:meth:`Refer
 and loads it at start-up (:meth:`ReferenceMap.load`), then matches camera frames against it
 (:meth:`ReferenceMap.match`), prepared with the very parameters the map was built with.
 
-File format (version 1): a numpy ``.npz`` archive (zip, no pickled objects) with the arrays
+File format (version 2): a numpy ``.npz`` archive (zip, no pickled objects) with the arrays
 ``images`` ``(N, Ry, Rx)`` uint8, ``positions`` ``(N, 2)`` float64, optionally ``headings``
-``(N,)`` float64, and ``header``: UTF-8 JSON bytes holding ``format`` ("nightloc-reference-map"),
-``format_version``, the preparation parameters, the frame names, the source traverse, the
-nightloc version and a SHA-256 checksum of every array. Saving writes a temporary file in the
-same folder and renames it over the target, so an interrupted save never leaves a partial map.
+``(N,)`` float64 and ``covariances`` ``(N, 3, 3)`` float64 (each pose's marginal covariance of
+``x, y, heading``: m², m·rad, rad²), and ``header``: UTF-8 JSON bytes holding ``format``
+("nightloc-reference-map"), ``format_version``, the preparation parameters, the frame names,
+the source traverse, ``pose_source`` (where the poses came from: :data:`POSE_SOURCES`), the
+nightloc version and a SHA-256 checksum of every array. Version 1 files (before the teach run:
+no ``pose_source``, no covariances) still load, as surveyed maps. Saving writes a temporary file
+in the same folder and renames it over the target, so an interrupted save never leaves a
+partial map.
 """
 
 from __future__ import annotations
@@ -41,12 +45,15 @@ from .poses import finite_headings
 from .traverse import Traverse, load_traverse
 from .video import VIDEO_SUFFIXES
 
-__all__ = ["MAP_FORMAT", "MAP_FORMAT_VERSION", "MAX_MAP_EXPANSION", "ReferenceMap"]
+__all__ = ["MAP_FORMAT", "MAP_FORMAT_VERSION", "MAX_MAP_EXPANSION", "POSE_SOURCES", "ReferenceMap"]
 
 #: The ``format`` string in every map file's header.
 MAP_FORMAT = "nightloc-reference-map"
 #: The newest map format version this nightloc reads and the one it writes.
-MAP_FORMAT_VERSION = 1
+MAP_FORMAT_VERSION = 2
+#: Where a map's poses came from: a survey (``poses.csv``), the robot's wheel odometry alone, or
+#: the teach run's pose graph (odometry corrected by the images; :mod:`nightloc.mapping`).
+POSE_SOURCES = ("surveyed", "dead-reckoned", "optimised")
 #: A map file is refused when its arrays declare more than this many times the file's size (plus
 #: 1 MiB): a small file that would decompress to gigabytes is refused before anything is read.
 #: ``np.savez`` stores arrays uncompressed (1x); ``np.savez_compressed`` maps of prepared images
@@ -77,7 +84,7 @@ def _frozen(array: np.ndarray) -> np.ndarray:
     return np.frombuffer(contiguous.tobytes(), dtype=contiguous.dtype).reshape(contiguous.shape)
 
 
-_MEMBERS = ("header", "images", "positions", "headings")
+_MEMBERS = ("header", "images", "positions", "headings", "covariances")
 
 
 def _read_member(file: Path, archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> np.ndarray:
@@ -142,9 +149,22 @@ class ReferenceMap:
             None (unknown: a map of already prepared images, or written by nightloc < 0.2);
             with :attr:`camera`, what query frames must fit
             (:func:`nightloc.preparation.camera.check_frames_fit`).
+        pose_source: where the poses came from, one of :data:`POSE_SOURCES`.
+        covariances: ``(N, 3, 3)`` float64 marginal covariance of each pose's ``(x, y, heading)``
+            (m², m·rad, rad²), or None (a survey states none).
     """
 
-    __slots__ = ("_frame_size", "_headings", "_images", "_names", "_params", "_positions", "_source")
+    __slots__ = (
+        "_covariances",
+        "_frame_size",
+        "_headings",
+        "_images",
+        "_names",
+        "_params",
+        "_pose_source",
+        "_positions",
+        "_source",
+    )
 
     def __init__(
         self,
@@ -155,11 +175,15 @@ class ReferenceMap:
         params: PreparationParams | None = None,
         source: str = "",
         frame_size: Sequence[int] | None = None,
+        *,
+        pose_source: str = "surveyed",
+        covariances: Any | None = None,
     ):
         """Wraps already prepared images; see :meth:`build` to prepare a traverse.
 
         Raises TypeError/ValueError for a wrong dtype or shape, sizes that disagree with
-        ``params`` (width x height), non-finite positions or headings, or repeated names.
+        ``params`` (width x height), non-finite positions, headings or covariances, repeated
+        names, or an unknown ``pose_source``.
         """
         params = PreparationParams() if params is None else params
         if not isinstance(params, PreparationParams):
@@ -199,6 +223,9 @@ class ReferenceMap:
                 raise ValueError(f"names must be {n} strings, got {len(name_tuple)} items")
             if len(set(name_tuple)) != n:
                 raise ValueError("names must not repeat")
+        if pose_source not in POSE_SOURCES:
+            raise ValueError(f"pose_source must be one of {', '.join(POSE_SOURCES)}, got {pose_source!r}")
+        cov = None if covariances is None else _checked_covariances(covariances, n)
         self._images = _frozen(stack)
         self._positions = _frozen(pos)
         self._headings = None if head is None else _frozen(head)
@@ -206,6 +233,8 @@ class ReferenceMap:
         self._params = params
         self._source = str(source)
         self._frame_size = _checked_frame_size(frame_size)
+        self._pose_source = str(pose_source)
+        self._covariances = None if cov is None else _frozen(cov)
 
     def __getstate__(self) -> dict:
         return {name: getattr(self, name) for name in self.__slots__}
@@ -249,6 +278,16 @@ class ReferenceMap:
         return self._source
 
     @property
+    def pose_source(self) -> str:
+        """Where the poses came from: ``"surveyed"``, ``"dead-reckoned"`` or ``"optimised"``."""
+        return self._pose_source
+
+    @property
+    def covariances(self) -> np.ndarray | None:
+        """``(N, 3, 3)`` marginal covariance of each pose's ``(x, y, heading)``, or None."""
+        return self._covariances
+
+    @property
     def camera(self) -> str:
         """``"panoramic"`` or ``"forward"``: the camera the map's parameters prepare for."""
         return camera_of(self._params)
@@ -278,7 +317,9 @@ class ReferenceMap:
 
     def __repr__(self) -> str:
         p = self._params
-        return f"ReferenceMap({len(self)} images {p.width}x{p.height}, source={self._source!r})"
+        return (
+            f"ReferenceMap({len(self)} images {p.width}x{p.height}, source={self._source!r}, poses {self._pose_source})"
+        )
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, ReferenceMap):
@@ -288,8 +329,15 @@ class ReferenceMap:
             and other._headings is not None
             and np.array_equal(self._headings, other._headings)
         )
+        same_covariances = (self._covariances is None and other._covariances is None) or (
+            self._covariances is not None
+            and other._covariances is not None
+            and np.array_equal(self._covariances, other._covariances)
+        )
         return (
             self._params == other._params
+            and self._pose_source == other._pose_source
+            and same_covariances
             and self._names == other._names
             and np.array_equal(self._images, other._images)
             and np.array_equal(self._positions, other._positions)
@@ -301,22 +349,39 @@ class ReferenceMap:
     # --- building and matching
 
     @classmethod
-    def build(cls, traverse: Traverse | PathLike, params: PreparationParams | None = None) -> ReferenceMap:
-        """Prepares every frame of a traverse (with poses) into a map.
+    def build(
+        cls, traverse: Traverse | PathLike, params: PreparationParams | None = None, *, teach: Any = None
+    ) -> ReferenceMap:
+        """Prepares every frame of a traverse into a map: with its surveyed poses, or by a teach run.
 
         Args:
             traverse: a :class:`Traverse`, or a path given to :func:`load_traverse`.
             params: preparation parameters (default: the paper's).
+            teach: None (default): the traverse's poses, or -- a folder without ``poses.csv`` but
+                with ``odometry.csv`` -- a teach run; True or a
+                :class:`~nightloc.mapping.TeachParams`: a teach run even when poses exist
+                (:func:`nightloc.mapping.teach_run`; GTSAM needed: ``pip install
+                "nightloc[mapping]"``).
 
         Raises:
-            DatasetError: the traverse has no poses, or a frame cannot be read.
+            DatasetError: the traverse has neither poses nor odometry, or a frame cannot be read.
+            MappingError, MissingDependencyError: see :func:`nightloc.mapping.teach_run`.
         """
         if not isinstance(traverse, Traverse):
             traverse = load_traverse(traverse)
+        if traverse.is_bag:
+            odometry_log = traverse.motions is not None
+        else:
+            odometry_log = not traverse.is_video and (Path(traverse.root) / "odometry.csv").is_file()
+        if (teach is not None and teach is not False) or (traverse.positions is None and odometry_log):
+            from ..mapping import TeachParams, teach_run
+
+            return teach_run(traverse, params, teach if isinstance(teach, TeachParams) else None)[0]
         if traverse.positions is None:
             raise DatasetError(
                 f"traverse {traverse.root} has no poses; a reference map needs the position of every "
-                f"image (add poses.csv with columns image,x,y[,heading])"
+                f"image (add poses.csv with columns image,x,y[,heading]) or the drive's wheel odometry for a "
+                f"teach run (odometry.csv with columns image,forward,left,turn)"
             )
         preparer = Preparer(params)
         first = traverse.read(0)  # the camera's frame size, recorded for the queries' check
@@ -354,6 +419,8 @@ class ReferenceMap:
         checksums = {"images": _sha256(self._images), "positions": _sha256(self._positions)}
         if self._headings is not None:
             checksums["headings"] = _sha256(self._headings)
+        if self._covariances is not None:
+            checksums["covariances"] = _sha256(self._covariances)
         return {
             "format": MAP_FORMAT,
             "format_version": MAP_FORMAT_VERSION,
@@ -365,6 +432,7 @@ class ReferenceMap:
             "frame_size": None if self._frame_size is None else list(self._frame_size),
             "names": list(self._names),
             "source": self._source,
+            "pose_source": self._pose_source,
             "checksums": checksums,
         }
 
@@ -385,6 +453,8 @@ class ReferenceMap:
         arrays = {"header": header, "images": self._images, "positions": self._positions}
         if self._headings is not None:
             arrays["headings"] = self._headings
+        if self._covariances is not None:
+            arrays["covariances"] = self._covariances
         with atomic_file(target, "wb", overwrite=overwrite) as stream:
             np.savez(stream, **arrays)  # type: ignore[arg-type]  # numpy's stub: allow_pickle
         return target
@@ -481,7 +551,12 @@ class ReferenceMap:
             raise MapFormatError(f"{file}: the header's checksums are not a table (corrupt file)")
         if isinstance(count, bool) or not isinstance(count, int) or count < 1:
             raise MapFormatError(f"{file}: the header's image count {count!r} is not a positive integer")
-        optional = ("headings",) if "headings" in checksums or "headings" in arrays else ()
+        optional = tuple(name for name in ("headings", "covariances") if name in checksums or name in arrays)
+        pose_source = header.get("pose_source", "surveyed") if version >= 2 else "surveyed"
+        if pose_source not in POSE_SOURCES:
+            raise MapFormatError(
+                f"{file}: the header's pose_source {pose_source!r} is not one of {', '.join(POSE_SOURCES)}"
+            )
         for name in ("images", "positions", *optional):
             if name not in arrays:
                 raise MapFormatError(f"{file}: the map lacks its '{name}' array (corrupt file)")
@@ -532,6 +607,27 @@ class ReferenceMap:
                 map_params,
                 str(header.get("source", "")),
                 frame_size=frame_size,
+                pose_source=pose_source,
+                covariances=arrays.get("covariances"),
             )
         except (TypeError, ValueError) as error:
             raise MapFormatError(f"{file}: inconsistent map contents: {error}") from None
+
+
+def _checked_covariances(covariances: Any, n: int) -> np.ndarray:
+    """``(n, 3, 3)`` float64 covariances: finite, symmetric, non-negative variances."""
+    not_masked(covariances, "covariances")
+    try:
+        cov = np.array(covariances, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"covariances must be ({n}, 3, 3) numbers: {error}") from None
+    if cov.shape != (n, 3, 3):
+        raise ValueError(f"covariances must be ({n}, 3, 3) (x, y, heading per pose), got shape {cov.shape}")
+    if not np.isfinite(cov).all():
+        raise ValueError("covariances hold NaN or infinity")
+    diagonal = np.diagonal(cov, axis1=1, axis2=2)
+    if (diagonal < 0).any():
+        raise ValueError("covariances have negative variances")
+    if not np.allclose(cov, np.swapaxes(cov, 1, 2), rtol=1e-6, atol=1e-12):
+        raise ValueError("covariances must be symmetric")
+    return cov

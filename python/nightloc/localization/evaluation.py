@@ -38,7 +38,7 @@ import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, Union
+from typing import TYPE_CHECKING, Literal, Union
 
 import numpy as np
 
@@ -70,11 +70,16 @@ __all__ = [
     "EvaluationSettings",
     "QueryMatches",
     "SummaryRow",
+    "align_to_map",
     "evaluate",
+    "map_alignment",
     "match_traverse",
     "replay",
     "simulated_odometry",
 ]
+
+if TYPE_CHECKING:
+    from ..mapping.alignment import RigidTransform2D
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -281,6 +286,62 @@ def match_traverse(
         tables=table_array,
         odometry=log,
     )
+
+
+def map_alignment(
+    ref_map: ReferenceMap, survey: Traverse | PathLike | None = None
+) -> tuple[RigidTransform2D, str] | None:
+    """How a map built by a teach run sits in the survey frame of the queries' ``poses.csv``.
+
+    A surveyed map shares the queries' frame: None. A teach run's map lives in its day drive's
+    odometry frame; the survey of that drive (``survey``, default the map's source traverse when
+    its ``poses.csv`` still lists every map frame) gives the best rigid 2D fit of the map's
+    positions onto the surveyed ones (the fit behind the map's ATE).
+
+    Returns:
+        ``(transform, description)``: a :class:`~nightloc.mapping.RigidTransform2D` from the
+        map frame to the survey frame, and one line saying what was fitted.
+
+    Raises:
+        DatasetError: the map is not surveyed and no survey of its frames can be found.
+    """
+    if ref_map.pose_source == "surveyed":
+        return None
+    from ..mapping.alignment import absolute_trajectory_error, rigid_fit
+
+    where = survey if survey is not None else (ref_map.source or None)
+    traverse = None
+    if where is not None:
+        try:
+            traverse = where if isinstance(where, Traverse) else load_traverse(where)
+        except (DatasetError, OSError, ValueError):
+            if survey is not None:
+                raise
+    lookup = {} if traverse is None or traverse.positions is None else dict(zip(traverse.names, traverse.positions))
+    if any(name not in lookup for name in ref_map.names):
+        raise DatasetError(
+            f"the map's poses are {ref_map.pose_source} in its day drive's odometry frame, the query's in its survey "
+            f"frame; aligning them needs the survey of the day drive (its poses.csv), which "
+            f"{'the map source ' + repr(ref_map.source) + ' lacks' if ref_map.source else 'the map does not name'}: "
+            f"give the day traverse with its poses.csv"
+        )
+    surveyed = np.array([lookup[name] for name in ref_map.names])
+    transform = rigid_fit(ref_map.positions, surveyed)
+    ate = absolute_trajectory_error(ref_map.positions, surveyed)
+    root = traverse.root if traverse is not None else ""
+    return transform, (
+        f"the map's poses are {ref_map.pose_source} (its day drive's odometry frame): the query's poses are "
+        f"compared in that frame after the best rigid 2D fit of the map onto {root}/poses.csv "
+        f"(map ATE {ate:.3f} m)"
+    )
+
+
+def align_to_map(matches: QueryMatches, transform: RigidTransform2D) -> QueryMatches:
+    """``matches`` with its true poses moved into a teach run's map frame (``transform``: map
+    frame to survey frame, from :func:`map_alignment`)."""
+    inverse = transform.inverse()
+    headings = None if matches.headings is None else inverse.apply_headings(matches.headings)
+    return dataclasses.replace(matches, positions=inverse.apply(matches.positions), headings=headings)
 
 
 def simulated_odometry(matches: QueryMatches, model: int, repeat: int, settings: EvaluationSettings) -> list[object]:

@@ -25,13 +25,13 @@ from .._validate import thread_count
 from ..io.atomic import locked_target, make_folder, output_set, replace_folder, staging_folder, write_text
 from ..io.files import open_regular
 from ..io.traverse import save_traverse
-from ..localization.odometry import true_robot_motions
+from ..localization.wheel_noise import WheelNoise
 from ..progress import progress
 from .lighting import Lighting, make_lighting
 from .paths import TRAVERSE_NAMES, TraversePlan, plan_traverses
 from .render import Camera, render_panorama, render_radiance
 from .sensor import Exposure, metered_exposure
-from .world import WORLD_NAMES, World, build_world
+from .world import ALL_WORLDS, WORLD_NAMES, World, build_world
 
 __all__ = [
     "DEFAULT_DARKNESS",
@@ -44,12 +44,14 @@ __all__ = [
 ]
 
 #: Bumped whenever the generator's output changes; part of the cache folder's name.
-GENERATOR_VERSION = "1"
+GENERATOR_VERSION = "2"
 DEFAULT_SEED = 0
 #: Night darkness of the default data (see :mod:`nightloc.synth.sensor`).
 DEFAULT_DARKNESS = 1.0
 NIGHT_GAMMA = 1.8  # the night camera's tone curve lifts the shadows a little more than day's 2.2
 DAY_GAMMA = 2.2
+#: The wheel odometry every drive's ``odometry.csv`` holds (issue 20's measured wheel base).
+SYNTH_WHEEL_NOISE = WheelNoise()
 
 
 class SynthScene:
@@ -93,9 +95,15 @@ class SynthScene:
 
     def frame_rng(self, traverse: str, index: int) -> np.random.Generator:
         """The noise generator of frame ``index`` of ``traverse`` (independent of render order)."""
-        world_id = WORLD_NAMES.index(self.world.name)
+        world_id = ALL_WORLDS.index(self.world.name)
         traverse_id = sum(ord(c) * (i + 1) for i, c in enumerate(traverse))
         return np.random.default_rng([self.seed, 5, world_id, traverse_id, int(index)])
+
+    def odometry_rng(self, traverse: str) -> np.random.Generator:
+        """The generator of ``traverse``'s wheel-odometry noise (its own: the images do not depend on it)."""
+        world_id = ALL_WORLDS.index(self.world.name)
+        traverse_id = sum(ord(c) * (i + 1) for i, c in enumerate(traverse))
+        return np.random.default_rng([self.seed, 6, world_id, traverse_id])
 
     def render_plan(self, plan: TraversePlan, threads: int | None = None) -> Iterator[np.ndarray]:
         """Renders the frames of ``plan`` in order (``threads`` at a time; default all cores)."""
@@ -137,6 +145,13 @@ class SynthScene:
                 "elevation_bottom_deg": self.camera.elevation_bottom_deg,
                 "column_azimuth": "heading - 2*pi*column/width",
             },
+            "odometry": {
+                "model": "wheel",
+                "scale_std": SYNTH_WHEEL_NOISE.scale_std,
+                "distance_std": SYNTH_WHEEL_NOISE.distance_std,
+                "turn_std_rad": SYNTH_WHEEL_NOISE.turn_std,
+                "turn_bias_std_rad_per_step": SYNTH_WHEEL_NOISE.turn_bias_std,
+            },
             "sun_direction": [round(float(v), 6) for v in day.sun_direction] if day.sun_direction is not None else None,
             "traverses": {p.name: {"condition": p.condition, "frames": int(len(p.positions))} for p in plans},
         }
@@ -159,11 +174,13 @@ def make_dataset(
     """Renders every traverse of ``world`` into ``out_dir`` and returns their folders by name.
 
     Args:
-        world: ``"garden"`` (day_reference, night_reference, night_query) or ``"living_room"``
-            (day_reference, night_query).
+        world: ``"garden"`` (day_reference, night_reference, night_query), ``"living_room"``
+            (day_reference, night_query) or ``"large_garden"`` (day_reference, night_query; 25 x 15
+            m, about 1000 frames, rendered on demand only).
         out_dir: the dataset folder (its parent must exist); each traverse goes to
-            ``out_dir/<traverse>`` (``images/`` + ``poses.csv`` + ``odometry.csv``, the exact
-            wheel odometry between consecutive frames), the description to
+            ``out_dir/<traverse>`` (``images/`` + ``poses.csv`` + ``odometry.csv``: realistic
+            wheel odometry between consecutive frames, :data:`SYNTH_WHEEL_NOISE`, its own seeded
+            noise per traverse; the exact motions follow from ``poses.csv``), the description to
             ``out_dir/dataset.json``.
         seed: same seed -> byte-identical images.
         darkness: night darkness in [0, 3] (default 1.0; see :mod:`nightloc.synth.sensor`).
@@ -176,8 +193,8 @@ def make_dataset(
     dataset stays whole. A folder holding files nightloc did not write is refused, and another
     process writing the same ``out_dir`` makes this call raise BlockingIOError.
     """
-    if world not in WORLD_NAMES:
-        raise ValueError(f"unknown world {world!r}; choose one of {', '.join(WORLD_NAMES)}")
+    if world not in ALL_WORLDS:
+        raise ValueError(f"unknown world {world!r}; choose one of {', '.join(ALL_WORLDS)}")
     scene = SynthScene(world, seed, darkness, camera)
     plans = plan_traverses(world, scene.seed)
     with output_set(out_dir, command="synth", overwrite=overwrite, overwrite_hint="overwrite=True") as out:
@@ -185,7 +202,7 @@ def make_dataset(
             frames = progress(
                 scene.render_plan(plan, threads), total=len(plan.positions), desc=f"{world}/{plan.name}", unit="frame"
             )
-            odometry = true_robot_motions(plan.positions, plan.headings)  # the exact wheel odometry
+            odometry = SYNTH_WHEEL_NOISE.simulate(plan.positions, plan.headings, scene.odometry_rng(plan.name))
             save_traverse(out / plan.name, frames, positions=plan.positions, headings=plan.headings, odometry=odometry)
         _write_json_atomic(out / "dataset.json", scene.describe(plans))
     return {plan.name: Path(out_dir) / plan.name for plan in plans}

@@ -8,6 +8,8 @@ garden/night_reference night       53      the same path, sampled evenly along i
 garden/night_query     night       41      an alternative path, partly overlapping
 living_room/day_reference  day     52      grid points 0.5 m x 1 m (13 x 4), row by row
 living_room/night_query    night   32      random positions and headings
+large_garden/day_reference day     875     a perimeter pass, then a lawn-mower drive, 0.5 m apart
+large_garden/night_query   night   103     across the lawn, along it, back down the middle
 =====================  ==========  ======  ==============================================
 
 Headings follow the direction of travel with a random wobble (std 8 degrees); the night
@@ -17,6 +19,7 @@ seed draws the wobble, the sideways error and the living room's random query pos
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +29,7 @@ __all__ = ["TRAVERSE_NAMES", "TraversePlan", "plan_traverses"]
 TRAVERSE_NAMES: dict[str, tuple[str, ...]] = {
     "garden": ("day_reference", "night_reference", "night_query"),
     "living_room": ("day_reference", "night_query"),
+    "large_garden": ("day_reference", "night_query"),
 }
 
 HEADING_WOBBLE = np.radians(8.0)
@@ -98,13 +102,50 @@ def _sideways(rng: np.random.Generator, points: np.ndarray, directions: np.ndarr
 GARDEN_ROW_X = np.linspace(0.5, 6.5, 6)
 GARDEN_ROW_Y = np.linspace(0.5, 4.5, 4)
 GARDEN_QUERY_WAYPOINTS = np.array([[0.5, 2.5], [6.5, 2.5], [6.5, 4.5], [3.5, 4.5], [0.5, 0.5]])
+#: The large garden's day drive: a perimeter pass, then mowing rows 1 m apart, images every
+#: LARGE_STEP metres; its night drive crosses the lawn.
+LARGE_PERIMETER = np.array([[0.5, 0.5], [24.5, 0.5], [24.5, 14.5], [0.5, 14.5], [0.5, 0.5]])
+LARGE_ROWS_X = np.array([0.5, 24.5])
+LARGE_ROWS_Y = np.arange(0.5, 15.0, 1.0)
+LARGE_STEP = 0.5
+LARGE_NIGHT_WAYPOINTS = np.array([[1.0, 7.2], [24.0, 7.8], [13.0, 14.0], [13.0, 1.0]])
+LARGE_HEADING_WOBBLE = np.radians(4.0)
 ROOM_GRID_X = np.linspace(0.0, 6.0, 13)
 ROOM_GRID_Y = np.linspace(0.0, 3.0, 4)
 
 
+def _spaced_polyline(waypoints: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points every ``step`` metres along each segment of a polyline (its corners included, not
+    repeated) and the travel direction at each; the first point is the polyline's start."""
+    points, directions = [waypoints[:1]], [np.zeros(1)]
+    for a, b in itertools.pairwise(waypoints):
+        length = float(np.hypot(*(b - a)))
+        count = max(1, int(round(length / step)))
+        t = np.arange(1, count + 1) / count
+        points.append(a + (b - a) * t[:, None])
+        directions.append(np.full(count, np.arctan2(b[1] - a[1], b[0] - a[0])))
+    direction = np.concatenate(directions)
+    direction[0] = direction[1]
+    return np.concatenate(points), direction
+
+
+def _large_garden_plans(rng: np.random.Generator) -> list[TraversePlan]:
+    mowing = _lawnmower_polyline(LARGE_ROWS_X, LARGE_ROWS_Y)
+    day_path = np.concatenate([LARGE_PERIMETER, mowing[1:]])  # the mowing starts where the pass ended
+    points, directions = _spaced_polyline(day_path, LARGE_STEP)
+    headings = wrap_angle(directions + rng.normal(0.0, LARGE_HEADING_WOBBLE, len(directions)))
+    day = TraversePlan("day_reference", "day", _sideways(rng, points, directions, 0.03), headings)
+    points, directions = _spaced_polyline(LARGE_NIGHT_WAYPOINTS, LARGE_STEP)
+    night = TraversePlan("night_query", "night", _sideways(rng, points, directions, 0.08), _wobble(rng, directions))
+    return [day, night]
+
+
 def plan_traverses(world: str, seed: int = 0) -> list[TraversePlan]:
-    """The traverses of ``world`` (``"garden"`` or ``"living_room"``), in Table I order."""
-    rng = np.random.default_rng([int(seed), 4, 0 if world == "garden" else 1])
+    """The traverses of ``world`` (``"garden"``, ``"living_room"`` or ``"large_garden"``), in
+    Table I order."""
+    rng = np.random.default_rng([int(seed), 4, {"garden": 0, "living_room": 1}.get(world, 2)])
+    if world == "large_garden":
+        return _large_garden_plans(rng)
     if world == "garden":
         stops, directions = _lawnmower_rows(GARDEN_ROW_X, GARDEN_ROW_Y)
         day = TraversePlan("day_reference", "day", stops, _wobble(rng, directions))

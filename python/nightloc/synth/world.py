@@ -19,9 +19,12 @@ import numpy as np
 from .geometry import Cylinder, PackedGeometry, Prism, Solid, box, check_free, panel
 from .textures import Texture, fbm, jitter_colour, make_texture, value_noise
 
-__all__ = ["WORLD_NAMES", "GroundMap", "LightSource", "World", "build_world"]
+__all__ = ["ALL_WORLDS", "WORLD_NAMES", "GroundMap", "LightSource", "World", "build_world"]
 
+#: The worlds of the default dataset.
 WORLD_NAMES: tuple[str, ...] = ("garden", "living_room")
+#: Every world, with those rendered on demand only (the 25 x 15 m large garden, issue 20).
+ALL_WORLDS: tuple[str, ...] = (*WORLD_NAMES, "large_garden")
 
 RGB = tuple[float, float, float]
 
@@ -408,16 +411,22 @@ def _living_room(seed: int) -> World:
     return World("living_room", objects, tex, _room_floor(rng), (0.0, 0.0, 6.0, 3.0), True, 0.3, lights, seed)
 
 
-_BUILDERS = {"garden": _garden, "living_room": _living_room}
+def _large_garden(seed: int) -> World:
+    from .large_garden import large_garden  # its own module; it builds on this one's types
+
+    return large_garden(seed)
+
+
+_BUILDERS = {"garden": _garden, "living_room": _living_room, "large_garden": _large_garden}
 
 
 def build_world(name: str, seed: int = 0) -> World:
-    """The world ``name`` (one of :data:`WORLD_NAMES`) with textures drawn from ``seed``.
+    """The world ``name`` (one of :data:`ALL_WORLDS`) with textures drawn from ``seed``.
 
     Worlds are cached (the last few built are reused); treat them as read-only.
     """
     if name not in _BUILDERS:
-        raise ValueError(f"unknown world {name!r}; choose one of {', '.join(WORLD_NAMES)}")
+        raise ValueError(f"unknown world {name!r}; choose one of {', '.join(ALL_WORLDS)}")
     return _cached_world(name, int(seed))
 
 

@@ -1,0 +1,27 @@
+"""The teach run (issue 20): a reference map from the robot's own day drive, without a survey.
+
+* :mod:`~nightloc.mapping.dead_reckoning` — wheel odometry chained into poses, with covariance;
+* :mod:`~nightloc.mapping.visual` — relative heading of two panoramas to a fraction of a column;
+* :mod:`~nightloc.mapping.candidates` — which frames see the same place; visual constraints;
+* :mod:`~nightloc.mapping.factors` — the GTSAM pose graph (odometry, visual, closed-loop factors);
+* :mod:`~nightloc.mapping.optimiser` — headings, then positions, then the whole graph; marginals;
+* :mod:`~nightloc.mapping.alignment` — rigid 2D fit and absolute trajectory error (ATE);
+* :mod:`~nightloc.mapping.teach` — :func:`teach_run`, the whole teach run.
+
+GTSAM is optional: ``pip install "nightloc[mapping]"``.
+"""
+
+from __future__ import annotations
+
+from .alignment import RigidTransform2D, absolute_trajectory_error, rigid_fit
+from .teach import TeachParams, TeachReport, TeachWarning, teach_run
+
+__all__ = [
+    "RigidTransform2D",
+    "TeachParams",
+    "TeachReport",
+    "TeachWarning",
+    "absolute_trajectory_error",
+    "rigid_fit",
+    "teach_run",
+]
