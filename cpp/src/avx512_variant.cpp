@@ -191,6 +191,10 @@ int detail::avx512_sad_variant_of_family(const char* vendor, unsigned family, co
 detail::AllShiftKernel detail::all_shift_kernel() {
     return avx512_sad_variant() == Avx512SadVariant::vnni ? sad_all_shifts_avx512vnni : sad_all_shifts_avx512bw;
 }
+
+detail::OffsetsKernel detail::offsets_kernel() {
+    return avx512_sad_variant() == Avx512SadVariant::vnni ? sad_offsets_avx512vnni : sad_offsets_avx512bw;
+}
 #endif
 
 }  // namespace nightloc

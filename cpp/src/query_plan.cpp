@@ -28,10 +28,10 @@ void write_rolled(const std::uint8_t* query, std::size_t height, std::size_t wid
 }
 
 // Writes dst(r, c) = query(r, c + offset) where 0 <= c + offset < width, else 0; zeros up to
-// `stride`. |offset| < width.
+// `stride`.
 void write_offset(const std::uint8_t* query, std::size_t height, std::size_t width, std::int32_t offset,
                   std::uint8_t* dst, std::size_t stride) {
-    const std::size_t shift = static_cast<std::size_t>(offset < 0 ? -offset : offset);
+    const std::size_t shift = std::min(static_cast<std::size_t>(offset < 0 ? -std::int64_t{offset} : offset), width);
     for (std::size_t r = 0; r < height; ++r) {
         const std::uint8_t* src_row = query + r * width;
         std::uint8_t* dst_row = dst + r * width;
@@ -124,6 +124,36 @@ bool use_all_shift_layout(SimdBackend backend, const SearchShape& shape) {
 #endif
 }
 
+// The offsets layout of sad_offsets_avx512bw: copies at even offsets e0, e0 + 2, ... covering the
+// consecutive ascending offsets of a non-wrapping search.
+struct OffsetCopies {
+    std::int32_t e0 = 0;
+    std::size_t first = 0, n_copies = 0;
+};
+
+OffsetCopies offset_copies(const SearchShape& shape) {
+    OffsetCopies c;
+    const std::int32_t v0 = shape.shifts[0], last = shape.shifts[shape.n_shifts - 1];
+    c.e0 = v0 - ((v0 % 2 + 2) % 2);
+    c.first = static_cast<std::size_t>(v0 - c.e0);
+    c.n_copies = static_cast<std::size_t>((last - c.e0) / 2) + 2;
+    return c;
+}
+
+bool use_offset_layout(SimdBackend backend, const SearchShape& shape) {
+#if NIGHTLOC_X86_KERNELS
+    if (backend != SimdBackend::avx512bw || shape.wrap || shape.width % 8 != 0 || shape.n_shifts < 3) return false;
+    for (std::size_t j = 1; j < shape.n_shifts; ++j) {
+        if (shape.shifts[j] != shape.shifts[j - 1] + 1) return false;
+    }
+    const OffsetCopies c = offset_copies(shape);
+    return c.n_copies <= kMaxOffsetCopies && c.n_copies * round_up(shape.pixels, kChunk) <= kPlanBudget;
+#else
+    (void)backend, (void)shape;
+    return false;
+#endif
+}
+
 std::size_t copies_per_block(const SearchShape& shape) {
     return std::clamp<std::size_t>(kPlanBudget / round_up(shape.pixels, kChunk), 1, shape.n_shifts);
 }
@@ -145,7 +175,9 @@ void interleave_query(const std::uint8_t* query, std::size_t height, std::size_t
 
 std::size_t plan_bytes(SimdBackend backend, const SearchShape& shape) {
     const std::size_t stride = round_up(shape.pixels, kChunk);
-    return use_all_shift_layout(backend, shape) ? stride * (shape.width / 2) : stride * copies_per_block(shape);
+    if (use_all_shift_layout(backend, shape)) return stride * (shape.width / 2);
+    if (use_offset_layout(backend, shape)) return stride * offset_copies(shape).n_copies;
+    return stride * copies_per_block(shape);
 }
 
 QueryPlan::QueryPlan(SimdBackend backend, const SearchShape& shape) : shape_(shape) {
@@ -165,6 +197,17 @@ QueryPlan::QueryPlan(SimdBackend backend, const SearchShape& shape) : shape_(sha
             const std::size_t lane = (k % 8) / 2, dword = k % 2;
             selected_[k / 8] = static_cast<std::uint16_t>(selected_[k / 8] | (1u << (4 * lane + dword)));
         }
+    } else if (use_offset_layout(backend, shape)) {
+#if NIGHTLOC_X86_KERNELS
+        offsets_kernel_ = offsets_kernel();
+#endif
+        const OffsetCopies c = offset_copies(shape);
+        offset_layout_ = true;
+        offset_e0_ = c.e0;
+        offset_first_ = c.first;
+        offset_copies_ = c.n_copies;
+        slots_per_block_ = shape.n_shifts;
+        rolled_temp_.reset(new std::uint8_t[stride_]);
     } else {
         copies_kernel_ = copies_kernel_for(backend);
         slots_per_block_ = copies_per_block(shape);
@@ -176,7 +219,20 @@ void QueryPlan::prepare(const std::uint8_t* queries, std::size_t count, std::siz
     query_count_ = count;
     slot_begin_ = slot_begin;
     slot_count_ = std::min(slots_per_block_, shape_.n_shifts - slot_begin);
-    if (all_shifts_) {
+    if (offset_layout_) {
+        const std::size_t bytes = offset_copies_ * stride_, n_chunks = stride_ / kChunk;
+        buffer_.assign_zero(count * bytes);
+        for (std::size_t k = 0; k < count; ++k) {
+            std::uint8_t* dst = buffer_.data() + k * bytes;
+            for (std::size_t m = 0; m < offset_copies_; ++m) {
+                write_offset(queries + k * query_stride, shape_.height, shape_.width,
+                             offset_e0_ + 2 * static_cast<std::int32_t>(m), rolled_temp_.get(), stride_);
+                for (std::size_t c = 0; c < n_chunks; ++c) {
+                    std::memcpy(dst + (c * offset_copies_ + m) * kChunk, rolled_temp_.get() + c * kChunk, kChunk);
+                }
+            }
+        }
+    } else if (all_shifts_) {
         buffer_.assign_zero(count * interleaved_bytes_);
         for (std::size_t k = 0; k < count; ++k) {
             interleave_query(queries + k * query_stride, shape_.height, shape_.width, rolled_temp_.get(),
@@ -197,6 +253,14 @@ void QueryPlan::evaluate(const std::uint8_t* refs, std::size_t n_refs, std::uint
                          std::uint32_t* scratch) const {
     if (n_refs == 0) return;
 #if NIGHTLOC_X86_KERNELS
+    if (offset_layout_) {
+        const std::size_t bytes = offset_copies_ * stride_;
+        for (std::size_t k = 0; k < query_count_; ++k) {
+            offsets_kernel_(buffer_.data() + k * bytes, offset_copies_, offset_first_, slot_count_, refs,
+                            shape_.ref_stride, n_refs, shape_.pixels, out + k * slot_count_, out_stride);
+        }
+        return;
+    }
     if (all_shifts_) {
         const std::size_t width = shape_.width;
         for (std::size_t k = 0; k < query_count_; ++k) {

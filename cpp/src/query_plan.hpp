@@ -56,6 +56,8 @@ std::size_t plan_bytes(SimdBackend backend, const SearchShape& shape);
 /// A block of queries, prepared for one block of the shift list [slot_begin, slot_end):
 ///  - all-shift layout (AVX-512BW, width % 8 == 0, many shifts): per query, its even-shift copies,
 ///    interleaved;
+///  - offsets layout (AVX-512BW, width % 8 == 0, non-wrapping consecutive offsets): per query, its
+///    zero-filled copies at even offsets, interleaved the same way;
 ///  - otherwise one rolled copy per query and shift of the block, all handed to one kernel call
 ///    so that each reference chunk loaded serves every query of the block.
 /// evaluate() and evaluate_min() are const and may run concurrently on one plan.
@@ -92,7 +94,11 @@ private:
     CopiesKernel copies_kernel_ = nullptr;
 #if NIGHTLOC_X86_KERNELS
     AllShiftKernel all_shift_kernel_ = nullptr;
+    OffsetsKernel offsets_kernel_ = nullptr;
 #endif
+    bool offset_layout_ = false;  // non-wrapping offsets on AVX-512 (sad_offsets_avx512bw)
+    std::int32_t offset_e0_ = 0;
+    std::size_t offset_first_ = 0, offset_copies_ = 0;
     std::size_t stride_ = 0;             // bytes per rolled copy
     std::size_t interleaved_bytes_ = 0;  // bytes per query in the all-shift layout
     bool fused_min_ = false;

@@ -112,6 +112,7 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
     std::vector<std::uint32_t> mins(plans.any_fused() ? r_max : 0);
     std::vector<std::int32_t> min_shifts(mins.size());
     std::vector<std::uint32_t> edges, edge_scratch;
+    std::vector<float> keys(window.wrap() ? 0 : n_slots_total);
 
     // Band t of references [r0, r0 + r_count) of the tile; edge(i) = the edge sums of reference
     // r0 + i for this band's slots (non-wrapping searches).
@@ -153,14 +154,11 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
                     }
                     continue;
                 }
-                const std::uint32_t* e = edge + i * edge_stride + slot0;
-                for (std::size_t j = 0; j < n_slots; ++j) {
-                    const std::uint32_t sum = s[j] - e[j];
-                    const std::uint32_t rank = window.rank(t, slot0 + j);
-                    if (window.better(sum, rank, row_best[i], row_rank[i])) {
-                        row_best[i] = sum;
-                        row_rank[i] = rank;
-                    }
+                std::uint32_t sum = 0, rank = 0;
+                window.best_of_band(t, slot0, n_slots, s, edge + i * edge_stride + slot0, keys.data(), sum, rank);
+                if (window.better(sum, rank, row_best[i], row_rank[i])) {
+                    row_best[i] = sum;
+                    row_rank[i] = rank;
                 }
             }
         }

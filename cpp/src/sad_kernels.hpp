@@ -92,6 +92,28 @@ using AllShiftKernel = void (*)(const std::uint8_t*, std::size_t, const std::uin
 /// The all-shift kernel of the variant in use (nightloc::avx512_sad_variant(), avx512_variant.cpp).
 AllShiftKernel all_shift_kernel();
 
+/// Most copies the offsets kernel takes (its partial sums live on the stack).
+inline constexpr std::size_t kMaxOffsetCopies = 256;
+
+/// Offsets kernel (AVX-512BW vdbpsadbw) for non-wrapping column offsets, width % 8 == 0.
+/// `layout` holds n_copies (<= kMaxOffsetCopies) zero-filled copies of one query band, copy m
+/// offset by e0 + 2m columns (dst(r, c) = Q(r, c + e0 + 2m), 0 outside the image), chunk-major:
+/// chunk c of copy m at (c * n_copies + m) * 64, zero beyond `pixels`. For every reference i
+/// (refs + i * ref_stride) and slot j < n_slots, the offset e0 + first + j (first + n_slots <=
+/// 2 * n_copies - 2):  out[i * out_stride + j] = sum_{p < pixels} |copy_offset[p] - ref_i[p]|.
+/// Each vdbpsadbw on copy m gives offsets e0 + 2m, +1 on the low half of an 8-pixel group and
+/// e0 + 2m - 2, -1 on the high half, as in the all-shift kernel, without wrapping.
+void sad_offsets_avx512bw(const std::uint8_t* layout, std::size_t n_copies, std::size_t first, std::size_t n_slots,
+                          const std::uint8_t* refs, std::size_t ref_stride, std::size_t n_refs, std::size_t pixels,
+                          std::uint32_t* out, std::size_t out_stride);
+void sad_offsets_avx512vnni(const std::uint8_t* layout, std::size_t n_copies, std::size_t first, std::size_t n_slots,
+                            const std::uint8_t* refs, std::size_t ref_stride, std::size_t n_refs, std::size_t pixels,
+                            std::uint32_t* out, std::size_t out_stride);
+using OffsetsKernel = void (*)(const std::uint8_t*, std::size_t, std::size_t, std::size_t, const std::uint8_t*,
+                               std::size_t, std::size_t, std::size_t, std::uint32_t*, std::size_t);
+/// The offsets kernel of the AVX-512 variant in use.
+OffsetsKernel offsets_kernel();
+
 /// The CPU family table of the variant choice: the Avx512SadVariant value for a CPUID vendor
 /// string and family, or -1 (not listed: measure); `why` receives the table's reason.
 int avx512_sad_variant_of_family(const char* vendor, unsigned family, const char** why) noexcept;

@@ -194,7 +194,7 @@ template <std::size_t G, bool Vnni>
 NL_TARGET_AVX512 NL_INLINE void dbsad_group(const std::uint8_t* interleaved, std::size_t chunk_stride, std::size_t m0,
                                             const std::uint8_t* ref, std::size_t ref_stride, std::size_t pixels,
                                             std::uint32_t* part) {
-    static_assert(G % 4 == 0 && G <= kMaxGroup, "group size");
+    static_assert(G >= 1 && G <= kMaxGroup, "group size");
     const std::size_t n_full = pixels / kChunk;
     const std::size_t tail = pixels % kChunk;
     const std::size_t n_chunks = n_full + (tail ? 1 : 0);
@@ -222,7 +222,11 @@ NL_TARGET_AVX512 NL_INLINE void dbsad_group(const std::uint8_t* interleaved, std
 #pragma GCC unroll 6
         for (std::size_t g = 0; g < G; g += 4) {
             std::uint32_t* p = part + (m0 + g) * 4;
-            const __m512i sums = reduce4<Vnni>(acc[g], acc[g + 1], acc[g + 2], acc[g + 3]);
+            // G not a multiple of 4 (the offsets kernel): the last reduction repeats acc[G - 1]; its
+            // extra lanes land in part beyond copy m0 + G - 1 (slack, or the next group's, stored
+            // over by that group's first flush).
+            const __m512i sums = reduce4<Vnni>(acc[g], acc[g + 1 < G ? g + 1 : G - 1], acc[g + 2 < G ? g + 2 : G - 1],
+                                               acc[g + 3 < G ? g + 3 : G - 1]);
             _mm512_storeu_si512(p, first_flush ? sums : _mm512_add_epi32(_mm512_loadu_si512(p), sums));
         }
     }
@@ -311,6 +315,61 @@ NL_TARGET_AVX512 void sad_all_shifts(const std::uint8_t* interleaved, std::size_
     }
 }
 
+// Sums P_m[0..3] of every copy m < n_copies of one reference band into part, in groups of at
+// most kMaxGroup copies (groups of 13..24 rounded down to a multiple of 4, smaller ones exact).
+template <bool Vnni>
+NL_TARGET_AVX512 NL_INLINE void offset_partials(const std::uint8_t* layout, std::size_t n_copies,
+                                                const std::uint8_t* ref, std::size_t ref_stride, std::size_t pixels,
+                                                std::uint32_t* part) {
+    const std::size_t chunk_stride = n_copies * kChunk;
+    for (std::size_t m0 = 0; m0 < n_copies;) {
+        const std::size_t left = n_copies - m0;
+        const std::size_t group = left > 12 ? (left >= kMaxGroup ? kMaxGroup : left / 4 * 4) : left;
+        switch (group) {
+#define NL_OFFSET_GROUP(G)                                                             \
+    case G:                                                                            \
+        dbsad_group<G, Vnni>(layout, chunk_stride, m0, ref, ref_stride, pixels, part); \
+        break;
+            NL_OFFSET_GROUP(1)
+            NL_OFFSET_GROUP(2)
+            NL_OFFSET_GROUP(3)
+            NL_OFFSET_GROUP(4)
+            NL_OFFSET_GROUP(5)
+            NL_OFFSET_GROUP(6)
+            NL_OFFSET_GROUP(7)
+            NL_OFFSET_GROUP(8)
+            NL_OFFSET_GROUP(9)
+            NL_OFFSET_GROUP(10)
+            NL_OFFSET_GROUP(11)
+            NL_OFFSET_GROUP(12)
+            NL_OFFSET_GROUP(16)
+            NL_OFFSET_GROUP(20)
+            default:
+                dbsad_group<24, Vnni>(layout, chunk_stride, m0, ref, ref_stride, pixels, part);
+                break;
+#undef NL_OFFSET_GROUP
+        }
+        m0 += group;
+    }
+}
+
+// The offsets kernel (sad_kernels.hpp): P_m for every copy, then slot j (offset e0 + first + j)
+// = P_m[d] + P_{m+1}[2 + d] with first + j = 2m + d.
+template <bool Vnni>
+NL_TARGET_AVX512 void sad_offsets(const std::uint8_t* layout, std::size_t n_copies, std::size_t first,
+                                  std::size_t n_slots, const std::uint8_t* refs, std::size_t ref_stride,
+                                  std::size_t n_refs, std::size_t pixels, std::uint32_t* out, std::size_t out_stride) {
+    alignas(64) std::uint32_t part[(kMaxOffsetCopies + 4) * 4 + 16];
+    for (std::size_t i = 0; i < n_refs; ++i) {
+        offset_partials<Vnni>(layout, n_copies, refs + i * ref_stride, ref_stride, pixels, part);
+        std::uint32_t* o = out + i * out_stride;
+        for (std::size_t j = 0; j < n_slots; ++j) {
+            const std::size_t r = first + j, m = r / 2, d = r % 2;
+            o[j] = part[m * 4 + d] + part[(m + 1) * 4 + 2 + d];
+        }
+    }
+}
+
 }  // namespace
 
 void sad_all_shifts_avx512bw(const std::uint8_t* interleaved, std::size_t width, const std::uint8_t* refs,
@@ -327,6 +386,18 @@ void sad_all_shifts_avx512vnni(const std::uint8_t* interleaved, std::size_t widt
                                std::int32_t* best_shifts) {
     sad_all_shifts<true>(interleaved, width, refs, ref_stride, n_refs, pixels, out, out_stride, selected, best_sums,
                          best_shifts);
+}
+
+void sad_offsets_avx512bw(const std::uint8_t* layout, std::size_t n_copies, std::size_t first, std::size_t n_slots,
+                          const std::uint8_t* refs, std::size_t ref_stride, std::size_t n_refs, std::size_t pixels,
+                          std::uint32_t* out, std::size_t out_stride) {
+    sad_offsets<false>(layout, n_copies, first, n_slots, refs, ref_stride, n_refs, pixels, out, out_stride);
+}
+
+void sad_offsets_avx512vnni(const std::uint8_t* layout, std::size_t n_copies, std::size_t first, std::size_t n_slots,
+                            const std::uint8_t* refs, std::size_t ref_stride, std::size_t n_refs, std::size_t pixels,
+                            std::uint32_t* out, std::size_t out_stride) {
+    sad_offsets<true>(layout, n_copies, first, n_slots, refs, ref_stride, n_refs, pixels, out, out_stride);
 }
 
 }  // namespace nightloc::detail

@@ -2,6 +2,8 @@
 #include "shift_window.hpp"
 
 #include <algorithm>
+#include <cstring>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -57,6 +59,7 @@ Window::Window(std::size_t height, std::size_t width, const std::int32_t* shifts
             column_rank_.push_back(offset_rank(dx));
         }
     }
+    small_sums_ = full_.pixels <= (std::size_t{1} << 31) / 256;  // a band's sums fit an int32
     const std::size_t n_ranks = n_bands() * n_columns();
     if (n_ranks > kMaxCandidates) {
         throw std::invalid_argument("the translation window holds " + std::to_string(n_ranks) +
@@ -66,6 +69,8 @@ Window::Window(std::size_t height, std::size_t width, const std::int32_t* shifts
     rank_overlap_.resize(n_ranks);
     rank_value_.resize(n_ranks);
     rank_dy_.resize(n_ranks);
+    slot_rank_.resize(n_ranks);
+    slot_inverse_.resize(n_ranks);
     for (std::size_t t = 0; t < n_bands(); ++t) {
         for (std::size_t j = 0; j < n_columns(); ++j) {
             const std::uint32_t r = rank(t, j);
@@ -73,6 +78,8 @@ Window::Window(std::size_t height, std::size_t width, const std::int32_t* shifts
             rank_overlap_[r] = static_cast<std::uint32_t>(band_rows(t) * cols);
             rank_value_[r] = values_[j];
             rank_dy_[r] = dy(t);
+            slot_rank_[t * n_columns() + j] = r;
+            slot_inverse_[t * n_columns() + j] = 1.0f / static_cast<float>(band_rows(t) * cols);
         }
     }
 }
@@ -96,6 +103,96 @@ double Window::comparisons() const {
     return total;
 }
 
+#if defined(__GNUC__) || defined(__clang__)
+#define NIGHTLOC_VECTOR_EXTENSIONS 1
+namespace {
+typedef float Float4 __attribute__((vector_size(16)));
+typedef std::int32_t Int4 __attribute__((vector_size(16)));
+typedef std::uint8_t Byte8 __attribute__((vector_size(8)));
+typedef std::uint16_t Word8 __attribute__((vector_size(16)));
+typedef std::uint32_t Dword8 __attribute__((vector_size(32)));
+
+template <class V>
+V load_vector(const void* p) {
+    V v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+}
+}  // namespace
+#else
+#define NIGHTLOC_VECTOR_EXTENSIONS 0
+#endif
+
+void Window::best_of_band(std::size_t band, std::size_t slot0, std::size_t n, const std::uint32_t* s,
+                          const std::uint32_t* e, float* keys, std::uint32_t& best_sum,
+                          std::uint32_t& best_rank) const {
+    const float* inverse = slot_inverse_.data() + band * n_columns() + slot0;
+    const std::uint32_t* ranks = slot_rank_.data() + band * n_columns() + slot0;
+    // Keys: float(sum) * (1 / overlap), within a relative 2^-22 of the mean (three roundings);
+    // every lowest mean is within 2^-20 of the lowest key, so the candidates above
+    // lowest * (1 + 2^-18) cannot win, and the others are compared exactly.
+    float lowest = std::numeric_limits<float>::infinity();
+    std::size_t j = 0;
+#if NIGHTLOC_VECTOR_EXTENSIONS
+    if (small_sums_) {  // band sums below 2^31: int32 conversion
+        const float inf = std::numeric_limits<float>::infinity();
+        Float4 low = {inf, inf, inf, inf};
+        for (; j + 4 <= n; j += 4) {
+            const Int4 d = load_vector<Int4>(s + j) - load_vector<Int4>(e + j);
+            const Float4 key = __builtin_convertvector(d, Float4) * load_vector<Float4>(inverse + j);
+            std::memcpy(keys + j, &key, sizeof key);
+            low = key < low ? key : low;
+        }
+        for (int lane = 0; lane < 4; ++lane) lowest = low[lane] < lowest ? low[lane] : lowest;
+    }
+#endif
+    for (; j < n; ++j) {
+        const float key = static_cast<float>(s[j] - e[j]) * inverse[j];
+        keys[j] = key;
+        lowest = key < lowest ? key : lowest;
+    }
+    const float threshold = lowest + lowest * 0x1p-18f;
+    best_sum = std::numeric_limits<std::uint32_t>::max();
+    best_rank = kNoRank;
+    auto consider = [&](std::size_t k) {
+        if (better(s[k] - e[k], ranks[k], best_sum, best_rank)) {
+            best_sum = s[k] - e[k];
+            best_rank = ranks[k];
+        }
+    };
+    // Count the contenders and sum their indices without branching: almost always there is one,
+    // and the exact comparison is needed only when there are several.
+    std::size_t count = 0, index_sum = 0;
+    j = 0;
+#if NIGHTLOC_VECTOR_EXTENSIONS
+    const Float4 limit = {threshold, threshold, threshold, threshold};
+    Int4 counts = {0, 0, 0, 0}, indices = {0, 0, 0, 0};
+    Int4 lane = {0, 1, 2, 3};
+    const Int4 four = {4, 4, 4, 4};
+    for (; j + 4 <= n; j += 4, lane += four) {
+        const Int4 in = load_vector<Float4>(keys + j) <= limit;  // -1 where a contender
+        counts -= in;
+        indices += in & lane;
+    }
+    for (int l = 0; l < 4; ++l) {
+        count += static_cast<std::size_t>(counts[l]);
+        index_sum += static_cast<std::size_t>(indices[l]);
+    }
+#endif
+    for (; j < n; ++j) {
+        const bool in = keys[j] <= threshold;
+        count += in;
+        index_sum += in ? j : 0;
+    }
+    if (count == 1) {
+        best_sum = s[index_sum] - e[index_sum];
+        best_rank = ranks[index_sum];
+        return;
+    }
+    for (j = 0; j < n; ++j)
+        if (keys[j] <= threshold) consider(j);
+}
+
 void Window::edge_sums(const std::uint8_t* ref, std::size_t band_begin, std::size_t band_end, std::uint32_t* out,
                        std::vector<std::uint32_t>& scratch) const {
     const std::size_t n = n_columns();
@@ -103,51 +200,114 @@ void Window::edge_sums(const std::uint8_t* ref, std::size_t band_begin, std::siz
         std::fill(out, out + (band_end - band_begin) * n, 0u);
         return;
     }
-    const std::size_t width = full_.width, height = full_.height, sx = columns_;
-    // Column sums of the sx leftmost (left) and sx rightmost (right) columns over all rows, over
-    // the top k rows and over the bottom k rows (k = 1 .. rows).
-    scratch.assign(2 * sx * (2 + 2 * rows_), 0u);
-    std::uint32_t* total = scratch.data();  // [left sx | right sx]
-    std::uint32_t* top = total + 2 * sx;    // top + (k - 1) * 2 sx
-    std::uint32_t* bottom = top + 2 * sx * rows_;
+#if NIGHTLOC_VECTOR_EXTENSIONS
+    if (columns_ <= 16 && full_.width >= 16) {
+        edge_sums_narrow(ref, band_begin, band_end, out, scratch);
+        return;
+    }
+#endif
+    const std::size_t width = full_.width, height = full_.height, sx = columns_, w2 = 2 * sx;
+    // Column sums of the sx leftmost and sx rightmost columns ([left sx | right sx]) over all rows
+    // (total), over the top k rows (top + (k - 1) * w2) and the bottom k rows (bottom + ...), k =
+    // 1 .. rows; then zeros (the rows a band of dy = 0 leaves out) and one band's sums.
+    scratch.assign(w2 * (3 + 2 * rows_), 0u);
+    std::uint32_t* const total = scratch.data();
+    std::uint32_t* const top = total + w2;
+    std::uint32_t* const bottom = top + w2 * rows_;
+    const std::uint32_t* const none = bottom + w2 * rows_;
+    std::uint32_t* const band_cols = bottom + w2 * (rows_ + 1);
     const std::size_t right = width - sx;
-    for (std::size_t r = 0; r < height; ++r) {
-        const std::uint8_t* row = ref + r * width;
-        for (std::size_t c = 0; c < sx; ++c) total[c] += row[c];
-        for (std::size_t c = 0; c < sx; ++c) total[sx + c] += row[right + c];
-        if (r < rows_) {
-            std::uint32_t* snapshot = top + r * 2 * sx;
-            std::copy(total, total + 2 * sx, snapshot);
-        }
+    auto add_row = [&](std::uint32_t* __restrict acc, const std::uint8_t* __restrict row) {
+        for (std::size_t c = 0; c < sx; ++c) acc[c] += row[c];
+        for (std::size_t c = 0; c < sx; ++c) acc[sx + c] += row[right + c];
+    };
+    for (std::size_t r = 0; r < rows_; ++r) {
+        add_row(total, ref + r * width);
+        std::copy(total, total + w2, top + r * w2);
     }
+    for (std::size_t r = rows_; r < height; ++r) add_row(total, ref + r * width);
     for (std::size_t k = 1; k <= rows_; ++k) {
-        const std::uint8_t* row = ref + (height - k) * width;
-        std::uint32_t* dst = bottom + (k - 1) * 2 * sx;
-        const std::uint32_t* prev = k > 1 ? dst - 2 * sx : nullptr;
-        for (std::size_t c = 0; c < sx; ++c) dst[c] = (prev ? prev[c] : 0u) + row[c];
-        for (std::size_t c = 0; c < sx; ++c) dst[sx + c] = (prev ? prev[sx + c] : 0u) + row[right + c];
+        std::uint32_t* dst = bottom + (k - 1) * w2;
+        if (k > 1) std::copy(dst - w2, dst, dst);
+        add_row(dst, ref + (height - k) * width);
     }
-    std::uint32_t* band_cols = bottom + 2 * sx * rows_;
     for (std::size_t t = band_begin; t < band_end; ++t) {
         const std::int32_t d = dy(t);
         const std::uint32_t* excluded =
-            d < 0 ? top + (magnitude(d) - 1) * 2 * sx : (d > 0 ? bottom + (magnitude(d) - 1) * 2 * sx : nullptr);
-        for (std::size_t c = 0; c < 2 * sx; ++c) band_cols[c] = total[c] - (excluded ? excluded[c] : 0u);
+            d < 0 ? top + (magnitude(d) - 1) * w2 : (d > 0 ? bottom + (magnitude(d) - 1) * w2 : none);
+        for (std::size_t c = 0; c < w2; ++c) band_cols[c] = total[c] - excluded[c];
         std::uint32_t* dst = out + (t - band_begin) * n;
         // Slot j holds dx = j - sx: dx < 0 leaves out columns [0, -dx), dx > 0 columns [W - dx, W).
         dst[sx] = 0;
-        std::uint32_t acc = 0;
+        std::uint32_t left = 0, right_sum = 0;
         for (std::size_t a = 1; a <= sx; ++a) {
-            acc += band_cols[a - 1];
-            dst[sx - a] = acc;
-        }
-        acc = 0;
-        for (std::size_t a = 1; a <= sx; ++a) {
-            acc += band_cols[2 * sx - a];
-            dst[sx + a] = acc;
+            left += band_cols[a - 1];
+            right_sum += band_cols[w2 - a];
+            dst[sx - a] = left;
+            dst[sx + a] = right_sum;
         }
     }
 }
+
+#if NIGHTLOC_VECTOR_EXTENSIONS
+// edge_sums for columns <= 16 and width >= 16: the 16 leftmost and 16 rightmost columns of every
+// row in 16-bit vector lanes (flushed to 32 bits every 256 rows), then the same as edge_sums.
+void Window::edge_sums_narrow(const std::uint8_t* ref, std::size_t band_begin, std::size_t band_end, std::uint32_t* out,
+                              std::vector<std::uint32_t>& scratch) const {
+    constexpr std::size_t kSide = 16, kLanes = 2 * kSide;  // [left 16 | right 16]
+    const std::size_t width = full_.width, height = full_.height, sx = columns_, n = n_columns();
+    scratch.assign(kLanes * (3 + 2 * rows_), 0u);
+    std::uint32_t* const total = scratch.data();
+    std::uint32_t* const top = total + kLanes;
+    std::uint32_t* const bottom = top + kLanes * rows_;
+    const std::uint32_t* const none = bottom + kLanes * rows_;
+    std::uint32_t* const band_cols = bottom + kLanes * (rows_ + 1);
+    auto add_row32 = [&](std::uint32_t* __restrict acc, const std::uint8_t* row) {
+        for (std::size_t c = 0; c < kSide; ++c) acc[c] += row[c];
+        for (std::size_t c = 0; c < kSide; ++c) acc[kSide + c] += row[width - kSide + c];
+    };
+    for (std::size_t r0 = 0; r0 < height; r0 += 256) {
+        Word8 acc[4] = {};
+        const std::size_t r1 = std::min(height, r0 + 256);
+        for (std::size_t r = r0; r < r1; ++r) {
+            const std::uint8_t* row = ref + r * width;
+            acc[0] += __builtin_convertvector(load_vector<Byte8>(row), Word8);
+            acc[1] += __builtin_convertvector(load_vector<Byte8>(row + 8), Word8);
+            acc[2] += __builtin_convertvector(load_vector<Byte8>(row + width - kSide), Word8);
+            acc[3] += __builtin_convertvector(load_vector<Byte8>(row + width - 8), Word8);
+        }
+        for (std::size_t k = 0; k < 4; ++k) {
+            const Dword8 wide = __builtin_convertvector(acc[k], Dword8);
+            for (std::size_t c = 0; c < 8; ++c) total[8 * k + c] += wide[c];
+        }
+    }
+    for (std::size_t k = 1; k <= rows_; ++k) {
+        std::uint32_t* t = top + (k - 1) * kLanes;
+        std::uint32_t* b = bottom + (k - 1) * kLanes;
+        if (k > 1) {
+            std::copy(t - kLanes, t, t);
+            std::copy(b - kLanes, b, b);
+        }
+        add_row32(t, ref + (k - 1) * width);
+        add_row32(b, ref + (height - k) * width);
+    }
+    for (std::size_t t = band_begin; t < band_end; ++t) {
+        const std::int32_t d = dy(t);
+        const std::uint32_t* excluded =
+            d < 0 ? top + (magnitude(d) - 1) * kLanes : (d > 0 ? bottom + (magnitude(d) - 1) * kLanes : none);
+        for (std::size_t c = 0; c < kLanes; ++c) band_cols[c] = total[c] - excluded[c];
+        std::uint32_t* dst = out + (t - band_begin) * n;
+        dst[sx] = 0;
+        std::uint32_t left = 0, right = 0;
+        for (std::size_t a = 1; a <= sx; ++a) {
+            left += band_cols[a - 1];
+            right += band_cols[kLanes - a];
+            dst[sx - a] = left;
+            dst[sx + a] = right;
+        }
+    }
+}
+#endif
 
 }  // namespace nightloc::detail
 

@@ -70,6 +70,16 @@ public:
     void edge_sums(const std::uint8_t* ref, std::size_t band_begin, std::size_t band_end, std::uint32_t* out,
                    std::vector<std::uint32_t>& scratch) const;
 
+    /// The best candidate of band `band` among slots [slot0, slot0 + n) for one pair, from the
+    /// kernel's slot sums s minus the edge sums e (non-wrapping bands): best_sum and best_rank.
+    /// `keys` is scratch for n doubles. Means are first compared by double(sum) * (1 / overlap)
+    /// (at most two roundings); only the candidates within a relative 2^-40 of the lowest key can
+    /// be the lowest mean, and those are compared exactly (better()). (Keys are float32: the
+    /// bound is in shift_window.cpp.) (Keys in float32: see the
+    /// bound in shift_window.cpp.)
+    void best_of_band(std::size_t band, std::size_t slot0, std::size_t n, const std::uint32_t* s,
+                      const std::uint32_t* e, float* keys, std::uint32_t& best_sum, std::uint32_t& best_rank) const;
+
     /// Whether candidate (sum, rank) is better than the best so far (best_sum, best_rank); a best
     /// of (UINT32_MAX, UINT32_MAX) is worse than every candidate.
     bool better(std::uint32_t sum, std::uint32_t rank, std::uint32_t best_sum, std::uint32_t best_rank) const {
@@ -94,6 +104,11 @@ private:
     std::vector<std::size_t> column_rank_;
     std::vector<std::size_t> slot_of_shift_;
     std::vector<std::uint32_t> rank_overlap_;
+    std::vector<std::uint32_t> slot_rank_;  // band * n_columns + slot -> rank
+    std::vector<float> slot_inverse_;       // band * n_columns + slot -> 1 / overlap
+    bool small_sums_ = false;               // every band sum fits an int32
+    void edge_sums_narrow(const std::uint8_t* ref, std::size_t band_begin, std::size_t band_end, std::uint32_t* out,
+                          std::vector<std::uint32_t>& scratch) const;
     std::vector<std::int32_t> rank_value_;
     std::vector<std::int32_t> rank_dy_;
 };

@@ -97,6 +97,56 @@ void check_kernel(nightloc::detail::AllShiftKernel kernel, const char* name, con
     CHECK(same);
 }
 
+// The offsets kernels (non-wrapping column offsets) against a plain loop: copies at even offsets
+// e0 + 2m, zero outside the image, chunk-major; slots e0 + first + j. References are bands of
+// taller images (ref_stride > pixels), as the window engine passes them.
+void check_offsets_kernel(nightloc::detail::OffsetsKernel kernel, const char* name, std::size_t h, std::size_t w,
+                          std::int32_t e0, std::size_t first, std::size_t n_slots, int fill, std::mt19937& rng) {
+    const std::size_t pixels = h * w, ref_stride = pixels + 3 * w, n_refs = 3;
+    const std::size_t n_copies = (first + n_slots - 1) / 2 + 2;
+    std::vector<std::uint8_t> query(pixels), refs(n_refs * ref_stride);
+    std::uniform_int_distribution<int> byte(0, 255);
+    for (auto& v : query) v = static_cast<std::uint8_t>(fill < 0 ? byte(rng) : 255 * fill);
+    for (auto& v : refs) v = static_cast<std::uint8_t>(fill < 0 ? byte(rng) : 255 * (1 - fill));
+    const std::size_t stride = round_up(pixels, kChunk), n_chunks = stride / kChunk;
+    std::vector<std::uint8_t> storage(stride * n_copies + kChunk, 0), copy(stride);
+    auto* layout = reinterpret_cast<std::uint8_t*>(round_up(reinterpret_cast<std::uintptr_t>(storage.data()), kChunk));
+    for (std::size_t m = 0; m < n_copies; ++m) {
+        const long offset = e0 + 2 * static_cast<long>(m);
+        std::fill(copy.begin(), copy.end(), std::uint8_t{0});
+        for (std::size_t y = 0; y < h; ++y) {
+            for (std::size_t x = 0; x < w; ++x) {
+                const long xq = static_cast<long>(x) + offset;
+                if (xq >= 0 && xq < static_cast<long>(w)) copy[y * w + x] = query[y * w + static_cast<std::size_t>(xq)];
+            }
+        }
+        for (std::size_t c = 0; c < n_chunks; ++c)
+            std::memcpy(layout + (c * n_copies + m) * kChunk, &copy[c * kChunk], kChunk);
+    }
+    std::vector<std::uint32_t> out(n_refs * n_slots, 0);
+    kernel(layout, n_copies, first, n_slots, refs.data() + w, ref_stride, n_refs, pixels, out.data(), n_slots);
+    bool same = true;
+    for (std::size_t i = 0; i < n_refs; ++i) {
+        const std::uint8_t* ref = refs.data() + w + i * ref_stride;
+        for (std::size_t j = 0; j < n_slots; ++j) {
+            const long offset = e0 + static_cast<long>(first + j);
+            std::uint32_t sum = 0;
+            for (std::size_t y = 0; y < h; ++y) {
+                for (std::size_t x = 0; x < w; ++x) {
+                    const long xq = static_cast<long>(x) + offset;
+                    const int q =
+                        xq >= 0 && xq < static_cast<long>(w) ? query[y * w + static_cast<std::size_t>(xq)] : 0;
+                    sum += static_cast<std::uint32_t>(std::abs(q - int{ref[y * w + x]}));
+                }
+            }
+            same = same && out[i * n_slots + j] == sum;
+        }
+    }
+    if (!same)
+        std::fprintf(stderr, "%s offsets: %zux%zu e0 %d, %zu slots, fill %d differ\n", name, h, w, e0, n_slots, fill);
+    CHECK(same);
+}
+
 // The CPU family table: AMD Zen 4 (family 19h) takes vpaddw; Intel, Zen 5 and others are measured.
 void test_family_table() {
     const char* why = nullptr;
@@ -165,6 +215,27 @@ int main() {
     for (const Case& c : cases) {
         check_kernel(nightloc::detail::sad_all_shifts_avx512bw, "avx512bw", c, rng);
         if (vnni) check_kernel(nightloc::detail::sad_all_shifts_avx512vnni, "avx512vnni", c, rng);
+    }
+    struct OffsetCase {
+        std::size_t h, w;
+        std::int32_t e0;
+        std::size_t first, n_slots;
+        int fill;
+    };
+    const OffsetCase offset_cases[] = {
+        {23, 48, -8, 0, 17, -1},  {22, 48, -8, 0, 17, 0},  {23, 48, -8, 0, 17, 1},  // +-8 columns, extremes
+        {24, 48, -2, 1, 3, -1},   {24, 48, -6, 1, 11, -1},                          // +-1, +-5 (odd: first 1)
+        {24, 48, -48, 1, 95, -1},                                                   // +-47: 49 copies, groups
+        {70, 64, -4, 0, 9, 0},    {70, 64, -12, 0, 25, 1},                          // flushes, 14 copies: 12 + 2
+        {3, 8, -8, 1, 15, -1},                                                      // one masked chunk
+    };
+    for (const OffsetCase& c : offset_cases) {
+        check_offsets_kernel(nightloc::detail::sad_offsets_avx512bw, "avx512bw", c.h, c.w, c.e0, c.first, c.n_slots,
+                             c.fill, rng);
+        if (vnni) {
+            check_offsets_kernel(nightloc::detail::sad_offsets_avx512vnni, "avx512vnni", c.h, c.w, c.e0, c.first,
+                                 c.n_slots, c.fill, rng);
+        }
     }
     std::printf("checked the vpaddw kernel%s\n", vnni ? " and the VNNI kernel" : " (no VNNI on this CPU)");
     setenv("NIGHTLOC_AVX512_VNNI", "measure", 1);  // before the first use: exercise the measurement
