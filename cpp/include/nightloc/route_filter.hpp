@@ -203,6 +203,7 @@ private:
     RouteFilterStep update_window(const double* likelihood, double likelihood_sum);
     RouteFilterStep update_planes(const double* likelihood, double likelihood_sum, double advance);
     double novelty(double advance) const noexcept;
+    int plane_threads() const noexcept;
     double move_planes();
     double move_odometry(double advance, double* speed);
     void mix_planes();
@@ -225,6 +226,7 @@ private:
     std::vector<double> chain_scratch_;
     std::vector<double> marginal_;
     std::vector<double> plane_mass_;
+    std::vector<double> cell_likelihood_;
     std::vector<double> likelihood_;
     double off_ = 0.0;
     int threads_ = 1;
