@@ -346,6 +346,13 @@ RouteFilter::RouteFilter(std::size_t n_refs, const RouteFilterParams& params, co
         cells_ = params.odometry_cells;
         reference_distance_.assign(reference_distances, reference_distances + n_refs);
         spacing_ = length / static_cast<double>(n_refs - 1);
+        // 1 / the gap after each reference (a gap of 0 is never divided by: the target interval
+        // always ends above the target distance).
+        inverse_gap_.assign(n_refs, 0.0);
+        for (std::size_t r = 0; r + 1 < n_refs; ++r) {
+            const double gap = reference_distance_[r + 1] - reference_distance_[r];
+            if (gap > 0.0) inverse_gap_[r] = 1.0 / gap;
+        }
         plane_prior_.assign(1, 1.0);
     } else if (params.motion == RouteMotion::kSpeed) {
         chain_ = speed_chain(params);
@@ -672,7 +679,7 @@ double RouteFilter::move_odometry(double advance, double* speed) {
                 u = (goal - d[0]) / spacing_;
             } else {
                 while (r + 1 < n && d[r + 1] <= goal) ++r;
-                u = r + 1 < n ? static_cast<double>(r) + (goal - d[r]) / (d[r + 1] - d[r])
+                u = r + 1 < n ? static_cast<double>(r) + (goal - d[r]) * inverse_gap_[r]
                               : static_cast<double>(n - 1) + (goal - d[n - 1]) / spacing_;
             }
             const double from = (static_cast<double>(c) + 0.5) / k - 0.5;
@@ -689,13 +696,14 @@ double RouteFilter::move_odometry(double advance, double* speed) {
     *speed = mass > 0.0 ? travelled / mass : 0.0;
     const std::vector<double> taps = odometry_spread(advance, spacing_, params_);
     if (taps.size() == 1) return sum_of(target, m);
-    // Spread: out[c] = sum_i taps[i] * target[c - (i - h)], into the chain scratch, copied back.
+    // Spread: out[c] = sum_i taps[i] * target[c - (i - h)], into the chain scratch, which then
+    // becomes the prediction.
     double* p = chain_scratch_.data();
     std::fill(p, p + m, 0.0);
     const auto half = static_cast<std::int64_t>(taps.size() / 2);
     for (std::size_t i = 0; i < taps.size(); ++i) shift_add(target, p, m, static_cast<std::int64_t>(i) - half, taps[i]);
-    std::copy(p, p + m, target);
-    return sum_of(target, m);
+    scratch_.swap(chain_scratch_);
+    return sum_of(scratch_.data(), m);
 }
 
 void RouteFilter::mix_planes() {

@@ -220,6 +220,7 @@ private:
     std::vector<double> plane_prior_;          // the speed prior (odometry: one plane)
     std::vector<double> cell_distance_;        // odometry: distance along the route of each cell
     std::vector<double> reference_distance_;   // odometry
+    std::vector<double> inverse_gap_;          // odometry: 1 / (distance to the next reference)
     double spacing_ = 1.0;                     // odometry: mean distance per reference
     std::vector<double> belief_;
     std::vector<double> scratch_;
