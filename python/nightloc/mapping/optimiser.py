@@ -203,8 +203,14 @@ def optimise_graph(
     robust_scale: float,
     closed_loop_std: float | None = None,
     max_iterations: int = 100,
+    marginal_stride: int = 1,
 ) -> GraphSolution:
     """Levenberg-Marquardt on the whole graph from ``initial`` (``(N, 3)`` poses), then marginals.
+
+    ``marginal_stride`` > 1 computes the marginal covariance of every that many frames (and the
+    last) and interpolates the others along the drive, element by element: the uncertainty varies
+    smoothly along a drive, and each marginal costs a Bayes-tree query (the teach run's
+    intermediate rounds, which only gate candidates with it, take about 100 along the drive).
 
     Raises:
         MappingError: the optimiser fails or returns non-finite poses or covariances.
@@ -226,7 +232,12 @@ def optimise_graph(
         final_error = float(graph.error(result))
         poses = np.array([[p.x(), p.y(), p.theta()] for p in (result.atPose2(k) for k in range(n))])
         marginals = gtsam.Marginals(graph, result)
-        local = np.array([marginals.marginalCovariance(k) for k in range(n)])
+        keys = np.unique(np.append(np.arange(0, n, max(1, int(marginal_stride))), n - 1))
+        sampled = np.array([marginals.marginalCovariance(int(k)) for k in keys])
+        frames = np.arange(n)
+        local = np.stack(
+            [np.interp(frames, keys, sampled[:, a, b]) for a in range(3) for b in range(3)], axis=1
+        ).reshape(n, 3, 3)
     except (RuntimeError, IndexError, ValueError) as error:  # gtsam's IndeterminantLinearSystemException, ...
         raise MappingError(f"the pose graph of {n} frames could not be solved: {error}") from None
     if not (np.isfinite(poses).all() and np.isfinite(local).all() and math.isfinite(final_error)):

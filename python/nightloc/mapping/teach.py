@@ -329,7 +329,7 @@ def teach_poses(
         turn_std = np.sqrt(step_cov[:, 2, 2])
         covariances_now = reckoned_cov
         path_length = np.concatenate([[0.0], np.cumsum(np.hypot(steps[:, 0], steps[:, 1]))])
-        for _ in range(teach.rounds):
+        for round_index in range(teach.rounds):
             position_std = np.sqrt(np.linalg.eigvalsh(covariances_now[:, :2, :2])[:, -1].clip(min=0.0))
             heading_std = np.sqrt(covariances_now[:, 2, 2].clip(min=0.0))
             pairs, gated_out = candidate_pairs(
@@ -378,6 +378,8 @@ def teach_poses(
                 constraints,
                 robust_scale=teach.robust_scale,
                 closed_loop_std=teach.closed_loop_std if teach.closed_loop else None,
+                # intermediate rounds gate with about 100 marginals along the drive, the last has all
+                marginal_stride=1 if round_index == teach.rounds - 1 else max(1, len(images) // 100),
             )
             poses = solution.poses.copy()
             poses[:, 2] = np.unwrap(poses[:, 2])

@@ -88,9 +88,11 @@ def relative_heading(
         if columns.sum() >= 4:
             coarse = int(np.argmin(table)) if prior is None else int(round(prior * width / (2 * math.pi)))
             shifts = np.arange(coarse - window, coarse + window + 1) % width
-            q = query.astype(np.int16)
-            r = ref[:, columns].astype(np.int16)
-            costs = np.array([np.abs(np.roll(q, -int(k), axis=1)[:, columns] - r).mean() for k in shifts])
+            # column c of the query rolled left by k is the query's column (c + k) mod W
+            picked = (np.flatnonzero(columns)[np.newaxis, :] + shifts[:, np.newaxis]) % width
+            q = query.astype(np.int16)[:, picked]  # (H, shifts, columns)
+            r = ref[:, columns].astype(np.int16)[:, np.newaxis, :]
+            costs = np.abs(q - r).mean(axis=(0, 2))
             local = subcolumn_minimum(costs, circular=False)
             if 0 < local < len(costs) - 1:  # a minimum inside the window; else keep the whole image's
                 shift = (coarse - window + local) % width
