@@ -96,15 +96,37 @@ class RouteFilterParams:
     leave: float
     rejoin: float
     window: int
+    motion: str
+    speed_min: float
+    speed_max: float
+    speed_step: float
+    speed_jitter: float
+    speed_change: float
+    speed_tau: float
+    speed_cells: int
+    odometry_noise: float
+    odometry_jitter: float
+    odometry_novelty: float
+    odometry_cells: int
     def __init__(self) -> None: ...
     def validate(self) -> None: ...
 
+_FilterRun = tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]
+
 class RouteFilter:
-    def __init__(self, n_refs: int, params: RouteFilterParams) -> None: ...
-    def step(self, row: npt.NDArray[np.float32], weight: float = 1.0) -> tuple[int, float, float]: ...
+    def __init__(
+        self, n_refs: int, params: RouteFilterParams, reference_distances: npt.NDArray[np.float64] | None = None
+    ) -> None: ...
+    def step(
+        self, row: npt.NDArray[np.float32], weight: float = 1.0, advance: float = 0.0
+    ) -> tuple[int, float, float, float]: ...
     def run(
-        self, matrix: npt.NDArray[np.float32], weights: npt.NDArray[np.float64] | None = None, threads: int = 1
-    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+        self,
+        matrix: npt.NDArray[np.float32],
+        weights: npt.NDArray[np.float64] | None = None,
+        threads: int = 1,
+        advances: npt.NDArray[np.float64] | None = None,
+    ) -> _FilterRun: ...
     def frame(
         self,
         image: npt.NDArray[np.uint8],
@@ -116,7 +138,8 @@ class RouteFilter:
         threads: int,
         row: npt.NDArray[np.float32],
         window: tuple[int, int] = (0, 0),
-    ) -> tuple[int, float, float, float]: ...
+        advance: float = 0.0,
+    ) -> tuple[int, float, float, float, float]: ...
     def reset(self) -> None: ...
     def __copy__(self) -> RouteFilter: ...
     def __deepcopy__(self, memo: dict) -> RouteFilter: ...
@@ -127,13 +150,23 @@ class RouteFilter:
     def off_route(self) -> float: ...
     @property
     def n_refs(self) -> int: ...
+    @property
+    def motion(self) -> str: ...
+    @property
+    def plane_belief(self) -> npt.NDArray[np.float64]: ...
 
 def route_filter(
     matrix: npt.NDArray[np.float32],
     params: RouteFilterParams,
     weights: npt.NDArray[np.float64] | None = None,
     threads: int = 1,
-) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    advances: npt.NDArray[np.float64] | None = None,
+    reference_distances: npt.NDArray[np.float64] | None = None,
+) -> _FilterRun: ...
+def speed_chain(
+    params: RouteFilterParams,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], int]: ...
+def odometry_spread(advance: float, spacing: float, params: RouteFilterParams) -> npt.NDArray[np.float64]: ...
 def motion_kernel(vmin: float, vmax: float, backward: float) -> tuple[int, npt.NDArray[np.float64]]: ...
 def texture_weights(images: npt.NDArray[np.uint8], min_texture: float) -> npt.NDArray[np.float64]: ...
 

@@ -94,6 +94,26 @@ class RouteParams:
         filter_min_texture: a prepared query frame whose mean absolute deviation from its own
             mean is below this many grey levels carries proportionally less evidence (a flat
             frame: none, the belief is only predicted); 0 disables the weight.
+        filter_motion: the filter's motion model when the traverses carry no odometry:
+            ``"speed"`` (a belief over position x speed that follows a speed that changes) or
+            ``"window"`` (a speed drawn afresh from ``vmin .. vmax`` every frame). With odometry
+            in both traverses the odometry model runs instead.
+        filter_speed_min, filter_speed_max, filter_speed_step: the speed model's planes,
+            references per query frame (a negative speed: reversing).
+        filter_speed_jitter: each plane advances by a speed uniform within +- this of its own,
+            references per frame (position noise that needs no change of speed).
+        filter_speed_change: standard deviation of the speed's change per frame, references per
+            frame.
+        filter_speed_tau: frames for a speed to relax back towards the reference's (1); ``inf``:
+            no pull.
+        filter_speed_cells: position cells per reference of the speed model.
+        filter_odometry_noise: relative standard deviation of one frame's odometry advance.
+        filter_odometry_jitter: extra position noise per frame of the odometry model,
+            references.
+        filter_odometry_novelty: a frame's evidence weighs ``min(1, travel / (novelty *
+            spacing))`` with the odometry model (spacing: the mean distance between references):
+            a robot that has not moved sees nothing new; 0 disables the factor.
+        filter_odometry_cells: position cells per reference of the odometry model.
     """
 
     method: Literal["filter", "seqslam"] = "filter"
@@ -116,6 +136,18 @@ class RouteParams:
     filter_rejoin: float = 1e-2
     filter_window: int = 2
     filter_min_texture: float = 1.0
+    filter_motion: Literal["speed", "window"] = "window"
+    filter_speed_min: float = 0.5
+    filter_speed_max: float = 1.5
+    filter_speed_step: float = 0.1
+    filter_speed_jitter: float = 0.2
+    filter_speed_change: float = 0.08
+    filter_speed_tau: float = 4.0
+    filter_speed_cells: int = 2
+    filter_odometry_noise: float = 0.05
+    filter_odometry_jitter: float = 0.1
+    filter_odometry_novelty: float = 1.0
+    filter_odometry_cells: int = 4
 
     def validate(self) -> None:
         """Checks ranges (called on construction); raises ValueError naming the field."""
@@ -165,6 +197,12 @@ class RouteParams:
             raise ValueError(f"filter_window must be >= 0 references, got {self.filter_window}")
         if not (math.isfinite(self.filter_min_texture) and self.filter_min_texture >= 0):
             raise ValueError(f"filter_min_texture must be >= 0 grey levels, got {self.filter_min_texture}")
+        if self.filter_motion not in ("speed", "window"):
+            raise ValueError(f"filter_motion must be 'speed' or 'window', got {self.filter_motion!r}")
+        try:
+            self.core_filter_params().validate()
+        except ValueError as error:  # the core names the field without its filter_ prefix
+            raise ValueError(f"filter_{error}") from None
 
     def core_filter_params(self) -> _core.RouteFilterParams:
         """The filter's parameters as the compiled core takes them."""
@@ -173,6 +211,20 @@ class RouteParams:
         core.backward, core.floor = self.filter_backward, self.filter_floor
         core.sharpness, core.clip = self.filter_sharpness, self.filter_clip
         core.leave, core.rejoin, core.window = self.filter_leave, self.filter_rejoin, self.filter_window
+        core.motion = self.filter_motion
+        core.speed_min, core.speed_max, core.speed_step = (
+            self.filter_speed_min,
+            self.filter_speed_max,
+            self.filter_speed_step,
+        )
+        core.speed_jitter, core.speed_change, core.speed_tau = (
+            self.filter_speed_jitter,
+            self.filter_speed_change,
+            self.filter_speed_tau,
+        )
+        core.speed_cells = self.filter_speed_cells
+        core.odometry_noise, core.odometry_jitter = self.filter_odometry_noise, self.filter_odometry_jitter
+        core.odometry_cells, core.odometry_novelty = self.filter_odometry_cells, self.filter_odometry_novelty
         return core
 
     def method_params(self) -> dict:
