@@ -147,6 +147,7 @@ class RouteLocalizer:
             raise ValueError("the reference route needs at least 2 frames")
         self._refs = np.ascontiguousarray(refs)
         self._shifts = shift_list(self._params.shifts, refs.shape[2])
+        self._window_shift = self._params.window_for(refs.shape[1], refs.shape[2])
         self._divisor = _divisor(self._params, self._refs)
         self._threads = thread_count(threads)
         self._seen = 0
@@ -273,7 +274,7 @@ class RouteLocalizer:
                 p.filter_min_texture,
                 self._threads,
                 self._row,
-                p.window,
+                self._window_shift,
                 travelled,
             )
             index = self._seen
@@ -287,7 +288,7 @@ class RouteLocalizer:
             self._threads,
             self._divisor,
             self._row,
-            p.window,
+            self._window_shift,
         )
         # Oldest row first: shift the window up by one and enhance the new row into the last slot.
         self._window[:-1] = self._window[1:]

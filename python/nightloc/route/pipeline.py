@@ -181,11 +181,12 @@ def route_difference_matrix(
     n_threads = thread_count(threads)
     matrix = _checked_out(out, (q.shape[0], r.shape[0]))
     divisor = _divisor(p, r)
+    window = p.window_for(r.shape[1], r.shape[2])
     step = block_rows(r.shape[0])
     starts = range(0, q.shape[0], step)
     for start in progress(starts, total=len(starts), desc=progress_desc, unit="block"):
         stop = min(q.shape[0], start + step)
-        _core.difference_matrix_into(q[start:stop], r, shifts, n_threads, divisor, matrix[start:stop], p.window)
+        _core.difference_matrix_into(q[start:stop], r, shifts, n_threads, divisor, matrix[start:stop], window)
     return matrix
 
 
