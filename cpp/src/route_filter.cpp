@@ -165,6 +165,9 @@ void validate(const RouteFilterParams& p) {
                 " speed planes; widen speed_step");
     require(std::isfinite(p.speed_jitter) && p.speed_jitter >= 0.0 && p.speed_jitter <= 1000.0,
             "speed_jitter must be in [0, 1000] references per frame, got " + std::to_string(p.speed_jitter));
+    require(p.speed_jitter * static_cast<double>(p.speed_cells) <= 2000.0,
+            "speed_jitter x speed_cells must be at most 2000 cells (each plane's kernel spans twice that), got " +
+                std::to_string(p.speed_jitter * static_cast<double>(p.speed_cells)));
     require(std::isfinite(p.speed_change) && p.speed_change >= 0.0 && p.speed_change <= 50.0 * p.speed_step,
             "speed_change must be in [0, 50 * speed_step] references per frame, got " + std::to_string(p.speed_change));
     require(p.speed_tau > 0.0,

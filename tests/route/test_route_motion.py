@@ -407,6 +407,7 @@ def test_bad_motion_inputs_are_named():
         ({"filter_speed_tau": 0.0}, "filter_speed_tau"),
         ({"filter_speed_change": -1.0}, "filter_speed_change"),
         ({"filter_speed_cells": 0}, "filter_speed_cells"),
+        ({"filter_speed_cells": 64, "filter_speed_jitter": 100.0}, "filter_speed_jitter x speed_cells"),
         ({"filter_odometry_cells": 65}, "filter_odometry_cells"),
         ({"filter_odometry_noise": math.nan}, "filter_odometry_noise"),
         ({"filter_odometry_novelty": -1.0}, "filter_odometry_novelty"),
@@ -417,3 +418,14 @@ def test_bad_motion_inputs_are_named():
         route.RouteParams(filter_motion="teleport")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="use fewer speed planes or cells"):
         route.RouteFilter(2_000_000, dataclasses.replace(SPEED, filter_speed_cells=64, filter_speed_step=0.01))
+
+
+def test_route_params_defaults_are_the_cores():
+    """RouteParams' filter defaults and the C++ RouteFilterParams' defaults are the same model."""
+    ours, core = route.RouteParams().core_filter_params(), _core.RouteFilterParams()
+    for field in (
+        "vmin", "vmax", "backward", "floor", "sharpness", "clip", "leave", "rejoin", "window", "motion",
+        "speed_min", "speed_max", "speed_step", "speed_jitter", "speed_change", "speed_tau", "speed_cells",
+        "odometry_noise", "odometry_jitter", "odometry_novelty", "odometry_cells",
+    ):  # fmt: skip
+        assert getattr(ours, field) == getattr(core, field), field

@@ -75,16 +75,16 @@ struct RouteFilterParams {
     double leave = 1e-2;     ///< probability per frame of leaving the route, [0, 1]
     double rejoin = 1e-2;    ///< probability per frame of rejoining it (uniformly), [0, 1]
     std::size_t window = 2;  ///< confidence = belief mass within +-window references of the best
-    RouteMotion motion = RouteMotion::kWindow;  ///< without reference distances
-    double speed_min = 0.5;                     ///< slowest speed plane, references per frame, [-1000, 1000]
-    double speed_max = 1.5;                     ///< fastest speed plane, [speed_min, 1000]
-    double speed_step = 0.1;                    ///< spacing of the speed planes (> 0; at most 1000 planes)
-    double speed_jitter = 0.2;       ///< half-width of each plane's speed window, references per frame (>= 0)
-    double speed_change = 0.06;      ///< standard deviation of the speed's change per frame (>= 0)
-    double speed_tau = 4.0;          ///< frames for a speed to relax towards 1 (> 0; inf: no pull)
-    std::size_t speed_cells = 1;     ///< position cells per reference of the speed model, 1 .. 64
-    double odometry_noise = 0.05;    ///< relative standard deviation of an odometry advance, [0, 10]
-    double odometry_jitter = 0.1;    ///< extra position noise per frame, references, [0, 100]
+    RouteMotion motion = RouteMotion::kSpeed;  ///< without reference distances
+    double speed_min = 0.5;                    ///< slowest speed plane, references per frame, [-1000, 1000]
+    double speed_max = 1.5;                    ///< fastest speed plane, [speed_min, 1000]
+    double speed_step = 0.1;                   ///< spacing of the speed planes (> 0; at most 1000 planes)
+    double speed_jitter = 0.2;                 ///< half-width of each plane's speed window, references per frame (>= 0)
+    double speed_change = 0.07;                ///< standard deviation of the speed's change per frame (>= 0)
+    double speed_tau = 4.0;                    ///< frames for a speed to relax towards 1 (> 0; inf: no pull)
+    std::size_t speed_cells = 2;               ///< position cells per reference of the speed model, 1 .. 64
+    double odometry_noise = 0.05;              ///< relative standard deviation of an odometry advance, [0, 10]
+    double odometry_jitter = 0.1;              ///< extra position noise per frame, references, [0, 100]
     double odometry_novelty = 1.0;   ///< references of travel for a frame's full evidence, [0, 1000] (0: always full)
     std::size_t odometry_cells = 4;  ///< position cells per reference of the odometry model, 1 .. 64
 };
