@@ -188,17 +188,19 @@ def _correct(result, truth, skip: int = 20) -> float:
 
 def test_speed_model_stays_locked_when_the_speed_swings():
     # 0.5-1.5x the reference's speed, a full swing every 50 frames, on weak evidence (a quarter
-    # of each query frame is the place): the speed model follows it, the window model lags
-    # behind at both ends of the swing.
+    # of each query frame is the place): a speed model with a loose prior follows it (every
+    # frame), the window model lags behind at both ends of the swing; the default prior, tuned
+    # not to lose precision on constant-speed pairs, sits in between (docs/route_mode.md).
     speeds = 1.0 + 0.5 * np.sin(2 * np.pi * np.arange(300) / 50)
     refs, queries, truth = ro.synthetic_route_at(330, _positions(speeds), seed=3, likeness=0.25)
+    loose = dataclasses.replace(SPEED, filter_speed_change=0.1, filter_speed_tau=6.0, shift_window=(0, 0))
     window = route.match_prepared(refs, queries, route.RouteParams(filter_motion="window", shift_window=(0, 0)))
-    speed = route.match_prepared(refs, queries, dataclasses.replace(SPEED, shift_window=(0, 0)))
+    speed = route.match_prepared(refs, queries, loose)
     assert speed.motion == "speed" and window.motion == "window"
-    assert _correct(speed, truth) > 0.9
-    assert _correct(speed, truth) > _correct(window, truth) + 0.05
+    assert _correct(speed, truth) > 0.98
+    assert _correct(window, truth) < 0.9
     # The speed it reports follows the true one (a few frames behind).
-    assert np.corrcoef(speed.speed[30:], np.roll(speeds, 4)[30:])[0, 1] > 0.7
+    assert np.corrcoef(speed.speed[30:], np.roll(speeds, 3)[30:])[0, 1] > 0.8
     assert np.isnan(window.speed).all()
 
 
@@ -265,7 +267,8 @@ def test_streaming_localizer_with_odometry_equals_the_batch(tmp_path):
     np.testing.assert_array_equal([u.ref for u in updates], batch.refs)
     np.testing.assert_array_equal([u.confidence for u in updates], batch.confidence)
     np.testing.assert_array_equal([u.speed for u in updates], batch.speed)
-    assert nightloc.RouteLocalizer(refs, prepared=True).update(queries[0], prepared=True).speed is None
+    window_model = route.RouteParams(filter_motion="window")
+    assert nightloc.RouteLocalizer(refs, window_model, prepared=True).update(queries[0], prepared=True).speed is None
     with pytest.raises(ValueError, match="pass advance="):
         localizer.update(queries[0], prepared=True)
     plain = nightloc.RouteLocalizer(refs, prepared=True)

@@ -73,8 +73,8 @@ def test_odometry_meets_the_targets_at_a_speed_of_055_to_145(shared_data, name):
 
 
 def test_speed_model_on_nordland_at_a_speed_of_07_to_13(shared_data):
-    # The speed model follows a speed of 0.7-1.3x better than the window (0.91 / 0.57 against
-    # 0.90 / 0.50 on this phase), short of issue 19's 0.95 / 0.80 (docs/route_mode.md says why).
+    # The speed model follows a speed of 0.7-1.3x better than the window model, short of issue
+    # 19's 0.95 / 0.80 (docs/route_mode.md: the figures, and why).
     enhanced, weights = _pair(shared_data, "nordland")
     index = np.rint(_positions(enhanced.shape[1], 0.3, 0.0)).astype(np.int64)
     speed = _evaluate(enhanced, weights, index, route.RouteParams(filter_motion="speed"))
