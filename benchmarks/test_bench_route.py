@@ -155,15 +155,58 @@ def test_search_seqslam(benchmark, threads):
     benchmark.extra_info["recall_at_100"] = round(route.evaluate_matches(refs, scores, truth).recall_at_100, 4)
 
 
+MOTIONS = {
+    "window": (route.RouteParams(filter_motion="window"), False),
+    "speed": (route.RouteParams(), False),
+    "odometry": (route.RouteParams(), True),
+}
+
+
 @pytest.mark.parametrize("threads", [1, 2])
-def test_search_filter(benchmark, threads):
+@pytest.mark.parametrize("motion", sorted(MOTIONS))
+def test_search_filter(benchmark, threads, motion):
+    """The filter's three motion models over the aligned Nordland pair (odometry: one
+    reference per frame on both sides)."""
     enhanced, weights, real = nightloc_enhanced()
     benchmark.group = "route search only, 3576 x 3576 (enhanced matrix given)"
+    params, odometry = MOTIONS[motion]
+    steps = np.ones(len(enhanced)) if odometry else None
+    distances = np.arange(float(enhanced.shape[1])) if odometry else None
     refs, confidence, _ = benchmark.pedantic(
-        route.route_filter, args=(enhanced, route.RouteParams(), weights, threads), rounds=3
+        route.route_filter,
+        args=(enhanced, params, weights, threads),
+        kwargs={"advances": steps, "reference_distances": distances},
+        rounds=3 if motion == "window" else 1,
     )
     truth = route.GroundTruth.from_frames(len(refs), enhanced.shape[1], 2)
     evaluation = route.evaluate_matches(refs, 1.0 - confidence, truth)
     benchmark.extra_info["recall_at_100"] = round(evaluation.recall_at_100, 4)
     if real:
         assert evaluation.best_f1 >= 0.92 and evaluation.recall_at_100 >= 0.65  # issue-14 targets
+
+
+def _small_route(n=150):
+    rng = np.random.default_rng(n)
+    matrix = rng.normal(size=(n, n)).astype(np.float32)
+    matrix[np.arange(n), np.arange(n)] -= 2.0
+    return matrix, np.ones(n), np.arange(float(n))
+
+
+@pytest.mark.parametrize("motion", ["speed", "odometry"])
+def test_filter_motion_oracle(benchmark, motion):
+    """The numpy oracle of the speed and odometry models (tests/route_oracle.py), 150 x 150."""
+    matrix, steps, distances = _small_route()
+    benchmark.group = f"route filter {motion} model, 150 x 150"
+    params = route.RouteParams()
+    extra = (steps, distances) if motion == "odometry" else (None, None)
+    benchmark.pedantic(ro.route_filter_planes, args=(matrix, params, None, *extra), rounds=1)
+
+
+@pytest.mark.parametrize("motion", ["speed", "odometry"])
+def test_filter_motion_core(benchmark, motion):
+    """The core's speed and odometry models, 150 x 150, one thread."""
+    matrix, steps, distances = _small_route()
+    benchmark.group = f"route filter {motion} model, 150 x 150"
+    params = route.RouteParams()
+    kwargs = {"advances": steps, "reference_distances": distances} if motion == "odometry" else {}
+    benchmark.pedantic(route.route_filter, args=(matrix, params, None, 1), kwargs=kwargs, rounds=5)

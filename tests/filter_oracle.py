@@ -3,7 +3,7 @@
 Written from the model in docs/localization.md, operation by operation where the core defines an
 order and otherwise as plain linear algebra: each axis of the prediction is one matrix (the
 bilinear shift convolved with three extended-box passes), the heading blur a circular kernel,
-the measurement an explicit loop over references, bins and places. The compiled filter keeps its
+the measurement per reference and bin the score at the bin's shift, per place the lowest. The compiled filter keeps its
 belief in float32 and sums in a fixed order, so the two agree to a tolerance (the tests say which).
 """
 
@@ -110,16 +110,19 @@ class OracleFilter:
     def reset(self):
         self.pose = self.can_pose
         self.offset = 0.0
+        self.bin_max = None  # each bin's largest value after the last update (pose mode), else None
         n = self.bins if self.pose else 1
         self.p = np.full((n, self.h, self.wd), 1.0 / (n * self.h * self.wd))
 
     def _to_position(self):
+        self.bin_max = None
         if self.pose:
             self.p = self.p.sum(0, keepdims=True)
             self.pose = False
 
     def _to_pose(self):
         if not self.pose and self.can_pose:
+            self.bin_max = None
             self.p = np.repeat(self.p, self.bins, axis=0)
             self.pose = True
 
@@ -152,6 +155,12 @@ class OracleFilter:
         roll = whole % self.bins
         before = self.p.sum()
         along = math.atan2(left, forward) if math.hypot(forward, left) > 0 else 0.0
+        # negligible bins (their largest value after the last update below `negligible` of the
+        # belief's largest): shifted without the position blur
+        negligible = np.zeros(self.bins, dtype=bool)
+        if self.bin_max is not None and s.get("negligible", 0.0) > 0:
+            negligible = self.bin_max < s["negligible"] * self.bin_max.max()
+        self.bin_max = None
         q = np.zeros_like(self.p)
         for b in range(self.bins):
             theta = self.offset + step * b
@@ -160,6 +169,8 @@ class OracleFilter:
             wx, wy = axis_shares(theta + along)
             sigx = math.sqrt(s["distance_std"] ** 2 * wx + s["position_floor"] ** 2)
             sigy = math.sqrt(s["distance_std"] ** 2 * wy + s["position_floor"] ** 2)
+            if negligible[b]:
+                sigx = sigy = 0.0
             q[(b + roll) % self.bins] = self._shift_blur(
                 self.p[b], mx / self.dx, my / self.dy, sigx / self.dx, sigy / self.dy
             )
@@ -212,20 +223,18 @@ class OracleFilter:
         lam = self.s["likelihood_gain"] / spread if spread > 0 else 0.0
         bins = self.bins if self.pose else 1
         place_scores = np.full((bins, self.places), np.inf)
-        for i in range(n):
-            p = self.place_of_ref[i]
-            if self.pose:
-                c = (self.offset - self.headings[i]) * self.columns / TWO_PI
-                for b in range(bins):
-                    k = self.columns / self.bins * b + c
-                    kf = math.floor(k)
-                    a = k - kf
-                    k0 = kf % self.columns
-                    k1 = (k0 + 1) % self.columns
-                    v = (1 - a) * t[i, k0] + a * t[i, k1]
-                    place_scores[b, p] = min(place_scores[b, p], v)
-            else:
-                place_scores[0, p] = min(place_scores[0, p], self.mins[i])
+        if self.pose:  # every reference and bin at once: the score at the bin's fractional shift
+            c = (self.offset - self.headings) * self.columns / TWO_PI  # (n,)
+            k = self.columns / self.bins * np.arange(bins)[None, :] + c[:, None]  # (n, bins)
+            kf = np.floor(k)
+            a = k - kf
+            k0 = kf.astype(np.int64) % self.columns
+            k1 = (k0 + 1) % self.columns
+            rows = np.arange(n)[:, None]
+            v = (1 - a) * t[rows, k0] + a * t[rows, k1]
+            np.minimum.at(place_scores.T, self.place_of_ref, v)
+        else:
+            np.minimum.at(place_scores[0], self.place_of_ref, self.mins)
         gain = -lam * math.log2(math.e)
         y_places = np.maximum(gain * (place_scores - s_min), LOWEST_LOG2)  # (bins, places)
         y_fill = np.maximum(gain * (place_scores.max(axis=1) - s_min), LOWEST_LOG2)  # (bins,)
@@ -237,6 +246,7 @@ class OracleFilter:
         total = post.sum()
         self.p = post / total if total > 0 else like / like.sum()
         self.lam = lam
+        self.bin_max = self.p.reshape(bins, -1).max(axis=1) if self.pose else None
 
     # ------------------------------------------------------------------ estimate
     def estimate(self):

@@ -263,3 +263,231 @@ def texture_weights(images: np.ndarray, min_texture: float) -> np.ndarray:
     flat = images.reshape(len(images), -1).astype(np.float64)
     mad = np.abs(flat - flat.mean(axis=1, keepdims=True)).mean(axis=1)
     return np.minimum(1.0, mad / min_texture)
+
+
+# --------------------------------------------------------------------------------------------
+# the speed and odometry models of the route filter, from their definitions
+
+
+def window_kernel(lo: float, hi: float) -> dict:
+    """{advance k: probability} of floor(x + u), x ~ U[0, 1), u ~ U[lo, hi], any signs: the
+    average over u of the triangle max(0, 1 - |u - k|) (the overlap of [u, u+1) with [k, k+1))."""
+    kernel = {}
+    for k in range(math.floor(lo) - 1, math.floor(hi) + 3):
+        if hi > lo:
+            weight = (_triangle_antiderivative(hi - k) - _triangle_antiderivative(lo - k)) / (hi - lo)
+        else:
+            weight = max(0.0, 1.0 - abs(lo - k))
+        if weight > 1e-15:
+            kernel[k] = weight
+    return kernel
+
+
+def plane_kernels(p) -> tuple[list[dict], list[float]]:
+    """The speed model's planes: kernels in cells (a step back of one reference, ``cells``
+    cells, with probability ``filter_backward``) and speeds."""
+    cells = p.filter_speed_cells
+    count = math.floor((p.filter_speed_max - p.filter_speed_min) / p.filter_speed_step + 1e-9) + 1
+    planes = [p.filter_speed_min + s * p.filter_speed_step for s in range(count)]
+    kernels = []
+    for v in planes:
+        kernel = {
+            k: w * (1 - p.filter_backward)
+            for k, w in window_kernel(cells * (v - p.filter_speed_jitter), cells * (v + p.filter_speed_jitter)).items()
+        }
+        if p.filter_backward > 0:
+            kernel[-cells] = kernel.get(-cells, 0.0) + p.filter_backward
+        kernels.append(kernel)
+    return kernels, planes
+
+
+def speed_chain(p) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+    """(speeds, up, down, stationary prior, passes per frame) of the speed model's random walk
+    between planes: ``passes = ceil(variance / 0.5)`` passes, variance = (speed_change /
+    speed_step)^2 planes^2; per pass up/down = (a +- drift) / 2 with a = variance / passes and
+    drift = -(v - 1) / (tau * step * passes) clipped to [-a, a]; the prior is the stationary
+    distribution of one pass, solved as a linear system (uniform when the speed never changes)."""
+    count = math.floor((p.filter_speed_max - p.filter_speed_min) / p.filter_speed_step + 1e-9) + 1
+    speeds = p.filter_speed_min + np.arange(count) * p.filter_speed_step
+    up, down = np.zeros(count), np.zeros(count)
+    variance = (p.filter_speed_change / p.filter_speed_step) ** 2
+    if variance <= 0 or count == 1:
+        return speeds, up, down, np.full(count, 1.0 / count), 0
+    passes = max(1, math.ceil(variance / 0.5))
+    a = variance / passes
+    pull = (
+        np.zeros(count)
+        if math.isinf(p.filter_speed_tau)
+        else -(speeds - 1) / (p.filter_speed_tau * p.filter_speed_step * passes)
+    )
+    drift = np.clip(pull, -a, a)
+    up[:-1] = 0.5 * (a + drift[:-1])
+    down[1:] = 0.5 * (a - drift[1:])
+    transition = np.diag(1 - up - down) + np.diag(up[:-1], 1) + np.diag(down[1:], -1)  # row: from
+    system = np.vstack([transition.T - np.eye(count), np.ones(count)])
+    prior = np.linalg.lstsq(system, np.r_[np.zeros(count), 1.0], rcond=None)[0]
+    prior = np.clip(prior, 0, None)
+    return speeds, up, down, prior / prior.sum(), passes
+
+
+def odometry_spread(advance: float, spacing: float, p) -> np.ndarray:
+    """The odometry model's noise taps over cells: ``[q, 1-2q, q]`` convolved ``passes`` times
+    (passes = ceil(variance / 0.5), at most 256, q <= 1/4) for a variance of cells^2 *
+    ((noise * advance / spacing)^2 + jitter^2)."""
+    cells = p.filter_odometry_cells
+    variance = cells**2 * ((p.filter_odometry_noise * abs(advance) / spacing) ** 2 + p.filter_odometry_jitter**2)
+    if variance <= 0:
+        return np.ones(1)
+    passes = min(256, math.ceil(variance / 0.5))
+    q = min(0.25, variance / (2 * passes))
+    taps = np.ones(1)
+    for _ in range(passes):
+        taps = np.convolve(taps, [q, 1 - 2 * q, q])
+    return taps
+
+
+def _odometry_move(
+    belief: np.ndarray, advance: float, distances: np.ndarray, cells: int, p
+) -> tuple[np.ndarray, float]:
+    """One frame of the odometry model's motion: each cell's mass to the cell at its distance +
+    advance (linear between references; beyond the ends by the mean spacing), split linearly
+    between the two nearest cells, then the noise; returns (prediction, mean advance in refs)."""
+    n = distances.size
+    m = n * cells
+    spacing = (distances[-1] - distances[0]) / (n - 1)
+    u = (np.arange(m) + 0.5) / cells - 0.5
+
+    def distance_at(x):
+        if x <= 0:
+            return distances[0] + x * spacing
+        if x >= n - 1:
+            return distances[-1] + (x - (n - 1)) * spacing
+        r = int(math.floor(x))
+        return distances[r] + (x - r) * (distances[r + 1] - distances[r])
+
+    def position_of(d):
+        if d < distances[0]:
+            return (d - distances[0]) / spacing
+        r = int(np.searchsorted(distances, d, side="right")) - 1  # the last reference at or before d
+        if r == n - 1:
+            return n - 1 + (d - distances[-1]) / spacing
+        return r + (d - distances[r]) / (distances[r + 1] - distances[r])
+
+    moved = np.zeros(m)
+    travelled = 0.0
+    if advance == 0:
+        moved = belief.copy()
+    else:
+        for c in range(m):
+            target_u = position_of(distance_at(u[c]) + advance)
+            travelled += belief[c] * (target_u - u[c])
+            t = min(max((target_u + 0.5) * cells - 0.5, -2.0), m + 1.0)
+            i = math.floor(t)
+            share = t - i
+            if 0 <= i < m:
+                moved[i] += (1 - share) * belief[c]
+            if 0 <= i + 1 < m:
+                moved[i + 1] += share * belief[c]
+    total = belief.sum()
+    taps = odometry_spread(advance, spacing, p)
+    half = len(taps) // 2
+    spread = np.convolve(moved, taps)[half : half + m]  # centred; what spreads past either end is lost
+    return spread, (travelled / total if total > 0 else 0.0)
+
+
+def route_filter_planes(matrix: np.ndarray, p, weights=None, advances=None, distances=None):
+    """The speed model (``distances`` None) or the odometry model over the rows of ``matrix``
+    from the prior belief (the first frame: no motion; the odometry model weighs a frame's
+    evidence by ``min(1, |advance| / (novelty * mean spacing))`` from the second frame on).
+    Returns (refs, confidence, off_route, speed, final belief over references)."""
+    n_query, n = matrix.shape
+    odometry = distances is not None
+    if odometry:
+        cells, prior = p.filter_odometry_cells, np.ones(1)
+        distances = np.asarray(distances, dtype=np.float64)
+        spacing = (distances[-1] - distances[0]) / (n - 1)
+    else:
+        cells = p.filter_speed_cells
+        kernels, planes = plane_kernels(p)
+        _speeds, up, down, prior, passes = speed_chain(p)
+    m = n * cells
+    belief = np.outer(prior, np.full(m, 1.0 / m))
+    off = 0.0
+    refs = np.empty(n_query, np.int64)
+    confidence, off_route, speed = np.empty(n_query), np.empty(n_query), np.empty(n_query)
+    for q in range(n_query):
+        on = belief.sum()
+        advance = 0.0 if advances is None or q == 0 else float(advances[q])  # the first frame: no motion
+        if odometry:
+            moved, travelled = _odometry_move(belief[0], advance, distances, cells, p)
+            predicted = moved[np.newaxis]
+        else:
+            predicted = np.zeros_like(belief)
+            for s, kernel in enumerate(kernels):
+                for k, w in kernel.items():
+                    if 0 <= k < m:
+                        predicted[s, k:] += w * belief[s, : m - k]
+                    elif -m < k < 0:
+                        predicted[s, : m + k] += w * belief[s, -k:]
+        total_moved = predicted.sum()
+        if not odometry:
+            for _ in range(passes):
+                walk = (1 - up - down)[:, None] * predicted
+                walk[1:] += up[:-1, None] * predicted[:-1]
+                walk[:-1] += down[1:, None] * predicted[1:]
+                predicted = walk
+        predicted = predicted * (on / total_moved) if total_moved > 0 else np.outer(prior, np.full(m, on / m))
+        predicted = (1 - p.filter_floor) * predicted + p.filter_floor * on * np.outer(prior, np.full(m, 1.0 / m))
+        predicted = (1 - p.filter_leave) * predicted + off * p.filter_rejoin * np.outer(prior, np.full(m, 1.0 / m))
+        off = off * (1 - p.filter_rejoin) + on * p.filter_leave
+        weight = 1.0 if weights is None else float(weights[q])
+        if odometry and q > 0 and p.filter_odometry_novelty > 0:  # the same view again is no new evidence
+            weight *= min(1.0, abs(advance) / (p.filter_odometry_novelty * spacing))
+        likelihood = filter_likelihood(matrix[q], p.filter_sharpness * weight, p.filter_clip)
+        off *= likelihood.mean()
+        belief = predicted * np.repeat(likelihood, cells)[np.newaxis]
+        total = belief.sum() + off
+        belief, off = belief / total, off / total
+        marginal = belief.sum(axis=0).reshape(n, cells).sum(axis=1)
+        best = int(np.argmax(marginal))
+        refs[q] = best
+        confidence[q] = marginal[max(0, best - p.filter_window) : best + p.filter_window + 1].sum()
+        off_route[q] = off
+        if odometry:
+            speed[q] = travelled
+        else:
+            plane_mass = belief.sum(axis=1)
+            speed[q] = float(np.dot(plane_mass, planes) / plane_mass.sum())
+    return refs, confidence, off_route, speed, belief.sum(axis=0).reshape(n, cells).sum(axis=1)
+
+
+def synthetic_route_at(
+    n_ref: int,
+    positions: np.ndarray,
+    seed: int,
+    height: int = 16,
+    width: int = 32,
+    noise: float = 12.0,
+    likeness: float = 1.0,
+):
+    """The route of :func:`synthetic_route` seen by a query at ``positions`` (reference frames,
+    any order and speed: a stop repeats a place, a reverse goes back): query frame k shows the
+    place at ``round(positions[k])`` (``likeness`` of it, the rest a fresh random texture: weak
+    evidence, as at night), darker, with fresh sensor noise.
+
+    Returns (refs uint8 (n_ref, h, w), queries uint8 (n, h, w), truth int64 (n,), -1 off the route).
+    """
+    rng = np.random.default_rng(seed)
+    places = rng.uniform(0, 255, size=(n_ref + 2, height, width))
+    kernel = np.array([0.25, 0.5, 0.25])
+    world = kernel[0] * places[:-2] + kernel[1] * places[1:-1] + kernel[2] * places[2:]
+    refs = np.clip(world, 0, 255).astype(np.uint8)
+    truth = np.rint(np.asarray(positions, dtype=np.float64)).astype(np.int64)
+    truth[(truth < 0) | (truth >= n_ref)] = -1
+    queries = np.empty((len(truth), height, width), np.uint8)
+    for q, ref in enumerate(truth):
+        clutter = rng.uniform(0, 255, size=(height, width))
+        source = likeness * world[ref] + (1 - likeness) * clutter if ref >= 0 else clutter
+        darker = 0.6 * source + 20 + rng.normal(0, noise, size=source.shape)
+        queries[q] = np.clip(darker, 0, 255).astype(np.uint8)
+    return refs, queries, truth

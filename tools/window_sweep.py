@@ -123,7 +123,9 @@ def real_pairs():
         yield "Nordland 3576", {}, "forward", summer, winter
 
 
-def sweep(routes: Path | None, results: Path, windows: list[tuple[int, int]], real: bool) -> None:
+def sweep(
+    routes: Path | None, results: Path, windows: list[tuple[int, int]], real: bool, only: str | None = None
+) -> None:
     done = set()
     if results.exists():
         for line in results.read_text().splitlines():
@@ -137,6 +139,8 @@ def sweep(routes: Path | None, results: Path, windows: list[tuple[int, int]], re
     with results.open("a") as out:
         for source in pairs:
             for name, variant, camera, refs, queries in source:
+                if only is not None and only not in name:
+                    continue
                 for window in windows:
                     key = (name, json.dumps(variant, sort_keys=True), tuple(window))
                     if key in done or (camera == "panoramic" and window[0] > 0):
@@ -192,6 +196,7 @@ def main(argv: list[str]) -> None:
     s.add_argument("--results", type=Path, required=True)
     s.add_argument("--windows", help="e.g. 0,0;8,2 (default: the grid)")
     s.add_argument("--real", action="store_true", help="also the shared real pairs")
+    s.add_argument("--only", help="only the pairs whose name contains this text")
     m = sub.add_parser("summary")
     m.add_argument("results", type=Path)
     args = parser.parse_args(argv)
@@ -201,7 +206,7 @@ def main(argv: list[str]) -> None:
         windows = (
             WINDOWS if not args.windows else [tuple(int(v) for v in w.split(",")) for w in args.windows.split(";")]
         )
-        sweep(args.routes, args.results, windows, args.real)  # type: ignore[arg-type]
+        sweep(args.routes, args.results, windows, args.real, args.only)  # type: ignore[arg-type]
     else:
         summary(args.results)
 

@@ -377,6 +377,8 @@ private:
                 s.confidence_radius = v.cast<double>();
             else if (key == "estimate_window")
                 s.estimate_window = v.cast<std::size_t>();
+            else if (key == "negligible")
+                s.negligible = v.cast<double>();
             else
                 throw py::value_error("unknown grid filter setting '" + key + "'");
         }
@@ -454,7 +456,9 @@ void register_localization(py::module_& m) {
         .def_property_readonly("can_pose", [](const GridFilterPy& f) { return f.core().can_pose(); })
         .def_property_readonly("heading_bins", [](const GridFilterPy& f) { return f.core().heading_bins(); })
         .def_property_readonly("offset", [](const GridFilterPy& f) { return f.core().offset(); })
-        .def_property_readonly("lambda_", [](const GridFilterPy& f) { return f.core().lambda(); });
+        .def_property_readonly("lambda_", [](const GridFilterPy& f) { return f.core().lambda(); })
+        .def_property_readonly("sparse_blocks", [](const GridFilterPy& f) { return f.core().sparse_blocks(); })
+        .def_property_readonly("memory_bytes", [](const GridFilterPy& f) { return f.core().memory_bytes(); });
 
     m.def("add_translated", &add_translated, py::arg("out"), py::arg("source"), py::arg("height"), py::arg("width"),
           py::arg("stride"), py::arg("shift_x"), py::arg("shift_y"),

@@ -2,6 +2,7 @@
 // difference matrix written in place into a caller's array. Checks every input and releases the
 // GIL around the work. The documented API is python/nightloc/route.
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <stdexcept>
@@ -165,8 +166,6 @@ py::array_t<float, py::array::c_style> checked_row(const py::array& a, std::size
     return py::reinterpret_borrow<py::array_t<float, py::array::c_style>>(a);
 }
 
-py::tuple step_tuple(const nightloc::RouteFilterStep& s) { return py::make_tuple(s.best, s.confidence, s.off_route); }
-
 // weights: None or n values in [0, 1] (copied), as a vector (empty for None).
 std::vector<double> checked_weights(const py::object& weights_in, std::size_t n) {
     std::vector<double> weights;
@@ -183,9 +182,46 @@ std::vector<double> checked_weights(const py::object& weights_in, std::size_t n)
     return weights;
 }
 
-// Runs `filter` over the rows of `matrix` (continuing its state); returns (best, confidence, off_route).
-py::tuple run_rows(nightloc::RouteFilter& filter, const py::array& matrix_in, const py::object& weights_in,
-                   int threads) {
+// advances: None or n finite values (copied), as a vector (empty for None).
+std::vector<double> checked_advances(const py::object& advances_in, std::size_t n) {
+    std::vector<double> advances;
+    if (advances_in.is_none()) return advances;
+    const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(advances_in);
+    if (!a || a.ndim() != 1 || static_cast<std::size_t>(a.shape(0)) != n) {
+        throw py::value_error("advances must be a 1-D array of " + std::to_string(n) +
+                              " distances (one per query: the distance travelled since the previous one)");
+    }
+    advances.assign(a.data(), a.data() + n);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!std::isfinite(advances[i])) {
+            throw py::value_error("advances must be finite, got " + std::to_string(advances[i]) + " at query " +
+                                  std::to_string(i));
+        }
+    }
+    return advances;
+}
+
+// reference distances: None or n_refs values, as a vector (empty for None; checked by the core).
+std::vector<double> checked_distances(const py::object& distances_in, std::size_t n_refs) {
+    std::vector<double> distances;
+    if (distances_in.is_none()) return distances;
+    const auto d = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(distances_in);
+    if (!d || d.ndim() != 1 || static_cast<std::size_t>(d.shape(0)) != n_refs) {
+        throw py::value_error("reference_distances must be a 1-D array of " + std::to_string(n_refs) +
+                              " cumulative distances (one per reference)");
+    }
+    distances.assign(d.data(), d.data() + n_refs);
+    return distances;
+}
+
+py::tuple step_tuple(const nightloc::RouteFilterStep& s) {
+    return py::make_tuple(s.best, s.confidence, s.off_route, s.speed);
+}
+
+// Runs `filter` over the rows of `matrix` (continuing its state); returns (best, confidence,
+// off_route, speed).
+py::tuple run_rows(nightloc::RouteFilter& filter, const py::array& matrix_in, const py::object& weights_in, int threads,
+                   const py::object& advances_in) {
     const F32Array matrix = checked_matrix(matrix_in, "matrix", false);
     const auto n_queries = static_cast<std::size_t>(matrix.shape(0));
     if (static_cast<std::size_t>(matrix.shape(1)) != filter.n_refs()) {
@@ -193,27 +229,39 @@ py::tuple run_rows(nightloc::RouteFilter& filter, const py::array& matrix_in, co
                               std::to_string(filter.n_refs()) + " references");
     }
     const std::vector<double> weights = checked_weights(weights_in, n_queries);
+    const std::vector<double> advances = checked_advances(advances_in, n_queries);
     py::array_t<std::int64_t> best(static_cast<py::ssize_t>(n_queries));
     py::array_t<double> confidence(static_cast<py::ssize_t>(n_queries));
     py::array_t<double> off_route(static_cast<py::ssize_t>(n_queries));
+    py::array_t<double> speed(static_cast<py::ssize_t>(n_queries));
+    nightloc::RouteFilterOutputs out;
+    out.best = best.mutable_data();
+    out.confidence = confidence.mutable_data();
+    out.off_route = off_route.mutable_data();
+    out.speed = speed.mutable_data();
     const float* m = matrix.data();
-    std::int64_t* b = best.mutable_data();
-    double* c = confidence.mutable_data();
-    double* o = off_route.mutable_data();
     const double* w = weights.empty() ? nullptr : weights.data();
+    const double* a = advances.empty() ? nullptr : advances.data();
     {
         py::gil_scoped_release release;
-        filter.run(m, n_queries, w, b, c, o, threads);
+        filter.run(m, n_queries, w, a, out, threads);
     }
-    return py::make_tuple(std::move(best), std::move(confidence), std::move(off_route));
+    return py::make_tuple(std::move(best), std::move(confidence), std::move(off_route), std::move(speed));
+}
+
+nightloc::RouteFilter make_filter(std::size_t n_refs, const nightloc::RouteFilterParams& params,
+                                  const py::object& distances_in) {
+    const std::vector<double> distances = checked_distances(distances_in, n_refs);
+    return nightloc::RouteFilter(n_refs, params, distances.empty() ? nullptr : distances.data());
 }
 
 py::tuple route_filter_matrix(const py::array& matrix_in, const nightloc::RouteFilterParams& params,
-                              const py::object& weights_in, int threads) {
+                              const py::object& weights_in, int threads, const py::object& advances_in,
+                              const py::object& distances_in) {
     const F32Array matrix = checked_matrix(matrix_in, "matrix", false);
     if (matrix.shape(1) == 0) throw py::value_error("matrix has no references (shape " + shape_text(matrix) + ")");
-    nightloc::RouteFilter filter(static_cast<std::size_t>(matrix.shape(1)), params);
-    return run_rows(filter, matrix, weights_in, threads);
+    nightloc::RouteFilter filter = make_filter(static_cast<std::size_t>(matrix.shape(1)), params, distances_in);
+    return run_rows(filter, matrix, weights_in, threads, advances_in);
 }
 
 py::array_t<double> texture_weights(const py::array& stack_in, double min_texture) {
@@ -235,7 +283,7 @@ py::array_t<double> texture_weights(const py::array& stack_in, double min_textur
 // `row_out` (the enhanced row, float32 (n_refs,)).
 py::tuple filter_frame(nightloc::RouteFilter& filter, const py::array& image_in, const py::array& refs_in,
                        const py::array& shifts_in, double divisor, int enhance_radius, double min_texture, int threads,
-                       const py::array& row_in, const std::pair<long long, long long>& window_in) {
+                       const py::array& row_in, const std::pair<long long, long long>& window_in, double advance) {
     const nightloc::ShiftWindow window = nightloc::glue::shift_window(window_in);
     const auto refs = checked_stack(refs_in, "refs");
     if (!py::isinstance<py::array_t<std::uint8_t>>(image_in) || image_in.ndim() != 2 ||
@@ -256,6 +304,7 @@ py::tuple filter_frame(nightloc::RouteFilter& filter, const py::array& image_in,
     if (n_refs < 2) throw py::value_error("enhancement needs at least 2 references");
     if (enhance_radius < 1) throw py::value_error("enhance_radius must be >= 1, got " + std::to_string(enhance_radius));
     if (!(divisor > 0.0)) throw py::value_error("divisor must be > 0");
+    if (!std::isfinite(advance)) throw py::value_error("advance must be a finite distance");
     const std::vector<std::int32_t> shifts = nightloc::glue::shift_list(shifts_in, /*non_empty=*/true);
     F32Array row = checked_matrix(row_in, "row", true);
     if (row.shape(0) != 1 || static_cast<std::size_t>(row.shape(1)) != n_refs) {
@@ -276,9 +325,10 @@ py::tuple filter_frame(nightloc::RouteFilter& filter, const py::array& image_in,
         nightloc::enhance_contrast(out, out, 1, n_refs, static_cast<std::size_t>(enhance_radius),
                                    nightloc::EnhanceOffset::kZscoreBound, 1);
         weight = nightloc::texture_weight(q, h * w, min_texture);
-        step = filter.step(out, weight);
+        filter.set_threads(threads);
+        step = filter.step(out, weight, advance);
     }
-    return py::make_tuple(step.best, step.confidence, step.off_route, weight);
+    return py::make_tuple(step.best, step.confidence, step.off_route, weight, step.speed);
 }
 
 void register_route_filter(py::module_& m) {
@@ -294,31 +344,59 @@ void register_route_filter(py::module_& m) {
         .def_readwrite("leave", &nightloc::RouteFilterParams::leave)
         .def_readwrite("rejoin", &nightloc::RouteFilterParams::rejoin)
         .def_readwrite("window", &nightloc::RouteFilterParams::window)
+        .def_property(
+            "motion",
+            [](const nightloc::RouteFilterParams& p) {
+                return std::string(p.motion == nightloc::RouteMotion::kSpeed ? "speed" : "window");
+            },
+            [](nightloc::RouteFilterParams& p, const std::string& name) {
+                if (name == "window") {
+                    p.motion = nightloc::RouteMotion::kWindow;
+                } else if (name == "speed") {
+                    p.motion = nightloc::RouteMotion::kSpeed;
+                } else {
+                    throw py::value_error("motion must be 'window' or 'speed', got '" + name + "'");
+                }
+            },
+            "Motion model without odometry: 'window' or 'speed'.")
+        .def_readwrite("speed_min", &nightloc::RouteFilterParams::speed_min)
+        .def_readwrite("speed_max", &nightloc::RouteFilterParams::speed_max)
+        .def_readwrite("speed_step", &nightloc::RouteFilterParams::speed_step)
+        .def_readwrite("speed_jitter", &nightloc::RouteFilterParams::speed_jitter)
+        .def_readwrite("speed_change", &nightloc::RouteFilterParams::speed_change)
+        .def_readwrite("speed_tau", &nightloc::RouteFilterParams::speed_tau)
+        .def_readwrite("speed_cells", &nightloc::RouteFilterParams::speed_cells)
+        .def_readwrite("odometry_noise", &nightloc::RouteFilterParams::odometry_noise)
+        .def_readwrite("odometry_jitter", &nightloc::RouteFilterParams::odometry_jitter)
+        .def_readwrite("odometry_novelty", &nightloc::RouteFilterParams::odometry_novelty)
+        .def_readwrite("odometry_cells", &nightloc::RouteFilterParams::odometry_cells)
         .def("validate", [](const nightloc::RouteFilterParams& p) { nightloc::validate(p); });
 
     py::class_<nightloc::RouteFilter>(m, "RouteFilter", "The route filter's state and per-frame step.")
-        .def(py::init<std::size_t, const nightloc::RouteFilterParams&>(), py::arg("n_refs"),
-             py::arg("params"))  // std::invalid_argument -> ValueError
+        .def(py::init(&make_filter), py::arg("n_refs"), py::arg("params"),
+             py::arg("reference_distances") = py::none())  // std::invalid_argument -> ValueError
         .def(
             "step",
-            [](nightloc::RouteFilter& f, const py::array& row_in, double weight) {
-                const auto row = checked_row(row_in, f.n_refs());  // the weight is checked by the core
+            [](nightloc::RouteFilter& f, const py::array& row_in, double weight, double advance) {
+                const auto row = checked_row(row_in, f.n_refs());  // weight and advance are checked by the core
                 const float* r = row.data();
                 nightloc::RouteFilterStep s;
                 {
                     py::gil_scoped_release release;
-                    s = f.step(r, weight);
+                    s = f.step(r, weight, advance);
                 }
                 return step_tuple(s);
             },
-            py::arg("row"), py::arg("weight") = 1.0, "One frame's row: returns (best, confidence, off_route).")
+            py::arg("row"), py::arg("weight") = 1.0, py::arg("advance") = 0.0,
+            "One frame's row: returns (best, confidence, off_route, speed).")
         .def("run", &run_rows, py::arg("matrix"), py::arg("weights") = py::none(), py::arg("threads") = 1,
-             "Consecutive frames' rows (n, n_refs) float32: returns (best, confidence, off_route) arrays.")
+             py::arg("advances") = py::none(),
+             "Consecutive frames' rows (n, n_refs) float32: returns (best, confidence, off_route, speed) arrays.")
         .def("frame", &filter_frame, py::arg("image"), py::arg("refs"), py::arg("shifts"), py::arg("divisor"),
              py::arg("enhance_radius"), py::arg("min_texture"), py::arg("threads"), py::arg("row"),
-             py::arg("window") = std::pair<long long, long long>{0, 0},
+             py::arg("window") = std::pair<long long, long long>{0, 0}, py::arg("advance") = 0.0,
              "One prepared frame: difference row, enhancement, texture weight and step; returns "
-             "(best, confidence, off_route, weight).")
+             "(best, confidence, off_route, weight, speed).")
         .def("reset", &nightloc::RouteFilter::reset)
         .def("__copy__", [](const nightloc::RouteFilter& f) { return nightloc::RouteFilter(f); })
         .def(
@@ -340,11 +418,39 @@ void register_route_filter(py::module_& m) {
                                    return py::array_t<double>(static_cast<py::ssize_t>(b.size()), b.data());
                                })
         .def_property_readonly("off_route", &nightloc::RouteFilter::off_route)
-        .def_property_readonly("n_refs", &nightloc::RouteFilter::n_refs);
+        .def_property_readonly("n_refs", &nightloc::RouteFilter::n_refs)
+        .def_property_readonly("motion", [](const nightloc::RouteFilter& f) { return std::string(f.motion_name()); })
+        .def_property_readonly("plane_belief", [](const nightloc::RouteFilter& f) {
+            const auto& b = f.plane_belief();
+            return py::array_t<double>(static_cast<py::ssize_t>(b.size()), b.data());
+        });
 
     m.def("route_filter", &route_filter_matrix, py::arg("matrix"), py::arg("params"), py::arg("weights") = py::none(),
-          py::arg("threads") = 1,
-          "The route filter over an (n_query, n_ref) float32 matrix; returns (best int64, confidence, off_route).");
+          py::arg("threads") = 1, py::arg("advances") = py::none(), py::arg("reference_distances") = py::none(),
+          "The route filter over an (n_query, n_ref) float32 matrix; returns (best int64, confidence, off_route, "
+          "speed).");
+    m.def(
+        "speed_chain",
+        [](const nightloc::RouteFilterParams& p) {
+            const nightloc::SpeedChain c = nightloc::speed_chain(p);
+            auto array = [](const std::vector<double>& v) {
+                return py::array_t<double>(static_cast<py::ssize_t>(v.size()), v.data());
+            };
+            return py::make_tuple(array(c.speeds), array(c.up), array(c.down), array(c.prior), c.passes);
+        },
+        py::arg("params"), "The speed model's planes: (speeds, up, down, prior, passes per frame).");
+    m.def(
+        "odometry_spread",
+        [](double advance, double spacing, const nightloc::RouteFilterParams& p) {
+            if (!std::isfinite(advance) || !(spacing > 0.0) || !std::isfinite(spacing)) {
+                throw py::value_error("advance must be finite and spacing a finite distance > 0");
+            }
+            nightloc::validate(p);
+            const std::vector<double> taps = nightloc::odometry_spread(advance, spacing, p);
+            return py::array_t<double>(static_cast<py::ssize_t>(taps.size()), taps.data());
+        },
+        py::arg("advance"), py::arg("spacing"), py::arg("params"),
+        "The odometry model's position noise for one frame: taps over cells, centred.");
     m.def(
         "motion_kernel",
         [](double vmin, double vmax, double backward) {

@@ -28,7 +28,7 @@ constexpr std::size_t kMaxComposedTaps = 127;
 // Cells per chunk of the loops over all bins (a multiple of 16: the sums' lanes and blocks).
 constexpr std::size_t kCellChunk = 256;
 // Bins per measurement pass of a fused update (the kernel reads the weights once per pass).
-constexpr std::size_t kFusedBins = 4;
+constexpr std::size_t kFusedBins = detail::kGroupBins;
 // Most places of a dense block of the measurement (see detail::UpdateArgs).
 constexpr std::size_t kDensePlaces = 8;
 
@@ -78,8 +78,19 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
     require(std::isfinite(map_.dx) && map_.dx > 0 && std::isfinite(map_.dy) && map_.dy > 0,
             "grid filter: the cell spacing must be finite and positive");
     require(!map_.place_of_ref.empty(), "grid filter: the map has no references");
+    std::vector<bool> has_ref(places_, false);
     for (std::int32_t p : map_.place_of_ref) {
         require(p >= 0 && static_cast<std::size_t>(p) < places_, "grid filter: a reference's place is out of range");
+        has_ref[static_cast<std::size_t>(p)] = true;
+    }
+    for (std::size_t p = 0; p < places_; ++p)
+        if (!has_ref[p]) empty_places_.push_back(static_cast<std::int32_t>(p));
+    first_of_place_.assign(map_.place_of_ref.size(), 0);
+    std::fill(has_ref.begin(), has_ref.end(), false);
+    for (std::size_t i = 0; i < map_.place_of_ref.size(); ++i) {
+        const auto p = static_cast<std::size_t>(map_.place_of_ref[i]);
+        first_of_place_[i] = has_ref[p] ? 0 : 1;
+        has_ref[p] = true;
     }
     require(map_.ref_headings.empty() || map_.ref_headings.size() == map_.place_of_ref.size(),
             "grid filter: ref_headings must be empty or hold one heading per reference");
@@ -110,6 +121,8 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
             "grid filter: credibility must be in (0, 1]");
     require(finite_nonnegative(s.confidence_radius), "grid filter: confidence_radius must be finite and >= 0");
     require(s.estimate_window <= 1000, "grid filter: estimate_window must be <= 1000 cells");
+    require(std::isfinite(s.negligible) && s.negligible >= 0 && s.negligible < 1,
+            "grid filter: negligible must be in [0, 1)");
 
     can_pose_ = s.heading_bins > 1 && !map_.ref_headings.empty() && full;
     bins_ = can_pose_ ? s.heading_bins : 1;
@@ -164,6 +177,36 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
             }
         }
         block_start_[block + 1] = static_cast<std::int32_t>(block_places_.size());
+        has_sparse_blocks_ = has_sparse_blocks_ || block_start_[block + 1] == block_start_[block];
+    }
+    // The rows of the per-place arrays in the order the cells first use them (row-major): cells
+    // that follow each other read neighbouring rows (a map's own place order, e.g. sorted by x,
+    // would spread one row of cells over all of them). Only the indices change: every sum keeps
+    // its order.
+    {
+        const auto unused = static_cast<std::int32_t>(cells_);
+        std::vector<std::int32_t> first(places_, unused);
+        for (std::size_t c = 0; c < cells_; ++c)
+            for (std::size_t k = 0; k < slots_; ++k) {
+                const auto p = static_cast<std::size_t>(ell_index_[k * cells_ + c]);
+                if (p < places_ && ell_data_[k * cells_ + c] != 0.f && first[p] == unused)
+                    first[p] = static_cast<std::int32_t>(c);
+            }
+        std::vector<std::int32_t> order(places_);
+        for (std::size_t p = 0; p < places_; ++p) order[p] = static_cast<std::int32_t>(p);
+        std::stable_sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
+            return first[static_cast<std::size_t>(a)] < first[static_cast<std::size_t>(b)];
+        });
+        std::vector<std::int32_t> row_of(places_ + 1);
+        for (std::size_t r = 0; r < places_; ++r)
+            row_of[static_cast<std::size_t>(order[r])] = static_cast<std::int32_t>(r);
+        row_of[places_] = static_cast<std::int32_t>(places_);  // the fill stays last
+        for (std::int32_t& p : ell_index_) p = row_of[static_cast<std::size_t>(p)];
+        for (std::int32_t& p : block_places_) p = row_of[static_cast<std::size_t>(p)];
+        for (std::int32_t& p : empty_places_) p = row_of[static_cast<std::size_t>(p)];
+        row_of_ref_.resize(map_.place_of_ref.size());
+        for (std::size_t i = 0; i < row_of_ref_.size(); ++i)
+            row_of_ref_[i] = row_of[static_cast<std::size_t>(map_.place_of_ref[i])];
     }
     belief_.resize(bins_ * cells_);
     work_.resize(bins_ * cells_);
@@ -175,13 +218,16 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
     table_.resize(n_refs() * n_shifts());
     mins_.resize(n_refs());
     best_shifts_.resize(n_refs());
-    place_scores_.resize(bins_ * places_);
-    log_lik_.resize(bins_ * (places_ + 1));
+    ref_c0_.resize(n_refs());
+    ref_fraction_.resize(n_refs());
+    bin_max_.resize(bins_);
+    log_lik_.resize((bins_ + detail::kGroupBins - 1) / detail::kGroupBins * (places_ + 1) * detail::kGroupBins);
     reset();
 }
 
 void GridFilter::reset() {
     pending_ = false;
+    bin_max_valid_ = false;
     pose_ = can_pose_;
     offset_ = 0;
     lambda_ = 0;
@@ -340,6 +386,7 @@ void GridFilter::translate_blur_slice(const float* src, float* dst, const SliceM
 
 void GridFilter::to_position() {
     if (!pose_) return;
+    bin_max_valid_ = false;
     materialize();
     const auto& k = detail::filter_kernels(active_simd_backend());
     k.sum_slices(belief_.data(), bins_, cells_, work_.data());
@@ -349,6 +396,7 @@ void GridFilter::to_position() {
 
 void GridFilter::to_pose() {
     if (pose_ || !can_pose_) return;
+    bin_max_valid_ = false;
     materialize();
     for (std::size_t b = 1; b < bins_; ++b) {
         std::copy(belief_.begin(), belief_.begin() + static_cast<std::ptrdiff_t>(cells_),
@@ -375,6 +423,7 @@ void GridFilter::begin_prediction(std::vector<float> taps, std::vector<std::size
 
 void GridFilter::materialize() const {
     if (!pending_) return;
+    bin_max_valid_ = false;
     const auto& k = detail::filter_kernels(active_simd_backend());
     const std::size_t B = active_bins();
     for (std::size_t d = 0; d < B; ++d) {
@@ -424,6 +473,11 @@ void GridFilter::predict_robot(double forward, double left, double turn) {
     if (new_offset < 0) new_offset = 0;
     const auto B = static_cast<long long>(bins_);
     const auto k_roll = static_cast<std::size_t>(((roll % B) + B) % B);
+    // negligible bins (see grid_filter.hpp): shifted, not blurred
+    float negligible_below = 0.f;
+    if (bin_max_valid_ && s.negligible > 0) {
+        negligible_below = static_cast<float>(s.negligible * *std::max_element(bin_max_.begin(), bin_max_.end()));
+    }
     pending_motion_.resize(bins_);
     for (std::size_t b = 0; b < bins_; ++b) {
         const double theta = offset_ + step * static_cast<double>(b);
@@ -431,7 +485,8 @@ void GridFilter::predict_robot(double forward, double left, double turn) {
         const double mx = c * forward - sn * left, my = sn * forward + c * left;
         double wx, wy;
         axis_shares(theta + along, wx, wy);
-        const double sigma_x = std::sqrt(sd2 * wx + pf2), sigma_y = std::sqrt(sd2 * wy + pf2);
+        const bool blur = !(bin_max_[b] < negligible_below);
+        const double sigma_x = blur ? std::sqrt(sd2 * wx + pf2) : 0.0, sigma_y = blur ? std::sqrt(sd2 * wy + pf2) : 0.0;
         pending_motion_[(b + k_roll) % bins_] = {b, mx / map_.dx, my / map_.dy, sigma_x / map_.dx, sigma_y / map_.dy};
     }
     offset_ = new_offset;
@@ -501,89 +556,129 @@ void GridFilter::update_image(const std::uint8_t* query, const std::uint8_t* ref
     if (query == nullptr || refs == nullptr) throw std::invalid_argument("grid filter: null image");
     require(n_refs_in == n_refs(), "grid filter: the reference stack has " + std::to_string(n_refs_in) +
                                        " images but the map has " + std::to_string(n_refs()));
-    rotational_sad(query, refs, n_refs_in, image_height, map_.columns, map_.shifts.data(), map_.shifts.size(),
-                   table_.data(), threads);
+    // the sums into a buffer kept between frames (no 4 bytes per entry allocated, zeroed and
+    // faulted in per frame), then rotational_sad's scores: float(double(sum) / pixels)
+    sums_table_.resize(table_.size());
+    rotational_sad_sums(query, refs, n_refs_in, image_height, map_.columns, map_.shifts.data(), map_.shifts.size(),
+                        sums_table_.data(), threads);
+    detail::filter_kernels(active_simd_backend())
+        .scale_sums(sums_table_.data(), table_.size(), static_cast<double>(image_height * map_.columns), table_.data());
     update(table_.data());
+}
+
+double GridFilter::shift_of_bin0(std::size_t i, double W) const {
+    // the fractional column shift of heading bin 0 for reference i, reduced to [0, W)
+    double c = (offset_ - map_.ref_headings[i]) * W / kTwoPi;
+    c -= W * std::floor(c / W);
+    if (!(c < W) || c < 0) c = 0.0;  // rounding at the ends of the range
+    return c;
 }
 
 void GridFilter::update(const float* table) {
     if (table == nullptr) throw std::invalid_argument("grid filter: null table");
     const std::size_t n = n_refs(), S = n_shifts();
-    for (std::size_t i = 0; i < n * S; ++i) {
-        if (!std::isfinite(table[i])) {
-            throw std::invalid_argument("grid filter: the score table holds NaN or infinity (reference " +
-                                        std::to_string(i / S) + ")");
+    const auto& k = detail::filter_kernels(active_simd_backend());
+    if (k.row_minima(table, n, S, mins_.data(), best_shifts_.data())) {
+        for (std::size_t i = 0; i < n * S; ++i) {
+            if (!std::isfinite(table[i])) {
+                throw std::invalid_argument("grid filter: the score table holds NaN or infinity (reference " +
+                                            std::to_string(i / S) + ")");
+            }
         }
     }
     if (table != table_.data()) std::copy(table, table + n * S, table_.begin());
-    for (std::size_t i = 0; i < n; ++i) {
-        const float* row = table + i * S;
-        std::size_t best = 0;
-        for (std::size_t k = 1; k < S; ++k)
-            if (row[k] < row[best]) best = k;
-        mins_[i] = row[best];
-        best_shifts_[i] = map_.shifts[best];
+    for (std::size_t i = 0; i < n; ++i) best_shifts_[i] = map_.shifts[static_cast<std::size_t>(best_shifts_[i])];
+    // the median by selection (the two middle values for an even count), not a full sort
+    sorted_.assign(mins_.begin(), mins_.end());
+    const auto middle = sorted_.begin() + static_cast<std::ptrdiff_t>(n / 2);
+    std::nth_element(sorted_.begin(), middle, sorted_.end());
+    double median = static_cast<double>(*middle);
+    if (n % 2 == 0) {
+        const float below = *std::max_element(sorted_.begin(), middle);
+        median = 0.5 * (static_cast<double>(below) + median);
     }
-    std::vector<float> sorted(mins_);
-    std::sort(sorted.begin(), sorted.end());
-    const double s_min = sorted.front();
-    const double median = n % 2 ? static_cast<double>(sorted[n / 2])
-                                : 0.5 * (static_cast<double>(sorted[n / 2 - 1]) + static_cast<double>(sorted[n / 2]));
+    const double s_min = *std::min_element(mins_.begin(), mins_.end());
     const double spread = median - s_min;
     lambda_ = spread > 0 ? settings_.likelihood_gain / spread : 0.0;
 
-    // per place and bin: the lowest score of its references
+    // per place and bin the log2-likelihood y = max(-lambda log2(e) (score - s_min), -60) of the
+    // place's lowest score (of its references), in groups of kGroupBins bins (a pass of the
+    // measurement reads one group: places_ + 1 rows); row places_: the fill, the y of the bin's
+    // highest place score (cells without weights; places without references take it too: never
+    // preferred). y falls with the score: the lowest score's y is the highest y.
     const std::size_t B = active_bins();
+    const double gain = -lambda_ * kLog2e;
+    const std::size_t group_rows = places_ + 1;
     const float inf = std::numeric_limits<float>::infinity();
-    std::fill(place_scores_.begin(), place_scores_.begin() + static_cast<std::ptrdiff_t>(B * places_), inf);
-    if (pose_) {
+    auto place_row = [&](std::size_t p, float value) {  // every bin of place row p
+        for (std::size_t b = 0; b < B; ++b)
+            log_lik_[(b / detail::kGroupBins * group_rows + p) * detail::kGroupBins + b % detail::kGroupBins] = value;
+    };
+    auto set_fill = [&](const float* fill) {
+        for (std::size_t b = 0; b < B; ++b) {
+            for (std::int32_t p : empty_places_) {
+                log_lik_[(b / detail::kGroupBins * group_rows + static_cast<std::size_t>(p)) * detail::kGroupBins +
+                         b % detail::kGroupBins] = fill[b];
+            }
+            log_lik_[(b / detail::kGroupBins * group_rows + places_) * detail::kGroupBins + b % detail::kGroupBins] =
+                fill[b];
+        }
+    };
+    if (pose_ && bins_ == map_.columns) {  // bin b is column shift c0 + b: one fraction per reference
         const auto W = static_cast<double>(map_.columns);
-        const auto columns = static_cast<long long>(map_.columns);
-        const double per_bin = W / static_cast<double>(bins_);
         for (std::size_t i = 0; i < n; ++i) {
-            const float* row = table + i * S;
-            const double c = (offset_ - map_.ref_headings[i]) * W / kTwoPi;
-            const auto p = static_cast<std::size_t>(map_.place_of_ref[i]);
-            for (std::size_t b = 0; b < bins_; ++b) {
-                const double k = per_bin * static_cast<double>(b) + c;
-                const double kf = std::floor(k);
-                const double a = k - kf;
-                const auto k0 = static_cast<std::size_t>(((static_cast<long long>(kf) % columns) + columns) % columns);
-                const std::size_t k1 = (k0 + 1) % map_.columns;
-                const auto v = static_cast<float>((1.0 - a) * row[k0] + a * row[k1]);
-                float& slot = place_scores_[b * places_ + p];
-                slot = std::min(slot, v);
+            ref_c0_[i] = static_cast<std::int32_t>(shift_of_bin0(i, W));
+            ref_fraction_[i] = shift_of_bin0(i, W) - static_cast<double>(ref_c0_[i]);
+        }
+        for (std::int32_t p : empty_places_) place_row(static_cast<std::size_t>(p), inf);
+        twice_.resize(4 * map_.columns);
+        row_y_.resize(map_.columns);
+        k.lerp_log_lik(table, n, map_.columns, row_of_ref_.data(), first_of_place_.data(), ref_c0_.data(),
+                       ref_fraction_.data(), gain, s_min, kLowestLog2, log_lik_.data(), group_rows, twice_.data(),
+                       row_y_.data());
+        bin_high_.assign(B, inf);  // here the bins' lowest y
+        k.group_min(log_lik_.data(), places_, B, group_rows, bin_high_.data());
+        set_fill(bin_high_.data());
+    } else {
+        // per place and bin the lowest score of its references; place p's bins at p * B (made
+        // here only: the common case above needs none)
+        place_scores_.assign(B * places_, inf);
+        if (pose_) {
+            const auto W = static_cast<double>(map_.columns);
+            const auto columns = static_cast<std::int32_t>(map_.columns);
+            const double per_bin = W / static_cast<double>(bins_);
+            for (std::size_t i = 0; i < n; ++i) {
+                const float* row = table + i * S;
+                const double c = shift_of_bin0(i, W);  // bin b's shift: per_bin b + c in [0, 2 W)
+                float* ps = place_scores_.data() + static_cast<std::size_t>(row_of_ref_[i]) * B;
+                for (std::size_t b = 0; b < bins_; ++b) {
+                    const double shift = per_bin * static_cast<double>(b) + c;
+                    const auto kf = static_cast<std::int32_t>(shift);  // shift >= 0: truncation is the floor
+                    const double a = shift - static_cast<double>(kf);
+                    const std::int32_t k0 = kf >= columns ? kf - columns : kf;
+                    const std::int32_t k1 = k0 + 1 == columns ? 0 : k0 + 1;
+                    const auto v = static_cast<float>((1.0 - a) * row[k0] + a * row[k1]);
+                    ps[b] = std::min(ps[b], v);
+                }
+            }
+        } else {
+            for (std::size_t i = 0; i < n; ++i) {
+                float& slot = place_scores_[static_cast<std::size_t>(row_of_ref_[i])];
+                slot = std::min(slot, mins_[i]);
             }
         }
-    } else {
-        for (std::size_t i = 0; i < n; ++i) {
-            float& slot = place_scores_[static_cast<std::size_t>(map_.place_of_ref[i])];
-            slot = std::min(slot, mins_[i]);
+        for (std::int32_t p : empty_places_) {
+            std::fill_n(place_scores_.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(p) * B), B, -inf);
         }
+        bin_high_.assign(B, -inf);
+        k.column_max(place_scores_.data(), places_, B, bin_high_.data());
+        k.log_lik(place_scores_.data(), places_, B, gain, s_min, kLowestLog2, log_lik_.data(), group_rows, 0);
+        std::vector<float>& fill = row_y_;
+        fill.resize(B);
+        k.log_lik(bin_high_.data(), 1, B, gain, s_min, kLowestLog2, fill.data(), 1, 0);
+        // fill is grouped with one row: bin b at (b / 4) * 4 + b % 4 = b
+        set_fill(fill.data());
     }
-    for (std::size_t b = 0; b < B; ++b) {  // places without references (none in practice): never preferred
-        float* ps = place_scores_.data() + b * places_;
-        float hi = -inf;
-        for (std::size_t p = 0; p < places_; ++p)
-            if (ps[p] != inf) hi = std::max(hi, ps[p]);
-        for (std::size_t p = 0; p < places_; ++p)
-            if (ps[p] == inf) ps[p] = hi;
-    }
-
-    // per place and bin the log2-likelihood y = max(-lambda log2(e) (score - s_min), -60); the
-    // bin's fill (its highest place score: cells without weights) at index places_
-    const std::size_t stride = places_ + 1;
-    const double gain = -lambda_ * kLog2e;
-    for (std::size_t b = 0; b < B; ++b) {
-        const float* ps = place_scores_.data() + b * places_;
-        float* y = log_lik_.data() + b * stride;
-        for (std::size_t p = 0; p < places_; ++p) {
-            y[p] = static_cast<float>(std::max(gain * (static_cast<double>(ps[p]) - s_min), kLowestLog2));
-        }
-        const double fill = *std::max_element(ps, ps + places_);
-        y[places_] = static_cast<float>(std::max(gain * (fill - s_min), kLowestLog2));
-    }
-    const auto& k = detail::filter_kernels(active_simd_backend());
     const float one = 1.f;
     detail::UpdateArgs args{block_start_.data(),
                             block_places_.data(),
@@ -593,22 +688,22 @@ void GridFilter::update(const float* table) {
                             slots_,
                             cells_,
                             log_lik_.data(),
-                            stride,
+                            detail::kGroupBins,
+                            0,
                             &one,
                             1,
                             1.f,
                             0.f,
                             belief_.data(),
                             marginal_.data()};
+    if (has_sparse_blocks_) sparse_y_.resize(detail::kGroupBins * cells_);
     // the prior is the belief itself (in place), one slice per bin
     slices_.resize(B);
     for (std::size_t b = 0; b < B; ++b) slices_[b] = belief_.data() + b * cells_;
     if (pending_) {
         measure_predicted(args);
-    } else {  // chunks of cells through all bins: the chunk's weights stay in L1
-        for (std::size_t c0 = 0; c0 < cells_; c0 += kCellChunk) {
-            k.measure(args, 0, B, slices_.data(), c0, std::min(kCellChunk, cells_ - c0));
-        }
+    } else {
+        for (std::size_t d0 = 0; d0 < B; d0 += kFusedBins) measure_group(args, d0, std::min(B, d0 + kFusedBins), d0);
     }
     double lanes[detail::kSumLanes] = {};
     k.sum(marginal_.data(), cells_, lanes);
@@ -620,13 +715,26 @@ void GridFilter::update(const float* table) {
         args.a = 1.f;
         args.f = 0.f;
         for (std::size_t b = 0; b < B; ++b) slices_[b] = belief_.data() + b * cells_;
-        k.measure(args, 0, B, slices_.data(), 0, cells_);
+        for (std::size_t d0 = 0; d0 < B; d0 += kFusedBins) measure_group(args, d0, std::min(B, d0 + kFusedBins), d0);
         std::fill(std::begin(lanes), std::end(lanes), 0.0);
         k.sum(marginal_.data(), cells_, lanes);
         total = detail::lane_total(lanes);  // >= 2^-60 per cell: positive
     }
     scale_ = 1.0 / total;
     marginal_valid_ = true;
+    bin_max_valid_ = pose_;
+}
+
+void GridFilter::measure_group(detail::UpdateArgs& args, std::size_t d0, std::size_t d1, std::size_t first_slice) {
+    const auto& k = detail::filter_kernels(active_simd_backend());
+    args.log_lik = log_lik_.data() + d0 / detail::kGroupBins * (places_ + 1) * detail::kGroupBins;
+    args.group_b0 = d0;
+    if (has_sparse_blocks_) {  // the cells of blocks with many places: interpolated for these bins first
+        args.sparse_y = sparse_y_.data();
+        k.interpolate(args, d1 - d0, sparse_y_.data());
+    }
+    args.bin_max = bin_max_.data();
+    k.measure(args, d0, d1 - d0, slices_.data() + first_slice * args.n_taps, 0, cells_);
 }
 
 void GridFilter::measure_predicted(detail::UpdateArgs& args) {
@@ -635,7 +743,6 @@ void GridFilter::measure_predicted(detail::UpdateArgs& args) {
     // in a free slice of work_ (the most recently freed: cache-hot), and freed after the last bin
     // that needs it; the posterior of bin d overwrites belief_[d] once the prediction that reads
     // it is made.
-    const auto& k = detail::filter_kernels(active_simd_backend());
     const std::size_t B = active_bins();
     const std::size_t n_taps = pending_taps_.size();
     args.taps = pending_taps_.data();
@@ -676,7 +783,7 @@ void GridFilter::measure_predicted(detail::UpdateArgs& args) {
                 slices_[(d - d0) * n_taps + t] = work_.data() + slot * cells_;
             }
         }
-        k.measure(args, d0, d1 - d0, slices_.data(), 0, cells_);
+        measure_group(args, d0, d1, 0);
         for (std::size_t d = d0; d < d1; ++d) {
             for (std::size_t t = 0; t < n_taps; ++t) {
                 const std::size_t e = (d + B - pending_offsets_[t]) % B;
@@ -894,6 +1001,27 @@ GridEstimate GridFilter::estimate() const {
     return e;
 }
 
+std::size_t GridFilter::sparse_blocks() const noexcept {
+    std::size_t count = 0;
+    for (std::size_t block = 0; block + 1 < block_start_.size(); ++block)
+        count += block_start_[block + 1] == block_start_[block];
+    return count;
+}
+
+std::size_t GridFilter::memory_bytes() const noexcept {
+    std::size_t bytes = sizeof(*this);
+    auto add = [&](const auto& v) { bytes += v.capacity() * sizeof(v[0]); };
+    add(pending_motion_), add(pending_taps_), add(pending_offsets_), add(ell_data_), add(ell_index_);
+    add(block_start_), add(block_places_), add(block_weights_), add(sparse_y_), add(belief_), add(work_);
+    add(slot_of_), add(free_slots_), add(slices_), add(last_use_), add(dest_of_source_), add(marginal_);
+    add(row_buf_), add(zeros_), add(padded_), add(wide_a_), add(wide_b_), add(taps_x_), add(taps_y_), add(sums_);
+    add(sums_table_), add(table_), add(mins_), add(sorted_), add(bin_high_), add(place_scores_), add(log_lik_);
+    add(row_of_ref_), add(ref_c0_), add(ref_fraction_), add(twice_), add(row_y_), add(first_of_place_);
+    add(empty_places_), add(bin_max_), add(best_shifts_), add(xs_), add(dx2_), add(hist_), add(ring_);
+    add(map_.place_of_ref), add(map_.ref_headings), add(map_.shifts);
+    return bytes;
+}
+
 void GridFilter::set_belief(const float* belief, bool pose, double offset) {
     if (belief == nullptr) throw std::invalid_argument("grid filter: null belief");
     require(!pose || can_pose_, "grid filter: this filter has no pose mode");
@@ -909,6 +1037,7 @@ void GridFilter::set_belief(const float* belief, bool pose, double offset) {
     require(total > 0, "grid filter: a belief must have a positive sum");
     std::copy(belief, belief + n, belief_.begin());
     pending_ = false;
+    bin_max_valid_ = false;
     pose_ = pose;
     offset_ = offset;
     scale_ = 1.0 / total;

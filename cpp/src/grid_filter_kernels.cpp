@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
+#include <utility>
 
 #include "float_kernel_table.hpp"
 #include "sad_kernels.hpp"  // NIGHTLOC_X86_KERNELS
@@ -448,36 +449,40 @@ NL_INLINE void sum_slices_body(const float* __restrict in, std::size_t bins, std
 // the measurement
 
 // The log2-likelihood of cell c in bin b's values (the sum of UpdateArgs), not yet floored.
-NL_INLINE float log_lik_one(const UpdateArgs& u, const float* values, std::size_t c) {
+NL_INLINE float log_lik_one(const UpdateArgs& u, std::size_t b, std::size_t c) {
+    const float* values = u.log_lik + (b - u.group_b0);
     const std::size_t block = c / kBlock;
     const auto e0 = static_cast<std::size_t>(u.block_start[block]),
                e1 = static_cast<std::size_t>(u.block_start[block + 1]);
     float y = 0.f;
     if (e1 > e0) {
         const std::size_t lane = c % kBlock;
-        for (std::size_t e = e0; e < e1; ++e) y = y + u.block_weights[e * kBlock + lane] * values[u.block_places[e]];
+        for (std::size_t e = e0; e < e1; ++e)
+            y = y + u.block_weights[e * kBlock + lane] * values[static_cast<std::size_t>(u.block_places[e]) * u.stride];
     } else {
-        for (std::size_t k = 0; k < u.slots; ++k) y = y + u.data[k * u.n + c] * values[u.index[k * u.n + c]];
+        y = u.sparse_y[(b - u.group_b0) * u.n + c];
     }
     return y;
 }
 
 // The measurement of cell c in bin b (the scalar path and every path's short last block).
 NL_INLINE void measure_one(const UpdateArgs& u, const float* const* in, std::size_t b, std::size_t c) {
-    float y = log_lik_one(u, u.log_lik + b * u.stride, c);
+    float y = log_lik_one(u, b, c);
     y = y > kLowest ? y : kLowest;
     float acc = 0.f;
     for (std::size_t t = 0; t < u.n_taps; ++t) acc = acc + u.taps[t] * in[t][c];
     const float p = (acc * u.a + u.f) * exp2_scalar(y);
     u.belief[b * u.n + c] = p;
     u.marginal[c] = (b == 0 ? 0.f : u.marginal[c]) + p;
+    if (u.bin_max != nullptr) u.bin_max[b] = p > u.bin_max[b] ? p : u.bin_max[b];
 }
 
 // One full block of kBlock cells from c in Q bins from b (in: per bin its n_taps slices): the
 // block's weights are read once for all Q bins (each bin alone would stream the map's weights
 // from L2 once per bin), and the Q kBlock / L vectors are independent chains.
 template <int L, int Q>
-NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* const* in, std::size_t c) {
+NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* const* in, std::size_t c,
+                             typename Vec<L>::F* high) {
     using F = typename Vec<L>::F;
     constexpr int V = static_cast<int>(kBlock) / L;  // vectors per block
     const F zero = {}, lowest = zero + kLowest;
@@ -485,7 +490,7 @@ NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* co
     NL_UNROLL
     for (int q = 0; q < Q; ++q) NL_UNROLL
     for (int v = 0; v < V; ++v) y[q][v] = zero;
-    const float* values = u.log_lik + b * u.stride;
+    const float* values = u.log_lik + (b - u.group_b0);
     const std::size_t block = c / kBlock;
     const auto e0 = static_cast<std::size_t>(u.block_start[block]);
     const auto e1 = static_cast<std::size_t>(u.block_start[block + 1]);
@@ -498,26 +503,17 @@ NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* co
             for (int v = 0; v < V; ++v) load<L>(x[v], w + L * v);
             NL_UNROLL
             for (int q = 0; q < Q; ++q) {
-                const float g = values[static_cast<std::size_t>(q) * u.stride + place];
+                const float g = values[place * u.stride + static_cast<std::size_t>(q)];
                 NL_UNROLL
                 for (int v = 0; v < V; ++v) y[q][v] = y[q][v] + x[v] * g;
             }
         }
-    } else {
-        for (std::size_t k = 0; k < u.slots; ++k) {
+    } else {  // interpolated beforehand (FilterKernels::interpolate)
+        NL_UNROLL
+        for (int q = 0; q < Q; ++q) {
+            const float* yq = u.sparse_y + (b + static_cast<std::size_t>(q) - u.group_b0) * u.n + c;
             NL_UNROLL
-            for (int v = 0; v < V; ++v) {
-                const std::size_t cv = c + static_cast<std::size_t>(L * v);
-                F w;
-                load<L>(w, u.data + k * u.n + cv);
-                NL_UNROLL
-                for (int q = 0; q < Q; ++q) {
-                    F x;
-                    const float* vq = values + static_cast<std::size_t>(q) * u.stride;
-                    for (int l = 0; l < L; ++l) x[l] = vq[u.index[k * u.n + cv + static_cast<std::size_t>(l)]];
-                    y[q][v] = y[q][v] + w * x;
-                }
-            }
+            for (int v = 0; v < V; ++v) load<L>(y[q][v], yq + L * v);
         }
     }
     const float a = u.a, f = u.f;
@@ -555,6 +551,7 @@ NL_INLINE void measure_block(const UpdateArgs& u, std::size_t b, const float* co
             const F p = (acc[v] * a + f) * l;
             store<L>(belief + L * v, p);
             mg[v] = mg[v] + p;
+            high[q] = p > high[q] ? p : high[q];
         }
     }
     NL_UNROLL
@@ -568,13 +565,22 @@ constexpr int kMeasureBins = L == 4 ? 2 : 4;
 template <int L, int Q>
 NL_INLINE void measure_bins(const UpdateArgs& u, std::size_t b, const float* const* in, std::size_t c0,
                             std::size_t full) {
-    for (std::size_t c = c0; c < full; c += kBlock) measure_block<L, Q>(u, b, in, c);
+    typename Vec<L>::F high[Q] = {};  // the bins' largest values (beliefs are >= 0)
+    for (std::size_t c = c0; c < full; c += kBlock) measure_block<L, Q>(u, b, in, c, high);
+    if (u.bin_max == nullptr) return;
+    for (int q = 0; q < Q; ++q) {
+        float m = u.bin_max[b + static_cast<std::size_t>(q)];
+        for (int l = 0; l < L; ++l) m = high[q][l] > m ? high[q][l] : m;
+        u.bin_max[b + static_cast<std::size_t>(q)] = m;
+    }
 }
 
 template <int L>
 NL_INLINE void measure_body(const UpdateArgs& u, std::size_t b, std::size_t bins, const float* const* in,
                             std::size_t c0, std::size_t m) {
     const std::size_t full = L == 1 ? c0 : c0 + m - m % kBlock;
+    if (u.bin_max != nullptr && c0 == 0)
+        for (std::size_t q = 0; q < bins; ++q) u.bin_max[b + q] = 0.f;
     if constexpr (L != 1) {
         constexpr std::size_t Q = kMeasureBins<L>;
         std::size_t q = 0;
@@ -583,6 +589,260 @@ NL_INLINE void measure_body(const UpdateArgs& u, std::size_t b, std::size_t bins
     }
     for (std::size_t q = 0; q < bins; ++q)
         for (std::size_t c = full; c < c0 + m; ++c) measure_one(u, in + q * u.n_taps, b + q, c);
+}
+
+// Lane j of interleave's lo output: a[j / 2] for even j, b[j / 2] for odd (hi: from the upper halves).
+constexpr int interleave_lane(int j, int lanes, bool upper) {
+    return (j % 2 ? lanes : 0) + j / 2 + (upper ? lanes / 2 : 0);
+}
+
+// lo = (a0, b0, a1, b1, ...) and hi the same of the upper halves: one two-source shuffle each.
+template <int L, int... J>
+NL_INLINE void interleave(const typename Vec<L>::F& a, const typename Vec<L>::F& b, typename Vec<L>::F& lo,
+                          typename Vec<L>::F& hi, std::integer_sequence<int, J...>) {
+#if defined(__clang__)
+    lo = __builtin_shufflevector(a, b, interleave_lane(J, L, false)...);
+    hi = __builtin_shufflevector(a, b, interleave_lane(J, L, true)...);
+#else
+    using I = typename Vec<L>::I;
+    const I lo_mask = {interleave_lane(J, L, false)...}, hi_mask = {interleave_lane(J, L, true)...};
+    lo = __builtin_shuffle(a, b, lo_mask);
+    hi = __builtin_shuffle(a, b, hi_mask);
+#endif
+}
+
+// One stage of transpose_square: rows i and i + H (i without bit H) interleaved.
+template <int L, int H>
+NL_INLINE void transpose_stage(typename Vec<L>::F* r) {
+    NL_UNROLL
+    for (int i = 0; i < L; ++i) {
+        if (i & H) continue;
+        typename Vec<L>::F lo, hi;
+        interleave<L>(r[i], r[i + H], lo, hi, std::make_integer_sequence<int, L>{});
+        r[i] = lo;
+        r[i + H] = hi;
+    }
+    if constexpr (H > 1) transpose_stage<L, H / 2>(r);
+}
+
+// r[i][j] becomes r[j][i] (L x L floats in L registers): log2 L stages of interleaves, pairing
+// rows H apart for H = L / 2, ..., 1.
+template <int L>
+NL_INLINE void transpose_square(typename Vec<L>::F* r) {
+    transpose_stage<L, L / 2>(r);
+}
+
+// One cell's log2-likelihood in bin q of the group: its ELL slots in slot order, summed in float from 0.
+NL_INLINE float interpolate_one(const UpdateArgs& u, std::size_t c, std::size_t q) {
+    float acc = 0.f;
+    for (std::size_t k = 0; k < u.slots; ++k) {
+        acc = acc + u.data[k * u.n + c] * u.log_lik[static_cast<std::size_t>(u.index[k * u.n + c]) * u.stride + q];
+    }
+    return acc;
+}
+
+// Per block that is not dense: its cells' log2-likelihoods in the group's bins. Four cells x
+// four bins at a time (every path alike: 4-float vectors): each cell's four bins summed slot by
+// slot from its places' rows (contiguous loads), the square transposed in registers, stored bin
+// by bin; other bin counts and short blocks cell by cell (the same operations per value).
+template <int L>
+NL_INLINE void interpolate_body(const UpdateArgs& u, std::size_t bins, float* __restrict y) {
+    const std::size_t blocks = (u.n + kBlock - 1) / kBlock;
+    const float* rows = u.log_lik;
+    for (std::size_t block = 0; block < blocks; ++block) {
+        if (u.block_start[block + 1] > u.block_start[block]) continue;  // dense: the measurement interpolates
+        const std::size_t c0 = block * kBlock, m = u.n - c0 < kBlock ? u.n - c0 : kBlock;
+        if constexpr (L != 1) {
+            if (m == kBlock && bins == 4) {
+                using F = typename Vec<4>::F;
+                for (std::size_t g = 0; g < kBlock; g += 4) {
+                    F r[4];
+                    NL_UNROLL
+                    for (int l = 0; l < 4; ++l) {
+                        const std::size_t c = c0 + g + static_cast<std::size_t>(l);
+                        F acc = {};
+                        for (std::size_t k = 0; k < u.slots; ++k) {
+                            const float w = u.data[k * u.n + c];
+                            F x;
+                            load<4>(x, rows + static_cast<std::size_t>(u.index[k * u.n + c]) * u.stride);
+                            acc = acc + w * x;
+                        }
+                        r[l] = acc;
+                    }
+                    transpose_square<4>(r);
+                    NL_UNROLL
+                    for (int j = 0; j < 4; ++j) store<4>(y + static_cast<std::size_t>(j) * u.n + c0 + g, r[j]);
+                }
+                continue;
+            }
+        }
+        for (std::size_t b = 0; b < bins; ++b)
+            for (std::size_t l = 0; l < m; ++l) y[b * u.n + c0 + l] = interpolate_one(u, c0 + l, b);
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// the scores of a frame (element-wise loops: the path's vectorizer, the same values)
+
+constexpr std::size_t kMinLanes = 16;  // independent running minima per row (exact in any order)
+
+NL_INLINE bool row_minima_body(const float* __restrict table, std::size_t n, std::size_t S, float* __restrict mins,
+                               std::int32_t* __restrict best) {
+    std::uint32_t bad = 0;
+    for (std::size_t i = 0; i < n * S; ++i) {  // a NaN or an infinity: all exponent bits set
+        std::uint32_t bits;
+        std::memcpy(&bits, table + i, sizeof(bits));
+        bad |= static_cast<std::uint32_t>((bits & 0x7f800000u) == 0x7f800000u);
+    }
+    if (bad) return true;
+    const auto none = static_cast<std::int32_t>(S);
+    for (std::size_t i = 0; i < n; ++i) {
+        const float* row = table + i * S;
+        float low = row[0];
+        std::size_t k = 0;
+        if (S >= kMinLanes) {  // independent minima (exact in any order): they vectorize
+            float lane[kMinLanes];
+            for (std::size_t l = 0; l < kMinLanes; ++l) lane[l] = row[l];
+            for (k = kMinLanes; k + kMinLanes <= S; k += kMinLanes)
+                for (std::size_t l = 0; l < kMinLanes; ++l) lane[l] = row[k + l] < lane[l] ? row[k + l] : lane[l];
+            for (std::size_t l = 0; l < kMinLanes; ++l) low = lane[l] < low ? lane[l] : low;
+        }
+        for (; k < S; ++k) low = row[k] < low ? row[k] : low;
+        std::int32_t first = none;  // the first column holding it: a minimum of indices (it vectorizes)
+        for (std::size_t c = 0; c < S; ++c) {
+            const std::int32_t candidate = row[c] == low ? static_cast<std::int32_t>(c) : none;
+            first = candidate < first ? candidate : first;
+        }
+        mins[i] = low;
+        best[i] = first < none ? first : 0;
+    }
+    return false;
+}
+
+NL_INLINE void lerp_rows_body(const float* __restrict table, std::size_t n, std::size_t W,
+                              const std::int32_t* __restrict rows, const std::int32_t* __restrict c0s,
+                              const double* __restrict fractions, float* __restrict ps, float* __restrict twice) {
+    for (std::size_t i = 0; i < n; ++i) {
+        const float* row = table + i * W;
+        for (std::size_t k = 0; k < W; ++k) twice[k] = twice[W + k] = row[k];  // the row twice: k + 1 needs no wrap
+        float* out = ps + static_cast<std::size_t>(rows[i]) * W;
+        const float* x = twice + c0s[i];
+        const double a = fractions[i], a0 = 1.0 - a;
+        for (std::size_t b = 0; b < W; ++b) {
+            const auto v = static_cast<float>(a0 * static_cast<double>(x[b]) + a * static_cast<double>(x[b + 1]));
+            out[b] = v < out[b] ? v : out[b];
+        }
+    }
+}
+
+NL_INLINE void lerp_log_lik_body(const float* __restrict table, std::size_t n, std::size_t W,
+                                 const std::int32_t* __restrict rows, const std::uint8_t* __restrict first,
+                                 const std::int32_t* __restrict c0s, const double* __restrict fractions, double gain,
+                                 double s_min, double lowest, float* __restrict y, std::size_t group_rows,
+                                 float* __restrict twice, float* __restrict row_y) {
+    // each row twice (k + 1 needs no wrap), one reference ahead in two alternating buffers: the
+    // unaligned loads from it would otherwise wait for the stores just made
+    auto copy_twice = [&](std::size_t i) {
+        float* to = twice + (i % 2) * 2 * W;
+        const float* row = table + i * W;
+        for (std::size_t k = 0; k < W; ++k) to[k] = to[W + k] = row[k];
+    };
+    if (n > 0) copy_twice(0);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (i + 1 < n) copy_twice(i + 1);
+        const float* x = twice + (i % 2) * 2 * W + c0s[i];
+        const double a = fractions[i], a0 = 1.0 - a;
+        for (std::size_t b = 0; b < W; ++b) {
+            const auto v = static_cast<float>(a0 * static_cast<double>(x[b]) + a * static_cast<double>(x[b + 1]));
+            const double t = gain * (static_cast<double>(v) - s_min);
+            row_y[b] = static_cast<float>(t > lowest ? t : lowest);
+        }
+        const auto r = static_cast<std::size_t>(rows[i]);
+        std::size_t b0 = 0;
+        using F4 = Vec<kGroupBins>::F;
+        for (; b0 + kGroupBins <= W; b0 += kGroupBins) {  // whole groups: one 4-float chunk each
+            float* out = y + ((b0 / kGroupBins) * group_rows + r) * kGroupBins;
+            F4 v;
+            load<kGroupBins>(v, row_y + b0);
+            if (!first[i]) {
+                F4 kept;
+                load<kGroupBins>(kept, out);
+                v = v > kept ? v : kept;
+            }
+            store<kGroupBins>(out, v);
+        }
+        for (; b0 < W; ++b0) {
+            float* out = y + ((b0 / kGroupBins) * group_rows + r) * kGroupBins + b0 % kGroupBins;
+            *out = first[i] || row_y[b0] > *out ? row_y[b0] : *out;
+        }
+    }
+}
+
+NL_INLINE void group_min_body(const float* __restrict y, std::size_t rows, std::size_t B, std::size_t group_rows,
+                              float* __restrict low) {
+    for (std::size_t b0 = 0; b0 < B; b0 += kGroupBins) {
+        const float* group = y + (b0 / kGroupBins) * group_rows * kGroupBins;
+        const std::size_t width = B - b0 < kGroupBins ? B - b0 : kGroupBins;
+        using F4 = Vec<kGroupBins>::F;
+        F4 m = {}, m2 = {};  // two independent chains
+        for (std::size_t q = 0; q < kGroupBins; ++q) m[q] = m2[q] = q < width ? low[b0 + q] : 0.f;
+        std::size_t r = 0;
+        for (; r + 2 <= rows; r += 2) {
+            F4 v, v2;
+            load<kGroupBins>(v, group + r * kGroupBins);
+            load<kGroupBins>(v2, group + (r + 1) * kGroupBins);
+            m = v < m ? v : m;
+            m2 = v2 < m2 ? v2 : m2;
+        }
+        if (r < rows) {
+            F4 v;
+            load<kGroupBins>(v, group + r * kGroupBins);
+            m = v < m ? v : m;
+        }
+        m = m2 < m ? m2 : m;
+        for (std::size_t q = 0; q < width; ++q) low[b0 + q] = m[q];
+    }
+}
+
+NL_INLINE void column_max_body(const float* __restrict values, std::size_t rows, std::size_t B,
+                               float* __restrict high) {
+    for (std::size_t r = 0; r < rows; ++r) {
+        const float* v = values + r * B;
+        for (std::size_t b = 0; b < B; ++b) high[b] = v[b] > high[b] ? v[b] : high[b];
+    }
+}
+
+NL_INLINE void log_lik_body(const float* __restrict score, std::size_t rows, std::size_t B, double gain, double s_min,
+                            double lowest, float* __restrict y, std::size_t group_rows, std::size_t first_row) {
+    for (std::size_t g = 0; g * kGroupBins < B; ++g) {
+        const std::size_t b0 = g * kGroupBins, width = B - b0 < kGroupBins ? B - b0 : kGroupBins;
+        float* out = y + (g * group_rows + first_row) * kGroupBins;
+        for (std::size_t r = 0; r < rows; ++r) {
+            for (std::size_t q = 0; q < width; ++q) {
+                const double v = gain * (static_cast<double>(score[r * B + b0 + q]) - s_min);
+                out[r * kGroupBins + q] = static_cast<float>(v > lowest ? v : lowest);
+            }
+        }
+    }
+}
+
+NL_INLINE void scale_sums_body(const std::uint32_t* __restrict sums, std::size_t n, double divisor,
+                               float* __restrict scores) {
+    for (std::size_t k = 0; k < n; ++k) scores[k] = static_cast<float>(static_cast<double>(sums[k]) / divisor);
+}
+
+NL_INLINE float max_value_body(const float* __restrict values, std::size_t n) {
+    float high = values[0];
+    std::size_t c = 0;
+    if (n >= kMinLanes) {  // independent maxima (exact in any order): they vectorize
+        float lane[kMinLanes];
+        for (std::size_t l = 0; l < kMinLanes; ++l) lane[l] = values[l];
+        for (c = kMinLanes; c + kMinLanes <= n; c += kMinLanes)
+            for (std::size_t l = 0; l < kMinLanes; ++l) lane[l] = values[c + l] > lane[l] ? values[c + l] : lane[l];
+        for (std::size_t l = 0; l < kMinLanes; ++l) high = lane[l] > high ? lane[l] : high;
+    }
+    for (; c < n; ++c) high = values[c] > high ? values[c] : high;
+    return high;
 }
 
 template <int L>
@@ -624,15 +884,49 @@ NL_INLINE void sum_body(const float* values, std::size_t n, double* lanes) {
                                      std::size_t c0, std::size_t m) {                                                 \
         measure_body<lanes>(u, b, bins, in, c0, m);                                                                   \
     }                                                                                                                 \
+    attributes void interpolate_##suffix(const UpdateArgs& u, std::size_t bins, float* y) {                           \
+        interpolate_body<lanes>(u, bins, y);                                                                          \
+    }                                                                                                                 \
+    attributes bool row_minima_##suffix(const float* table, std::size_t n, std::size_t S, float* mins,                \
+                                        std::int32_t* best) {                                                         \
+        return row_minima_body(table, n, S, mins, best);                                                              \
+    }                                                                                                                 \
+    attributes void lerp_rows_##suffix(const float* table, std::size_t n, std::size_t W, const std::int32_t* rows,    \
+                                       const std::int32_t* c0, const double* fraction, float* ps, float* twice) {     \
+        lerp_rows_body(table, n, W, rows, c0, fraction, ps, twice);                                                   \
+    }                                                                                                                 \
+    attributes void lerp_log_lik_##suffix(const float* table, std::size_t n, std::size_t W, const std::int32_t* rows, \
+                                          const std::uint8_t* first, const std::int32_t* c0, const double* fraction,  \
+                                          double gain, double s_min, double lowest, float* y, std::size_t group_rows, \
+                                          float* twice, float* row_y) {                                               \
+        lerp_log_lik_body(table, n, W, rows, first, c0, fraction, gain, s_min, lowest, y, group_rows, twice, row_y);  \
+    }                                                                                                                 \
+    attributes void group_min_##suffix(const float* y, std::size_t rows, std::size_t B, std::size_t group_rows,       \
+                                       float* low) {                                                                  \
+        group_min_body(y, rows, B, group_rows, low);                                                                  \
+    }                                                                                                                 \
+    attributes void column_max_##suffix(const float* values, std::size_t rows, std::size_t B, float* high) {          \
+        column_max_body(values, rows, B, high);                                                                       \
+    }                                                                                                                 \
+    attributes void log_lik_##suffix(const float* score, std::size_t rows, std::size_t B, double gain, double s_min,  \
+                                     double lowest, float* y, std::size_t group_rows, std::size_t first_row) {        \
+        log_lik_body(score, rows, B, gain, s_min, lowest, y, group_rows, first_row);                                  \
+    }                                                                                                                 \
+    attributes void scale_sums_##suffix(const std::uint32_t* sums, std::size_t n, double divisor, float* scores) {    \
+        scale_sums_body(sums, n, divisor, scores);                                                                    \
+    }                                                                                                                 \
+    attributes float max_value_##suffix(const float* values, std::size_t n) { return max_value_body(values, n); }     \
     attributes void sum_##suffix(const float* values, std::size_t n, double* lanes_out) {                             \
         sum_body<lanes>(values, n, lanes_out);                                                                        \
     }                                                                                                                 \
     attributes void sum_slices_##suffix(const float* in, std::size_t bins, std::size_t n, float* out) {               \
         sum_slices_body(in, bins, n, out);                                                                            \
     }                                                                                                                 \
-    const FilterKernels kernels_##suffix{box_rows_##suffix,   conv_rows_##suffix, conv_cols_##suffix,                 \
-                                         shift_blur_##suffix, transpose_##suffix, heading_conv_##suffix,              \
-                                         measure_##suffix,    sum_##suffix,       sum_slices_##suffix};
+    const FilterKernels kernels_##suffix{                                                                             \
+        box_rows_##suffix,     conv_rows_##suffix, conv_cols_##suffix,   shift_blur_##suffix, transpose_##suffix,     \
+        heading_conv_##suffix, measure_##suffix,   interpolate_##suffix, row_minima_##suffix, lerp_rows_##suffix,     \
+        lerp_log_lik_##suffix, group_min_##suffix, column_max_##suffix,  log_lik_##suffix,    scale_sums_##suffix,    \
+        max_value_##suffix,    sum_##suffix,       sum_slices_##suffix};
 
 #if defined(__GNUC__) && !defined(__clang__)
 #define NL_NO_VECTORIZE __attribute__((optimize("no-tree-vectorize")))

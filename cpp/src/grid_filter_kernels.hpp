@@ -16,6 +16,9 @@ inline constexpr std::size_t kSumLanes = 16;
 /// Cells per block of the measurement's interpolation (see UpdateArgs).
 inline constexpr std::size_t kBlock = 16;
 
+/// Bins per group of the log2-likelihoods (the measurement's bins per pass).
+inline constexpr std::size_t kGroupBins = 4;
+
 /// Parameters of one extended-box pass (see GridFilter): taps -r..r weigh 1, taps +-(r+1) weigh
 /// alpha, all times inv_w = 1 / (2r + 1 + 2 alpha).
 struct BoxPass {
@@ -47,7 +50,7 @@ struct ShiftBlurArgs {
 /// blocks of kBlock (the last one may be short). A dense block lists the places its cells use
 /// (ascending; index `places` is the bin's fill, for cells without weights) with kBlock weights
 /// each (the block's cells in order, 0 where a cell does not use the place); a cell's
-/// log2-likelihood is then y = sum over the block's list of weight * log_lik[b][place], in list
+/// log2-likelihood is then y = sum over the block's list of weight * log_lik[place][b], in list
 /// order, from 0. Other blocks (more places than fit: dense maps) sum their cells' own ELL slots
 /// in slot order.
 struct UpdateArgs {
@@ -57,13 +60,21 @@ struct UpdateArgs {
     const float* data;                 ///< ELL weights, slot k of cell c at k * n + c (unused slots weigh 0)
     const std::int32_t* index;         ///< ELL place indices, same layout
     std::size_t slots, n;              ///< slots per cell, cells
-    const float* log_lik;              ///< bins rows of `stride` values: the log2-likelihood of each place
-    std::size_t stride;
+    const float* log_lik;              ///< the bins' group from bin `group_b0` on: places + 1 rows of
+    std::size_t stride;                ///< `stride` values, row p place p's log2-likelihood in bins
+                                       ///< group_b0, group_b0 + 1, ... (row `places`: the fill)
+    std::size_t group_b0;
     const float* taps;   ///< the heading blur: prior[b][c] = float(acc * a + f), acc = sum_t taps[t] *
     std::size_t n_taps;  ///< in[t][c] summed in float from 0 in t order (in: the predicted slices)
     float a, f;          ///< normalization and the uniform floor
     float* belief;       ///< bins x n (bin b's slice may be in[t] when the blur is the identity)
     float* marginal;     ///< n
+    /// The log2-likelihood of the cells of blocks that are not dense, bin b's at (b - group_b0) *
+    /// n + c (made by FilterKernels::interpolate; null when every block is dense).
+    const float* sparse_y = nullptr;
+    /// When not null: bin_max[b] becomes the largest belief of bin b over the cells measured
+    /// (from 0 when they start at cell 0).
+    float* bin_max = nullptr;
 };
 
 struct FilterKernels {
@@ -102,6 +113,39 @@ struct FilterKernels {
     /// see UpdateArgs); marginal[c] = (b == 0 ? 0 : marginal[c]) + belief[b][c].
     void (*measure)(const UpdateArgs& u, std::size_t b, std::size_t bins, const float* const* in, std::size_t c0,
                     std::size_t m);
+    /// The log2-likelihood y (see UpdateArgs, not floored) of every cell of the blocks that are not
+    /// dense, for the `bins` bins of the group (from u.group_b0): y[(b - group_b0) * n + c], each
+    /// summed over the cell's ELL slots in slot order from 0 (the measurement then reads it).
+    void (*interpolate)(const UpdateArgs& u, std::size_t bins, float* y);
+    /// Per row i of an n x S table: mins[i] its lowest value and best[i] the first column holding it;
+    /// returns whether any value is NaN or infinite (then mins and best are not defined, but set).
+    bool (*row_minima)(const float* table, std::size_t n, std::size_t S, float* mins, std::int32_t* best);
+    /// Per reference i of an n x W table (W columns = W heading bins, a panorama): row
+    /// rows[i] of ps (W values) becomes min(ps, v) with v[b] = float((1 - a) T[i][k] + a T[i][k + 1])
+    /// in double, k = c0[i] + b and k + 1 taken mod W, a = fraction[i]; `twice`: 2 W floats of scratch.
+    void (*lerp_rows)(const float* table, std::size_t n, std::size_t W, const std::int32_t* rows,
+                      const std::int32_t* c0, const double* fraction, float* ps, float* twice);
+    /// The per-column case of lerp_rows turned into log2-likelihoods at once: per reference i the
+    /// W scores v[b] as lerp_rows computes them, y[b] = float(max(gain (double(v[b]) - s_min),
+    /// lowest)), written to row rows[i] of the grouped layout of log_lik (see log_lik) where the
+    /// reference is the first of its place (first[i] != 0), else the larger of the two kept (the
+    /// place's lowest score: y falls with the score). `twice`: 4 W floats of scratch, `row_y` W.
+    void (*lerp_log_lik)(const float* table, std::size_t n, std::size_t W, const std::int32_t* rows,
+                         const std::uint8_t* first, const std::int32_t* c0, const double* fraction, double gain,
+                         double s_min, double lowest, float* y, std::size_t group_rows, float* twice, float* row_y);
+    /// low[b] = min(low[b], min over rows r < rows of the grouped log_lik y (see log_lik) in bin b).
+    void (*group_min)(const float* y, std::size_t rows, std::size_t B, std::size_t group_rows, float* low);
+    /// high[b] = max(high[b], max over the rows of values[r * B + b]) (rows x B values).
+    void (*column_max)(const float* values, std::size_t rows, std::size_t B, float* high);
+    /// The log2-likelihood of rows x B scores, float(max(gain (double(score) - s_min), lowest)),
+    /// in groups of kGroupBins bins: bin b of row r at ((b / kGroupBins) group_rows + first_row +
+    /// r) kGroupBins + b % kGroupBins of y.
+    void (*log_lik)(const float* score, std::size_t rows, std::size_t B, double gain, double s_min, double lowest,
+                    float* y, std::size_t group_rows, std::size_t first_row);
+    /// scores[k] = float(double(sums[k]) / divisor) (rotational_sad's scores) for k < n.
+    void (*scale_sums)(const std::uint32_t* sums, std::size_t n, double divisor, float* scores);
+    /// The largest of n >= 1 values (no NaN).
+    float (*max_value)(const float* values, std::size_t n);
     /// lanes[c % 16] += values[c] (double).
     void (*sum)(const float* values, std::size_t n, double* lanes);
     /// out[c] = sum over b < bins of in[b * n + c], in float from 0 in b order.

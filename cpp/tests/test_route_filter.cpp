@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <random>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "check.hpp"
@@ -116,6 +117,7 @@ void test_step_matches_reference() {
     std::mt19937 rng(7);
     std::normal_distribution<float> noise(0.0f, 1.0f);
     nightloc::RouteFilterParams p;
+    p.motion = nightloc::RouteMotion::kWindow;  // reference_step is the window model
     p.backward = 0.02;
     p.clip = 0.5;
     p.leave = 0.01;
@@ -271,9 +273,169 @@ void test_texture_weight() {
     CHECK(nightloc::texture_weight(image.data(), image.size(), 0.25) == 1.0);
 }
 
+// Rows of a query at `positions` (fractional references) along n references: noise with a dip
+// at round(position).
+std::vector<float> route_rows(const std::vector<double>& positions, std::size_t n, unsigned seed, float dip) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<float> noise(0.0f, 1.0f);
+    std::vector<float> matrix(positions.size() * n);
+    for (std::size_t q = 0; q < positions.size(); ++q) {
+        const auto truth = static_cast<std::int64_t>(std::lround(positions[q]));
+        for (std::size_t r = 0; r < n; ++r)
+            matrix[q * n + r] = noise(rng) - (static_cast<std::int64_t>(r) == truth ? dip : 0.0f);
+    }
+    return matrix;
+}
+
+struct Run {
+    std::vector<std::int64_t> best;
+    std::vector<double> confidence, off, speed;
+    bool operator==(const Run& o) const {
+        return best == o.best && confidence == o.confidence && off == o.off && speed == o.speed;
+    }
+};
+
+Run run_filter(const std::vector<float>& matrix, std::size_t n, const nightloc::RouteFilterParams& p,
+               const double* distances, const std::vector<double>& advances, int threads) {
+    const std::size_t m = matrix.size() / n;
+    Run out{std::vector<std::int64_t>(m), std::vector<double>(m), std::vector<double>(m), std::vector<double>(m)};
+    nightloc::RouteFilter filter(n, p, distances);
+    nightloc::RouteFilterOutputs o;
+    o.best = out.best.data();
+    o.confidence = out.confidence.data();
+    o.off_route = out.off.data();
+    o.speed = out.speed.data();
+    filter.run(matrix.data(), m, nullptr, advances.empty() ? nullptr : advances.data(), o, threads);
+    double total = filter.off_route();
+    for (double v : filter.belief()) total += v;
+    CHECK(close(total, 1.0, 1e-12));
+    return out;
+}
+
+void test_speed_and_odometry_models() {
+    // A query at 0.5-1.5x the reference's speed (a swing every 50 frames) on 300 references.
+    const std::size_t n = 300;
+    std::vector<double> positions{2.0}, advances{0.0};
+    for (int k = 0; positions.size() < 250; ++k) {
+        const double v = 1.0 + 0.5 * std::sin(2.0 * 3.141592653589793 * k / 50.0);
+        positions.push_back(positions.back() + v);
+        advances.push_back(v);
+    }
+    const std::vector<float> matrix = route_rows(positions, n, 21, 2.5f);
+    nightloc::RouteFilterParams speed;
+    speed.motion = nightloc::RouteMotion::kSpeed;
+    speed.speed_cells = 2;
+    std::vector<double> distances(n);
+    for (std::size_t r = 0; r < n; ++r) distances[r] = 0.5 * static_cast<double>(r);
+    std::vector<double> metres(advances);
+    for (double& a : metres) a *= 0.5;
+    nightloc::RouteFilterParams odometry;
+    const Run by_speed = run_filter(matrix, n, speed, nullptr, {}, 1);
+    nightloc::RouteFilterParams window;
+    window.motion = nightloc::RouteMotion::kWindow;
+    const Run by_window = run_filter(matrix, n, window, nullptr, {}, 1);
+    const Run by_odometry = run_filter(matrix, n, odometry, distances.data(), metres, 1);
+    std::size_t speed_ok = 0, odometry_ok = 0, window_ok = 0;
+    for (std::size_t q = 20; q < positions.size(); ++q) {
+        const auto truth = static_cast<std::int64_t>(std::lround(positions[q]));
+        speed_ok += std::abs(by_speed.best[q] - truth) <= 2 ? 1 : 0;
+        window_ok += std::abs(by_window.best[q] - truth) <= 2 ? 1 : 0;
+        odometry_ok += std::abs(by_odometry.best[q] - truth) <= 2 ? 1 : 0;
+        CHECK(close(by_odometry.speed[q], advances[q], 0.05));  // the mean advance, references per frame
+    }
+    std::printf("speed 0.5-1.5x: window model %zu, speed model %zu, odometry model %zu of %zu frames within 2\n",
+                window_ok, speed_ok, odometry_ok, positions.size() - 20);
+    CHECK(odometry_ok == positions.size() - 20);
+    CHECK(speed_ok * 10 >= (positions.size() - 20) * 9 && speed_ok >= window_ok);
+    // Threads, steps one by one and every SIMD path this CPU has: the same bits.
+    CHECK(run_filter(matrix, n, speed, nullptr, {}, 3) == by_speed);
+    CHECK(run_filter(matrix, n, odometry, distances.data(), metres, 3) == by_odometry);
+    nightloc::RouteFilter stepped(n, speed);
+    for (std::size_t q = 0; q < positions.size(); ++q) {
+        const nightloc::RouteFilterStep s = stepped.step(&matrix[q * n]);
+        CHECK(s.best == by_speed.best[q] && s.confidence == by_speed.confidence[q] && s.speed == by_speed.speed[q]);
+    }
+    for (nightloc::SimdBackend path : nightloc::supported_simd_backends()) {
+        nightloc::set_simd_backend(path);
+        CHECK(run_filter(matrix, n, speed, nullptr, {}, 1) == by_speed);
+        CHECK(run_filter(matrix, n, odometry, distances.data(), metres, 1) == by_odometry);
+    }
+    nightloc::reset_simd_backend();
+    // The odometry model holds a stop and follows a reverse: 40 frames forward from 60, 10
+    // stopped, 10 backwards.
+    std::vector<double> still(60, 1.0), still_positions(60, 60.0);
+    still[0] = 0.0;
+    for (std::size_t q = 1; q < 60; ++q) {
+        still[q] = q < 40 ? 1.0 : q < 50 ? 0.0 : -1.0;
+        still_positions[q] = still_positions[q - 1] + still[q];
+    }
+    const std::vector<float> stop_rows = route_rows(still_positions, n, 5, 1.5f);
+    std::vector<double> still_metres(still);
+    for (double& v : still_metres) v *= 0.5;
+    const Run stop = run_filter(stop_rows, n, odometry, distances.data(), still_metres, 1);
+    for (std::size_t q = 30; q < 60; ++q) CHECK(std::abs(stop.best[q] - std::lround(still_positions[q])) <= 2);
+    CHECK(stop.speed[45] == 0.0 && stop.speed[55] < -0.9 && stop.speed[20] > 0.9);
+}
+
+void test_speed_chain_and_spread() {
+    nightloc::RouteFilterParams p;
+    p.speed_change = 0.09;
+    p.speed_step = 0.05;  // 3.24 planes^2 per frame: 7 passes
+    const nightloc::SpeedChain chain = nightloc::speed_chain(p);
+    CHECK(chain.speeds.size() == 21 && chain.passes == 7);
+    // The prior is stationary: one pass leaves it as it is.
+    double worst = 0.0;
+    for (std::size_t s = 0; s < chain.speeds.size(); ++s) {
+        double next = (1.0 - chain.up[s] - chain.down[s]) * chain.prior[s];
+        if (s > 0) next += chain.up[s - 1] * chain.prior[s - 1];
+        if (s + 1 < chain.speeds.size()) next += chain.down[s + 1] * chain.prior[s + 1];
+        worst = std::max(worst, std::fabs(next - chain.prior[s]));
+    }
+    CHECK(worst < 1e-15);
+    // The spread's variance: cells^2 ((noise * advance / spacing)^2 + jitter^2), symmetric taps.
+    nightloc::RouteFilterParams q;
+    q.odometry_cells = 4;
+    q.odometry_noise = 0.1;
+    q.odometry_jitter = 0.2;
+    const std::vector<double> taps = nightloc::odometry_spread(3.0, 0.5, q);
+    const double half = static_cast<double>(taps.size() / 2);
+    double total = 0.0, variance = 0.0;
+    for (std::size_t i = 0; i < taps.size(); ++i) {
+        total += taps[i];
+        variance += taps[i] * (static_cast<double>(i) - half) * (static_cast<double>(i) - half);
+        CHECK(close(taps[i], taps[taps.size() - 1 - i], 1e-15));
+    }
+    CHECK(close(total, 1.0, 1e-12) && close(variance, 16.0 * (0.36 + 0.04), 1e-9));
+}
+
+void test_motion_errors() {
+    nightloc::RouteFilterParams p;
+    p.speed_step = 0.0;
+    CHECK_THROWS(nightloc::validate(p), std::invalid_argument);
+    p = {};
+    p.speed_tau = 0.0;
+    CHECK_THROWS(nightloc::validate(p), std::invalid_argument);
+    p = {};
+    p.odometry_cells = 0;
+    CHECK_THROWS(nightloc::validate(p), std::invalid_argument);
+    p = {};
+    const std::vector<double> falling{0.0, 2.0, 1.0};
+    CHECK_THROWS(nightloc::RouteFilter(3, p, falling.data()), std::invalid_argument);
+    const std::vector<double> flat{1.0, 1.0, 1.0};
+    CHECK_THROWS(nightloc::RouteFilter(3, p, flat.data()), std::invalid_argument);
+    const std::vector<double> distances{0.0, 1.0, 2.0};
+    nightloc::RouteFilter f(3, p, distances.data());
+    const std::vector<float> row{1.0f, 2.0f, 3.0f};
+    CHECK_THROWS(f.step(row.data(), 1.0, std::nan("")), std::invalid_argument);
+    CHECK(std::string(f.motion_name()) == "odometry");
+}
+
 }  // namespace
 
 int main() {
+    test_speed_and_odometry_models();
+    test_speed_chain_and_spread();
+    test_motion_errors();
     test_kernel();
     test_step_matches_reference();
     test_flat_row_only_predicts();

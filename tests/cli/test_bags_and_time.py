@@ -136,7 +136,8 @@ def test_a_day_bag_with_a_pose_topic_builds_the_same_map_as_its_folder(garden, t
     # without poses but with odometry: a teach run (issue 20), as a folder with odometry.csv
     without = write_bag(tmp_path / "day_odometry", [day.read(i) for i in range(len(day))], frame_ns, odometry=odom)
     assert main(["build-map", str(without), str(tmp_path / "x.map")]) == 0
-    assert "teach run" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "teach run" in printed and "wheel odometry from the bag's /odom" in printed
     assert nightloc.ReferenceMap.load(tmp_path / "x.map").pose_source == "optimised"
     # without poses or odometry: the message a folder without either gives
     bare = write_bag(tmp_path / "day_bare", [day.read(i) for i in range(len(day))], frame_ns)

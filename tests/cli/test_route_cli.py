@@ -268,4 +268,5 @@ def test_route_command_gardens_point_comparison(shared_data, tmp_path, capsys):
     assert main([*args, "--method", "seqslam,filter", "--no-figures", "--ground-truth", "names"]) == 0
     results = json.loads((out / "summary.json").read_text())["results"]
     assert results["filter"]["best_f1"] >= 0.85 and results["filter"]["recall_at_100_precision"] >= 0.30
-    assert results["seqslam"]["best_f1"] < 0.5
+    # SeqSLAM on the same (windowed) difference matrix: far behind the filter.
+    assert results["seqslam"]["best_f1"] < results["filter"]["best_f1"] - 0.25

@@ -136,6 +136,132 @@ def test_every_simd_path_gives_the_same_beliefs_and_estimates():
             assert np.array_equal(a[5], b[5]), path
 
 
+def _many_place_map(rng, n=420, width=16, height=8):
+    """More places than fit a dense block of the measurement (most 16-cell blocks of a 40 x 30 grid
+    touch more than 8 places: they are interpolated beforehand), a few references sharing a place
+    and the corners of the grid outside the references' hull."""
+    positions = rng.uniform(0, (4.0, 3.0), (n, 2))
+    positions[n - 6 :] = positions[:6]  # six places with two references each
+    headings = rng.uniform(-np.pi, np.pi, n)
+    images = rng.integers(0, 256, (n, height, width), dtype=np.uint8)
+    params = nightloc.PreparationParams(width=width, height=height)
+    return nightloc.ReferenceMap(images, positions, headings, params=params)
+
+
+def _settling_tables(rng, n, shifts=16, frames=8):
+    """Random tables in which reference 0 matches best, at shift 3: a belief that settles."""
+    tables = rng.uniform(15, 25, (frames, n, shifts)).astype(np.float32)
+    tables[:, 0, 3] = 5.0
+    return tables
+
+
+@pytest.mark.sanitize
+@pytest.mark.parametrize("noise", [0, 3])
+def test_core_equals_the_numpy_oracle_on_a_map_of_many_places(noise):
+    rng = np.random.default_rng(21)
+    ref_map = _many_place_map(rng)
+    loc = Localizer(ref_map, odometry_noise=noise, grid_width=40, grid_height=30)
+    assert loc._filter.core.sparse_blocks > 0  # the interpolation of many places is exercised
+    oracle = _oracle(loc)
+    for k, motion in enumerate(MOTIONS):
+        table = rng.uniform(15, 25, (len(ref_map), 16)).astype(np.float32)
+        estimate = loc.update_table(table, motion if k else None)
+        if k:
+            _apply(oracle, motion)
+        oracle.update(table)
+        _check_against_oracle(loc, oracle, estimate)
+
+
+def test_heading_bins_other_than_columns_equal_the_oracle():
+    rng = np.random.default_rng(22)
+    ref_map = _random_map(rng, n=11)
+    loc = Localizer(ref_map, odometry_noise=2, grid_width=30, grid_height=24, heading_bins=24)
+    oracle = _oracle(loc)
+    assert loc.pose_belief.shape[0] == 24
+    for k, motion in enumerate(MOTIONS):
+        table = rng.uniform(15, 25, (len(ref_map), 16)).astype(np.float32)
+        estimate = loc.update_table(table, motion if k else None)
+        if k:
+            _apply(oracle, motion)
+        oracle.update(table)
+        _check_against_oracle(loc, oracle, estimate)
+
+
+def test_every_simd_path_gives_the_same_beliefs_on_a_map_of_many_places():
+    rng = np.random.default_rng(23)
+    ref_map = _many_place_map(rng, n=300)
+    tables = _settling_tables(rng, len(ref_map))
+    runs = {}
+    for path in nightloc.available_simd_backends():
+        with nightloc.use_simd_backend(path):
+            loc = Localizer(ref_map, odometry_noise=3, grid_width=40, grid_height=30)
+            runs[path] = [
+                (loc.update_table(tables[k], motion if k else None), loc.pose_belief.copy())
+                for k, motion in enumerate(MOTIONS)
+            ]
+    for path, out in runs.items():
+        for (ea, ba), (eb, bb) in zip(runs["scalar"], out):
+            assert (ea.x, ea.y, ea.heading, ea.credible_radius) == (eb.x, eb.y, eb.heading, eb.credible_radius), path
+            assert np.array_equal(ba, bb), path
+
+
+def _settled(noise_rule: float, rng_seed=24):
+    """A localizer and its oracle after frames that settle on reference 0 (the robot standing)."""
+    rng = np.random.default_rng(rng_seed)
+    ref_map = _random_map(rng, n=12)
+    loc = Localizer(ref_map, odometry_noise=1, grid_width=36, grid_height=28, negligible=noise_rule)
+    oracle = _oracle(loc)
+    tables = _settling_tables(rng, 12, frames=8)
+    standing = RobotMotion(0.0, 0.0, 0.0)
+    for k, table in enumerate(tables):
+        loc.update_table(table, standing if k else None)
+        if k:
+            _apply(oracle, standing)
+        oracle.update(table)
+    return loc, oracle, rng
+
+
+def test_negligible_bins_move_without_the_blur_as_the_oracle_does():
+    loc, oracle, rng = _settled(1e-3)
+    belief = loc.pose_belief
+    top = belief.reshape(belief.shape[0], -1).max(axis=1)
+    assert (top < 1e-3 * top.max()).sum() >= belief.shape[0] // 2  # most bins are negligible here
+    exact, exact_oracle, _ = _settled(0.0)
+    for motion in [RobotMotion(0.3, 0.1, 0.2), RobotMotion(0.2, 0.0, -0.1), RobotMotion(0.25, -0.05, 0.0)]:
+        table = rng.uniform(15, 25, (12, 16)).astype(np.float32)
+        table[0, 3] = 5.0
+        estimate = loc.update_table(table, motion)
+        _apply(oracle, motion)
+        oracle.update(table)
+        _check_against_oracle(loc, oracle, estimate)
+        exact.update_table(table, motion)
+        _apply(exact_oracle, motion)
+        exact_oracle.update(table)
+        # the rule changes the belief, by at most about its share of the peak per frame
+        difference = np.abs(loc.pose_belief - exact.pose_belief).max()
+        assert 0 < difference <= 3e-3 * exact.pose_belief.max()
+
+
+@pytest.mark.slow
+def test_a_map_of_20000_places_runs_within_its_memory_bound():
+    n, bins, shifts = 20_000, 48, 48
+    rng = np.random.default_rng(25)
+    side = 0.4 * math.sqrt(n)  # a large lawn: references about 0.4 m apart
+    images = rng.integers(0, 256, (n, 24, 48), dtype=np.uint8)
+    ref_map = nightloc.ReferenceMap(images, rng.uniform(0, side, (n, 2)), rng.uniform(-np.pi, np.pi, n))
+    loc = Localizer(ref_map, odometry_noise=3)
+    for k in range(3):
+        estimate = loc.update(images[k], RobotMotion(0.3, 0.0, 0.1) if k else None)
+        assert math.isfinite(estimate.x) and math.isfinite(estimate.credible_radius)
+    core = loc._filter.core
+    cells = loc.grid.width * loc.grid.height
+    places = loc.mapper.weights.shape[1]
+    # the bound of nightloc/grid_filter.hpp (3 weights per cell of a triangulation) plus 1 MiB
+    bound = 4 * (2 * bins * cells + 12 * cells + 2 * n * shifts + 8 * n + bins * (places + 1)) + 2**20
+    assert core.memory_bytes <= bound
+    assert core.memory_bytes < 24 * 2**20  # 17 MB measured: the map's images (22 MB) are more
+
+
 def test_update_from_a_frame_equals_update_from_its_table():
     rng = np.random.default_rng(3)
     ref_map = _random_map(rng, n=8, width=48, height=24)

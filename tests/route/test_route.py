@@ -144,12 +144,18 @@ def test_route_difference_matrix_matches_oracle(divisor, circular):
     rng = np.random.default_rng(4)
     refs = rng.integers(0, 256, (23, 6, 8), dtype=np.uint8)
     queries = rng.integers(0, 256, (9, 6, 8), dtype=np.uint8)
-    params = RouteParams(divisor=divisor, circular_shifts=circular)
+    params = RouteParams(divisor=divisor, circular_shifts=circular, shift_window=(0, 0))
     got = route.route_difference_matrix(queries, refs, params, threads=2)
     shifts = np.arange(8) if circular else np.array([0])
     sums = np.stack([ro_min_sums(q, refs, shifts) for q in queries])
     scale = 23.0 if divisor == "references" else 48.0
     np.testing.assert_array_equal(got, oracle.scores_from_sums(sums, scale))
+    # The default window, (8, 1) clipped to these 6 x 8 images: (7, 1); a panorama's is (0, 0).
+    window = (0, 0) if circular else (7, 1)
+    assert RouteParams(circular_shifts=circular).window_for(6, 8) == window
+    got = route.route_difference_matrix(queries, refs, RouteParams(divisor=divisor, circular_shifts=circular))
+    expected = oracle.window_difference_matrix(queries, refs, shifts, window, scale)[0]
+    np.testing.assert_array_equal(got, expected)
 
 
 def ro_min_sums(query, refs, shifts):

@@ -18,11 +18,12 @@ import route_oracle as ro
 
 pytestmark = pytest.mark.sanitize  # drives the compiled filter: CI reruns it under ASan + UBSan
 
+WINDOW = route.RouteParams(filter_motion="window")  # the oracle below is the window model's
 PARAMS = [
-    route.RouteParams(),
-    route.RouteParams(filter_clip=math.inf, filter_floor=0.02, filter_leave=0.0, filter_window=1),
-    route.RouteParams(vmin=0.0, vmax=2.5, filter_backward=0.05, filter_sharpness=1.5, filter_clip=0.5),
-    route.RouteParams(vmin=1.0, vmax=1.0, filter_floor=0.0, filter_leave=0.05, filter_rejoin=0.3),
+    WINDOW,
+    dataclasses.replace(WINDOW, filter_clip=math.inf, filter_floor=0.02, filter_leave=0.0, filter_window=1),
+    dataclasses.replace(WINDOW, vmin=0.0, vmax=2.5, filter_backward=0.05, filter_sharpness=1.5, filter_clip=0.5),
+    dataclasses.replace(WINDOW, vmin=1.0, vmax=1.0, filter_floor=0.0, filter_leave=0.05, filter_rejoin=0.3),
 ]
 
 
@@ -139,7 +140,7 @@ def test_follows_the_route_and_reacquires_after_a_kidnap():
 
 def test_flat_frames_leave_the_belief_as_predicted():
     refs, show = _routes(seed=6)
-    localizer = nightloc.RouteLocalizer(refs, prepared=True)
+    localizer = nightloc.RouteLocalizer(refs, WINDOW, prepared=True)
     for t in range(30, 60):
         localizer.update(show(np.array([t]))[0], prepared=True)
     before = localizer.belief
@@ -190,7 +191,8 @@ def test_streaming_equals_batch_bit_for_bit():
     np.testing.assert_array_equal(localizer.last_row, batch.enhanced[-1])
     assert batch.weights[40] == 0.0
     localizer.reset()
-    assert localizer.frames_seen == 0 and np.all(localizer.belief == 1.0 / len(refs))
+    assert localizer.frames_seen == 0
+    np.testing.assert_allclose(localizer.belief, 1.0 / len(refs), rtol=1e-12)
 
 
 def test_method_selection_and_summary_fields():

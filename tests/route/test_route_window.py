@@ -26,8 +26,9 @@ def test_route_difference_matrix_is_the_window_oracle():
     expected, _values, _rows = oracle.window_difference_matrix(queries, refs, [0], (5, 2), float(refs[0].size))
     np.testing.assert_array_equal(matrix, expected)
     # A panorama: the column part is unused (every circular shift is searched), the rows are.
+    assert RouteParams(circular_shifts=True).effective_shift_window == (0, 0)  # its default
     pano = RouteParams(shift_window=(5, 2), circular_shifts=True)
-    assert pano.window == (0, 2)
+    assert pano.window_for(*refs.shape[1:]) == (0, 2)
     matrix = route.route_difference_matrix(queries, refs, pano, threads=2)
     expected, _values, _rows = oracle.window_difference_matrix(
         queries, refs, range(refs.shape[2]), (0, 2), float(refs[0].size)
@@ -62,9 +63,16 @@ def test_window_in_toml_and_errors(tmp_path):
         RouteParams(shift_window=(-1, 0))
     with pytest.raises(TypeError, match="shift_window"):
         RouteParams(shift_window=(1, 2, 3))  # type: ignore[arg-type]
+    # Offsets beyond the images are clipped to the largest that leave an overlap (the default
+    # window also serves tiny images); the matching functions themselves refuse them.
     refs, queries, _ = ro.synthetic_route(20, 10, speed=1.0, seed=1)
+    height, width = refs.shape[1:]
+    assert RouteParams(shift_window=(100, 40)).window_for(height, width) == (width - 1, height - 1)
+    clipped = route.route_difference_matrix(queries, refs, RouteParams(shift_window=(100, 40)))
+    exact = route.route_difference_matrix(queries, refs, RouteParams(shift_window=(width - 1, height - 1)))
+    np.testing.assert_array_equal(clipped, exact)
     with pytest.raises(ValueError, match="row window of \\+-40 rows"):
-        route.match_prepared(refs, queries, RouteParams(shift_window=(0, 40)))
+        nightloc.difference_matrix(queries, refs, shifts=[0], shift_window=(0, 40))
 
 
 def test_dask_backend_with_a_window():
@@ -117,3 +125,51 @@ def find_key(tree, key):
             if found is not None:
                 return found
     return None
+
+
+def _evaluate(refs, queries, params):
+    result = route.match_prepared(refs, queries, params, threads=2)
+    truth = route.GroundTruth.from_frames(result.n_queries, result.n_refs, 2)
+    return route.evaluate_matches(result.refs, result.scores, truth)
+
+
+@pytest.mark.slow
+def test_synthetic_lateral_offset_route():
+    """A street walked by day, then at night 1 m to the side with the camera tilted 2 degrees
+    (and wobbling 0.7): one alignment loses the night walk, the default window keeps it, both
+    ways round (about a minute: 250 frames rendered)."""
+    from nightloc.synth.routes import RouteScene, build_street, render_drive, street_drive
+
+    world = build_street(1, 120.0)
+    scene = RouteScene(world, 1)
+    preparer = route.RoutePreparer(RouteParams())
+    day = preparer(render_drive(scene, street_drive(world, "day", 0.0, 10), "forward"))
+    night = preparer(render_drive(scene, street_drive(world, "night", 1.0, 11, pitch=2.0, pitch_jitter=0.7)))
+    assert RouteParams().effective_shift_window == (8, 1)
+    for refs, queries in ((day, night), (night, day)):
+        plain = _evaluate(refs, queries, RouteParams(shift_window=(0, 0)))
+        windowed = _evaluate(refs, queries, RouteParams())
+        assert windowed.best_f1 >= 0.85 and windowed.recall_at_100 >= 0.6, windowed.summary()
+        assert windowed.best_f1 >= plain.best_f1 + 0.08, (plain.summary(), windowed.summary())
+        assert windowed.recall_at_100 >= plain.recall_at_100 + 0.2, (plain.summary(), windowed.summary())
+
+
+# Issue 19's targets with the default window on the shared real pairs: (reference, query, frames
+# or None for all, best F1, recall at 100 % precision).
+REAL_TARGETS = {
+    "gardens_point": ("gardens_point/day_right", "gardens_point/night_right", None, 0.93, 0.85),
+    "nordland": pytest.param(
+        ("nordland/summer", "nordland/winter", None, 0.98, 0.90), marks=pytest.mark.slow, id="nordland"
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(REAL_TARGETS.values()), ids=list(REAL_TARGETS))
+def test_real_pairs_meet_the_targets_with_the_window(shared_data, case):
+    reference, query, _frames, f1_target, r100_target = case
+    preparer = route.RoutePreparer(RouteParams())
+    refs = preparer(nightloc.load_traverse(shared_data / reference))
+    queries = preparer(nightloc.load_traverse(shared_data / query))
+    evaluation = _evaluate(refs, queries, RouteParams())
+    assert evaluation.best_f1 >= f1_target, evaluation.summary()
+    assert evaluation.recall_at_100 >= r100_target, evaluation.summary()

@@ -21,13 +21,15 @@
 // Prediction (robot motion f, l, t in the robot frame at the previous frame):
 //   1. every bin b moves by R(theta_b) (f, l) metres (bilinear, sub-cell) and lands in bin b + k
 //      where k whole bins of the turn (offset + t = offset' + 2*pi*k/B);
-//   2. position blur: an isotropic Gaussian of std sqrt(distance_std^2 + position_floor^2) metres
-//      per axis, as three extended-box passes per axis (Gwosdek et al. 2011: the exact variance).
-//      Shift and blur act on the plane (the belief is zero beyond the grid) and the result is cut
-//      to the grid: mass that leaves the grid is dropped. Per axis one linear operator, y first:
-//      short kernels (<= 13 taps: box radius <= 1 cell) composed with the shift and applied as one
-//      explicit pass; wider ones as the shift's two taps then running float sums (O(1) per cell)
-//      over a tile that holds everything the passes spread beyond the grid;
+//   2. position blur (not for a negligible bin: one whose largest value after the last measurement
+//      is below `negligible` of the belief's largest: it moves by the shift alone, each of its
+//      cells off by at most that share of the peak): an isotropic Gaussian of std sqrt(distance_std^2 +
+//      position_floor^2) metres per axis, as three extended-box passes per axis (Gwosdek et al. 2011: the exact
+//      variance). Shift and blur act on the plane (the belief is zero beyond the grid) and the result is cut to the
+//      grid: mass that leaves the grid is dropped. Per axis one linear operator, y first: short kernels (<= 13 taps:
+//      box radius <= 1 cell) composed with the shift and applied as one explicit pass; wider ones as the shift's two
+//      taps then running float sums (O(1) per cell) over a tile that holds everything the passes spread beyond the
+//      grid;
 //   3. heading blur: a circular Gaussian of std sqrt(heading_std^2 + heading_floor^2) radians
 //      over the bins (taps within 3 std, those below 1e-4 of the peak left out);
 //   4. a uniform floor: p = (1 - uniform_floor) p / total + uniform_floor / cells, where total is
@@ -111,6 +113,8 @@ struct GridFilterSettings {
     double credibility = 0.9;         ///< mass of the credible disk
     double confidence_radius = 1.0;   ///< metres: confidence = mass within this of the estimate
     std::size_t estimate_window = 2;  ///< cells around the peak averaged into the estimate
+    double negligible = 1e-3;         ///< a bin whose largest value is below this share of the belief's
+                                      ///< largest moves without the position blur (0: every bin is blurred)
 };
 
 /// What the filter knows of the map (python: built from the HeatMapper of the localizer).
@@ -190,6 +194,14 @@ public:
     /// The table of the last update_image (n_refs x n_shifts).
     const std::vector<float>& table() const noexcept { return table_; }
 
+    /// Blocks of kBlock cells whose cells use more places than a dense block holds (their
+    /// likelihoods are interpolated once per pass of bins).
+    std::size_t sparse_blocks() const noexcept;
+    /// Bytes this filter holds (its buffers' capacities; the map's shared weights not counted):
+    /// about 4 (2 B C + (2 slots + 6) C + 2 N S + 8 N + B (P + 1)) for B bins, C cells, N
+    /// references, S shifts, P places, `slots` the most weights of a cell (3 for a triangulation).
+    std::size_t memory_bytes() const noexcept;
+
     /// Restores a belief (active bins x height x width, finite, >= 0, positive sum) with its
     /// mode and heading offset, e.g. one saved from belief().
     void set_belief(const float* belief, bool pose, double offset);
@@ -207,8 +219,11 @@ private:
     void begin_prediction(std::vector<float> taps, std::vector<std::size_t> offsets);
     void materialize() const;
     void measure_predicted(detail::UpdateArgs& args);
+    // The measurement of bins [d0, d1) over all cells; their priors' slices from slices_[first_slice].
+    void measure_group(detail::UpdateArgs& args, std::size_t d0, std::size_t d1, std::size_t first_slice);
     void translate_blur_slice(const float* src, float* dst, const SliceMotion& m) const;
     void compute_marginal() const;
+    double shift_of_bin0(std::size_t ref, double columns) const;
 
     GridFilterMap map_;
     GridFilterSettings settings_;
@@ -228,6 +243,8 @@ private:
     std::vector<std::int32_t> ell_index_;
     std::vector<std::int32_t> block_start_, block_places_;  // the measurement's dense blocks
     detail::LineVector<float> block_weights_;
+    bool has_sparse_blocks_ = false;      // blocks with more than kDensePlaces places
+    detail::LineVector<float> sparse_y_;  // their cells' log2-likelihoods, a few bins x cells
     mutable detail::LineVector<float> belief_;
     mutable detail::LineVector<float> work_;  // predicted slices (materialize: all bins; an update: a pool)
     std::vector<std::int32_t> slot_of_, free_slots_;
@@ -237,8 +254,17 @@ private:
     mutable bool marginal_valid_ = true;
     mutable detail::LineVector<float> row_buf_, zeros_, padded_, wide_a_, wide_b_;
     mutable std::vector<float> taps_x_, taps_y_;
-    mutable std::vector<float> sums_;  // running sums of the box passes
-    std::vector<float> table_, mins_, place_scores_, log_lik_;
+    mutable std::vector<float> sums_;        // running sums of the box passes
+    std::vector<std::uint32_t> sums_table_;  // update_image's sums (kept between frames)
+    std::vector<float> table_, mins_, sorted_, bin_high_, place_scores_, log_lik_;
+    std::vector<std::int32_t> row_of_ref_;      // each reference's row of the per-place arrays (see the constructor)
+    std::vector<std::int32_t> ref_c0_;          // per reference: the whole column shift of bin 0 in this frame
+    std::vector<double> ref_fraction_;          // and its fraction (bin b: columns c0 + b, c0 + b + 1)
+    std::vector<float> twice_, row_y_;          // a table row twice, a row of log2-likelihoods (scratch)
+    std::vector<std::uint8_t> first_of_place_;  // per reference: the first of its place
+    std::vector<std::int32_t> empty_places_;    // places no reference stands at (take the bin's highest score)
+    std::vector<float> bin_max_;                // each bin's largest value after the last measurement (pose mode)
+    mutable bool bin_max_valid_ = false;        // false once the belief changed otherwise (see negligible)
     std::vector<std::int32_t> best_shifts_;
     mutable std::vector<double> xs_, dx2_, hist_;  // the estimate's scratch
     struct RingCell {

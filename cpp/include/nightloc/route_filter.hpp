@@ -1,32 +1,68 @@
 // Route mode's Bayes filter: a causal belief over the reference frames of a route, predicted by
-// the speed window and updated by each query frame's difference row. Pointer-level API.
+// a motion model and updated by each query frame's difference row. Pointer-level API.
 //
-// State: belief[r] = P(the query frame shows reference r), r = 0 .. n_refs-1, plus off_route =
-// P(the query frame shows no reference); they sum to 1. Per query frame (RouteFilter::step):
+// State: a belief over where the query frame is on the route, plus off_route = P(the query frame
+// shows no reference); they sum to 1. Three motion models (RouteFilterParams::motion, and the
+// reference distances given to the constructor):
 //
-//   1. predict: belief'[r] = sum_k kernel[k] * belief[r - k] over the advances k of
-//      motion_kernel() (mass moving past either end of the route is dropped, the rest
+//   * window: belief[r] over the references; the reference advances by floor(x + v) for a speed
+//     v uniform in vmin..vmax and a phase x uniform in [0, 1), drawn afresh every frame
+//     (motion_kernel()), or steps back one with probability `backward`.
+//   * speed: a belief over (speed plane s, position cell c): the route is cut into `speed_cells`
+//     cells per reference (cell c shows reference c / speed_cells), and the planes hold the
+//     speeds v_s = speed_min + s * speed_step (references per frame). Each frame a plane's mass
+//     advances by floor(x + u) cells, u uniform in
+//     cells * (v_s - speed_jitter .. v_s + speed_jitter), or steps back one reference with
+//     probability `backward`; then the speed moves between neighbouring planes (speed_chain():
+//     a random walk of standard deviation speed_change per frame pulled back towards 1 with
+//     time constant speed_tau frames; its stationary distribution is the speed prior).
+//   * odometry (the constructor got reference distances: the cumulative distance travelled at
+//     each reference frame, e.g. metres): a belief over `odometry_cells` cells per reference;
+//     each frame the step's `advance` (distance travelled since the previous query frame) moves
+//     a cell from its distance along the route to that distance + advance (distances between
+//     references interpolated linearly; split linearly between the two nearest cells), then a
+//     position noise of standard deviation odometry_noise * |advance| and odometry_jitter
+//     references spreads it (odometry_spread()). A frame's evidence weight is multiplied by
+//     min(1, |advance| / (odometry_novelty * spacing)) (spacing: the mean distance between
+//     references): a robot that has not moved sees nothing new, and the same view again must not
+//     count as new evidence. The first frame after a reset has no previous one: no motion, full
+//     weight.
+//
+// Per query frame (RouteFilter::step):
+//
+//   1. predict: the motion model (mass moving past either end of the route is dropped, the rest
 //      rescaled to the on-route mass); then mix `floor` of the on-route mass uniformly over the
 //      route (a lost filter re-acquires it); then the off-route exchange: `leave` of the
-//      on-route mass leaves, `rejoin` of the off-route mass comes back uniformly.
+//      on-route mass leaves, `rejoin` of the off-route mass comes back uniformly (speed model:
+//      both spread over the planes by the speed prior).
 //   2. update: z[r] = (row[r] - mean) / std over the row's finite values (population std;
 //      non-finite values count as the mean, z = 0); likelihood L[r] =
-//      exp(-lambda * min(z[r], clip)) with lambda = sharpness * weight; off-route likelihood =
-//      mean_r L[r] (a frame that matches nothing looks like a random place). A row with no
-//      spread, no finite value or weight 0 leaves the prediction unchanged.
-//   3. answer: best = argmax belief (the lowest index on ties); confidence = sum of belief over
-//      best-window .. best+window; off_route.
+//      exp(-lambda * min(z[r], clip)) with lambda = sharpness * weight, the same for every cell
+//      and plane of reference r; off-route likelihood = mean_r L[r] (a frame that matches
+//      nothing looks like a random place). A row with no spread, no finite value or weight 0
+//      leaves the prediction unchanged.
+//   3. answer: the belief over references (summed over planes and cells); best = its argmax
+//      (the lowest index on ties); confidence = its sum over best-window .. best+window;
+//      off_route; speed = the belief's mean speed (speed model), the mean advance in references
+//      (odometry), NaN (window).
 //
-// Everything is double precision with a fixed order of operations (no threads), so the batch
-// and frame-by-frame paths give identical results. The numpy oracle in tests/route_oracle.py
-// follows the same definitions.
+// Everything is double precision with a fixed order of operations (no threads in the updates),
+// so the batch and frame-by-frame paths give identical results on every SIMD path and CPU. The
+// numpy oracle in tests/route_oracle.py follows the same definitions.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace nightloc {
+
+/// The motion model of the route filter without odometry (see the file comment).
+enum class RouteMotion : std::int32_t {
+    kWindow = 0,  ///< a speed window drawn afresh every frame
+    kSpeed = 1,   ///< a belief over position x speed
+};
 
 /// Parameters of the route filter (see the file comment for where each enters).
 struct RouteFilterParams {
@@ -39,6 +75,18 @@ struct RouteFilterParams {
     double leave = 1e-2;     ///< probability per frame of leaving the route, [0, 1]
     double rejoin = 1e-2;    ///< probability per frame of rejoining it (uniformly), [0, 1]
     std::size_t window = 2;  ///< confidence = belief mass within +-window references of the best
+    RouteMotion motion = RouteMotion::kWindow;  ///< without reference distances
+    double speed_min = 0.5;                     ///< slowest speed plane, references per frame, [-1000, 1000]
+    double speed_max = 1.5;                     ///< fastest speed plane, [speed_min, 1000]
+    double speed_step = 0.1;                    ///< spacing of the speed planes (> 0; at most 1000 planes)
+    double speed_jitter = 0.2;       ///< half-width of each plane's speed window, references per frame (>= 0)
+    double speed_change = 0.06;      ///< standard deviation of the speed's change per frame (>= 0)
+    double speed_tau = 4.0;          ///< frames for a speed to relax towards 1 (> 0; inf: no pull)
+    std::size_t speed_cells = 1;     ///< position cells per reference of the speed model, 1 .. 64
+    double odometry_noise = 0.05;    ///< relative standard deviation of an odometry advance, [0, 10]
+    double odometry_jitter = 0.1;    ///< extra position noise per frame, references, [0, 100]
+    double odometry_novelty = 1.0;   ///< references of travel for a frame's full evidence, [0, 1000] (0: always full)
+    std::size_t odometry_cells = 4;  ///< position cells per reference of the odometry model, 1 .. 64
 };
 
 /// Throws std::invalid_argument naming the first parameter out of range.
@@ -54,31 +102,73 @@ struct MotionKernel {
 };
 MotionKernel motion_kernel(double vmin, double vmax, double backward);
 
+/// The speed model's planes: speeds v_s (references per frame) and the chain between them. One
+/// pass moves mass from plane s up with probability up[s] and down with down[s]; `passes`
+/// passes per frame (each with a variance of at most half a plane step squared) give the
+/// random walk's variance speed_change^2 and its pull towards 1: the mean change of a pass is
+/// -(v_s - 1) / (speed_tau * passes), limited to what that variance allows. prior[s] is the
+/// chain's stationary distribution (sums to 1; uniform when the speed never changes).
+struct SpeedChain {
+    std::vector<double> speeds;
+    std::vector<double> up;
+    std::vector<double> down;
+    std::vector<double> prior;
+    std::size_t passes = 0;
+};
+SpeedChain speed_chain(const RouteFilterParams& params);
+
+/// The odometry model's position noise for one frame as taps over cells: the `passes`-fold
+/// convolution of [q, 1 - 2q, q] (q <= 1/4) whose variance is cells^2 * ((noise * advance /
+/// spacing)^2 + jitter^2) cells^2 (`spacing`: distance per reference), capped at 256 passes;
+/// taps[i] is the weight of a shift by i - (taps.size() - 1) / 2 cells.
+std::vector<double> odometry_spread(double advance, double spacing, const RouteFilterParams& params);
+
 /// The answer for one query frame.
 struct RouteFilterStep {
-    std::int64_t best = -1;   ///< the most probable reference
-    double confidence = 0.0;  ///< belief mass within +-window of best, in [0, 1]
-    double off_route = 0.0;   ///< probability that the frame shows no reference
+    std::int64_t best = -1;                                   ///< the most probable reference
+    double confidence = 0.0;                                  ///< belief mass within +-window of best, in [0, 1]
+    double off_route = 0.0;                                   ///< probability that the frame shows no reference
+    double speed = std::numeric_limits<double>::quiet_NaN();  ///< references per frame (NaN: window model)
+};
+
+/// Where RouteFilter::run writes: n_rows values each; `speed` may be nullptr.
+struct RouteFilterOutputs {
+    std::int64_t* best = nullptr;
+    double* confidence = nullptr;
+    double* off_route = nullptr;
+    double* speed = nullptr;
 };
 
 /// The filter's state and its per-frame step. Not thread-safe (one filter per stream).
 class RouteFilter {
 public:
-    /// Uniform belief over n_refs >= 1 references, off_route 0. Throws std::invalid_argument.
-    RouteFilter(std::size_t n_refs, const RouteFilterParams& params);
+    /// Uniform belief over n_refs >= 1 references (speed model: planes by the speed prior),
+    /// off_route 0. `reference_distances`: nullptr, or n_refs cumulative distances along the
+    /// route (finite, non-decreasing, the last above the first), which selects the odometry
+    /// model. Throws std::invalid_argument.
+    RouteFilter(std::size_t n_refs, const RouteFilterParams& params, const double* reference_distances = nullptr);
 
     /// One query frame: `row` holds n_refs differences (lower = more similar; e.g. one row of the
     /// contrast-enhanced difference matrix); `weight` in [0, 1] scales the evidence (0: the frame
-    /// is ignored, the belief is only predicted).
-    RouteFilterStep step(const float* row, double weight = 1.0);
+    /// is ignored, the belief is only predicted); `advance`: the odometry model's distance
+    /// travelled since the previous frame (finite; negative: backwards), ignored by the others.
+    RouteFilterStep step(const float* row, double weight = 1.0, double advance = 0.0);
 
-    /// One frame from its likelihood (n_refs values, route_likelihood()) and their sum.
-    RouteFilterStep update(const double* likelihood, double likelihood_sum);
+    /// One frame from its likelihood (n_refs values, route_likelihood()) and their sum (the
+    /// odometry model: computed with the weight frame_weight() gives).
+    RouteFilterStep update(const double* likelihood, double likelihood_sum, double advance = 0.0);
+
+    /// The weight a frame's evidence gets: `weight`, times the odometry model's novelty factor
+    /// for `advance` (see the file comment).
+    double frame_weight(double weight, double advance) const noexcept;
 
     /// n_rows consecutive frames: rows (n_rows, n_refs) row-major, weights n_rows values in
-    /// [0, 1] or nullptr for all 1; writes best, confidence and off_route (n_rows each). Equal
-    /// to n_rows calls of step (continues from the current state); the likelihoods of blocks of
-    /// rows are computed on up to `threads` threads, the updates in order on one.
+    /// [0, 1] or nullptr for all 1, advances n_rows values or nullptr for all 0 (odometry
+    /// model); writes the outputs (n_rows each). Equal to n_rows calls of step (continues from
+    /// the current state); the likelihoods of blocks of rows are computed on up to `threads`
+    /// threads, the updates in order on one.
+    void run(const float* rows, std::size_t n_rows, const double* weights, const double* advances,
+             const RouteFilterOutputs& out, int threads = 1);
     void run(const float* rows, std::size_t n_rows, const double* weights, std::int64_t* best, double* confidence,
              double* off_route, int threads = 1);
 
@@ -86,22 +176,58 @@ public:
     void reset();
 
     /// Replaces the state; belief holds n_refs values >= 0, which with off_route (>= 0) must
-    /// have a positive sum (they are normalized). Throws std::invalid_argument.
+    /// have a positive sum (they are normalized; the speed model spreads each reference's mass
+    /// over its cells evenly and over the planes by the speed prior). Throws
+    /// std::invalid_argument.
     void set_state(const double* belief, double off_route);
 
-    const std::vector<double>& belief() const noexcept { return belief_; }
+    /// The belief over the references (sums to 1 - off_route).
+    const std::vector<double>& belief() const noexcept { return planes_ == 0 ? belief_ : marginal_; }
     double off_route() const noexcept { return off_; }
-    std::size_t n_refs() const noexcept { return belief_.size(); }
+    std::size_t n_refs() const noexcept { return n_refs_; }
     const RouteFilterParams& params() const noexcept { return params_; }
     const MotionKernel& kernel() const noexcept { return kernel_; }
+    /// Threads for the speed and odometry models' work per frame (planes, blocks of
+    /// references) in step(); run() uses its own argument. The results do not depend on it.
+    void set_threads(int threads) noexcept { threads_ = threads > 1 ? threads : 1; }
+
+    /// "window", "speed" or "odometry".
+    const char* motion_name() const noexcept;
+    /// The speed model's planes (empty for the other models).
+    const SpeedChain& chain() const noexcept { return chain_; }
+    /// The belief over (plane, cell), plane-major (empty for the window model).
+    const std::vector<double>& plane_belief() const noexcept { return belief_; }
 
 private:
+    RouteFilterStep answer(const double* marginal, double speed);
+    RouteFilterStep update_window(const double* likelihood, double likelihood_sum);
+    RouteFilterStep update_planes(const double* likelihood, double likelihood_sum, double advance);
+    double novelty(double advance) const noexcept;
+    double move_planes();
+    double move_odometry(double advance, double* speed);
+    void mix_planes();
+
     RouteFilterParams params_;
     MotionKernel kernel_;
+    std::size_t n_refs_ = 0;
+    std::size_t cells_ = 1;   // per reference (speed, odometry)
+    std::size_t planes_ = 0;  // 0: window model
+    bool odometry_ = false;
+    bool fresh_ = true;  // no frame since the last reset
+    SpeedChain chain_;
+    std::vector<MotionKernel> plane_kernels_;  // in cells
+    std::vector<double> plane_prior_;          // the speed prior (odometry: one plane)
+    std::vector<double> cell_distance_;        // odometry: distance along the route of each cell
+    std::vector<double> reference_distance_;   // odometry
+    double spacing_ = 1.0;                     // odometry: mean distance per reference
     std::vector<double> belief_;
     std::vector<double> scratch_;
+    std::vector<double> chain_scratch_;
+    std::vector<double> marginal_;
+    std::vector<double> plane_mass_;
     std::vector<double> likelihood_;
     double off_ = 0.0;
+    int threads_ = 1;
 };
 
 /// The filter over a whole (n_queries, n_refs) matrix, query rows in time order, from the

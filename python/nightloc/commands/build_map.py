@@ -88,7 +88,8 @@ def run(args: argparse.Namespace) -> int:
     traverse = load_traverse(args.traverse, frame_step=args.frame_step, poses=args.poses, **bag_options(args))
     teach = args.evaluate_poses or not traverse.has_poses
     if args.evaluate_poses and not traverse.has_poses:
-        raise DatasetError(f"--evaluate-poses needs {args.traverse}/poses.csv to compare the teach run with")
+        where = "a pose topic (--pose-topic)" if traverse.is_bag else f"{args.traverse}/poses.csv"
+        raise DatasetError(f"--evaluate-poses needs {where} to compare the teach run with")
     if not teach and (args.closed_loop or args.figure is not None):
         raise ValueError("--closed-loop and --figure apply to a teach run (no poses.csv, or --evaluate-poses)")
     if traverse.is_bag:
@@ -147,7 +148,8 @@ def _teach(args: argparse.Namespace, traverse, params: PreparationParams) -> int
     teach = load_params(args.params, TeachParams) if args.params is not None else TeachParams()
     if args.closed_loop:
         teach = dataclasses.replace(teach, closed_loop=True)
-    print(f"teach run: {len(traverse)} frames of {traverse.root}, wheel odometry from {ODOMETRY_FILE}", flush=True)
+    source = ODOMETRY_FILE if traverse.bag_topics is None else f"the bag's {traverse.bag_topics['odometry']}"
+    print(f"teach run: {len(traverse)} frames of {traverse.root}, wheel odometry from {source}", flush=True)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TeachWarning)
         reference_map, report = teach_run(traverse, params, teach)
@@ -170,7 +172,8 @@ def _teach(args: argparse.Namespace, traverse, params: PreparationParams) -> int
         fit = rigid_fit(reference_map.positions, truth)
         surveyed = fit.inverse().apply(truth)
         print(
-            f"ATE against poses.csv (RMSE after the best rigid 2D fit): dead reckoning "
+            f"ATE against {'poses.csv' if traverse.bag_topics is None else traverse.bag_topics['pose']} (RMSE after "
+            f"the best rigid 2D fit): dead reckoning "
             f"{absolute_trajectory_error(report.dead_reckoning[:, :2], truth):.3f} m, map "
             f"{absolute_trajectory_error(reference_map.positions, truth):.3f} m"
         )

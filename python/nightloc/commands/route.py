@@ -60,6 +60,7 @@ from ..preparation.camera import check_frames_fit
 from ..preparation.params import PreparationParams
 from ..route.evaluation import GroundTruth, RouteEvaluation, evaluate_matches
 from ..route.filter import texture_weights
+from ..route.odometry import motion_plan
 from ..route.params import PRESETS, RouteParams, resolve_params
 from ..route.pipeline import RouteResult, match_difference, route_difference_matrix
 from ..route.preparation import RoutePreparer
@@ -124,6 +125,13 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="how correct matches are known (default auto)",
     )
     parser.add_argument("--frame-step", type=int, default=1, help="keep every k-th frame of a video (default 1)")
+    parser.add_argument(
+        "--odometry",
+        choices=["auto", "none"],
+        default="auto",
+        help="auto (default): when both traverses carry odometry (odometry.csv, a bag's odometry, or poses) the "
+        "filter predicts by the distance travelled; none: never (the speed model runs)",
+    )
     parser.add_argument("--threads", type=int, help="worker threads (default all cores)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     add_figure_format_option(parser)
@@ -391,6 +399,7 @@ def run(args: argparse.Namespace) -> int:
     truth, truth_kind, no_truth = ground_truth_for(args.ground_truth, reference, query, args.tolerance)
     for p in per_method:
         _check_can_match(p, len(reference), len(query))
+    plan = motion_plan(reference, query, params.filter_motion, args.odometry == "auto") if "filter" in methods else None
 
     # Checked and locked before the work; the files appear together at the end, or not at all.
     with output_set(args.out, command="route", inputs=inputs) as out:
@@ -408,9 +417,18 @@ def run(args: argparse.Namespace) -> int:
         evaluations = {}
         for index, p in enumerate(per_method):
             last = index == len(per_method) - 1
+            used = plan if p.method == "filter" else None
             result = match_difference(
-                difference, p, args.threads, keep_difference=not last, weights=weights if p.method == "filter" else None
+                difference,
+                p,
+                args.threads,
+                keep_difference=not last,
+                weights=weights if p.method == "filter" else None,
+                advances=None if used is None else used.advances,
+                reference_distances=None if used is None else used.reference_distances,
             )
+            if used is not None:
+                result.motion_note = used.note
             result.timings = {"preparation": preparation_s, "difference": difference_s, **result.timings}
             if not result.defined.any():
                 raise ValueError(
@@ -470,6 +488,8 @@ def _write_method(
         "n_queries": result.n_queries,
         "n_matched": int(result.defined.sum()),
         "method_params": p.method_params(),  # the settings this method uses (no other method's)
+        "motion_model": result.motion,
+        "motion_model_because": result.motion_note or None,
         "preparation": None
         if preparer.preparation is None
         else {field: getattr(preparer.preparation, field) for field in preparer.preparation.__dataclass_fields__},
@@ -502,7 +522,7 @@ def _print_method(result: RouteResult, evaluation, truth, truth_kind, no_truth, 
     p = result.params
     compute = sum(result.timings[k] for k in ("difference", "enhancement", "search"))
     how = (
-        f"filter, sharpness {p.filter_sharpness:g}, v {p.vmin:g}..{p.vmax:g}"
+        f"filter, {_motion_words(result)}, sharpness {p.filter_sharpness:g}"
         if p.method == "filter"
         else f"seqslam {p.mode}, ds {p.effective_ds}"
     )
@@ -522,6 +542,21 @@ def _print_method(result: RouteResult, evaluation, truth, truth_kind, no_truth, 
         + ", summary.json"
         + ("".join(f", {name}" for name in figures))
     )
+
+
+def _motion_words(result: RouteResult) -> str:
+    """The filter's motion model for the printed line, with the reason when odometry was not used."""
+    p = result.params
+    words = {
+        "odometry": "odometry motion model",
+        "speed": f"speed motion model {p.filter_speed_min:g}..{p.filter_speed_max:g}",
+        "window": f"speed window {p.vmin:g}..{p.vmax:g}",
+    }[result.motion or p.filter_motion]
+    if result.motion == "odometry":
+        return f"{words} ({result.motion_note})"
+    if result.motion_note and "neither" not in result.motion_note:
+        return f"{words}: {result.motion_note}"
+    return words
 
 
 def _write_comparison(out: Path, summaries: dict, evaluations: dict, args, truth) -> list:

@@ -3,6 +3,9 @@
 * :mod:`~nightloc.io.images` — image suffixes, natural-order folder listing, decoding/encoding;
 * :mod:`~nightloc.io.poses` — ``poses.csv`` (``image,x,y[,heading]``) and frame-keyed pose CSVs;
 * :mod:`~nightloc.io.video` — video files as traverses;
+* :mod:`~nightloc.io.bag` — ROS 1 and ROS 2 bags as traverses (frames, times, odometry, poses);
+* :mod:`~nightloc.io.kinds` — what a path is (a map, a bag, a traverse folder, ...) for messages;
+* :mod:`~nightloc.io.trajectory` — ``trajectory.csv`` and the TUM trajectory format;
 * :mod:`~nightloc.io.traverse` — :class:`Traverse`, :func:`load_traverse`, :func:`save_traverse`;
 * :mod:`~nightloc.io.reference_map` — :class:`ReferenceMap`, the prepared day map (``.npz``);
 * :mod:`~nightloc.io.atomic` — atomic file and folder writes.

@@ -67,6 +67,10 @@ class FilterParams:
         credibility: mass of the disk whose radius is reported as ``credible_radius``.
         estimate_window: cells on each side of the marginal's peak averaged into the position
             (and whose heading histogram gives the heading).
+        negligible: a heading bin whose largest value after the last frame is below this share of
+            the belief's largest moves with the odometry without the position blur (each of its
+            cells off by at most that share of the peak; most bins of a belief that has settled
+            are such, and the blur is most of an update); 0 blurs every bin.
     """
 
     heading_bins: int = 0
@@ -77,6 +81,7 @@ class FilterParams:
     unknown_spread: float = 2.0
     credibility: float = 0.9
     estimate_window: int = 2
+    negligible: float = 1e-3
 
     def validate(self) -> None:
         """Checks ranges (called on construction); raises ValueError naming the field."""
@@ -92,6 +97,8 @@ class FilterParams:
             raise ValueError(f"credibility must be in (0, 1], got {self.credibility}")
         if not 0 <= self.estimate_window <= 1000:
             raise ValueError(f"estimate_window must be 0..1000 cells, got {self.estimate_window}")
+        if not (math.isfinite(self.negligible) and 0 <= self.negligible < 1):
+            raise ValueError(f"negligible must be in [0, 1), got {self.negligible}")
 
 
 @dataclass(frozen=True)
@@ -177,6 +184,7 @@ class GridFilter:
             "credibility": params.credibility,
             "confidence_radius": float(confidence_radius),
             "estimate_window": params.estimate_window,
+            "negligible": params.negligible,
         }
         self.settings = settings  # what the core was given (tests build their oracle from it)
         self.core = _core.GridFilter(

@@ -8,7 +8,9 @@ that pipeline over the compiled core:
 * :func:`match_route` / :func:`match_prepared`: difference matrix (circular shifts for panoramas,
   shift 0 for forward cameras), local contrast enhancement, then
   - the route filter (``method="filter"``, :mod:`~nightloc.route.filter`): a causal belief over
-    the references, predicted by the speed window and updated by each frame's row; or
+    the references, predicted by a motion model (the robot's odometry when both traverses carry
+    it, :mod:`~nightloc.route.odometry`; else a speed that changes, or a speed window) and
+    updated by each frame's row; or
   - SeqSLAM (``method="seqslam"``): straight-line trajectory search over a range of speeds,
     uniqueness ratio; centred (OpenSeqSLAM) or causal trajectories;
 * :class:`RouteParams` and the presets ``"openseqslam"`` (bit-exact with OpenSeqSLAM under
@@ -23,8 +25,9 @@ that pipeline over the compiled core:
 from __future__ import annotations
 
 from .evaluation import GroundTruth, PRCurve, RouteEvaluation, evaluate_matches, precision_recall
-from .filter import FilterStep, RouteFilter, motion_kernel, route_filter, texture_weights
+from .filter import FilterStep, RouteFilter, motion_kernel, route_filter, route_filter_run, texture_weights
 from .localizer import RouteLocalizer, RouteUpdate
+from .odometry import MotionPlan, RouteOdometry, motion_plan, route_odometry
 from .params import PRESETS, RouteParams, default_preparation, resolve_params, route_preset
 from .pipeline import (
     RouteResult,
@@ -41,10 +44,12 @@ __all__ = [
     "PRESETS",
     "FilterStep",
     "GroundTruth",
+    "MotionPlan",
     "PRCurve",
     "RouteEvaluation",
     "RouteFilter",
     "RouteLocalizer",
+    "RouteOdometry",
     "RouteParams",
     "RoutePreparer",
     "RouteResult",
@@ -56,11 +61,14 @@ __all__ = [
     "match_prepared",
     "match_route",
     "motion_kernel",
+    "motion_plan",
     "octave_rgb2gray",
     "precision_recall",
     "resolve_params",
     "route_difference_matrix",
     "route_filter",
+    "route_filter_run",
+    "route_odometry",
     "route_preset",
     "texture_weights",
     "trajectory_search",

@@ -177,7 +177,7 @@ def dask_route_matrices(
             block_offset,
             keep_difference,
             threads_per_task,
-            p.window,
+            p.window_for(r.shape[1], r.shape[2]),
         )
         for start, stop in blocks
     ]

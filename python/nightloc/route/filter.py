@@ -34,6 +34,7 @@ matrix give identical results, and ``tests/route_oracle.py`` holds a numpy oracl
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,7 +43,15 @@ from .. import _core
 from .._validate import thread_count, uint8_array
 from .params import RouteParams, resolve_params
 
-__all__ = ["FilterStep", "RouteFilter", "motion_kernel", "route_filter", "texture_weights"]
+__all__ = [
+    "FilterStep",
+    "RouteFilter",
+    "motion_kernel",
+    "motion_name",
+    "route_filter",
+    "route_filter_run",
+    "texture_weights",
+]
 
 
 def motion_kernel(vmin: float = 0.8, vmax: float = 1.2, backward: float = 0.0) -> tuple[int, np.ndarray]:
@@ -67,10 +76,13 @@ def route_filter(
     params: RouteParams | str | None = None,
     weights: np.ndarray | None = None,
     threads: int | None = None,
+    *,
+    advances: np.ndarray | None = None,
+    reference_distances: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The filter over a whole ``(n_query, n_ref)`` float32 matrix (query rows in time order,
     lower = more similar; route mode passes the contrast-enhanced difference matrix), from the
-    uniform belief.
+    prior belief.
 
     Args:
         matrix: ``(M, N)`` float32 C-contiguous.
@@ -78,17 +90,49 @@ def route_filter(
         weights: optional ``(M,)`` evidence weights in [0, 1] (:func:`texture_weights`).
         threads: threads for the rows' likelihoods (None: all cores); the updates run in order
             on one. The result does not depend on it.
+        advances, reference_distances: the odometry model (both or neither): ``(M,)`` distance
+            each query travelled since the previous one (the first is ignored; negative:
+            backwards) and ``(N,)`` cumulative distance of each reference along the route
+            (non-decreasing), in one unit (:mod:`nightloc.route.odometry` reads them from
+            traverses).
 
     Returns:
         ``(refs, confidence, off_route)``: ``(M,)`` int64 most probable reference, float64 belief
         within ``filter_window`` of it, float64 off-route probability.
     """
+    return route_filter_run(matrix, params, weights, threads, advances, reference_distances)[:3]
+
+
+def route_filter_run(
+    matrix: np.ndarray,
+    params: RouteParams | str | None = None,
+    weights: np.ndarray | None = None,
+    threads: int | None = None,
+    advances: np.ndarray | None = None,
+    reference_distances: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, str]:
+    """:func:`route_filter` with the filter's speed per frame (references per query frame: the
+    speed model's mean speed, the odometry model's mean advance; NaN for the window model) and
+    the motion model that ran (``"window"``, ``"speed"`` or ``"odometry"``) appended."""
     p = resolve_params(params)
     if not isinstance(matrix, np.ndarray):
         raise TypeError(f"matrix must be a numpy.ndarray of dtype float32, got {type(matrix).__name__}")
     if matrix.ndim == 2 and matrix.shape[1] == 0:
         raise ValueError(f"matrix must have at least one reference column, got shape {matrix.shape}")
-    return _core.route_filter(matrix, p.core_filter_params(), weights, thread_count(threads))
+    if (advances is None) != (reference_distances is None):
+        raise ValueError(
+            "the odometry model needs both advances (one per query) and reference_distances (one per reference)"
+        )
+    refs, confidence, off_route, speed = _core.route_filter(
+        matrix, p.core_filter_params(), weights, thread_count(threads), advances, reference_distances
+    )
+    return refs, confidence, off_route, speed, motion_name(p, reference_distances is not None)
+
+
+def motion_name(params: RouteParams, odometry: bool) -> str:
+    """The motion model the filter runs: ``"odometry"`` when given odometry, else
+    ``params.filter_motion``."""
+    return "odometry" if odometry else params.filter_motion
 
 
 @dataclass(frozen=True)
@@ -99,11 +143,14 @@ class FilterStep:
         ref: the most probable reference (0-based).
         confidence: belief within ``filter_window`` references of ``ref``, in [0, 1].
         off_route: probability that the frame shows no reference of the route.
+        speed: references per frame: the speed model's mean speed, the odometry model's mean
+            advance; None for the window model.
     """
 
     ref: int
     confidence: float
     off_route: float
+    speed: float | None = None
 
 
 class RouteFilter:
@@ -120,13 +167,22 @@ class RouteFilter:
     Args:
         n_refs: number of references (>= 1).
         params: :class:`RouteParams` or a preset name.
+        reference_distances: ``(n_refs,)`` cumulative distance of each reference along the
+            route: the odometry model (each :meth:`step` then takes the distance travelled).
     """
 
-    def __init__(self, n_refs: int, params: RouteParams | str | None = None):
+    def __init__(
+        self, n_refs: int, params: RouteParams | str | None = None, reference_distances: np.ndarray | None = None
+    ):
         if isinstance(n_refs, bool) or not isinstance(n_refs, (int, np.integer)) or n_refs < 1:
             raise ValueError(f"n_refs must be a positive int, got {n_refs!r}")
         self._params = resolve_params(params)
-        self._core = _core.RouteFilter(int(n_refs), self._params.core_filter_params())
+        self._core = _core.RouteFilter(int(n_refs), self._params.core_filter_params(), reference_distances)
+
+    @property
+    def motion(self) -> str:
+        """The motion model: ``"window"``, ``"speed"`` or ``"odometry"``."""
+        return str(self._core.motion)
 
     @property
     def params(self) -> RouteParams:
@@ -143,16 +199,20 @@ class RouteFilter:
         """The off-route probability."""
         return float(self._core.off_route)
 
-    def step(self, row: np.ndarray, weight: float = 1.0) -> FilterStep:
+    def step(self, row: np.ndarray, weight: float = 1.0, advance: float = 0.0) -> FilterStep:
         """One frame: ``row`` ``(n_refs,)`` float32 differences; ``weight`` in [0, 1] scales the
-        evidence (0: prediction only)."""
-        ref, confidence, off = self._core.step(row, float(weight))
-        return FilterStep(int(ref), float(confidence), float(off))
+        evidence (0: prediction only); ``advance``: the odometry model's distance travelled
+        since the previous frame (ignored by the other models)."""
+        ref, confidence, off, speed = self._core.step(row, float(weight), float(advance))
+        return FilterStep(int(ref), float(confidence), float(off), None if math.isnan(speed) else float(speed))
 
-    def run(self, rows: np.ndarray, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Consecutive frames: ``rows`` ``(n, n_refs)`` float32, optional ``(n,)`` weights;
-        returns ``(refs, confidence, off_route)`` arrays, continuing from the current state."""
-        return self._core.run(rows, weights)
+    def run(
+        self, rows: np.ndarray, weights: np.ndarray | None = None, advances: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Consecutive frames: ``rows`` ``(n, n_refs)`` float32, optional ``(n,)`` weights and
+        (odometry model) advances; returns ``(refs, confidence, off_route)`` arrays, continuing
+        from the current state."""
+        return self._core.run(rows, weights, 1, advances)[:3]
 
     def reset(self) -> None:
         """Back to the uniform belief."""

@@ -32,7 +32,9 @@ import numpy as np
 
 from .. import _core
 from .._validate import StreamGuard, shift_list, thread_count, uint8_array
+from ..io.traverse import Traverse
 from ..preparation.params import PreparationParams
+from .odometry import route_odometry
 from .params import RouteParams, resolve_params
 from .pipeline import TraverseInput, _as_frames, _divisor
 from .preparation import RoutePreparer
@@ -51,6 +53,8 @@ class RouteUpdate:
             (SeqSLAM; NaN while ``ref`` is None).
         confidence: filter: belief within ``filter_window`` references of ``ref``; NaN for SeqSLAM.
         off_route: filter: probability that the frame shows no reference; NaN for SeqSLAM.
+        speed: filter: references per frame (the speed model's mean speed, the odometry model's
+            mean advance); None for the window model and SeqSLAM.
     """
 
     index: int
@@ -58,6 +62,7 @@ class RouteUpdate:
     score: float
     confidence: float = math.nan
     off_route: float = math.nan
+    speed: float | None = None
 
     @property
     def matched(self) -> bool:
@@ -90,6 +95,13 @@ class RouteLocalizer:
         prepared: the reference is already prepared.
         threads: worker threads for each frame (None: all cores).
         channel_order: colour order of the frames given, ``"bgr"`` or ``"rgb"``.
+        odometry: run the filter's odometry model: each :meth:`update` then takes the distance
+            the robot travelled since the previous frame (``advance``, in the unit of the
+            reference's distances). The references' distances along the route are
+            ``reference_distances`` or, when that is None, read from the reference traverse's
+            ``odometry.csv`` or poses (:mod:`nightloc.route.odometry`).
+        reference_distances: ``(N,)`` cumulative distance of each reference along the route
+            (implies ``odometry``).
 
     One localizer is one stream of frames: :meth:`update` or :meth:`reset` called while another
     thread is inside one raises RuntimeError (use one localizer per thread); ``copy.copy`` gives
@@ -107,16 +119,21 @@ class RouteLocalizer:
         prepared: bool = False,
         threads: int | None = None,
         channel_order: Literal["bgr", "rgb"] = "bgr",
+        odometry: bool = False,
+        reference_distances: np.ndarray | None = None,
     ):
         if params is not None and preset is not None:
             raise TypeError("give params or preset, not both")
         chosen = resolve_params(preset if preset is not None else params, method=method)
         self._params = dataclasses.replace(chosen, mode="causal")
         self._preparer = RoutePreparer(self._params, preparation, channel_order)
+        source: object = reference
         if prepared:
             refs = uint8_array(reference, 3, "reference")
         else:
-            refs = self._preparer(_as_frames(reference, "reference", 1))
+            frames = _as_frames(reference, "reference", 1)
+            source = frames
+            refs = self._preparer(frames)
             if refs.ndim != 3:
                 raise ValueError("the reference route must hold several frames, not a single image")
         n_refs = refs.shape[0]
@@ -130,14 +147,18 @@ class RouteLocalizer:
             raise ValueError("the reference route needs at least 2 frames")
         self._refs = np.ascontiguousarray(refs)
         self._shifts = shift_list(self._params.shifts, refs.shape[2])
+        self._window_shift = self._params.window_for(refs.shape[1], refs.shape[2])
         self._divisor = _divisor(self._params, self._refs)
         self._threads = thread_count(threads)
         self._seen = 0
         self._guard = StreamGuard("RouteLocalizer")  # one thread at a time (see the class docstring)
         self._row = np.empty((1, n_refs), dtype=np.float32)
         if self._params.method == "filter":
-            self._filter = _core.RouteFilter(n_refs, self._params.core_filter_params())
+            distances = _reference_distances(source, odometry, reference_distances)
+            self._filter = _core.RouteFilter(n_refs, self._params.core_filter_params(), distances)
             return
+        if odometry or reference_distances is not None:
+            raise ValueError("odometry is used by the route filter only (method='filter')")
         self._window = np.zeros((self._params.ds, n_refs), dtype=np.float32)
 
     def __copy__(self) -> RouteLocalizer:
@@ -163,6 +184,12 @@ class RouteLocalizer:
     def references(self) -> np.ndarray:
         """``(N, H, W)`` uint8 prepared reference images."""
         return self._refs
+
+    @property
+    def motion(self) -> str | None:
+        """The filter's motion model (``"window"``, ``"speed"`` or ``"odometry"``); None for
+        SeqSLAM."""
+        return str(self._filter.motion) if self._params.method == "filter" else None
 
     @property
     def frames_seen(self) -> int:
@@ -195,18 +222,38 @@ class RouteLocalizer:
         """The prepared ``(H, W)`` uint8 image of one camera frame."""
         return self._preparer(frame)
 
-    def update(self, frame: np.ndarray, prepared: bool = False) -> RouteUpdate:
+    def update(self, frame: np.ndarray, prepared: bool = False, advance: float | None = None) -> RouteUpdate:
         """Adds one frame; returns its match (filter: from the first frame; SeqSLAM: once ``ds``
         frames exist).
 
         Args:
             frame: a camera frame (grey ``(H, W)`` or BGR ``(H, W, 3)``), or with
                 ``prepared=True`` an ``(H, W)`` uint8 image prepared like the references.
+            advance: the odometry model's distance travelled since the previous frame (needed
+                from the second frame on; negative: backwards; ignored on the first); must be
+                None for the other models.
         """
         with self._guard("update"):
-            return self._update(frame, prepared)
+            return self._update(frame, prepared, advance)
 
-    def _update(self, frame: np.ndarray, prepared: bool) -> RouteUpdate:
+    def _check_advance(self, advance: float | None) -> float:
+        if self.motion != "odometry":
+            if advance is not None:
+                raise ValueError(
+                    "advance is for the odometry model; create the localizer with odometry=True "
+                    "(or reference_distances) to use it"
+                )
+            return 0.0
+        if advance is None:
+            if self._seen == 0:
+                return 0.0
+            raise ValueError("this localizer runs the odometry model: pass advance= (distance since the last frame)")
+        value = float(advance)
+        if not math.isfinite(value):
+            raise ValueError(f"advance must be a finite distance, got {advance!r}")
+        return value
+
+    def _update(self, frame: np.ndarray, prepared: bool, advance: float | None) -> RouteUpdate:
         image = uint8_array(frame, 2, "frame") if prepared else self.prepare(frame)
         if image.ndim != 2:
             raise ValueError(f"update takes one frame, got a stack of {image.shape[0]} frames; loop over them")
@@ -216,8 +263,9 @@ class RouteLocalizer:
                 f"{self._refs.shape[1]}x{self._refs.shape[2]} (height x width)"
             )
         p = self._params
+        travelled = self._check_advance(advance)
         if p.method == "filter":
-            ref, confidence, off_route, _ = self._filter.frame(
+            ref, confidence, off_route, _, speed = self._filter.frame(
                 np.ascontiguousarray(image),
                 self._refs,
                 self._shifts,
@@ -226,11 +274,13 @@ class RouteLocalizer:
                 p.filter_min_texture,
                 self._threads,
                 self._row,
-                p.window,
+                self._window_shift,
+                travelled,
             )
             index = self._seen
             self._seen += 1
-            return RouteUpdate(index, int(ref), 1.0 - confidence, confidence, off_route)
+            speed_or_none = None if math.isnan(speed) else float(speed)
+            return RouteUpdate(index, int(ref), 1.0 - confidence, confidence, off_route, speed_or_none)
         _core.difference_matrix_into(
             np.ascontiguousarray(image)[np.newaxis],
             self._refs,
@@ -238,7 +288,7 @@ class RouteLocalizer:
             self._threads,
             self._divisor,
             self._row,
-            p.window,
+            self._window_shift,
         )
         # Oldest row first: shift the window up by one and enhance the new row into the last slot.
         self._window[:-1] = self._window[1:]
@@ -251,3 +301,28 @@ class RouteLocalizer:
             self._window, p.ds, p.vmin, p.vmax, p.uniqueness_radius, True, p.ds - 1, p.ds, self._threads
         )
         return RouteUpdate(index=index, ref=int(refs[p.ds - 1]), score=float(scores[p.ds - 1]))
+
+
+def _reference_distances(reference: object, odometry: bool, given: np.ndarray | None) -> np.ndarray | None:
+    """The references' distances for the odometry model: ``given``, or with ``odometry`` the
+    reference traverse's own (a Traverse or a path), or None (no odometry model)."""
+    if given is not None:
+        distances = np.asarray(given, dtype=np.float64)
+        if distances.ndim != 1:
+            raise ValueError(
+                f"reference_distances must be a 1-D array (one per reference), got shape {distances.shape}"
+            )
+        return distances
+    if not odometry:
+        return None
+    if not isinstance(reference, Traverse):
+        raise ValueError(
+            "odometry=True needs the reference as a traverse (folder, video or Traverse) with odometry.csv or poses, "
+            "or reference_distances"
+        )
+    record = route_odometry(reference)
+    if record is None:
+        raise ValueError(
+            f"the reference traverse {reference.root} has no odometry.csv or poses; pass reference_distances"
+        )
+    return record.distances

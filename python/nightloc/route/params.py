@@ -17,7 +17,9 @@ Two presets:
 * ``"nightloc"`` (the default) prepares images the paper's way without histogram equalization
   (grey, area downsample to 48x24, patch normalization with radius 4, no wrap for a forward
   camera: :func:`default_preparation`, chosen by the sweep in ``docs/route_mode.md``), scores
-  mean absolute differences per pixel, enhances as OpenSeqSLAM and runs the filter.
+  mean absolute differences per pixel at the best alignment within +-8 columns and +-1 row of a
+  forward camera (``shift_window``, viewpoint tolerance), enhances as OpenSeqSLAM and runs the
+  filter.
 """
 
 from __future__ import annotations
@@ -30,7 +32,13 @@ from .. import _core
 from ..config import params_section
 from ..preparation.params import PreparationParams
 
-__all__ = ["PRESETS", "RouteParams", "default_preparation", "resolve_params", "route_preset"]
+__all__ = ["DEFAULT_SHIFT_WINDOWS", "PRESETS", "RouteParams", "default_preparation", "resolve_params", "route_preset"]
+
+#: The translation window of ``shift_window = None``, per camera: ``(columns, rows)``. On a
+#: forward camera +-8 columns and +-1 row keep a night walk a metre beside the day walk and a
+#: camera tilted by a couple of degrees; on panoramas rows cost more than they bring (the sweep in
+#: docs/route_mode.md).
+DEFAULT_SHIFT_WINDOWS = {"forward": (8, 1), "panoramic": (0, 0)}
 
 
 @params_section("route")
@@ -54,7 +62,10 @@ class RouteParams:
             absolute difference over the overlap of the query moved by up to ``rows`` rows and,
             for a forward camera, ``columns`` columns (:mod:`nightloc.matching.sad`); with
             ``circular_shifts`` every column shift is searched already and ``columns`` is unused.
-            ``(0, 0)`` compares one alignment (OpenSeqSLAM).
+            Offsets beyond the image are clipped (:meth:`window_for`). ``(0, 0)`` compares one
+            alignment (OpenSeqSLAM). None (the default): :data:`DEFAULT_SHIFT_WINDOWS`, ``(8, 1)``
+            for a forward camera and ``(0, 0)`` for a panorama, chosen by the sweep in
+            ``docs/route_mode.md`` (lateral offsets, tilt, real day/night and seasonal pairs).
         enhance_radius: contrast enhancement over references i-radius .. i+radius [R/2].
         ds: sequence length in frames [matching.ds]. Centred mode rounds it up to even and uses
             ds+1 frames; causal mode uses ds frames ending at the query.
@@ -83,6 +94,26 @@ class RouteParams:
         filter_min_texture: a prepared query frame whose mean absolute deviation from its own
             mean is below this many grey levels carries proportionally less evidence (a flat
             frame: none, the belief is only predicted); 0 disables the weight.
+        filter_motion: the filter's motion model when the traverses carry no odometry:
+            ``"speed"`` (a belief over position x speed that follows a speed that changes) or
+            ``"window"`` (a speed drawn afresh from ``vmin .. vmax`` every frame). With odometry
+            in both traverses the odometry model runs instead.
+        filter_speed_min, filter_speed_max, filter_speed_step: the speed model's planes,
+            references per query frame (a negative speed: reversing).
+        filter_speed_jitter: each plane advances by a speed uniform within +- this of its own,
+            references per frame (position noise that needs no change of speed).
+        filter_speed_change: standard deviation of the speed's change per frame, references per
+            frame.
+        filter_speed_tau: frames for a speed to relax back towards the reference's (1); ``inf``:
+            no pull.
+        filter_speed_cells: position cells per reference of the speed model.
+        filter_odometry_noise: relative standard deviation of one frame's odometry advance.
+        filter_odometry_jitter: extra position noise per frame of the odometry model,
+            references.
+        filter_odometry_novelty: a frame's evidence weighs ``min(1, travel / (novelty *
+            spacing))`` with the odometry model (spacing: the mean distance between references):
+            a robot that has not moved sees nothing new; 0 disables the factor.
+        filter_odometry_cells: position cells per reference of the odometry model.
     """
 
     method: Literal["filter", "seqslam"] = "filter"
@@ -90,7 +121,7 @@ class RouteParams:
     block_side: int = 8
     divisor: Literal["pixels", "references"] = "pixels"
     circular_shifts: bool = False
-    shift_window: tuple[int, int] = (0, 0)
+    shift_window: tuple[int, int] | None = None
     enhance_radius: int = 5
     ds: int = 10
     vmin: float = 0.8
@@ -105,10 +136,22 @@ class RouteParams:
     filter_rejoin: float = 1e-2
     filter_window: int = 2
     filter_min_texture: float = 1.0
+    filter_motion: Literal["speed", "window"] = "window"
+    filter_speed_min: float = 0.5
+    filter_speed_max: float = 1.5
+    filter_speed_step: float = 0.1
+    filter_speed_jitter: float = 0.2
+    filter_speed_change: float = 0.08
+    filter_speed_tau: float = 4.0
+    filter_speed_cells: int = 2
+    filter_odometry_noise: float = 0.05
+    filter_odometry_jitter: float = 0.1
+    filter_odometry_novelty: float = 1.0
+    filter_odometry_cells: int = 4
 
     def validate(self) -> None:
         """Checks ranges (called on construction); raises ValueError naming the field."""
-        if min(self.shift_window) < 0:
+        if self.shift_window is not None and min(self.shift_window) < 0:
             raise ValueError(f"shift_window must be (columns, rows) >= 0 pixels, got {self.shift_window}")
         if self.block_side < 2:
             raise ValueError(f"block_side must be >= 2 pixels, got {self.block_side}")
@@ -154,6 +197,12 @@ class RouteParams:
             raise ValueError(f"filter_window must be >= 0 references, got {self.filter_window}")
         if not (math.isfinite(self.filter_min_texture) and self.filter_min_texture >= 0):
             raise ValueError(f"filter_min_texture must be >= 0 grey levels, got {self.filter_min_texture}")
+        if self.filter_motion not in ("speed", "window"):
+            raise ValueError(f"filter_motion must be 'speed' or 'window', got {self.filter_motion!r}")
+        try:
+            self.core_filter_params().validate()
+        except ValueError as error:  # the core names the field without its filter_ prefix
+            raise ValueError(f"filter_{error}") from None
 
     def core_filter_params(self) -> _core.RouteFilterParams:
         """The filter's parameters as the compiled core takes them."""
@@ -162,6 +211,20 @@ class RouteParams:
         core.backward, core.floor = self.filter_backward, self.filter_floor
         core.sharpness, core.clip = self.filter_sharpness, self.filter_clip
         core.leave, core.rejoin, core.window = self.filter_leave, self.filter_rejoin, self.filter_window
+        core.motion = self.filter_motion
+        core.speed_min, core.speed_max, core.speed_step = (
+            self.filter_speed_min,
+            self.filter_speed_max,
+            self.filter_speed_step,
+        )
+        core.speed_jitter, core.speed_change, core.speed_tau = (
+            self.filter_speed_jitter,
+            self.filter_speed_change,
+            self.filter_speed_tau,
+        )
+        core.speed_cells = self.filter_speed_cells
+        core.odometry_noise, core.odometry_jitter = self.filter_odometry_noise, self.filter_odometry_jitter
+        core.odometry_cells, core.odometry_novelty = self.filter_odometry_cells, self.filter_odometry_novelty
         return core
 
     def method_params(self) -> dict:
@@ -183,7 +246,9 @@ class RouteParams:
             else ("ds", "uniqueness_radius", "mode")
         )
         extra = ("block_side",) if self.preparation == "openseqslam" else ()
-        return {name: getattr(self, name) for name in shared + extra + own}
+        values = {name: getattr(self, name) for name in shared + extra + own}
+        values["shift_window"] = self.effective_shift_window
+        return values
 
     @property
     def effective_ds(self) -> int:
@@ -196,10 +261,20 @@ class RouteParams:
         return None if self.circular_shifts else [0]
 
     @property
-    def window(self) -> tuple[int, int]:
-        """The translation window the difference matrix searches, ``(columns, rows)``: the
-        column part only for a forward camera (panoramas search every circular shift)."""
-        return (0 if self.circular_shifts else self.shift_window[0], self.shift_window[1])
+    def effective_shift_window(self) -> tuple[int, int]:
+        """``shift_window``, or the camera's default (:data:`DEFAULT_SHIFT_WINDOWS`) when None."""
+        if self.shift_window is not None:
+            return self.shift_window
+        return DEFAULT_SHIFT_WINDOWS["panoramic" if self.circular_shifts else "forward"]
+
+    def window_for(self, height: int, width: int) -> tuple[int, int]:
+        """The translation window the difference matrix searches on ``height x width`` images,
+        ``(columns, rows)``: the column part only for a forward camera (panoramas search every
+        circular shift), each clipped to the largest offset that leaves an overlap (``width - 1``
+        columns, ``height - 1`` rows: the default window also serves tiny images)."""
+        columns, rows = self.effective_shift_window
+        columns = 0 if self.circular_shifts else min(columns, max(0, width - 1))
+        return (columns, min(rows, max(0, height - 1)))
 
     @property
     def enhance_offset(self) -> str:
@@ -220,7 +295,7 @@ class RouteParams:
 #: Preset name -> parameters.
 PRESETS = {
     "nightloc": RouteParams(),
-    "openseqslam": RouteParams(method="seqslam", preparation="openseqslam", divisor="references"),
+    "openseqslam": RouteParams(method="seqslam", preparation="openseqslam", divisor="references", shift_window=(0, 0)),
 }
 
 

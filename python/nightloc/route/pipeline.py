@@ -32,7 +32,8 @@ from .._validate import same_image_size, shift_list, thread_count, uint8_array
 from ..io.traverse import Traverse, load_traverse
 from ..preparation.params import PreparationParams
 from ..progress import progress
-from .filter import route_filter, texture_weights
+from .filter import route_filter_run, texture_weights
+from .odometry import motion_plan
 from .params import RouteParams, resolve_params
 from .preparation import RoutePreparer
 
@@ -76,6 +77,11 @@ class RouteResult:
             reference; None for SeqSLAM.
         weights: filter only, ``(n_query,)`` float64 evidence weight of each query frame (its
             texture), or None.
+        motion: filter only: the motion model that ran, ``"window"``, ``"speed"`` or
+            ``"odometry"``; None for SeqSLAM.
+        speed: filter only, ``(n_query,)`` float64 references per query frame: the speed
+            model's mean speed, the odometry model's mean advance; NaN for the window model.
+        motion_note: why that motion model ran (e.g. odometry in one traverse only), or "".
     """
 
     refs: np.ndarray
@@ -87,6 +93,9 @@ class RouteResult:
     confidence: np.ndarray | None = None
     off_route: np.ndarray | None = None
     weights: np.ndarray | None = None
+    motion: str | None = None
+    speed: np.ndarray | None = None
+    motion_note: str = ""
 
     @property
     def method(self) -> str:
@@ -172,11 +181,12 @@ def route_difference_matrix(
     n_threads = thread_count(threads)
     matrix = _checked_out(out, (q.shape[0], r.shape[0]))
     divisor = _divisor(p, r)
+    window = p.window_for(r.shape[1], r.shape[2])
     step = block_rows(r.shape[0])
     starts = range(0, q.shape[0], step)
     for start in progress(starts, total=len(starts), desc=progress_desc, unit="block"):
         stop = min(q.shape[0], start + step)
-        _core.difference_matrix_into(q[start:stop], r, shifts, n_threads, divisor, matrix[start:stop], p.window)
+        _core.difference_matrix_into(q[start:stop], r, shifts, n_threads, divisor, matrix[start:stop], window)
     return matrix
 
 
@@ -270,6 +280,9 @@ def match_difference(
     threads: int | None = None,
     keep_difference: bool = True,
     weights: np.ndarray | None = None,
+    *,
+    advances: np.ndarray | None = None,
+    reference_distances: np.ndarray | None = None,
 ) -> RouteResult:
     """Route matching from a difference matrix: enhancement, then the filter or SeqSLAM.
 
@@ -280,6 +293,10 @@ def match_difference(
         keep_difference: False enhances ``difference`` in place (``result.difference`` None).
         weights: filter only: ``(M,)`` evidence weights in [0, 1]
             (:func:`~nightloc.route.filter.texture_weights` of the prepared queries); None: 1.
+        advances, reference_distances: filter only, both or neither: the odometry model
+            (``(M,)`` distance travelled before each query, ``(N,)`` cumulative distance of each
+            reference; :mod:`nightloc.route.odometry`); without them the filter runs
+            ``params.filter_motion``.
     """
     p = resolve_params(params)
     timings: dict[str, float] = {}
@@ -288,9 +305,11 @@ def match_difference(
     enhanced = enhance_contrast(difference, p, threads, out=out, offset=p.search_offset)
     timings["enhancement"] = time.perf_counter() - start
     start = time.perf_counter()
-    confidence = off_route = None
+    confidence = off_route = speed = motion = None
     if p.method == "filter":
-        matched, confidence, off_route = route_filter(enhanced, p, weights, threads)
+        matched, confidence, off_route, speed, motion = route_filter_run(
+            enhanced, p, weights, threads, advances, reference_distances
+        )
         scores = 1.0 - confidence
     else:
         matched, scores = trajectory_search(enhanced, p, threads)
@@ -305,6 +324,8 @@ def match_difference(
         confidence=confidence,
         off_route=off_route,
         weights=weights if p.method == "filter" else None,
+        motion=motion,
+        speed=speed,
     )
 
 
@@ -314,6 +335,9 @@ def match_prepared(
     params: RouteParams | str | None = None,
     threads: int | None = None,
     keep_difference: bool = True,
+    *,
+    advances: np.ndarray | None = None,
+    reference_distances: np.ndarray | None = None,
 ) -> RouteResult:
     """Route matching of prepared images: difference matrix, enhancement, then the route filter
     (``params.method = "filter"``, the default) or SeqSLAM's trajectory search.
@@ -325,13 +349,22 @@ def match_prepared(
         threads: worker threads (None: all cores).
         keep_difference: keep the difference matrix (two M x N float32 matrices in memory);
             False enhances it in place (one matrix; ``result.difference`` is None).
+        advances, reference_distances: the filter's odometry model (:func:`match_difference`).
     """
     p = resolve_params(params)
     start = time.perf_counter()
     difference = route_difference_matrix(queries, refs, p, threads)
     elapsed = time.perf_counter() - start
     weights = texture_weights(queries, p.filter_min_texture) if p.method == "filter" else None
-    result = match_difference(difference, p, threads, keep_difference, weights)
+    result = match_difference(
+        difference,
+        p,
+        threads,
+        keep_difference,
+        weights,
+        advances=advances,
+        reference_distances=reference_distances,
+    )
     result.timings = {"difference": elapsed, **result.timings}
     return result
 
@@ -354,6 +387,7 @@ def match_route(
     threads: int | None = None,
     keep_difference: bool = True,
     frame_step: int = 1,
+    odometry: bool = True,
 ) -> RouteResult:
     """Route matching from camera frames: prepare both traverses, then :func:`match_prepared`.
 
@@ -364,15 +398,33 @@ def match_route(
         params: :class:`RouteParams` or a preset name (``"openseqslam"``, ``"nightloc"``).
         preparation: :class:`PreparationParams` for the ``"nightloc"`` preparation.
         frame_step: keep every k-th video frame when a path is a video.
+        odometry: when both traverses carry odometry (``odometry.csv``, or poses), the filter
+            runs its odometry model (:func:`nightloc.route.odometry.motion_plan`); False: never.
+            ``result.motion`` and ``result.motion_note`` say what ran and why.
     """
     p = resolve_params(params)
     preparer = RoutePreparer(p, preparation)
+    reference_frames = _as_frames(reference, "reference", frame_step)
+    query_frames = _as_frames(query, "query", frame_step)
+    plan = None
+    if p.method == "filter" and isinstance(reference_frames, Traverse) and isinstance(query_frames, Traverse):
+        plan = motion_plan(reference_frames, query_frames, p.filter_motion, odometry)
     start = time.perf_counter()
-    refs = preparer(_as_frames(reference, "reference", frame_step))
-    queries = preparer(_as_frames(query, "query", frame_step))
+    refs = preparer(reference_frames)
+    queries = preparer(query_frames)
     prep_time = time.perf_counter() - start
     if refs.ndim != 3 or queries.ndim != 3:
         raise ValueError("reference and query must each hold several frames, not a single image")
-    result = match_prepared(refs, queries, p, threads, keep_difference)
+    result = match_prepared(
+        refs,
+        queries,
+        p,
+        threads,
+        keep_difference,
+        advances=None if plan is None else plan.advances,
+        reference_distances=None if plan is None else plan.reference_distances,
+    )
     result.timings["preparation"] = prep_time
+    if plan is not None:
+        result.motion_note = plan.note
     return result
