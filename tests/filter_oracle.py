@@ -111,6 +111,7 @@ class OracleFilter:
         self.pose = self.can_pose
         self.offset = 0.0
         self.bin_max = None  # each bin's largest value after the last update (pose mode), else None
+        self.frames = 0  # frames measured since reset (the first settle_frames are tempered)
         n = self.bins if self.pose else 1
         self.p = np.full((n, self.h, self.wd), 1.0 / (n * self.h * self.wd))
 
@@ -220,7 +221,10 @@ class OracleFilter:
         self.best_shifts = self.shifts[best]
         s_min = self.mins.min()
         spread = float(np.median(self.mins)) - s_min
-        lam = self.s["likelihood_gain"] / spread if spread > 0 else 0.0
+        settle = self.s.get("settle_frames", 0)
+        temper = min(1.0, (self.frames + 1) / settle) if settle > 1 else 1.0
+        self.frames += 1
+        lam = temper * self.s["likelihood_gain"] / spread if spread > 0 else 0.0
         bins = self.bins if self.pose else 1
         place_scores = np.full((bins, self.places), np.inf)
         if self.pose:  # every reference and bin at once: the score at the bin's fractional shift

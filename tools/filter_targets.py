@@ -1,6 +1,7 @@
-"""The Bayes filter's target figures beside the paper's method (docs/localization.md, issue 11).
+"""The Bayes filter's target figures beside the paper's method (docs/localization.md, issues 11, 22).
 
     python tools/filter_targets.py [--draws 3] [--cache DIR] [--param likelihood_gain=3.5 ...]
+                                   [--figure docs/figures/filter_confidence.png]
 
 On the embedded synthetic world (the demo's data: each world's night query against its day
 map), for map-frame and wheel odometry (``RobotMotion``) with noise models 0 and 3, over
@@ -9,6 +10,12 @@ query frames from the 10th on of the filter and of the paper's 10-frame sequence
 draws, with the range), the filter's median heading error, the share of all frames whose truth
 lies within the filter's ``credible_radius``, and the frames a kidnapped robot (carried metres
 away while its odometry says it did not move) takes until its error is below 1 m again.
+Then trust over the worlds' full grid (issue 22, :func:`trust_rows`): every night traverse (the
+garden's query and night reference, the living room's query) x map-frame and wheel odometry x
+noise models 0-3 x the draws, every frame from the first: the share of frames more than 1 m off
+with confidence above 0.9 (confidently wrong), which they are, and the coverage of
+``credible_radius``; ``--figure PATH`` draws the confidence against the error
+(``nightloc.figures.filter.confidence_figure``, docs/figures/filter_confidence.png).
 Prints markdown tables.
 """
 
@@ -26,6 +33,9 @@ from nightloc.localization.odometry import MapDisplacement, RobotMotion, wrap_an
 from nightloc.synth import default_dataset
 
 FIRST = 10  # errors counted from the 10th query frame on (a 10-frame sequence is full there)
+INT_PARAMS = ("heading_bins", "estimate_window", "settle_frames")
+#: The night traverses of the full grid of trust (issue 22), per world.
+TRUST_QUERIES = {"garden": ("night_query", "night_reference"), "living_room": ("night_query",)}
 
 
 def _run_filter(ref_map, tables, odometry, model, overrides):
@@ -121,6 +131,34 @@ def kidnap_rows(folders, draws: int = 3, overrides: dict | None = None) -> list[
     return rows
 
 
+def trust_rows(folders, draws: int = 3, overrides: dict | None = None) -> dict:
+    """Over the full grid of :data:`TRUST_QUERIES` x odometry kind x noise models 0-3 x ``draws``
+    draws, every frame: ``runs`` ``{label: (errors, confidences)}`` per world and odometry kind,
+    ``wrong`` (where a frame was more than 1 m off with confidence above 0.9) and ``inside``
+    (per run, the frames with the truth within the credible radius)."""
+    runs: dict = {}
+    wrong, inside = [], []
+    for world, queries in TRUST_QUERIES.items():
+        ref_map = nightloc.ReferenceMap.build(folders[world]["day_reference"])
+        for query in queries:
+            matches = match_traverse(ref_map, folders[world][query], tables=True)
+            for kind in ("robot", "map"):
+                settings = EvaluationSettings(odometry=kind, repeats=draws)
+                label = f"{world.replace('_', ' ')}, {'wheel' if kind == 'robot' else 'map-frame'} odometry"
+                for model in (0, 1, 2, 3):
+                    for repeat in range(settings.repeats_of(model)):
+                        odometry = simulated_odometry(matches, model, repeat, settings)
+                        estimates = _run_filter(ref_map, matches.tables, odometry, model, overrides or {})
+                        errors = _errors(estimates, matches.positions)
+                        confidence = np.array([e.confidence for e in estimates])
+                        old = runs.get(label, (np.zeros(0), np.zeros(0)))
+                        runs[label] = (np.r_[old[0], errors], np.r_[old[1], confidence])
+                        inside.append(errors <= np.array([e.credible_radius for e in estimates]))
+                        for i in np.flatnonzero((errors > 1.0) & (confidence > 0.9)):
+                            wrong.append(f"{world} {query}, {_label(kind)}, noise {model}, draw {repeat}: frame {i}")
+    return {"runs": runs, "wrong": wrong, "inside": inside}
+
+
 def _label(kind: str) -> str:
     return "wheel (RobotMotion)" if kind == "robot" else "map frame"
 
@@ -132,8 +170,9 @@ def main() -> None:
     parser.add_argument(
         "--param", action="append", default=[], help="filter parameter override, e.g. likelihood_gain=3.5"
     )
+    parser.add_argument("--figure", default=None, help="write the confidence-against-error figure here (.png)")
     args = parser.parse_args()
-    overrides = {k: float(v) for k, v in (p.split("=") for p in args.param)}
+    overrides = {k: int(v) if k in INT_PARAMS else float(v) for k, v in (p.split("=") for p in args.param)}
     folders = default_dataset(cache_dir=args.cache)
     emit(
         "| world | odometry | noise | filter (m) | paper n=10 (m) | filter / paper | filter heading (deg) "
@@ -159,6 +198,23 @@ def main() -> None:
         recoveries = row["recoveries"]
         worst = "never" if -1 in recoveries else max(recoveries)
         emit(f"| {_label(row['kind'])} | {row['model']} | {' '.join(map(str, recoveries))} | {worst} |")
+
+    trust = trust_rows(folders, args.draws, overrides)
+    total = sum(errors.size for errors, _ in trust["runs"].values())
+    emit(
+        f"\nTrust over the full grid ({total} frames: every night traverse, map-frame and wheel odometry, noise "
+        f"models 0-3, {args.draws} draws, every frame): more than 1 m off with confidence above 0.9 in "
+        f"{len(trust['wrong']) / total:.2%} ({len(trust['wrong'])} frames); the truth within credible_radius in "
+        f"{np.concatenate(trust['inside']).mean():.1%}."
+    )
+    for where in trust["wrong"]:
+        emit(f"- {where}")
+    if args.figure:
+        from nightloc.figures.filter import confidence_figure
+
+        title = f"Bayes filter on the synthetic worlds: noise models 0-3, {args.draws} draws, every frame"
+        confidence_figure(trust["runs"], title, args.figure)
+        emit(f"\nwrote {args.figure}")
 
 
 if __name__ == "__main__":

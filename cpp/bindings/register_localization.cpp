@@ -379,6 +379,8 @@ private:
                 s.estimate_window = v.cast<std::size_t>();
             else if (key == "negligible")
                 s.negligible = v.cast<double>();
+            else if (key == "settle_frames")
+                s.settle_frames = v.cast<std::size_t>();
             else
                 throw py::value_error("unknown grid filter setting '" + key + "'");
         }
@@ -457,6 +459,7 @@ void register_localization(py::module_& m) {
         .def_property_readonly("heading_bins", [](const GridFilterPy& f) { return f.core().heading_bins(); })
         .def_property_readonly("offset", [](const GridFilterPy& f) { return f.core().offset(); })
         .def_property_readonly("lambda_", [](const GridFilterPy& f) { return f.core().lambda(); })
+        .def_property_readonly("frames", [](const GridFilterPy& f) { return f.core().frames(); })
         .def_property_readonly("sparse_blocks", [](const GridFilterPy& f) { return f.core().sparse_blocks(); })
         .def_property_readonly("memory_bytes", [](const GridFilterPy& f) { return f.core().memory_bytes(); });
 

@@ -123,6 +123,7 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
     require(s.estimate_window <= 1000, "grid filter: estimate_window must be <= 1000 cells");
     require(std::isfinite(s.negligible) && s.negligible >= 0 && s.negligible < 1,
             "grid filter: negligible must be in [0, 1)");
+    require(s.settle_frames <= 1000, "grid filter: settle_frames must be 0..1000");
 
     can_pose_ = s.heading_bins > 1 && !map_.ref_headings.empty() && full;
     bins_ = can_pose_ ? s.heading_bins : 1;
@@ -227,6 +228,7 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
 
 void GridFilter::reset() {
     pending_ = false;
+    frames_ = 0;
     bin_max_valid_ = false;
     pose_ = can_pose_;
     offset_ = 0;
@@ -599,7 +601,14 @@ void GridFilter::update(const float* table) {
     }
     const double s_min = *std::min_element(mins_.begin(), mins_.end());
     const double spread = median - s_min;
-    lambda_ = spread > 0 ? settings_.likelihood_gain / spread : 0.0;
+    // the first frames since reset() tempered: frame k (from 0) at (k + 1) / settle_frames of the
+    // gain, so that a few frames that agree on a look-alike cannot make the belief certain of it
+    const double temper =
+        settings_.settle_frames > 1
+            ? std::min(1.0, static_cast<double>(frames_ + 1) / static_cast<double>(settings_.settle_frames))
+            : 1.0;
+    lambda_ = spread > 0 ? temper * settings_.likelihood_gain / spread : 0.0;
+    ++frames_;
 
     // per place and bin the log2-likelihood y = max(-lambda log2(e) (score - s_min), -60) of the
     // place's lowest score (of its references), in groups of kGroupBins bins (a pass of the

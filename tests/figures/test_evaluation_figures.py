@@ -255,3 +255,20 @@ def test_save_evaluation_figures_names_files_by_format_and_captions_the_choice(t
 
     width, height = png_size((tmp_path / "heatmap_frame2.png").read_bytes())
     assert width == 11 * DPI and height > 3 * DPI
+
+
+def test_confidence_figure_counts_the_confidently_wrong_frames_and_bins_the_calibration(tmp_path):
+    from nightloc.figures.filter import confidence_figure
+
+    errors = np.array([0.1, 0.2, 1.5, 2.0, 0.3, 1.2, 0.05])
+    confidence = np.array([0.95, 0.99, 0.95, 0.2, 0.55, 0.91, 0.05])  # frames 2 and 5: confidently wrong
+    path = tmp_path / "trust.png"
+    fig = confidence_figure({"a": (errors[:4], confidence[:4]), "b": (errors[4:], confidence[4:])}, "t", path)
+    assert path.stat().st_size > 0
+    scatter, calibration = fig.axes
+    assert "28.57% of 7 frames" in scatter.get_title()  # 2 of 7
+    labels = [t.get_text() for t in scatter.get_legend().get_texts()]
+    assert labels == ["a (1 of 4)", "b (1 of 3)"]
+    x, y = calibration.lines[1].get_data()  # per tenth of confidence: the share within 1 m
+    np.testing.assert_allclose(x, [0.05, 0.25, 0.55, 0.95])
+    np.testing.assert_allclose(y, [1.0, 0.0, 1.0, 2 / 4])

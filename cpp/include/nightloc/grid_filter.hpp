@@ -42,7 +42,8 @@
 //
 // Update (a frame's table T, n_refs x n_shifts mean absolute differences, lower = better):
 //   m_i = min_k T[i, k], s_min = min_i m_i, spread = median_i m_i - s_min,
-//   lambda = likelihood_gain / spread (0 when spread is 0: a frame of ties carries no position);
+//   lambda = t likelihood_gain / spread (0 when spread is 0: a frame of ties carries no position),
+//   t = min(1, (k + 1) / settle_frames) for the k-th frame since reset() (k from 0), else 1;
 //   pose mode: the score of reference i in bin b is T linearly interpolated at the fractional
 //   shift k = (theta_b - heading_i) * columns / (2 pi) (circular); position mode: m_i;
 //   per place (references at one position) the lowest; per bin the place scores are interpolated
@@ -115,6 +116,8 @@ struct GridFilterSettings {
     std::size_t estimate_window = 2;  ///< cells around the peak averaged into the estimate
     double negligible = 1e-3;         ///< a bin whose largest value is below this share of the belief's
                                       ///< largest moves without the position blur (0: every bin is blurred)
+    std::size_t settle_frames = 12;   ///< frame k after reset() (k from 0) weighs (k + 1) / settle_frames
+                                      ///< of the likelihood gain until it reaches it (0 or 1: no tempering)
 };
 
 /// What the filter knows of the map (python: built from the HeatMapper of the localizer).
@@ -191,6 +194,8 @@ public:
     const std::vector<std::int32_t>& best_shifts() const noexcept { return best_shifts_; }
     /// The likelihood sharpness lambda of the last update (1 / score units).
     double lambda() const noexcept { return lambda_; }
+    /// Frames measured since reset() (the tempering's count).
+    std::size_t frames() const noexcept { return frames_; }
     /// The table of the last update_image (n_refs x n_shifts).
     const std::vector<float>& table() const noexcept { return table_; }
 
@@ -237,6 +242,7 @@ private:
     std::vector<std::size_t> pending_offsets_;
     float pending_a_ = 1, pending_f_ = 0;
     double lambda_ = 0;
+    std::size_t frames_ = 0;       // frames measured since reset()
     std::size_t slots_ = 0;        // most weights of a cell (>= 1)
     std::vector<float> ell_data_;  // the weights, slot k of cell c at k * cells + c; a cell
                                    // without weights: weight 1 at place index places_ (the fill)

@@ -67,6 +67,10 @@ class FilterParams:
         credibility: mass of the disk whose radius is reported as ``credible_radius``.
         estimate_window: cells on each side of the marginal's peak averaged into the position
             (and whose heading histogram gives the heading).
+        settle_frames: the first frames after the start (or ``reset()``) are tempered: frame k
+            (from 0) weighs ``min(1, (k + 1) / settle_frames)`` of ``likelihood_gain``, so that a
+            few frames agreeing on a look-alike place do not make the belief certain of it; 0 or
+            1: every frame weighs the same.
         negligible: a heading bin whose largest value after the last frame is below this share of
             the belief's largest moves with the odometry without the position blur (each of its
             cells off by at most that share of the peak; most bins of a belief that has settled
@@ -82,6 +86,7 @@ class FilterParams:
     credibility: float = 0.9
     estimate_window: int = 2
     negligible: float = 1e-3
+    settle_frames: int = 12
 
     def validate(self) -> None:
         """Checks ranges (called on construction); raises ValueError naming the field."""
@@ -99,6 +104,8 @@ class FilterParams:
             raise ValueError(f"estimate_window must be 0..1000 cells, got {self.estimate_window}")
         if not (math.isfinite(self.negligible) and 0 <= self.negligible < 1):
             raise ValueError(f"negligible must be in [0, 1), got {self.negligible}")
+        if not 0 <= self.settle_frames <= 1000:
+            raise ValueError(f"settle_frames must be 0..1000 frames, got {self.settle_frames}")
 
 
 @dataclass(frozen=True)
@@ -185,6 +192,7 @@ class GridFilter:
             "confidence_radius": float(confidence_radius),
             "estimate_window": params.estimate_window,
             "negligible": params.negligible,
+            "settle_frames": params.settle_frames,
         }
         self.settings = settings  # what the core was given (tests build their oracle from it)
         self.core = _core.GridFilter(
