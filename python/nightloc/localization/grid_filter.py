@@ -39,7 +39,7 @@ from ..config import params_section
 from .heatmap import HeatMapper
 from .odometry import MapDisplacement, NoiseModel, RobotMotion, noise_model, wrap_angle
 
-__all__ = ["MOTION_NONE", "MOTION_UNKNOWN", "FilterParams", "FilterState", "GridFilter"]
+__all__ = ["MOTION_NONE", "MOTION_UNKNOWN", "FilterParams", "FilterState", "GridFilter", "table_window"]
 
 #: Motion codes of the core: no prediction (the first frame), unknown motion, map frame, robot frame.
 MOTION_NONE, MOTION_UNKNOWN, MOTION_MAP, MOTION_ROBOT = 0, 1, 2, 3
@@ -151,6 +151,18 @@ class FilterState:
     shifts: np.ndarray | None = None
 
 
+def table_window(columns: int, n_shifts: int, has_headings: bool, params: FilterParams) -> tuple[int, int]:
+    """The translation window ``(columns, rows)`` of the filter's tables for images of ``columns``
+    columns searched at ``n_shifts`` shifts: a forward camera (one shift) with headings compares
+    at column offsets within ``params.forward_window`` (0: a quarter of the width); every search
+    at row offsets within ``params.row_window``. What ``shift_table`` takes as ``shift_window``."""
+    forward = n_shifts == 1 and columns > 1  # a forward camera (wrap=False): one shift, 0
+    window_columns = (params.forward_window or max(columns // 4, 1)) if forward and has_headings else 0
+    if window_columns >= columns:
+        raise ValueError(f"forward_window must be below the image's {columns} columns, got {window_columns}")
+    return window_columns, params.row_window
+
+
 #: The core's motion arguments ``(kind, a, b, c)`` (see :func:`motion_code`).
 MotionCode = tuple[int, float, float, float]
 
@@ -194,10 +206,7 @@ class GridFilter:
         self.noise = noise_model(noise)
         self.mapper = mapper
         self.shifts = np.arange(columns, dtype=np.int32) if shifts is None else np.asarray(shifts, dtype=np.int32)
-        forward = len(self.shifts) == 1 and columns > 1  # a forward camera (wrap=False): one shift, 0
-        window_columns = (params.forward_window or max(columns // 4, 1)) if forward and headings is not None else 0
-        if window_columns >= columns:
-            raise ValueError(f"forward_window must be below the image's {columns} columns, got {window_columns}")
+        window_columns, _ = table_window(columns, len(self.shifts), headings is not None, params)
         #: The table's columns: the shifts, or a forward camera's column offsets -w .. w.
         self.columns = (
             np.arange(-window_columns, window_columns + 1, dtype=np.int32) if window_columns else self.shifts.copy()
