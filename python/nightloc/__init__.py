@@ -12,7 +12,7 @@ with a compiled SIMD core. Quick start::
 
 from __future__ import annotations
 
-from . import route
+from . import mapping, route  # mapping registers the [teach] parameter table (GTSAM loads on use)
 from ._core import __version__
 from .config import load_params, save_params
 from .errors import DatasetError, MapFormatError, NightlocError
@@ -67,6 +67,7 @@ __all__ = [
     "difference_matrix",
     "load_params",
     "load_traverse",
+    "mapping",
     "match",
     "patch_normalize",
     "prepare",

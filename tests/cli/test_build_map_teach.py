@@ -63,3 +63,20 @@ def test_teach_options_and_errors(drive, tmp_path, capsys, monkeypatch):
     (drive / "odometry.csv").unlink()
     assert main(["build-map", str(drive), str(tmp_path / "c.map")]) == 2
     assert "no poses" in capsys.readouterr().err and not (tmp_path / "c.map").exists()
+
+
+def test_teach_table_of_the_params_file(drive, tmp_path, capsys):
+    """build-map reads [teach] from --params beside [preparation]; a bad key is one line."""
+    (drive / "poses.csv").unlink()
+    params = tmp_path / "params.toml"
+    params.write_text("[preparation]\nwidth = 48\n\n[teach]\nsequence_window = 0\nplace_candidates = 0\n")
+    assert main(["build-map", str(drive), str(tmp_path / "a.map"), "--params", str(params)]) == 0
+    out = capsys.readouterr().out
+    assert "warning: no two frames of the drive matched" in out and "pose source dead-reckoned" in out
+    params.write_text("[teach]\nrounds = 0\n")
+    assert main(["build-map", str(drive), str(tmp_path / "b.map"), "--params", str(params)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "rounds" in err and not (tmp_path / "b.map").exists()
+    params.write_text("[teach]\nround = 2\n")
+    assert main(["build-map", str(drive), str(tmp_path / "c.map"), "--params", str(params)]) == 2
+    assert "unknown key 'round' in [teach]" in capsys.readouterr().err

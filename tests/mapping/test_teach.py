@@ -21,6 +21,7 @@ from nightloc.localization.evaluation import (
     map_alignment,
     match_traverse,
 )
+from nightloc.localization.wheel_noise import WheelNoise
 from nightloc.mapping import TeachParams, TeachWarning, absolute_trajectory_error, teach_run
 from nightloc.synth import make_dataset
 
@@ -180,3 +181,26 @@ def test_large_garden_renders(tmp_path):
     folders = make_dataset("large_garden", tmp_path / "lg", camera=Camera(48, 24))
     day = nightloc.load_traverse(folders["day_reference"])
     assert len(day) > 800 and (folders["day_reference"] / "odometry.csv").is_file()
+
+
+def test_teach_params_from_toml(tmp_path):
+    """TeachParams is the [teach] table: saved and loaded whole, beside other tables; its odometry
+    model and camera elevations checked like the classes they build."""
+    params = TeachParams(rounds=2, heading_method="warp", odometry_turn_bias_std=0.02, elevation_top_deg=40.0)
+    path = tmp_path / "params.toml"
+    nightloc.save_params(path, [nightloc.PreparationParams(), params])
+    assert "[teach]" in path.read_text()
+    loaded = nightloc.load_params(path, TeachParams)
+    assert loaded == params and loaded.wheel_noise.turn_bias_std == 0.02 and loaded.warp.elevation_top == 40.0
+    assert nightloc.load_params(path, nightloc.PreparationParams) == nightloc.PreparationParams()
+    for bad, words in (
+        ({"rounds": 0}, "rounds"),
+        ({"odometry_scale_std": 0.6}, "odometry"),
+        ({"elevation_top_deg": -40.0}, "elevation"),
+        ({"max_distance": 0.0}, "max_distance"),
+        ({"heading_method": "columns"}, "heading_method"),
+    ):
+        with pytest.raises((ValueError, TypeError), match=words):
+            TeachParams(**bad)
+    noise = WheelNoise(scale_std=0.01, turn_std=0.02)
+    assert TeachParams.with_wheel_noise(noise, rounds=3).wheel_noise == noise

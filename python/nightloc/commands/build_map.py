@@ -11,6 +11,7 @@ against ``poses.csv``; ``--figure`` draws the paths.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 import warnings
 from pathlib import Path
@@ -46,7 +47,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument("traverse", type=Path, help="traverse folder, a video file or a ROS bag")
     parser.add_argument("output", type=Path, help="map file to write (e.g. garden.map)")
-    parser.add_argument("--params", type=Path, help="TOML file with a [preparation] table (default: paper values)")
+    parser.add_argument(
+        "--params",
+        type=Path,
+        help="TOML file with a [preparation] table (default: paper values) and, for a teach run, a [teach] table",
+    )
     add_camera_option(parser, "Stored in the map; default panoramic, or the wrap of --params.")
     parser.add_argument("--poses", type=Path, help="poses CSV (for a video: frame,x,y[,heading])")
     parser.add_argument("--frame-step", type=int, default=1, help="keep every k-th frame (default 1)")
@@ -140,11 +145,14 @@ def _teach(args: argparse.Namespace, traverse, params: PreparationParams) -> int
     from ..mapping.factors import require_gtsam
 
     require_gtsam()  # one line naming the install command, before any work
+    teach = load_params(args.params, TeachParams) if args.params is not None else TeachParams()
+    if args.closed_loop:
+        teach = dataclasses.replace(teach, closed_loop=True)
     source = ODOMETRY_FILE if traverse.bag_topics is None else f"the bag's {traverse.bag_topics['odometry']}"
     print(f"teach run: {len(traverse)} frames of {traverse.root}, wheel odometry from {source}", flush=True)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TeachWarning)
-        reference_map, report = teach_run(traverse, params, TeachParams(closed_loop=args.closed_loop))
+        reference_map, report = teach_run(traverse, params, teach)
     for warning in caught:
         print(f"warning: {warning.message}")
     written = reference_map.save(args.output, overwrite=args.overwrite)

@@ -1,7 +1,9 @@
 """The teach run (issue 20): a reference map from the robot's own day drive, without a survey.
 
 * :mod:`~nightloc.mapping.dead_reckoning` — wheel odometry chained into poses, with covariance;
+* :mod:`~nightloc.mapping.params` — :class:`TeachParams` (TOML ``[teach]``);
 * :mod:`~nightloc.mapping.visual` — relative heading of two panoramas to a fraction of a column;
+* :mod:`~nightloc.mapping.warping` — relative heading and direction of travel by min-warping;
 * :mod:`~nightloc.mapping.candidates` — which frames see the same place; visual constraints;
 * :mod:`~nightloc.mapping.factors` — the GTSAM pose graph (odometry, visual, closed-loop factors);
 * :mod:`~nightloc.mapping.optimiser` — headings, then positions, then the whole graph; marginals;
@@ -14,7 +16,8 @@ GTSAM is optional: ``pip install "nightloc[mapping]"``.
 from __future__ import annotations
 
 from .alignment import RigidTransform2D, absolute_trajectory_error, rigid_fit
-from .teach import TeachParams, TeachReport, TeachWarning, teach_run
+from .params import TeachParams
+from .teach import TeachReport, TeachWarning, teach_run
 
 __all__ = [
     "RigidTransform2D",

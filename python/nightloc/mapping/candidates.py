@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .visual import relative_heading
+from .warping import PanoramaWarper
 
 __all__ = ["CandidatePair", "VisualConstraint", "candidate_pairs", "measure_constraints"]
 
@@ -154,6 +155,8 @@ def measure_constraints(
     heading_uncertainty: np.ndarray | None = None,
     unsure_heading: float = 0.15,
     min_axis_distance: float = 0.1,
+    warper: PanoramaWarper | None = None,
+    direction_range: float = math.radians(30.0),
 ) -> list[VisualConstraint]:
     """Measures the relative heading of every pair (see the module text).
 
@@ -171,6 +174,9 @@ def measure_constraints(
         unsure_heading: radians; a pair whose relative heading is less sure than this is
             measured over the whole image.
         min_axis_distance: metres; closer places are compared over every column.
+        warper: measures pairs apart by min-warping (:mod:`~nightloc.mapping.warping`) instead
+            of the columns along the line between them; None: those columns.
+        direction_range: radians; directions of travel tried either side of the estimate's.
     """
     unsure = np.zeros(len(poses)) if heading_uncertainty is None else np.asarray(heading_uncertainty, np.float64)
     out = []
@@ -182,7 +188,12 @@ def measure_constraints(
         lost = pair.kind == "place" and math.hypot(unsure[i], unsure[j]) > unsure_heading
         axis = None if distance < min_axis_distance or strong or lost else math.atan2(dy, dx) - poses[i, 2]
         prior = None if strong or lost else poses[j, 2] - poses[i, 2]
-        heading, score = relative_heading(images[j], images[i], axis, axis_half_width, prior=prior)
+        if warper is not None and not strong and distance >= min_axis_distance:
+            centre = None if lost else math.atan2(dy, dx) - poses[i, 2]
+            warped = warper.measure(i, j, centre, direction_range, prior, 4)
+            heading, score = warped.heading, float(pair.score)
+        else:
+            heading, score = relative_heading(images[j], images[i], axis, axis_half_width, prior=prior)
         spread = 0.0 if strong else max_distance if lost else distance  # a strong pair's places coincide
         along = None
         far = path_length is not None and abs(float(path_length[j] - path_length[i])) >= along_min_path

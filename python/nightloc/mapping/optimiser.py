@@ -26,13 +26,34 @@ from ..errors import MappingError
 from .candidates import VisualConstraint
 from .factors import build_graph, require_gtsam
 
-__all__ = ["GraphSolution", "optimise_graph", "solve_headings", "solve_positions"]
+__all__ = [
+    "GraphSolution",
+    "HeadingSolution",
+    "optimise_graph",
+    "solve_heading_graph",
+    "solve_headings",
+    "solve_positions",
+]
 
 _ANCHOR = 1.0e6  # weight holding frame 0 at the origin in the linear steps
 
 
 def _cauchy(whitened: np.ndarray, scale: float) -> np.ndarray:
     return 1.0 / (1.0 + (whitened / scale) ** 2)
+
+
+@dataclass(frozen=True)
+class HeadingSolution:
+    """The linear heading stage's result.
+
+    Attributes:
+        headings: ``(N,)`` unwrapped headings, radians (frame 0 at 0).
+        turn_bias: radians per step, the odometry's estimated turn bias (0 when not estimated):
+            each measured turn read this much too far counter-clockwise.
+    """
+
+    headings: np.ndarray
+    turn_bias: float = 0.0
 
 
 def solve_headings(
@@ -43,41 +64,105 @@ def solve_headings(
     robust_scale: float,
     iterations: int = 5,
 ) -> np.ndarray:
-    """``(N,)`` unwrapped headings (frame 0 at 0) best fitting the turns and the visual headings.
+    """``(N,)`` unwrapped headings (frame 0 at 0) best fitting the turns and the visual headings
+    (:func:`solve_heading_graph` without a turn bias or stages)."""
+    return solve_heading_graph(turns, turn_std, constraints, initial, robust_scale, iterations).headings
+
+
+def solve_heading_graph(
+    turns: np.ndarray,
+    turn_std: np.ndarray,
+    constraints: list[VisualConstraint],
+    initial: np.ndarray,
+    robust_scale: float,
+    iterations: int = 5,
+    *,
+    turn_bias_std: float | None = None,
+    separation: np.ndarray | None = None,
+    first_stage: float = 10.0,
+) -> HeadingSolution:
+    """Headings (and the odometry's turn bias) best fitting the turns and the visual headings:
+    linear least squares on the unwrapped angles, the visual rows Cauchy-reweighted.
+
+    Each visual measurement is known only modulo a full turn; it is unwrapped to the turn nearest
+    the current estimate. A dead reckoning far into a long drive can be off by more than half a
+    turn, so with ``separation`` the constraints join in stages: first those at most
+    ``first_stage`` (e.g. metres of driving) apart, then twice as far, and so on, each stage
+    unwrapping against the estimate the nearer ones corrected.
 
     Args:
-        turns: ``(N - 1,)`` odometry turns, radians; turn_std: their standard deviations.
+        turns: ``(N - 1,)`` odometry turns, radians; turn_std: their standard deviations (the
+            per-step noise alone when the bias is estimated).
         constraints: visual relative headings.
         initial: ``(N,)`` current headings (to unwrap each visual measurement against).
         robust_scale: Cauchy scale in standard deviations (visual rows only).
+        iterations: re-weightings per stage.
+        turn_bias_std: radians per step, the prior spread of a constant turn bias added to every
+            measured turn (a variable of the solution); None: no bias.
+        separation: ``(len(constraints),)`` how far apart each constraint's frames are along the
+            drive (e.g. metres driven between them); None: all in one stage.
+        first_stage: the first stage's largest separation.
     """
     n = len(turns) + 1
+    turns = np.asarray(turns, dtype=np.float64)
     heading = np.asarray(initial, dtype=np.float64).copy()
     if not constraints:
-        return np.concatenate([[0.0], np.cumsum(turns)])
+        return HeadingSolution(np.concatenate([[0.0], np.cumsum(turns)]))
     ci = np.array([c.i for c in constraints])
     cj = np.array([c.j for c in constraints])
     measured = np.array([c.heading for c in constraints])
     std = np.array([c.heading_std for c in constraints])
-    odo_i = np.arange(n - 1)
-    rows_i = np.concatenate([odo_i, ci, [0]])
-    rows_j = np.concatenate([odo_i + 1, cj, [0]])
-    for _ in range(iterations):
-        predicted = heading[cj] - heading[ci]
-        unwrapped = measured + 2 * np.pi * np.round((predicted - measured) / (2 * np.pi))
-        weight_visual = _cauchy((predicted - unwrapped) / std, robust_scale) / std**2
-        weights = np.concatenate([1.0 / np.asarray(turn_std) ** 2, weight_visual, [_ANCHOR]])
-        targets = np.concatenate([turns, unwrapped, [0.0]])
-        count = len(weights)
-        # rows: theta_j - theta_i = target (the anchor row: theta_0 = 0)
-        data = np.concatenate([np.ones(count - 1), -np.ones(count - 1), [1.0]])
-        row_index = np.concatenate([np.arange(count - 1), np.arange(count - 1), [count - 1]])
-        col_index = np.concatenate([rows_j[:-1], rows_i[:-1], [0]])
-        design = scipy.sparse.csr_matrix((data, (row_index, col_index)), shape=(count, n))
-        w = scipy.sparse.diags(weights)
-        normal = (design.T @ w @ design).tocsc()
-        heading = scipy.sparse.linalg.spsolve(normal, design.T @ (weights * targets))
-    return np.asarray(heading)
+    unknowns = n + (1 if turn_bias_std is not None else 0)
+    odo = np.arange(n - 1)
+    if separation is None:
+        limits = [np.inf]
+    else:
+        far = float(np.max(separation)) if len(separation) else 0.0
+        limits = []
+        limit = max(float(first_stage), 1e-9)
+        while limit < far:
+            limits.append(limit)
+            limit *= 2.0
+        limits.append(np.inf)
+    bias = 0.0
+    for stage, limit in enumerate(limits):
+        use = np.ones(len(constraints), bool) if separation is None else np.asarray(separation) <= limit
+        ui, uj, um, us = ci[use], cj[use], measured[use], std[use]
+        for iteration in range(iterations):
+            predicted = heading[uj] - heading[ui]
+            unwrapped = um + 2 * np.pi * np.round((predicted - um) / (2 * np.pi))
+            if stage == 0 and iteration == 0 and turn_bias_std is not None:
+                # plain least squares first: from a dead reckoning bent by the bias, every visual
+                # heading looks like an outlier to the kernel, which would then keep the bend
+                weight_visual = 1.0 / us**2
+            else:
+                weight_visual = _cauchy((predicted - unwrapped) / us, robust_scale) / us**2
+            # rows: theta_j - theta_i (+ bias for an odometry turn) = target; theta_0 = 0; bias = 0
+            k_odo, k_vis = n - 1, len(ui)
+            row = np.arange(k_odo + k_vis)
+            one = np.ones(1)
+            data: list[np.ndarray] = [np.ones(k_odo + k_vis), -np.ones(k_odo + k_vis), one]
+            rows: list[np.ndarray] = [row, row, np.array([k_odo + k_vis])]
+            cols: list[np.ndarray] = [np.concatenate([odo + 1, uj]), np.concatenate([odo, ui]), np.zeros(1, np.intp)]
+            weights: list[np.ndarray] = [1.0 / np.asarray(turn_std, np.float64) ** 2, weight_visual, one * _ANCHOR]
+            targets: list[np.ndarray] = [turns, unwrapped, np.zeros(1)]
+            count = k_odo + k_vis + 1
+            if turn_bias_std is not None:
+                data += [np.ones(k_odo), one]
+                rows += [np.arange(k_odo), np.array([count])]
+                cols += [np.full(k_odo, n), np.array([n])]
+                weights.append(one / max(float(turn_bias_std), 1e-12) ** 2)
+                targets.append(np.zeros(1))
+                count += 1
+            design = scipy.sparse.csr_matrix(
+                (np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(count, unknowns)
+            )
+            w = np.concatenate(weights)
+            normal = (design.T @ scipy.sparse.diags(w) @ design).tocsc()
+            solution = scipy.sparse.linalg.spsolve(normal, design.T @ (w * np.concatenate(targets)))
+            heading = np.asarray(solution[:n])
+            bias = float(solution[n]) if turn_bias_std is not None else 0.0
+    return HeadingSolution(heading, bias)
 
 
 def solve_positions(

@@ -13,11 +13,11 @@ overlap, a forward camera) the map is the dead reckoning, with a warning.
 
 from __future__ import annotations
 
-import math
+import dataclasses
 import os
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Union
 
 import numpy as np
@@ -26,14 +26,15 @@ from ..errors import MappingError
 from ..io.reference_map import ReferenceMap
 from ..io.traverse import Traverse, load_traverse
 from ..localization.odometry import MapDisplacement, RobotMotion, traverse_odometry
-from ..localization.wheel_noise import WheelNoise
 from ..matching.sad import difference_matrix
 from ..preparation.params import PreparationParams
 from ..preparation.preparer import Preparer
 from .candidates import VisualConstraint, candidate_pairs, measure_constraints
 from .dead_reckoning import compose_steps, dead_reckoning
 from .factors import require_gtsam
-from .optimiser import GraphSolution, optimise_graph, solve_headings, solve_positions
+from .optimiser import GraphSolution, optimise_graph, solve_heading_graph, solve_positions
+from .params import TeachParams
+from .warping import PanoramaWarper
 
 __all__ = ["TeachParams", "TeachReport", "TeachWarning", "odometry_steps", "teach_poses", "teach_run"]
 
@@ -42,97 +43,6 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 class TeachWarning(UserWarning):
     """The teach run built a map, but a weaker one than asked (e.g. dead reckoning only)."""
-
-
-@dataclass(frozen=True)
-class TeachParams:
-    """Parameters of the teach run (defaults from the sweep in docs/teach_run.md).
-
-    Attributes:
-        wheel_noise: the odometry's error model (the odometry factors' covariance).
-        sequence_window: each frame's heading is compared with the next this many frames.
-        max_distance: metres; pairs the current estimate puts farther apart are not compared
-            (unless their match is strong).
-        place_candidates: best-matching frames (outside the sequence window) tried per frame.
-        strong_score: a place pair scoring at most this (mean absolute difference of prepared
-            images) was taken at one spot: its positions are tied too.
-        heading_std, heading_std_per_metre: a visual heading's standard deviation, radians,
-            ``heading_std + heading_std_per_metre * distance`` (parallax grows with distance).
-        place_position_std: metres; how far apart a strong pair's places may be.
-        along_std, along_std_per_metre: metres; the standard deviation of where a place pair's
-            frame lies along the other frame's pass, ``along_std + along_std_per_metre *
-            distance``; ``along_std`` 0 measures none.
-        along_min_path: metres of driving between two passes for an along-pass position.
-        gate_sigmas: a place pair's distance gate widens by this many standard deviations of
-            the two positions (the estimate's marginal covariances).
-        unsure_heading: radians; a place pair whose relative heading the estimate knows less
-            well than this is measured over the whole image (no prior, no axis).
-        axis_half_width: radians; columns compared either side of the line between two places.
-        robust_scale: the Cauchy kernel's scale, in standard deviations.
-        accept_gate: standard deviations; a visual constraint whose residual at the solution is
-            larger counts as rejected (the robust kernel has all but ignored it).
-        closed_loop: the drive ends where it began (a dock): tie the last position to the first.
-        closed_loop_std: metres, how exactly it does.
-        rounds: candidates picked and measured again from the optimised estimate.
-    """
-
-    wheel_noise: WheelNoise = field(default_factory=WheelNoise)
-    sequence_window: int = 3
-    max_distance: float = 1.5
-    place_candidates: int = 6
-    strong_score: float = 10.0
-    heading_std: float = 0.005
-    heading_std_per_metre: float = 0.05
-    place_position_std: float = 0.25
-    along_std: float = 0.05
-    along_std_per_metre: float = 0.15
-    along_min_path: float = 30.0
-    gate_sigmas: float = 3.0
-    unsure_heading: float = 0.15
-    axis_half_width: float = math.radians(30.0)
-    robust_scale: float = 1.0
-    accept_gate: float = 3.0
-    closed_loop: bool = False
-    closed_loop_std: float = 0.05
-    rounds: int = 4
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.wheel_noise, WheelNoise):
-            raise TypeError(f"wheel_noise must be a WheelNoise, got {type(self.wheel_noise).__name__}")
-        for name in ("sequence_window", "place_candidates", "rounds"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-                raise ValueError(f"TeachParams.{name} must be an int >= 0, got {value!r}")
-        if self.rounds < 1:
-            raise ValueError(f"TeachParams.rounds must be >= 1, got {self.rounds}")
-        for name in (
-            "max_distance",
-            "strong_score",
-            "heading_std",
-            "heading_std_per_metre",
-            "place_position_std",
-            "along_std",
-            "along_std_per_metre",
-            "along_min_path",
-            "gate_sigmas",
-            "unsure_heading",
-            "axis_half_width",
-            "robust_scale",
-            "accept_gate",
-            "closed_loop_std",
-        ):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-                raise TypeError(f"TeachParams.{name} must be a number, got {type(value).__name__}")
-            zero_allowed = name in (
-                "strong_score",
-                "heading_std_per_metre",
-                "along_std",
-                "along_std_per_metre",
-                "gate_sigmas",
-            )
-            if not math.isfinite(value) or value < 0 or (value == 0 and not zero_allowed):
-                raise ValueError(f"TeachParams.{name} must be a finite number > 0, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -317,16 +227,21 @@ def teach_poses(
         the candidates the distance gate dropped, and what the map lacks in words.
     """
     teach = teach or TeachParams()
-    step_cov = teach.wheel_noise.step_covariances(steps[:, 0], steps[:, 1])
-    reckoned, reckoned_cov = dead_reckoning(steps, teach.wheel_noise)
+    wheel_noise = teach.wheel_noise
+    step_cov = wheel_noise.step_covariances(steps[:, 0], steps[:, 1])
+    reckoned, reckoned_cov = dead_reckoning(steps, wheel_noise)
     notes: list[str] = []
     constraints: list[VisualConstraint] = []
     gated_out = 0
     solution = None
     if panoramic:
         scores, _ = difference_matrix(images, images, threads=threads)
+        warper = PanoramaWarper(images, teach.warp) if teach.heading_method == "warp" else None
         poses = reckoned.copy()
         turn_std = np.sqrt(step_cov[:, 2, 2])
+        # with the turn bias a variable, each step's own noise alone
+        free_step_cov = dataclasses.replace(wheel_noise, turn_bias_std=0.0).step_covariances(steps[:, 0], steps[:, 1])
+        free_turn_std = np.sqrt(free_step_cov[:, 2, 2])
         covariances_now = reckoned_cov
         path_length = np.concatenate([[0.0], np.cumsum(np.hypot(steps[:, 0], steps[:, 1]))])
         for round_index in range(teach.rounds):
@@ -359,22 +274,38 @@ def teach_poses(
                 along_min_path=teach.along_min_path,
                 heading_uncertainty=heading_std,
                 unsure_heading=teach.unsure_heading,
+                warper=warper,
+                direction_range=teach.direction_range,
             )
             if not constraints:
                 break
-            headings = solve_headings(steps[:, 2], turn_std, constraints, poses[:, 2], teach.robust_scale)
+            separation = np.array([abs(path_length[c.j] - path_length[c.i]) for c in constraints])
+            heading_solution = solve_heading_graph(
+                steps[:, 2],
+                free_turn_std if teach.estimate_turn_bias else turn_std,
+                constraints,
+                poses[:, 2],
+                teach.robust_scale,
+                turn_bias_std=wheel_noise.turn_bias_std if teach.estimate_turn_bias else None,
+                separation=separation if teach.unwrap_stage > 0 else None,
+                first_stage=teach.unwrap_stage,
+            )
+            headings = heading_solution.headings
+            corrected = steps.copy()
+            corrected[:, 2] -= heading_solution.turn_bias
+            corrected_cov = free_step_cov if teach.estimate_turn_bias else step_cov
             positions = solve_positions(
                 headings,
-                steps,
-                step_cov,
+                corrected,
+                corrected_cov,
                 constraints,
                 teach.robust_scale,
                 teach.closed_loop_std if teach.closed_loop else None,
             )
             solution = optimise_graph(
                 np.column_stack([positions, headings]),
-                steps,
-                step_cov,
+                corrected,
+                corrected_cov,
                 constraints,
                 robust_scale=teach.robust_scale,
                 closed_loop_std=teach.closed_loop_std if teach.closed_loop else None,

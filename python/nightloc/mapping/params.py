@@ -1,0 +1,171 @@
+"""The teach run's parameters (TOML table ``[teach]``; defaults from the sweeps in docs/teach_run.md)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+from ..config import params_section
+from ..localization.wheel_noise import WheelNoise
+from .warping import WarpParams
+
+__all__ = ["TeachParams"]
+
+
+@params_section("teach")
+@dataclass(frozen=True)
+class TeachParams:
+    """Parameters of the teach run (TOML ``[teach]``; defaults from the sweeps in docs/teach_run.md).
+
+    The wheel odometry's error model (the odometry factors' covariance; :class:`WheelNoise`):
+        odometry_scale_std: per-run scale error of every step's length (fraction).
+        odometry_distance_std: per-step length noise (fraction of the step).
+        odometry_turn_std: per-step turn noise, radians.
+        odometry_turn_bias_std: per-run turn bias, radians per step.
+        estimate_turn_bias: the turn bias is a variable of the heading solution (observed by the
+            images' relative headings), taken off every turn before the positions are solved.
+        unwrap_stage: metres of driving; the heading solution takes in the visual headings of
+            frames at most this far apart first, then twice as far, and so on (each unwrapped
+            to the full turn nearest the estimate the nearer ones corrected); 0: all at once.
+
+    Which pairs of frames are compared:
+        sequence_window: each frame's heading is compared with the next this many frames.
+        max_distance: metres; pairs the current estimate puts farther apart are not compared
+            (unless their match is strong).
+        place_candidates: best-matching frames (outside the sequence window) tried per frame.
+        strong_score: a place pair scoring at most this (mean absolute difference of prepared
+            images) was taken at one spot: its positions are tied too.
+        gate_sigmas: a place pair's distance gate widens by this many standard deviations of
+            the two positions (the estimate's marginal covariances).
+
+    How a pair's relative heading is measured:
+        heading_method: ``"warp"``: min-warping (:mod:`~nightloc.mapping.warping`: heading and
+            direction of travel together, each column free to move along its parallax);
+            ``"axis"``: the columns along the line between the two places.
+        heading_std, heading_std_per_metre: a visual heading's standard deviation, radians,
+            ``heading_std + heading_std_per_metre * distance`` (parallax grows with distance).
+        unsure_heading: radians; a place pair whose relative heading the estimate knows less
+            well than this is measured at every shift (and, warping, every direction).
+        axis_half_width: radians; ``"axis"``: columns compared either side of the line.
+        direction_range: radians; ``"warp"``: directions of travel tried either side of the
+            estimate's.
+        elevation_top_deg, elevation_bottom_deg: ``"warp"``: degrees of elevation of the
+            prepared images' top and bottom edges (the camera's vertical view; rows equally
+            spaced in elevation).
+
+    Positions from the images:
+        place_position_std: metres; how far apart a strong pair's places may be.
+        along_std, along_std_per_metre: metres; the standard deviation of where a place pair's
+            frame lies along the other frame's pass, ``along_std + along_std_per_metre *
+            distance``; ``along_std`` 0 measures none.
+        along_min_path: metres of driving between two passes for an along-pass position.
+
+    The graph:
+        robust_scale: the Cauchy kernel's scale, in standard deviations.
+        accept_gate: standard deviations; a visual constraint whose residual at the solution is
+            larger counts as rejected (the robust kernel has all but ignored it).
+        closed_loop: the drive ends where it began (a dock): tie the last position to the first.
+        closed_loop_std: metres, how exactly it does.
+        rounds: candidates picked and measured again from the optimised estimate.
+    """
+
+    odometry_scale_std: float = 0.03
+    odometry_distance_std: float = 0.03
+    odometry_turn_std: float = 0.05
+    odometry_turn_bias_std: float = 0.01
+    estimate_turn_bias: bool = True
+    unwrap_stage: float = 10.0
+    sequence_window: int = 3
+    max_distance: float = 1.5
+    place_candidates: int = 6
+    strong_score: float = 10.0
+    gate_sigmas: float = 3.0
+    heading_method: Literal["warp", "axis"] = "axis"
+    heading_std: float = 0.005
+    heading_std_per_metre: float = 0.05
+    unsure_heading: float = 0.15
+    axis_half_width: float = math.radians(30.0)
+    direction_range: float = math.radians(30.0)
+    elevation_top_deg: float = 50.0
+    elevation_bottom_deg: float = -30.0
+    place_position_std: float = 0.25
+    along_std: float = 0.05
+    along_std_per_metre: float = 0.15
+    along_min_path: float = 30.0
+    robust_scale: float = 1.0
+    accept_gate: float = 3.0
+    closed_loop: bool = False
+    closed_loop_std: float = 0.05
+    rounds: int = 4
+
+    def validate(self) -> None:
+        """Checks ranges (called on construction); raises ValueError naming the field."""
+        for name in ("sequence_window", "place_candidates"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"TeachParams.{name} must be an int >= 0, got {getattr(self, name)}")
+        if self.rounds < 1:
+            raise ValueError(f"TeachParams.rounds must be >= 1, got {self.rounds}")
+        zero_allowed = (
+            "strong_score",
+            "heading_std_per_metre",
+            "along_std",
+            "along_std_per_metre",
+            "gate_sigmas",
+            "unwrap_stage",
+            "odometry_scale_std",
+            "odometry_distance_std",
+            "odometry_turn_std",
+            "odometry_turn_bias_std",
+        )
+        for name in (
+            *zero_allowed,
+            "max_distance",
+            "heading_std",
+            "place_position_std",
+            "along_min_path",
+            "unsure_heading",
+            "axis_half_width",
+            "direction_range",
+            "robust_scale",
+            "accept_gate",
+            "closed_loop_std",
+        ):
+            value = getattr(self, name)
+            if not math.isfinite(value) or value < 0 or (value == 0 and name not in zero_allowed):
+                bound = ">= 0" if name in zero_allowed else "> 0"
+                raise ValueError(f"TeachParams.{name} must be a finite number {bound}, got {value!r}")
+        self.wheel_noise  # noqa: B018  (the odometry fractions below 0.5)
+        self.warp  # noqa: B018  (the elevations)
+
+    @property
+    def wheel_noise(self) -> WheelNoise:
+        """The odometry's error model (:class:`~nightloc.localization.wheel_noise.WheelNoise`)."""
+        try:
+            return WheelNoise(
+                scale_std=self.odometry_scale_std,
+                distance_std=self.odometry_distance_std,
+                turn_std=self.odometry_turn_std,
+                turn_bias_std=self.odometry_turn_bias_std,
+            )
+        except ValueError as error:
+            raise ValueError(f"TeachParams odometry_*: {error}") from None
+
+    @property
+    def warp(self) -> WarpParams:
+        """The min-warping parameters (:class:`~nightloc.mapping.warping.WarpParams`)."""
+        try:
+            return WarpParams(elevation_top=self.elevation_top_deg, elevation_bottom=self.elevation_bottom_deg)
+        except ValueError as error:
+            raise ValueError(f"TeachParams elevation_top_deg / elevation_bottom_deg: {error}") from None
+
+    @classmethod
+    def with_wheel_noise(cls, noise: WheelNoise, **changes: object) -> TeachParams:
+        """Parameters whose odometry model is ``noise`` (and any other ``changes``)."""
+        return cls(
+            odometry_scale_std=noise.scale_std,
+            odometry_distance_std=noise.distance_std,
+            odometry_turn_std=noise.turn_std,
+            odometry_turn_bias_std=noise.turn_bias_std,
+            **changes,  # type: ignore[arg-type]
+        )
