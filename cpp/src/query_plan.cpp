@@ -78,13 +78,17 @@ CopiesKernel copies_kernel_for(SimdBackend backend) {
 
 }  // namespace
 
-void AlignedBytes::assign_zero(std::size_t size) {
+void AlignedBytes::reserve(std::size_t size) {
     if (size > capacity_) {
         raw_.reset(new std::uint8_t[size + kChunk]);
         auto address = reinterpret_cast<std::uintptr_t>(raw_.get());
         ptr_ = raw_.get() + (kChunk - address % kChunk) % kChunk;
         capacity_ = size;
     }
+}
+
+void AlignedBytes::assign_zero(std::size_t size) {
+    reserve(size);
     std::memset(ptr_, 0, size);
 }
 

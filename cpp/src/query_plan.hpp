@@ -18,6 +18,8 @@ public:
     const std::uint8_t* data() const { return ptr_; }
     /// Makes room for `size` bytes, all zero.
     void assign_zero(std::size_t size);
+    /// Makes room for `size` bytes, contents unspecified.
+    void reserve(std::size_t size);
 
 private:
     std::unique_ptr<std::uint8_t[]> raw_;
@@ -84,6 +86,8 @@ public:
     /// True when evaluate_min() is available: the all-shift layout with a strictly increasing
     /// shift list (so the earliest slot of a tie is also the lowest shift).
     bool fused_min() const { return fused_min_; }
+    /// True when evaluate() runs a SIMD copies kernel (RefPass: aligned references read in place).
+    bool simd_copies() const { return copies_kernel_ != nullptr && copies_kernel_ != sad_copies_scalar; }
     /// Minimum over all slots for query `query` and each reference: best_sums[i], best_shifts[i].
     void evaluate_min(std::size_t query, const std::uint8_t* refs, std::size_t n_refs, std::uint32_t* best_sums,
                       std::int32_t* best_shifts) const;

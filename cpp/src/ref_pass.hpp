@@ -17,8 +17,10 @@ inline constexpr std::size_t kRefsPerPass = 8;
 /// The references of one pass, read in chunks of V bytes. A short last pass repeats its last
 /// reference (the duplicate sums are computed and discarded). Full chunks are read from row[k],
 /// the last partial chunk from tail[k], zero-padded, so that no load reads past a reference. When
-/// the pass is reused for many shifts, the references are first copied into aligned, zero-padded
-/// rows: unaligned vector loads that straddle cache lines cost up to a third of the speed.
+/// the pass is reused for many shifts and its references are not V-byte aligned, they are first
+/// copied into aligned, zero-padded rows: unaligned vector loads that straddle cache lines cost
+/// up to a third of the speed. Aligned references are read where they are (a caller comparing
+/// the same references several times, as the bands of a translation window, stages them once).
 template <std::size_t V>
 class RefPass {
 public:
@@ -29,11 +31,12 @@ public:
     RefPass(std::size_t pixels, std::size_t n_copies)
         : pixels_(pixels),
           padded_(round_up(pixels, V)),
-          staged_(n_copies >= kStageMinCopies && padded_ * kRefsPerPass <= kStageMaxBytes) {
-        const std::size_t bytes = staged_ ? padded_ * kRefsPerPass : V * kRefsPerPass;
+          stage_(n_copies >= kStageMinCopies && padded_ * kRefsPerPass <= kStageMaxBytes) {
+        const std::size_t bytes = (stage_ ? padded_ * kRefsPerPass : 0) + V * kRefsPerPass;
         storage_.reset(new std::uint8_t[bytes + 64]);
         const auto address = reinterpret_cast<std::uintptr_t>(storage_.get());
         base_ = storage_.get() + (64 - address % 64) % 64;
+        tails_ = base_ + (stage_ ? padded_ * kRefsPerPass : 0);
         std::memset(base_, 0, bytes);
     }
 
@@ -41,15 +44,16 @@ public:
     void load(const std::uint8_t* refs, std::size_t ref_stride, std::size_t first, std::size_t n_refs) {
         count = n_refs - first < kRefsPerPass ? n_refs - first : kRefsPerPass;
         const std::size_t full = pixels_ / V * V;
+        const bool aligned = reinterpret_cast<std::uintptr_t>(refs) % V == 0 && ref_stride % V == 0;
         for (std::size_t k = 0; k < kRefsPerPass; ++k) {
             const std::uint8_t* src = refs + (first + (k < count ? k : count - 1)) * ref_stride;
-            if (staged_) {
+            if (stage_ && !aligned) {
                 std::uint8_t* dst = base_ + k * padded_;
                 std::memcpy(dst, src, pixels_);
                 row[k] = dst;
                 tail[k] = dst + full;
             } else {
-                std::uint8_t* dst = base_ + k * V;
+                std::uint8_t* dst = tails_ + k * V;
                 std::memcpy(dst, src + full, pixels_ - full);
                 row[k] = src;
                 tail[k] = dst;
@@ -61,9 +65,10 @@ private:
     static constexpr std::size_t kStageMinCopies = 4;
     static constexpr std::size_t kStageMaxBytes = std::size_t{256} * 1024;
     std::size_t pixels_, padded_;
-    bool staged_;
+    bool stage_;
     std::unique_ptr<std::uint8_t[]> storage_;
     std::uint8_t* base_ = nullptr;
+    std::uint8_t* tails_ = nullptr;
 };
 
 }  // namespace nightloc::detail

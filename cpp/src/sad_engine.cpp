@@ -76,6 +76,10 @@ public:
         for (const QueryPlan& p : plans_) most = std::max(most, p.slots_per_block());
         return most;
     }
+    /// True when some band runs a SIMD copies kernel (it reads aligned references in place).
+    bool any_simd_copies() const {
+        return std::any_of(plans_.begin(), plans_.end(), [](const QueryPlan& p) { return p.simd_copies(); });
+    }
     bool any_fused() const {
         return std::any_of(plans_.begin(), plans_.end(), [](const QueryPlan& p) { return p.fused_min(); });
     }
@@ -116,10 +120,11 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
 
     // Band t of references [r0, r0 + r_count) of the tile; edge(i) = the edge sums of reference
     // r0 + i for this band's slots (non-wrapping searches).
-    auto evaluate_band = [&](std::size_t t, std::size_t r0, std::size_t r_count, const std::uint32_t* edge,
-                             std::size_t edge_stride) {
+    // `images` points at reference r0's image (in refs, or in the staged copy).
+    auto evaluate_band = [&](std::size_t t, std::size_t r0, std::size_t r_count, const std::uint8_t* images,
+                             const std::uint32_t* edge, std::size_t edge_stride) {
         QueryPlan& plan = plans[t];
-        const std::uint8_t* block = refs + (tile.r_first + r0) * pixels + window.ref_offset(t);
+        const std::uint8_t* block = images + window.ref_offset(t);
         if (plan.fused_min()) {  // the kernel takes the minimum over the band's shifts itself
             for (std::size_t k = 0; k < tile.q_count; ++k) {
                 plan.evaluate_min(k, block, r_count, mins.data(), min_shifts.data());
@@ -167,8 +172,20 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
     if (plans.single_block(n_slots_total)) {
         if (!prepared) plans.prepare_all(queries + tile.q_first * pixels, tile.q_count, window);
         if (!window.wrap()) edges.resize(r_max * n_bands * n_slots_total);
+        // The bands of a forward window read each reference block several times: the copies
+        // kernels would stage (align) it in every band; copied once here, aligned, they read it
+        // in place (all bands on SSE2 and NEON, the bands that start at a multiple of 32 bytes on
+        // AVX2).
+        const bool stage = !window.wrap() && n_bands > 1 && pixels % 32 == 0 && plans.any_simd_copies();
+        detail::AlignedBytes staged;
+        if (stage) staged.reserve(r_max * pixels);
         for (std::size_t r0 = 0; r0 < tile.r_count; r0 += r_block) {
             const std::size_t r_count = std::min(r_block, tile.r_count - r0);
+            const std::uint8_t* images = refs + (tile.r_first + r0) * pixels;
+            if (stage) {
+                std::memcpy(staged.data(), images, r_count * pixels);
+                images = staged.data();
+            }
             if (!window.wrap()) {
                 for (std::size_t i = 0; i < r_count; ++i) {
                     window.edge_sums(refs + (tile.r_first + r0 + i) * pixels, 0, n_bands,
@@ -176,7 +193,7 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
                 }
             }
             for (std::size_t t = 0; t < n_bands; ++t) {
-                evaluate_band(t, r0, r_count, edges.data() + t * n_slots_total, n_bands * n_slots_total);
+                evaluate_band(t, r0, r_count, images, edges.data() + t * n_slots_total, n_bands * n_slots_total);
             }
         }
     } else {  // large images: blocks of slots, each prepared in turn
@@ -192,7 +209,7 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
                                              edges.data() + i * n_slots_total, edge_scratch);
                         }
                     }
-                    evaluate_band(t, r0, r_count, edges.data(), n_slots_total);
+                    evaluate_band(t, r0, r_count, refs + (tile.r_first + r0) * pixels, edges.data(), n_slots_total);
                 }
             }
         }

@@ -201,9 +201,9 @@ void Window::edge_sums(const std::uint8_t* ref, std::size_t band_begin, std::siz
         return;
     }
 #if NIGHTLOC_VECTOR_EXTENSIONS
-    if (columns_ <= 16 && full_.width >= 16) {
-        edge_sums_narrow(ref, band_begin, band_end, out, scratch);
-        return;
+    if (full_.height <= 257 && rows_ <= kNarrowMaxRows) {
+        if (columns_ <= 8 && full_.width >= 8) return edge_sums_narrow<1>(ref, band_begin, band_end, out);
+        if (columns_ <= 16 && full_.width >= 16) return edge_sums_narrow<2>(ref, band_begin, band_end, out);
     }
 #endif
     const std::size_t width = full_.width, height = full_.height, sx = columns_, w2 = 2 * sx;
@@ -250,60 +250,59 @@ void Window::edge_sums(const std::uint8_t* ref, std::size_t band_begin, std::siz
 }
 
 #if NIGHTLOC_VECTOR_EXTENSIONS
-// edge_sums for columns <= 16 and width >= 16: the 16 leftmost and 16 rightmost columns of every
-// row in 16-bit vector lanes (flushed to 32 bits every 256 rows), then the same as edge_sums.
-void Window::edge_sums_narrow(const std::uint8_t* ref, std::size_t band_begin, std::size_t band_end, std::uint32_t* out,
-                              std::vector<std::uint32_t>& scratch) const {
-    constexpr std::size_t kSide = 16, kLanes = 2 * kSide;  // [left 16 | right 16]
-    const std::size_t width = full_.width, height = full_.height, sx = columns_, n = n_columns();
-    scratch.assign(kLanes * (3 + 2 * rows_), 0u);
-    std::uint32_t* const total = scratch.data();
-    std::uint32_t* const top = total + kLanes;
-    std::uint32_t* const bottom = top + kLanes * rows_;
-    const std::uint32_t* const none = bottom + kLanes * rows_;
-    std::uint32_t* const band_cols = bottom + kLanes * (rows_ + 1);
-    auto add_row32 = [&](std::uint32_t* __restrict acc, const std::uint8_t* row) {
-        for (std::size_t c = 0; c < kSide; ++c) acc[c] += row[c];
-        for (std::size_t c = 0; c < kSide; ++c) acc[kSide + c] += row[width - kSide + c];
-    };
-    for (std::size_t r0 = 0; r0 < height; r0 += 256) {
-        Word8 acc[4] = {};
-        const std::size_t r1 = std::min(height, r0 + 256);
-        for (std::size_t r = r0; r < r1; ++r) {
-            const std::uint8_t* row = ref + r * width;
-            acc[0] += __builtin_convertvector(load_vector<Byte8>(row), Word8);
-            acc[1] += __builtin_convertvector(load_vector<Byte8>(row + 8), Word8);
-            acc[2] += __builtin_convertvector(load_vector<Byte8>(row + width - kSide), Word8);
-            acc[3] += __builtin_convertvector(load_vector<Byte8>(row + width - 8), Word8);
-        }
-        for (std::size_t k = 0; k < 4; ++k) {
-            const Dword8 wide = __builtin_convertvector(acc[k], Dword8);
-            for (std::size_t c = 0; c < 8; ++c) total[8 * k + c] += wide[c];
-        }
+namespace {
+
+// The 8 * NV leftmost and rightmost columns of one row as 16-bit lanes: side[v] holds columns
+// 8v .. 8v + 7, side[NV + v] the columns width - 8 (v + 1) .. width - 8 v - 1.
+template <std::size_t NV>
+inline void add_row_sides(const std::uint8_t* row, std::size_t width, Word8* side) {
+    for (std::size_t v = 0; v < NV; ++v) {
+        side[v] += __builtin_convertvector(load_vector<Byte8>(row + 8 * v), Word8);
+        side[NV + v] += __builtin_convertvector(load_vector<Byte8>(row + width - 8 * (v + 1)), Word8);
     }
-    for (std::size_t k = 1; k <= rows_; ++k) {
-        std::uint32_t* t = top + (k - 1) * kLanes;
-        std::uint32_t* b = bottom + (k - 1) * kLanes;
-        if (k > 1) {
-            std::copy(t - kLanes, t, t);
-            std::copy(b - kLanes, b, b);
-        }
-        add_row32(t, ref + (k - 1) * width);
-        add_row32(b, ref + (height - k) * width);
+}
+
+}  // namespace
+
+// edge_sums for columns <= 8 * NV, width >= 8 * NV, height <= 257 and rows <= kNarrowMaxRows:
+// the leftmost and rightmost columns of every row summed in 16-bit vector lanes (at most 257 * 255
+// per lane), the rows each band leaves out kept aside in the same lanes, and the band's column
+// sums widened to 32 bits only for the running sums over columns. No scratch memory: this runs
+// once per reference in every call (the per-frame match has no other query to share it with).
+template <std::size_t NV>
+void Window::edge_sums_narrow(const std::uint8_t* ref, std::size_t band_begin, std::size_t band_end,
+                              std::uint32_t* out) const {
+    constexpr std::size_t kSides = 2 * NV;
+    const std::size_t width = full_.width, height = full_.height, sx = columns_, n = n_columns(), rows = rows_;
+    Word8 top[kNarrowMaxRows + 1][kSides], bottom[kNarrowMaxRows + 1][kSides], middle[kSides];
+    for (std::size_t v = 0; v < kSides; ++v) top[0][v] = bottom[0][v] = middle[v] = Word8{};
+    for (std::size_t k = 1; k <= rows; ++k) {  // top[k], bottom[k]: the k top (bottom) rows
+        for (std::size_t v = 0; v < kSides; ++v) top[k][v] = top[k - 1][v], bottom[k][v] = bottom[k - 1][v];
+        add_row_sides<NV>(ref + (k - 1) * width, width, top[k]);
+        add_row_sides<NV>(ref + (height - k) * width, width, bottom[k]);
+    }
+    for (std::size_t r = rows; r < height - rows; ++r) add_row_sides<NV>(ref + r * width, width, middle);
+    Word8 total[kSides];
+    for (std::size_t v = 0; v < kSides; ++v) {
+        // The top and bottom rows overlap when 2 * rows > height: then the bottom height - rows rows.
+        total[v] = top[rows][v] + (2 * rows > height ? bottom[height - rows][v] : bottom[rows][v] + middle[v]);
     }
     for (std::size_t t = band_begin; t < band_end; ++t) {
         const std::int32_t d = dy(t);
-        const std::uint32_t* excluded =
-            d < 0 ? top + (magnitude(d) - 1) * kLanes : (d > 0 ? bottom + (magnitude(d) - 1) * kLanes : none);
-        for (std::size_t c = 0; c < kLanes; ++c) band_cols[c] = total[c] - excluded[c];
+        const Word8* excluded = d < 0 ? top[magnitude(d)] : bottom[magnitude(d)];
+        std::uint16_t band_cols[kSides][8];
+        for (std::size_t v = 0; v < kSides; ++v) {
+            const Word8 cols = total[v] - excluded[v];
+            std::memcpy(band_cols[v], &cols, sizeof cols);
+        }
         std::uint32_t* dst = out + (t - band_begin) * n;
         dst[sx] = 0;
         std::uint32_t left = 0, right = 0;
-        for (std::size_t a = 1; a <= sx; ++a) {
-            left += band_cols[a - 1];
-            right += band_cols[kLanes - a];
-            dst[sx - a] = left;
-            dst[sx + a] = right;
+        for (std::size_t c = 0; c < sx; ++c) {  // column c from the left, width - 1 - c from the right
+            left += band_cols[c / 8][c % 8];
+            right += band_cols[NV + c / 8][7 - c % 8];
+            dst[sx - 1 - c] = left;
+            dst[sx + 1 + c] = right;
         }
     }
 }

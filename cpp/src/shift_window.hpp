@@ -107,8 +107,10 @@ private:
     std::vector<std::uint32_t> slot_rank_;  // band * n_columns + slot -> rank
     std::vector<float> slot_inverse_;       // band * n_columns + slot -> 1 / overlap
     bool small_sums_ = false;               // every band sum fits an int32
-    void edge_sums_narrow(const std::uint8_t* ref, std::size_t band_begin, std::size_t band_end, std::uint32_t* out,
-                          std::vector<std::uint32_t>& scratch) const;
+    static constexpr std::size_t kNarrowMaxRows = 8;
+    template <std::size_t NV>
+    void edge_sums_narrow(const std::uint8_t* ref, std::size_t band_begin, std::size_t band_end,
+                          std::uint32_t* out) const;
     std::vector<std::int32_t> rank_value_;
     std::vector<std::int32_t> rank_dy_;
 };
