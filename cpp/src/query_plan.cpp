@@ -27,10 +27,13 @@ void write_rolled(const std::uint8_t* query, std::size_t height, std::size_t wid
     std::memset(dst + height * width, 0, stride - height * width);
 }
 
-// Writes dst(r, c) = query(r, c + offset) where 0 <= c + offset < width, else 0; zeros up to
-// `stride`.
+// Writes `lead` zeros, then dst(r, c) = query(r, c + offset) where 0 <= c + offset < width,
+// else 0; zeros up to `stride`.
 void write_offset(const std::uint8_t* query, std::size_t height, std::size_t width, std::int32_t offset,
-                  std::uint8_t* dst, std::size_t stride) {
+                  std::size_t lead, std::uint8_t* dst, std::size_t stride) {
+    std::memset(dst, 0, lead);
+    dst += lead;
+    stride -= lead;
     const std::size_t shift = std::min(static_cast<std::size_t>(offset < 0 ? -std::int64_t{offset} : offset), width);
     for (std::size_t r = 0; r < height; ++r) {
         const std::uint8_t* src_row = query + r * width;
@@ -51,7 +54,7 @@ void write_copy(const SearchShape& shape, const std::uint8_t* query, std::int32_
     if (shape.wrap) {
         write_rolled(query, shape.height, shape.width, static_cast<std::size_t>(shift), dst, stride);
     } else {
-        write_offset(query, shape.height, shape.width, shift, dst, stride);
+        write_offset(query, shape.height, shape.width, shift, shape.lead, dst, stride);
     }
 }
 
@@ -112,7 +115,7 @@ SearchShape make_search_shape(std::size_t height, std::size_t width, const std::
         }
         seen[static_cast<std::size_t>(s)] = true;
     }
-    return SearchShape{height, width, height * width, shifts, n_shifts, height * width, true};
+    return SearchShape{height, width, height * width, 0, shifts, n_shifts, height * width, true};
 }
 
 namespace {
@@ -230,7 +233,7 @@ void QueryPlan::prepare(const std::uint8_t* queries, std::size_t count, std::siz
             std::uint8_t* dst = buffer_.data() + k * bytes;
             for (std::size_t m = 0; m < offset_copies_; ++m) {
                 write_offset(queries + k * query_stride, shape_.height, shape_.width,
-                             offset_e0_ + 2 * static_cast<std::int32_t>(m), rolled_temp_.get(), stride_);
+                             offset_e0_ + 2 * static_cast<std::int32_t>(m), shape_.lead, rolled_temp_.get(), stride_);
                 for (std::size_t c = 0; c < n_chunks; ++c) {
                     std::memcpy(dst + (c * offset_copies_ + m) * kChunk, rolled_temp_.get() + c * kChunk, kChunk);
                 }

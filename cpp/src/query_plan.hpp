@@ -33,10 +33,14 @@ private:
 ///  - wrap: shifts[j] is a circular shift k in [0, width): copy j is the query rolled left by k;
 ///  - !wrap: shifts[j] is a column offset dx in (-width, width): copy j holds Q(r, c + dx) where
 ///    0 <= c + dx < width and 0 elsewhere (the caller subtracts the reference's bytes there).
+///    A non-wrapping copy may start with `lead` zero bytes before its first row (pixels = lead +
+///    height * width): the caller points each reference `lead` bytes before the band, so that
+///    every band of a window starts at an aligned address, and subtracts those bytes' sum too.
 struct SearchShape {
     std::size_t height = 0;
     std::size_t width = 0;
     std::size_t pixels = 0;
+    std::size_t lead = 0;
     const std::int32_t* shifts = nullptr;
     std::size_t n_shifts = 0;
     std::size_t ref_stride = 0;

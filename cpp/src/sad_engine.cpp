@@ -37,6 +37,21 @@ std::size_t ref_block_size(std::size_t pixels) {
     return n < 8 ? 8 : n;
 }
 
+// Vector width of the backend's kernels: non-wrapping bands start at a multiple of it in each
+// reference (Window::align_bands), so that no band reads references across cache lines.
+std::size_t band_alignment(SimdBackend backend) {
+    switch (backend) {
+        case SimdBackend::avx512bw:
+            return 64;
+        case SimdBackend::avx2:
+            return 32;
+        case SimdBackend::scalar:
+            return 1;
+        default:  // SSE2, NEON
+            return 16;
+    }
+}
+
 int useful_threads(int threads, double comparisons) {
     if (threads <= 1) return 1;
     const double by_work = comparisons / kMinComparisonsPerThread;
@@ -124,7 +139,7 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
     auto evaluate_band = [&](std::size_t t, std::size_t r0, std::size_t r_count, const std::uint8_t* images,
                              const std::uint32_t* edge, std::size_t edge_stride) {
         QueryPlan& plan = plans[t];
-        const std::uint8_t* block = images + window.ref_offset(t);
+        const std::uint8_t* block = images + window.ref_start(t);
         if (plan.fused_min()) {  // the kernel takes the minimum over the band's shifts itself
             for (std::size_t k = 0; k < tile.q_count; ++k) {
                 plan.evaluate_min(k, block, r_count, mins.data(), min_shifts.data());
@@ -172,11 +187,15 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
     if (plans.single_block(n_slots_total)) {
         if (!prepared) plans.prepare_all(queries + tile.q_first * pixels, tile.q_count, window);
         if (!window.wrap()) edges.resize(r_max * n_bands * n_slots_total);
-        // The bands of a forward window read each reference block several times: the copies
-        // kernels would stage (align) it in every band; copied once here, aligned, they read it
-        // in place (all bands on SSE2 and NEON, the bands that start at a multiple of 32 bytes on
-        // AVX2).
-        const bool stage = !window.wrap() && n_bands > 1 && pixels % 32 == 0 && plans.any_simd_copies();
+        // The bands of a forward window read each reference block several times, each band from
+        // a multiple of the vector width (Window::align_bands). The copies kernels would stage
+        // (align) the references of every band; the block is copied once here, aligned, and they
+        // read it in place (measured faster even for aligned references: the copy streams the
+        // block into the caches). The AVX-512 offsets kernel reads references unstaged: faster
+        // without the copy.
+        const std::size_t align = window.band_alignment();
+        const bool stage = !window.wrap() && n_bands > 1 && align > 1 && pixels % align == 0 &&
+                           plans.any_simd_copies();
         detail::AlignedBytes staged;
         if (stage) staged.reserve(r_max * pixels);
         for (std::size_t r0 = 0; r0 < tile.r_count; r0 += r_block) {
@@ -231,9 +250,11 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
 // idle for up to a chunk at the end. Several query blocks: 4 equal chunks per thread and block.
 template <class Sink>
 void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs,
-                              std::size_t n_refs, const Window& window, int threads, Sink&& sink) {
+                              std::size_t n_refs, const Window& search, int threads, Sink&& sink) {
     if (n_queries == 0 || n_refs == 0) return;
     const SimdBackend backend = active_simd_backend();
+    Window window = search;  // the same candidates and ranks, its bands aligned for this backend
+    window.align_bands(band_alignment(backend));
 
     const std::size_t q_block =
         std::clamp<std::size_t>(kQueryBlockBytes / plan_set_bytes(backend, window), 1, kMaxQueryBlock);
@@ -321,10 +342,11 @@ void rotational_sad_sums(const std::uint8_t* query, const std::uint8_t* refs, st
 void rotational_sad(const std::uint8_t* query, const std::uint8_t* refs, std::size_t n_refs, std::size_t height,
                     std::size_t width, const std::int32_t* shifts, std::size_t n_shifts, const ShiftWindow& window,
                     float* scores, std::int32_t* best_rows, int threads, double divisor) {
-    const Window win(height, width, shifts, n_shifts, window);
+    Window win(height, width, shifts, n_shifts, window);
     if (divisor != 0.0) check_divisor(divisor);
     if (n_refs == 0) return;
     const SimdBackend backend = active_simd_backend();
+    win.align_bands(band_alignment(backend));
     const std::size_t pixels = win.full().pixels, n_cols = win.n_columns();
     std::vector<std::uint32_t> best(n_refs * n_cols, std::numeric_limits<std::uint32_t>::max());
     std::vector<std::uint32_t> best_rank(n_refs * n_cols, Window::kNoRank);
@@ -340,7 +362,7 @@ void rotational_sad(const std::uint8_t* query, const std::uint8_t* refs, std::si
                 const std::size_t first = b * block;
                 const std::size_t count = std::min(block, n_refs - first);
                 std::vector<std::uint32_t> sums(count * n_slots), scratch(plan.scratch_size(count));
-                plan.evaluate(refs + first * pixels + win.ref_offset(t), count, sums.data(), n_slots, scratch.data());
+                plan.evaluate(refs + first * pixels + win.ref_start(t), count, sums.data(), n_slots, scratch.data());
                 std::vector<std::uint32_t> edges(win.wrap() ? 0 : n_cols), edge_scratch;
                 for (std::size_t i = 0; i < count; ++i) {
                     if (!win.wrap()) win.edge_sums(refs + (first + i) * pixels, t, t + 1, edges.data(), edge_scratch);

@@ -87,7 +87,8 @@ Window::Window(std::size_t height, std::size_t width, const std::int32_t* shifts
 SearchShape Window::band(std::size_t band) const {
     SearchShape shape = full_;
     shape.height = band_rows(band);
-    shape.pixels = shape.height * shape.width;
+    shape.lead = band_lead(band);
+    shape.pixels = shape.lead + shape.height * shape.width;
     shape.shifts = values_.data();
     shape.n_shifts = values_.size();
     shape.ref_stride = full_.pixels;
@@ -193,6 +194,20 @@ void Window::best_of_band(std::size_t band, std::size_t slot0, std::size_t n, co
         if (keys[j] <= threshold) consider(j);
 }
 
+std::uint32_t Window::lead_sum(const std::uint8_t* ref, std::size_t band) const {
+    const std::uint8_t* p = ref + ref_start(band);
+    const std::uint8_t* const end = ref + ref_offset(band);
+    std::uint32_t sum = 0;
+    for (; p + 8 <= end; p += 8) {  // eight bytes at a time: pairs, then the four pair sums
+        std::uint64_t x = 0;
+        std::memcpy(&x, p, 8);
+        x = (x & 0x00ff00ff00ff00ffull) + ((x >> 8) & 0x00ff00ff00ff00ffull);
+        sum += static_cast<std::uint32_t>((x * 0x0001000100010001ull) >> 48);
+    }
+    for (; p < end; ++p) sum += *p;
+    return sum;
+}
+
 void Window::edge_sums(const std::uint8_t* ref, std::size_t band_begin, std::size_t band_end, std::uint32_t* out,
                        std::vector<std::uint32_t>& scratch) const {
     const std::size_t n = n_columns();
@@ -238,8 +253,8 @@ void Window::edge_sums(const std::uint8_t* ref, std::size_t band_begin, std::siz
         for (std::size_t c = 0; c < w2; ++c) band_cols[c] = total[c] - excluded[c];
         std::uint32_t* dst = out + (t - band_begin) * n;
         // Slot j holds dx = j - sx: dx < 0 leaves out columns [0, -dx), dx > 0 columns [W - dx, W).
-        dst[sx] = 0;
-        std::uint32_t left = 0, right_sum = 0;
+        dst[sx] = lead_sum(ref, t);
+        std::uint32_t left = dst[sx], right_sum = dst[sx];
         for (std::size_t a = 1; a <= sx; ++a) {
             left += band_cols[a - 1];
             right_sum += band_cols[w2 - a];
@@ -296,8 +311,8 @@ void Window::edge_sums_narrow(const std::uint8_t* ref, std::size_t band_begin, s
             std::memcpy(band_cols[v], &cols, sizeof cols);
         }
         std::uint32_t* dst = out + (t - band_begin) * n;
-        dst[sx] = 0;
-        std::uint32_t left = 0, right = 0;
+        dst[sx] = lead_sum(ref, t);
+        std::uint32_t left = dst[sx], right = dst[sx];
         for (std::size_t c = 0; c < sx; ++c) {  // column c from the left, width - 1 - c from the right
             left += band_cols[c / 8][c % 8];
             right += band_cols[NV + c / 8][7 - c % 8];
