@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <stdexcept>
 #include <vector>
@@ -126,11 +127,13 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
     const std::size_t r_max = std::min(r_block, tile.r_count);
     std::vector<std::uint32_t> best(tile.q_count * tile.r_count, std::numeric_limits<std::uint32_t>::max());
     std::vector<std::uint32_t> best_rank(tile.q_count * tile.r_count, Window::kNoRank);
-    std::vector<std::uint32_t> slot_sums(r_max * tile.q_count * plans.max_slots_per_block());
+    // Written by the kernels and edge_sums before they are read: left uninitialized.
+    const std::unique_ptr<std::uint32_t[]> slot_sums(new std::uint32_t[r_max * tile.q_count * plans.max_slots_per_block()]);
     std::vector<std::uint32_t> scratch(plans.max_scratch(r_max));
     std::vector<std::uint32_t> mins(plans.any_fused() ? r_max : 0);
     std::vector<std::int32_t> min_shifts(mins.size());
-    std::vector<std::uint32_t> edges, edge_scratch;
+    std::unique_ptr<std::uint32_t[]> edges;
+    std::vector<std::uint32_t> edge_scratch;
     std::vector<float> keys(window.wrap() ? 0 : n_slots_total);
 
     // Band t of references [r0, r0 + r_count) of the tile; edge(i) = the edge sums of reference
@@ -157,12 +160,12 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
         }
         const std::size_t n_slots = plan.slot_count(), slot0 = plan.slot_begin();
         const std::size_t row_width = tile.q_count * n_slots;
-        plan.evaluate(block, r_count, slot_sums.data(), row_width, scratch.data());
+        plan.evaluate(block, r_count, slot_sums.get(), row_width, scratch.data());
         for (std::size_t k = 0; k < tile.q_count; ++k) {
             std::uint32_t* row_best = best.data() + k * tile.r_count + r0;
             std::uint32_t* row_rank = best_rank.data() + k * tile.r_count + r0;
             for (std::size_t i = 0; i < r_count; ++i) {
-                const std::uint32_t* s = slot_sums.data() + i * row_width + k * n_slots;
+                const std::uint32_t* s = slot_sums.get() + i * row_width + k * n_slots;
                 if (window.wrap()) {  // one overlap in the band: the first minimum of the block
                     std::size_t j_best = 0;
                     for (std::size_t j = 1; j < n_slots; ++j)
@@ -186,7 +189,7 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
 
     if (plans.single_block(n_slots_total)) {
         if (!prepared) plans.prepare_all(queries + tile.q_first * pixels, tile.q_count, window);
-        if (!window.wrap()) edges.resize(r_max * n_bands * n_slots_total);
+        if (!window.wrap()) edges.reset(new std::uint32_t[r_max * n_bands * n_slots_total]);
         // The bands of a forward window read each reference block several times, each band from
         // a multiple of the vector width (Window::align_bands). The copies kernels would stage
         // (align) the references of every band; the block is copied once here, aligned, and they
@@ -208,15 +211,15 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
             if (!window.wrap()) {
                 for (std::size_t i = 0; i < r_count; ++i) {
                     window.edge_sums(refs + (tile.r_first + r0 + i) * pixels, 0, n_bands,
-                                     edges.data() + i * n_bands * n_slots_total, edge_scratch);
+                                     edges.get() + i * n_bands * n_slots_total, edge_scratch);
                 }
             }
             for (std::size_t t = 0; t < n_bands; ++t) {
-                evaluate_band(t, r0, r_count, images, edges.data() + t * n_slots_total, n_bands * n_slots_total);
+                evaluate_band(t, r0, r_count, images, edges.get() + t * n_slots_total, n_bands * n_slots_total);
             }
         }
     } else {  // large images: blocks of slots, each prepared in turn
-        if (!window.wrap()) edges.resize(r_max * n_slots_total);
+        if (!window.wrap()) edges.reset(new std::uint32_t[r_max * n_slots_total]);
         for (std::size_t t = 0; t < n_bands; ++t) {
             for (std::size_t slot = 0; slot < n_slots_total; slot += plans[t].slots_per_block()) {
                 plans[t].prepare(queries + tile.q_first * pixels + window.query_offset(t), tile.q_count, pixels, slot);
@@ -225,10 +228,10 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
                     if (!window.wrap()) {
                         for (std::size_t i = 0; i < r_count; ++i) {
                             window.edge_sums(refs + (tile.r_first + r0 + i) * pixels, t, t + 1,
-                                             edges.data() + i * n_slots_total, edge_scratch);
+                                             edges.get() + i * n_slots_total, edge_scratch);
                         }
                     }
-                    evaluate_band(t, r0, r_count, refs + (tile.r_first + r0) * pixels, edges.data(), n_slots_total);
+                    evaluate_band(t, r0, r_count, refs + (tile.r_first + r0) * pixels, edges.get(), n_slots_total);
                 }
             }
         }

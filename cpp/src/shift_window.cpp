@@ -305,17 +305,22 @@ void Window::edge_sums_narrow(const std::uint8_t* ref, std::size_t band_begin, s
     for (std::size_t t = band_begin; t < band_end; ++t) {
         const std::int32_t d = dy(t);
         const Word8* excluded = d < 0 ? top[magnitude(d)] : bottom[magnitude(d)];
-        std::uint16_t band_cols[kSides][8];
-        for (std::size_t v = 0; v < kSides; ++v) {
+        // Column c from the left at band_cols[c], column width - 1 - c at band_cols[kRight + c].
+        std::uint16_t band_cols[8 * kSides];
+        for (std::size_t v = 0; v < NV; ++v) {
             const Word8 cols = total[v] - excluded[v];
-            std::memcpy(band_cols[v], &cols, sizeof cols);
+            std::memcpy(band_cols + 8 * v, &cols, sizeof cols);
+            const Word8 right_cols = total[NV + v] - excluded[NV + v];  // stored from the edge inwards
+            const Word8 reversed = __builtin_shufflevector(right_cols, right_cols, 7, 6, 5, 4, 3, 2, 1, 0);
+            std::memcpy(band_cols + 8 * (NV + v), &reversed, sizeof reversed);
         }
+        constexpr std::size_t kRight = 8 * NV;
         std::uint32_t* dst = out + (t - band_begin) * n;
         dst[sx] = lead_sum(ref, t);
         std::uint32_t left = dst[sx], right = dst[sx];
-        for (std::size_t c = 0; c < sx; ++c) {  // column c from the left, width - 1 - c from the right
-            left += band_cols[c / 8][c % 8];
-            right += band_cols[NV + c / 8][7 - c % 8];
+        for (std::size_t c = 0; c < sx; ++c) {
+            left += band_cols[c];
+            right += band_cols[kRight + c];
             dst[sx - 1 - c] = left;
             dst[sx + 1 + c] = right;
         }
