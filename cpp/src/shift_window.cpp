@@ -112,6 +112,7 @@ typedef std::int32_t Int4 __attribute__((vector_size(16)));
 typedef std::uint8_t Byte8 __attribute__((vector_size(8)));
 typedef std::uint16_t Word8 __attribute__((vector_size(16)));
 typedef std::uint32_t Dword8 __attribute__((vector_size(32)));
+typedef std::uint64_t Qword2 __attribute__((vector_size(16)));
 
 template <class V>
 V load_vector(const void* p) {
@@ -216,7 +217,8 @@ void Window::edge_sums(const std::uint8_t* ref, std::size_t band_begin, std::siz
         return;
     }
 #if NIGHTLOC_VECTOR_EXTENSIONS
-    if (full_.height <= 257 && rows_ <= kNarrowMaxRows) {
+    // (SideSums reads a row's two 8-byte sides as the 16-bit lanes of one vector: little-endian.)
+    if (full_.height <= 257 && rows_ <= kNarrowMaxRows && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__) {
         if (columns_ <= 8 && full_.width >= 8) return edge_sums_narrow<1>(ref, band_begin, band_end, out);
         if (columns_ <= 16 && full_.width >= 16) return edge_sums_narrow<2>(ref, band_begin, band_end, out);
     }
@@ -253,7 +255,7 @@ void Window::edge_sums(const std::uint8_t* ref, std::size_t band_begin, std::siz
         for (std::size_t c = 0; c < w2; ++c) band_cols[c] = total[c] - excluded[c];
         std::uint32_t* dst = out + (t - band_begin) * n;
         // Slot j holds dx = j - sx: dx < 0 leaves out columns [0, -dx), dx > 0 columns [W - dx, W).
-        dst[sx] = lead_sum(ref, t);
+        dst[sx] = band_lead(t) != 0 ? lead_sum(ref, t) : 0;
         std::uint32_t left = dst[sx], right_sum = dst[sx];
         for (std::size_t a = 1; a <= sx; ++a) {
             left += band_cols[a - 1];
@@ -267,15 +269,48 @@ void Window::edge_sums(const std::uint8_t* ref, std::size_t band_begin, std::siz
 #if NIGHTLOC_VECTOR_EXTENSIONS
 namespace {
 
-// The 8 * NV leftmost and rightmost columns of one row as 16-bit lanes: side[v] holds columns
-// 8v .. 8v + 7, side[NV + v] the columns width - 8 (v + 1) .. width - 8 v - 1.
+// Column sums of the 8 * NV leftmost and rightmost columns of rows, in 16-bit lanes: vector v
+// holds the bytes [8v, 8v + 8) of a row and [width - 8 (v + 1), width - 8 v) as 16 bytes, summed as
+// their even bytes (even[v]) and odd bytes (odd[v]): no unpacking per row.
 template <std::size_t NV>
-inline void add_row_sides(const std::uint8_t* row, std::size_t width, Word8* side) {
-    for (std::size_t v = 0; v < NV; ++v) {
-        side[v] += __builtin_convertvector(load_vector<Byte8>(row + 8 * v), Word8);
-        side[NV + v] += __builtin_convertvector(load_vector<Byte8>(row + width - 8 * (v + 1)), Word8);
+struct SideSums {
+    Word8 even[NV], odd[NV];
+
+    void clear() {
+        for (std::size_t v = 0; v < NV; ++v) even[v] = odd[v] = Word8{};
     }
-}
+    void add_row(const std::uint8_t* row, std::size_t width) {
+        for (std::size_t v = 0; v < NV; ++v) {
+            std::uint64_t left = 0, right = 0;
+            std::memcpy(&left, row + 8 * v, 8);
+            std::memcpy(&right, row + width - 8 * (v + 1), 8);
+            const Word8 bytes = reinterpret_cast<Word8>(Qword2{left, right});  // little-endian lanes
+            even[v] += bytes & std::uint16_t{0xff};
+            odd[v] += bytes >> 8;
+        }
+    }
+    SideSums operator+(const SideSums& other) const {
+        SideSums sum;
+        for (std::size_t v = 0; v < NV; ++v) sum.even[v] = even[v] + other.even[v], sum.odd[v] = odd[v] + other.odd[v];
+        return sum;
+    }
+    SideSums operator-(const SideSums& other) const {
+        SideSums difference;
+        for (std::size_t v = 0; v < NV; ++v) {
+            difference.even[v] = even[v] - other.even[v], difference.odd[v] = odd[v] - other.odd[v];
+        }
+        return difference;
+    }
+    /// out[c] = column c's sum for c < 8 NV, out[8 NV + c] = column width - 1 - c's.
+    void columns(std::uint16_t* out) const {
+        for (std::size_t v = 0; v < NV; ++v) {
+            const Word8 left = __builtin_shufflevector(even[v], odd[v], 0, 8, 1, 9, 2, 10, 3, 11);
+            const Word8 right = __builtin_shufflevector(even[v], odd[v], 15, 7, 14, 6, 13, 5, 12, 4);
+            std::memcpy(out + 8 * v, &left, sizeof left);
+            std::memcpy(out + 8 * (NV + v), &right, sizeof right);
+        }
+    }
+};
 
 }  // namespace
 
@@ -287,36 +322,29 @@ inline void add_row_sides(const std::uint8_t* row, std::size_t width, Word8* sid
 template <std::size_t NV>
 void Window::edge_sums_narrow(const std::uint8_t* ref, std::size_t band_begin, std::size_t band_end,
                               std::uint32_t* out) const {
-    constexpr std::size_t kSides = 2 * NV;
     const std::size_t width = full_.width, height = full_.height, sx = columns_, n = n_columns(), rows = rows_;
-    Word8 top[kNarrowMaxRows + 1][kSides], bottom[kNarrowMaxRows + 1][kSides], middle[kSides];
-    for (std::size_t v = 0; v < kSides; ++v) top[0][v] = bottom[0][v] = middle[v] = Word8{};
+    SideSums<NV> top[kNarrowMaxRows + 1], bottom[kNarrowMaxRows + 1], middle;
+    top[0].clear();
+    bottom[0].clear();
+    middle.clear();
     for (std::size_t k = 1; k <= rows; ++k) {  // top[k], bottom[k]: the k top (bottom) rows
-        for (std::size_t v = 0; v < kSides; ++v) top[k][v] = top[k - 1][v], bottom[k][v] = bottom[k - 1][v];
-        add_row_sides<NV>(ref + (k - 1) * width, width, top[k]);
-        add_row_sides<NV>(ref + (height - k) * width, width, bottom[k]);
+        top[k] = top[k - 1];
+        top[k].add_row(ref + (k - 1) * width, width);
+        bottom[k] = bottom[k - 1];
+        bottom[k].add_row(ref + (height - k) * width, width);
     }
-    for (std::size_t r = rows; r < height - rows; ++r) add_row_sides<NV>(ref + r * width, width, middle);
-    Word8 total[kSides];
-    for (std::size_t v = 0; v < kSides; ++v) {
-        // The top and bottom rows overlap when 2 * rows > height: then the bottom height - rows rows.
-        total[v] = top[rows][v] + (2 * rows > height ? bottom[height - rows][v] : bottom[rows][v] + middle[v]);
-    }
+    for (std::size_t r = rows; r < height - rows; ++r) middle.add_row(ref + r * width, width);
+    // The top and bottom rows overlap when 2 * rows > height: then the bottom height - rows rows.
+    const SideSums<NV> total = top[rows] + (2 * rows > height ? bottom[height - rows] : bottom[rows] + middle);
     for (std::size_t t = band_begin; t < band_end; ++t) {
         const std::int32_t d = dy(t);
-        const Word8* excluded = d < 0 ? top[magnitude(d)] : bottom[magnitude(d)];
+        const SideSums<NV>& excluded = d < 0 ? top[magnitude(d)] : bottom[magnitude(d)];
         // Column c from the left at band_cols[c], column width - 1 - c at band_cols[kRight + c].
-        std::uint16_t band_cols[8 * kSides];
-        for (std::size_t v = 0; v < NV; ++v) {
-            const Word8 cols = total[v] - excluded[v];
-            std::memcpy(band_cols + 8 * v, &cols, sizeof cols);
-            const Word8 right_cols = total[NV + v] - excluded[NV + v];  // stored from the edge inwards
-            const Word8 reversed = __builtin_shufflevector(right_cols, right_cols, 7, 6, 5, 4, 3, 2, 1, 0);
-            std::memcpy(band_cols + 8 * (NV + v), &reversed, sizeof reversed);
-        }
+        std::uint16_t band_cols[16 * NV];
+        (total - excluded).columns(band_cols);
         constexpr std::size_t kRight = 8 * NV;
         std::uint32_t* dst = out + (t - band_begin) * n;
-        dst[sx] = lead_sum(ref, t);
+        dst[sx] = band_lead(t) != 0 ? lead_sum(ref, t) : 0;
         std::uint32_t left = dst[sx], right = dst[sx];
         for (std::size_t c = 0; c < sx; ++c) {
             left += band_cols[c];
