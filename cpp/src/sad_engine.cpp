@@ -22,6 +22,8 @@ using detail::Window;
 
 // A block of references should stay in L2 while every query of a query block scans it.
 constexpr std::size_t kRefBlockBytes = std::size_t{256} * 1024;
+// Most bytes of slot sums a tile keeps for all bands of a reference block at once (compute_tile).
+constexpr std::size_t kAllBandSumsBytes = std::size_t{128} * 1024;
 // Prepared queries of one block, together: each reference block read from memory serves them all.
 constexpr std::size_t kQueryBlockBytes = std::size_t{512} * 1024;
 constexpr std::size_t kMaxQueryBlock = 64;
@@ -201,6 +203,13 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
                            plans.any_simd_copies();
         detail::AlignedBytes staged;
         if (stage) staged.reserve(r_max * pixels);
+        // A forward window with few queries (the per-frame match): the sums of all bands of a block
+        // fit in L2 beside it, and one selection per pair over all candidates replaces one per band
+        // and the merges.
+        const std::size_t all_sums = r_max * tile.q_count * n_bands * n_slots_total;
+        const bool select_over_bands = !window.wrap() && all_sums * sizeof(std::uint32_t) <= kAllBandSumsBytes;
+        std::unique_ptr<std::uint32_t[]> window_sums(select_over_bands ? new std::uint32_t[all_sums] : nullptr);
+        if (select_over_bands) keys.resize(n_bands * n_slots_total);
         for (std::size_t r0 = 0; r0 < tile.r_count; r0 += r_block) {
             const std::size_t r_count = std::min(r_block, tile.r_count - r0);
             const std::uint8_t* images = refs + (tile.r_first + r0) * pixels;
@@ -213,6 +222,22 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
                     window.edge_sums(refs + (tile.r_first + r0 + i) * pixels, 0, n_bands,
                                      edges.get() + i * n_bands * n_slots_total, edge_scratch);
                 }
+            }
+            if (select_over_bands) {  // every band's sums, then one selection per pair over them all
+                const std::size_t band_width = tile.q_count * n_slots_total, row_width = n_bands * band_width;
+                for (std::size_t t = 0; t < n_bands; ++t) {
+                    plans[t].evaluate(images + window.ref_start(t), r_count, window_sums.get() + t * band_width,
+                                      row_width, scratch.data());
+                }
+                for (std::size_t k = 0; k < tile.q_count; ++k) {
+                    for (std::size_t i = 0; i < r_count; ++i) {
+                        const std::size_t pair = k * tile.r_count + r0 + i;
+                        window.best_of_bands(window_sums.get() + i * row_width + k * n_slots_total, band_width,
+                                             edges.get() + i * n_bands * n_slots_total, keys.data(), best[pair],
+                                             best_rank[pair]);
+                    }
+                }
+                continue;
             }
             for (std::size_t t = 0; t < n_bands; ++t) {
                 evaluate_band(t, r0, r_count, images, edges.get() + t * n_slots_total, n_bands * n_slots_total);

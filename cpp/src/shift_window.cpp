@@ -125,18 +125,18 @@ V load_vector(const void* p) {
 #define NIGHTLOC_VECTOR_EXTENSIONS 0
 #endif
 
-void Window::best_of_band(std::size_t band, std::size_t slot0, std::size_t n, const std::uint32_t* s,
-                          const std::uint32_t* e, float* keys, std::uint32_t& best_sum,
-                          std::uint32_t& best_rank) const {
-    const float* inverse = slot_inverse_.data() + band * n_columns() + slot0;
-    const std::uint32_t* ranks = slot_rank_.data() + band * n_columns() + slot0;
-    // Keys: float(sum) * (1 / overlap), within a relative 2^-22 of the mean (three roundings);
-    // every lowest mean is within 2^-20 of the lowest key, so the candidates above
-    // lowest * (1 + 2^-18) cannot win, and the others are compared exactly.
+namespace {
+
+// keys[j] = float(s[j] - e[j]) * inverse[j] for j < n; returns the lowest key. Keys are within a
+// relative 2^-22 of the mean (three roundings); every lowest mean is within 2^-20 of the lowest
+// key, so the candidates above lowest * (1 + 2^-18) cannot win, and the others are compared
+// exactly (contender_threshold, count_contenders).
+float write_keys(const std::uint32_t* s, const std::uint32_t* e, const float* inverse, std::size_t n, float* keys,
+                 bool small_sums) {
     float lowest = std::numeric_limits<float>::infinity();
     std::size_t j = 0;
 #if NIGHTLOC_VECTOR_EXTENSIONS
-    if (small_sums_) {  // band sums below 2^31: int32 conversion
+    if (small_sums) {  // band sums below 2^31: int32 conversion
         const float inf = std::numeric_limits<float>::infinity();
         Float4 low = {inf, inf, inf, inf};
         for (; j + 4 <= n; j += 4) {
@@ -147,25 +147,24 @@ void Window::best_of_band(std::size_t band, std::size_t slot0, std::size_t n, co
         }
         for (int lane = 0; lane < 4; ++lane) lowest = low[lane] < lowest ? low[lane] : lowest;
     }
+#else
+    (void)small_sums;
 #endif
     for (; j < n; ++j) {
         const float key = static_cast<float>(s[j] - e[j]) * inverse[j];
         keys[j] = key;
         lowest = key < lowest ? key : lowest;
     }
-    const float threshold = lowest + lowest * 0x1p-18f;
-    best_sum = std::numeric_limits<std::uint32_t>::max();
-    best_rank = kNoRank;
-    auto consider = [&](std::size_t k) {
-        if (better(s[k] - e[k], ranks[k], best_sum, best_rank)) {
-            best_sum = s[k] - e[k];
-            best_rank = ranks[k];
-        }
-    };
-    // Count the contenders and sum their indices without branching: almost always there is one,
-    // and the exact comparison is needed only when there are several.
-    std::size_t count = 0, index_sum = 0;
-    j = 0;
+    return lowest;
+}
+
+float contender_threshold(float lowest) { return lowest + lowest * 0x1p-18f; }
+
+// The number of keys[j] <= threshold, j < n, and the sum of their indices, without branching:
+// almost always there is one, and the exact comparison is needed only when there are several.
+std::size_t count_contenders(const float* keys, std::size_t n, float threshold, std::size_t& index_sum) {
+    std::size_t count = 0, j = 0;
+    index_sum = 0;
 #if NIGHTLOC_VECTOR_EXTENSIONS
     const Float4 limit = {threshold, threshold, threshold, threshold};
     Int4 counts = {0, 0, 0, 0}, indices = {0, 0, 0, 0};
@@ -186,13 +185,58 @@ void Window::best_of_band(std::size_t band, std::size_t slot0, std::size_t n, co
         count += in;
         index_sum += in ? j : 0;
     }
-    if (count == 1) {
+    return count;
+}
+
+}  // namespace
+
+void Window::best_of_band(std::size_t band, std::size_t slot0, std::size_t n, const std::uint32_t* s,
+                          const std::uint32_t* e, float* keys, std::uint32_t& best_sum,
+                          std::uint32_t& best_rank) const {
+    const float* inverse = slot_inverse_.data() + band * n_columns() + slot0;
+    const std::uint32_t* ranks = slot_rank_.data() + band * n_columns() + slot0;
+    const float threshold = contender_threshold(write_keys(s, e, inverse, n, keys, small_sums_));
+    std::size_t index_sum = 0;
+    if (count_contenders(keys, n, threshold, index_sum) == 1) {
         best_sum = s[index_sum] - e[index_sum];
         best_rank = ranks[index_sum];
         return;
     }
-    for (j = 0; j < n; ++j)
-        if (keys[j] <= threshold) consider(j);
+    best_sum = std::numeric_limits<std::uint32_t>::max();
+    best_rank = kNoRank;
+    for (std::size_t j = 0; j < n; ++j) {
+        if (keys[j] <= threshold && better(s[j] - e[j], ranks[j], best_sum, best_rank)) {
+            best_sum = s[j] - e[j];
+            best_rank = ranks[j];
+        }
+    }
+}
+
+void Window::best_of_bands(const std::uint32_t* s, std::size_t band_stride, const std::uint32_t* e, float* keys,
+                           std::uint32_t& best_sum, std::uint32_t& best_rank) const {
+    const std::size_t n = n_columns(), total = n_bands() * n;
+    float lowest = std::numeric_limits<float>::infinity();
+    for (std::size_t t = 0; t < n_bands(); ++t) {
+        const float band_lowest =
+            write_keys(s + t * band_stride, e + t * n, slot_inverse_.data() + t * n, n, keys + t * n, small_sums_);
+        lowest = band_lowest < lowest ? band_lowest : lowest;
+    }
+    const float threshold = contender_threshold(lowest);
+    auto sum_of = [&](std::size_t index) { return s[index / n * band_stride + index % n] - e[index]; };
+    std::size_t index_sum = 0;
+    if (count_contenders(keys, total, threshold, index_sum) == 1) {
+        best_sum = sum_of(index_sum);
+        best_rank = slot_rank_[index_sum];
+        return;
+    }
+    best_sum = std::numeric_limits<std::uint32_t>::max();
+    best_rank = kNoRank;
+    for (std::size_t index = 0; index < total; ++index) {
+        if (keys[index] <= threshold && better(sum_of(index), slot_rank_[index], best_sum, best_rank)) {
+            best_sum = sum_of(index);
+            best_rank = slot_rank_[index];
+        }
+    }
 }
 
 std::uint32_t Window::lead_sum(const std::uint8_t* ref, std::size_t band) const {

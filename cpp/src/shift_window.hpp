@@ -80,13 +80,19 @@ public:
 
     /// The best candidate of band `band` among slots [slot0, slot0 + n) for one pair, from the
     /// kernel's slot sums s minus the edge sums e (non-wrapping bands): best_sum and best_rank.
-    /// `keys` is scratch for n doubles. Means are first compared by double(sum) * (1 / overlap)
-    /// (at most two roundings); only the candidates within a relative 2^-40 of the lowest key can
-    /// be the lowest mean, and those are compared exactly (better()). (Keys are float32: the
-    /// bound is in shift_window.cpp.) (Keys in float32: see the
-    /// bound in shift_window.cpp.)
+    /// `keys` is scratch for n floats. Means are first compared by float keys, float(sum) *
+    /// float(1 / overlap) (three roundings); only the candidates within a relative 2^-18 of the
+    /// lowest key can be the lowest mean, and those are compared exactly (better()); the bound is
+    /// in shift_window.cpp.
     void best_of_band(std::size_t band, std::size_t slot0, std::size_t n, const std::uint32_t* s,
                       const std::uint32_t* e, float* keys, std::uint32_t& best_sum, std::uint32_t& best_rank) const;
+
+    /// The best candidate of all bands for one pair (one block of slots: every slot), from the
+    /// kernels' sums of band t at s + t * band_stride minus the edge sums e (n_bands() x
+    /// n_columns(), as edge_sums() writes them), selected as best_of_band does over all bands at
+    /// once. `keys` is scratch for n_bands() * n_columns() floats.
+    void best_of_bands(const std::uint32_t* s, std::size_t band_stride, const std::uint32_t* e, float* keys,
+                       std::uint32_t& best_sum, std::uint32_t& best_rank) const;
 
     /// Whether candidate (sum, rank) is better than the best so far (best_sum, best_rank); a best
     /// of (UINT32_MAX, UINT32_MAX) is worse than every candidate.
