@@ -193,14 +193,14 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
         if (!prepared) plans.prepare_all(queries + tile.q_first * pixels, tile.q_count, window);
         if (!window.wrap()) edges.reset(new std::uint32_t[r_max * n_bands * n_slots_total]);
         // The bands of a forward window read each reference block several times, each band from
-        // a multiple of the vector width (Window::align_bands). The copies kernels would stage
-        // (align) the references of every band; the block is copied once here, aligned, and they
-        // read it in place (measured faster even for aligned references: the copy streams the
-        // block into the caches). The AVX-512 offsets kernel reads references unstaged: faster
-        // without the copy.
+        // a multiple of the vector width (Window::align_bands). When the references are not
+        // aligned to it, the copies kernels would stage (align) them in every band: the block is
+        // copied once here, aligned, and they read it in place. (Aligned references are read in
+        // place: faster than a copy. The AVX-512 offsets kernel reads references unstaged: faster
+        // without the copy.)
         const std::size_t align = window.band_alignment();
         const bool stage = !window.wrap() && n_bands > 1 && align > 1 && pixels % align == 0 &&
-                           plans.any_simd_copies();
+                           reinterpret_cast<std::uintptr_t>(refs) % align != 0 && plans.any_simd_copies();
         detail::AlignedBytes staged;
         if (stage) staged.reserve(r_max * pixels);
         // A forward window with few queries (the per-frame match): the sums of all bands of a block
