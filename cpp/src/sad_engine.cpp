@@ -130,7 +130,8 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
     std::vector<std::uint32_t> best(tile.q_count * tile.r_count, std::numeric_limits<std::uint32_t>::max());
     std::vector<std::uint32_t> best_rank(tile.q_count * tile.r_count, Window::kNoRank);
     // Written by the kernels and edge_sums before they are read: left uninitialized.
-    const std::unique_ptr<std::uint32_t[]> slot_sums(new std::uint32_t[r_max * tile.q_count * plans.max_slots_per_block()]);
+    const std::unique_ptr<std::uint32_t[]> slot_sums(
+        new std::uint32_t[r_max * tile.q_count * plans.max_slots_per_block()]);
     std::vector<std::uint32_t> scratch(plans.max_scratch(r_max));
     std::vector<std::uint32_t> mins(plans.any_fused() ? r_max : 0);
     std::vector<std::int32_t> min_shifts(mins.size());
