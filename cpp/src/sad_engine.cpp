@@ -24,6 +24,8 @@ using detail::Window;
 constexpr std::size_t kRefBlockBytes = std::size_t{256} * 1024;
 // Most bytes of slot sums a tile keeps for all bands of a reference block at once (compute_tile).
 constexpr std::size_t kAllBandSumsBytes = std::size_t{128} * 1024;
+// Most queries for which compute_tile stages (aligns) the references of a forward window.
+constexpr std::size_t kMaxStagingQueries = 4;
 // Prepared queries of one block, together: each reference block read from memory serves them all.
 constexpr std::size_t kQueryBlockBytes = std::size_t{512} * 1024;
 constexpr std::size_t kMaxQueryBlock = 64;
@@ -122,8 +124,8 @@ std::size_t plan_set_bytes(SimdBackend backend, const Window& window) {
 // here. Every candidate (band, slot) of every pair is merged into the pair's best (Window::better:
 // the order of the merges does not matter). Returns the tile through sink.
 template <class Sink>
-void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* queries, const std::uint8_t* refs,
-                  const Window& window, Sink&& sink) {
+void compute_tile(Tile tile, PlanSet& plans, bool prepared, bool stage, const std::uint8_t* queries,
+                  const std::uint8_t* refs, const Window& window, Sink&& sink) {
     const std::size_t pixels = window.full().pixels, n_slots_total = window.n_columns(), n_bands = window.n_bands();
     const std::size_t r_block = ref_block_size(pixels);
     const std::size_t r_max = std::min(r_block, tile.r_count);
@@ -193,15 +195,6 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, const std::uint8_t* 
     if (plans.single_block(n_slots_total)) {
         if (!prepared) plans.prepare_all(queries + tile.q_first * pixels, tile.q_count, window);
         if (!window.wrap()) edges.reset(new std::uint32_t[r_max * n_bands * n_slots_total]);
-        // The bands of a forward window read each reference block several times, each band from
-        // a multiple of the vector width (Window::align_bands). When the references are not
-        // aligned to it, the copies kernels would stage (align) them in every band: the block is
-        // copied once here, aligned, and they read it in place. (Aligned references are read in
-        // place: faster than a copy. The AVX-512 offsets kernel reads references unstaged: faster
-        // without the copy.)
-        const std::size_t align = window.band_alignment();
-        const bool stage = !window.wrap() && n_bands > 1 && align > 1 && pixels % align == 0 &&
-                           reinterpret_cast<std::uintptr_t>(refs) % align != 0 && plans.any_simd_copies();
         detail::AlignedBytes staged;
         if (stage) staged.reserve(r_max * pixels);
         // A forward window with few queries (the per-frame match): the sums of all bands of a block
@@ -282,8 +275,20 @@ void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries
                               std::size_t n_refs, const Window& search, int threads, Sink&& sink) {
     if (n_queries == 0 || n_refs == 0) return;
     const SimdBackend backend = active_simd_backend();
-    Window window = search;  // the same candidates and ranks, its bands aligned for this backend
-    window.align_bands(band_alignment(backend));
+    // The same candidates and ranks, the bands aligned for this backend (Window::align_bands).
+    // The bands of a forward window read each reference several times. For few queries, when the
+    // references are not aligned to the vector width, the copies kernels would stage (align)
+    // them in every band: each tile copies its block once, aligned, and the kernels read it in
+    // place. (Aligned references are read in place: faster than a copy. The AVX-512 offsets
+    // kernel reads references unstaged: faster without the copy. Many queries share each staging
+    // of the copies kernels.)
+    Window window = search;
+    const std::size_t align = band_alignment(backend), pixels = window.full().pixels;
+    const std::size_t base = reinterpret_cast<std::uintptr_t>(refs) % align;
+    const bool stage = !window.wrap() && window.n_bands() > 1 && pixels % align == 0 && base != 0 &&
+                       n_queries <= kMaxStagingQueries && backend != SimdBackend::avx512bw &&
+                       backend != SimdBackend::scalar;
+    if (pixels % align == 0) window.align_bands(align, stage ? 0 : base);
 
     const std::size_t q_block =
         std::clamp<std::size_t>(kQueryBlockBytes / plan_set_bytes(backend, window), 1, kMaxQueryBlock);
@@ -326,7 +331,7 @@ void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries
             shared.prepare_all(queries, n_queries, window);
             detail::parallel_for(n_r_chunks, n_threads, [&](std::size_t task) {
                 const Tile tile = tile_of(task);
-                if (tile.r_count > 0) compute_tile(tile, shared, true, queries, refs, window, sink);
+                if (tile.r_count > 0) compute_tile(tile, shared, true, stage, queries, refs, window, sink);
             });
             return;
         }
@@ -335,7 +340,7 @@ void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries
         const Tile tile = tile_of(task);
         if (tile.r_count == 0) return;
         PlanSet plans(backend, window);
-        compute_tile(tile, plans, false, queries, refs, window, sink);
+        compute_tile(tile, plans, false, stage, queries, refs, window, sink);
     });
 }
 
@@ -375,7 +380,8 @@ void rotational_sad(const std::uint8_t* query, const std::uint8_t* refs, std::si
     if (divisor != 0.0) check_divisor(divisor);
     if (n_refs == 0) return;
     const SimdBackend backend = active_simd_backend();
-    win.align_bands(band_alignment(backend));
+    const std::size_t align = band_alignment(backend);
+    if (win.full().pixels % align == 0) win.align_bands(align, reinterpret_cast<std::uintptr_t>(refs) % align);
     const std::size_t pixels = win.full().pixels, n_cols = win.n_columns();
     std::vector<std::uint32_t> best(n_refs * n_cols, std::numeric_limits<std::uint32_t>::max());
     std::vector<std::uint32_t> best_rank(n_refs * n_cols, Window::kNoRank);

@@ -84,6 +84,15 @@ Window::Window(std::size_t height, std::size_t width, const std::int32_t* shifts
     }
 }
 
+void Window::align_bands(std::size_t bytes, std::size_t base) {
+    leads_.clear();
+    if (wrap_ || bytes <= 1) return;
+    for (std::size_t t = 0; t < n_bands(); ++t) {
+        const std::size_t lead = (base + ref_offset(t)) % bytes;
+        leads_.push_back(lead <= ref_offset(t) ? lead : 0);
+    }
+}
+
 SearchShape Window::band(std::size_t band) const {
     SearchShape shape = full_;
     shape.height = band_rows(band);

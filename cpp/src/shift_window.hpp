@@ -42,12 +42,14 @@ public:
     }
     std::size_t band_rows(std::size_t band) const { return full_.height - magnitude(dy(band)); }
     std::size_t ref_offset(std::size_t band) const { return first_ref_row(band) * full_.width; }
-    /// Non-wrapping bands start at a multiple of `bytes` into each reference (the SIMD kernels'
-    /// vector width): band t's copies begin with band_lead(t) zeros, compared with the reference's
-    /// bytes [ref_start(t), ref_offset(t)), whose sum edge_sums() includes. Wrapping bands: 1.
-    void align_bands(std::size_t bytes) { align_ = wrap_ || bytes == 0 ? 1 : bytes; }
-    std::size_t band_alignment() const { return align_; }
-    std::size_t band_lead(std::size_t band) const { return ref_offset(band) % align_; }
+    /// Non-wrapping bands start at an address that is a multiple of `bytes` (the SIMD kernels'
+    /// vector width) where they can: band t's copies begin with band_lead(t) zeros, compared with
+    /// the reference's bytes [ref_start(t), ref_offset(t)), whose sum edge_sums() includes.
+    /// `base` = the address of the reference images modulo `bytes` (their stride, full().pixels,
+    /// a multiple of `bytes`); a band whose aligned start would lie before the image keeps no
+    /// lead. Wrapping bands, and align_bands(1, 0): no leads.
+    void align_bands(std::size_t bytes, std::size_t base);
+    std::size_t band_lead(std::size_t band) const { return leads_.empty() ? 0 : leads_[band]; }
     std::size_t ref_start(std::size_t band) const { return ref_offset(band) - band_lead(band); }
     std::size_t query_offset(std::size_t band) const {
         return static_cast<std::size_t>(static_cast<std::int64_t>(first_ref_row(band)) + dy(band)) * full_.width;
@@ -121,7 +123,7 @@ private:
     std::vector<std::uint32_t> slot_rank_;  // band * n_columns + slot -> rank
     std::vector<float> slot_inverse_;       // band * n_columns + slot -> 1 / overlap
     bool small_sums_ = false;               // every band sum fits an int32
-    std::size_t align_ = 1;                 // align_bands()
+    std::vector<std::size_t> leads_;        // align_bands(): per band, or empty
     std::uint32_t lead_sum(const std::uint8_t* ref, std::size_t band) const;
     static constexpr std::size_t kNarrowMaxRows = 8;
     template <std::size_t NV>
