@@ -94,13 +94,24 @@ Bytes random_bytes(std::mt19937& rng, std::size_t n, int hi) {
     return b;
 }
 
+// References at `ref_offset` bytes past a 64-byte boundary (the kernels align the bands of a
+// forward window to the references' real address, or stage them), `n_queries` queries.
 void check_case(std::mt19937& rng, int h, int w, const std::vector<std::int32_t>& shifts,
-                const nightloc::ShiftWindow& window, int hi, const char* path) {
-    const std::size_t px = static_cast<std::size_t>(h * w), n_refs = 11, n_queries = 3;
+                const nightloc::ShiftWindow& window, int hi, const char* path, std::size_t ref_offset = 0,
+                std::size_t n_queries = 3) {
+    const std::size_t px = static_cast<std::size_t>(h * w), n_refs = 11;
     const Bytes queries = random_bytes(rng, n_queries * px, hi);
-    Bytes refs = random_bytes(rng, n_refs * px, hi);
-    std::copy(refs.begin(), refs.begin() + static_cast<std::ptrdiff_t>(px),
-              refs.end() - static_cast<std::ptrdiff_t>(px));
+    Bytes ref_bytes = random_bytes(rng, n_refs * px, hi);
+    std::copy(ref_bytes.begin(), ref_bytes.begin() + static_cast<std::ptrdiff_t>(px),
+              ref_bytes.end() - static_cast<std::ptrdiff_t>(px));
+    Bytes storage(n_refs * px + 128);
+    const auto address = reinterpret_cast<std::uintptr_t>(storage.data());
+    std::uint8_t* const refs_at = storage.data() + (64 - address % 64) % 64 + ref_offset;
+    std::copy(ref_bytes.begin(), ref_bytes.end(), refs_at);
+    struct {
+        const std::uint8_t* p;
+        const std::uint8_t* data() const { return p; }
+    } const refs{refs_at};
     const std::size_t hh = static_cast<std::size_t>(h), ww = static_cast<std::size_t>(w);
     const std::vector<int> values = column_values(shifts, window);
 
@@ -223,6 +234,12 @@ int main() {
         check_case(rng, 3, 7, {0}, {6, 2}, 255, name);
         check_case(rng, 9, 40, {0}, {9, 1}, 3, name);
         check_case(rng, 4, 200, all_shifts(200), {0, 1}, 255, name);
+        for (std::size_t offset : {8, 16, 32, 48}) {  // misaligned references: few and many queries
+            check_case(rng, 24, 48, {0}, {8, 1}, 255, name, offset);
+            check_case(rng, 24, 48, {0}, {8, 3}, 255, name, offset, 7);
+            check_case(rng, 6, 16, {0}, {5, 3}, 1, name, offset, 1);
+            check_case(rng, 9, 40, {0}, {9, 2}, 3, name, offset, 5);
+        }
     }
     nightloc::reset_simd_backend();
     check_errors();
