@@ -158,11 +158,11 @@ def shift_list(shifts: ShiftSpec, width: int) -> np.ndarray:
         raise ValueError(f"shifts must be a non-empty 1-D sequence of column shifts, got shape {array.shape}")
     if array.dtype.kind not in "iu":
         raise TypeError(f"shifts must be integers, got dtype {array.dtype}")
-    if array.min() < 0 or array.max() >= width:
-        raise ValueError(
-            f"shifts must lie in [0, {width}) for images {width} pixels wide, got {array.min()}..{array.max()}"
-        )
-    if np.unique(array).size != array.size:
+    values = array.tolist()  # Python ints: cheaper than numpy reductions for the usual short lists
+    low, high = min(values), max(values)
+    if low < 0 or high >= width:
+        raise ValueError(f"shifts must lie in [0, {width}) for images {width} pixels wide, got {low}..{high}")
+    if len(set(values)) != len(values):
         raise ValueError("shifts must not repeat a value")
     return np.ascontiguousarray(array, dtype=np.int32)
 
