@@ -3,7 +3,8 @@
     nightloc evaluate REFERENCE QUERY --out OUT [--method paper,filter] [--seq-lengths 1-10]
                       [--noise-models 0,1,2,3] [--interpolation on,off] [--repeats 1] [--seed 0]
                       [--odometry map|robot|log] [--odometry-noise 1|DIST,HEADING]
-                      [--params FILE.toml] [--shift-window COLUMNS,ROWS] [--heatmap-frames 12,30] [--no-figures] [--figure-format png|pdf|svg]
+                      [--params FILE.toml] [--shift-window COLUMNS,ROWS] [--heatmap-frames 12,30] [--no-figures]
+                      [--figure-format png|pdf|svg]
 
 REFERENCE is a traverse folder with poses (``images/`` + ``poses.csv``) or a map file written
 by ``nightloc build-map``; QUERY is a traverse folder with poses (the ground truth). Writes the

@@ -2,8 +2,8 @@
 
     nightloc localize MAP_OR_REFERENCE LOG --out OUT [--format csv|tum|csv,tum] [--odometry FILE|none]
                       [--odometry-noise 1|DIST,HEADING] [--params FILE.toml] [--camera panoramic|forward]
-                      [--shift-window COLUMNS,ROWS] [--image-topic T] [--odometry-topic T] [--pose-topic T] [--sync-tolerance S]
-                      [--threads N] [--no-figures]
+                      [--shift-window COLUMNS,ROWS] [--image-topic T] [--odometry-topic T] [--pose-topic T]
+                      [--sync-tolerance S] [--threads N] [--no-figures]
 
 MAP_OR_REFERENCE is a map file written by ``nightloc build-map`` or a reference traverse (a folder
 with poses, or a bag with a pose topic). LOG is a traverse folder (``images/``, no poses needed),
