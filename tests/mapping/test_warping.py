@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import nightloc
+import warp_oracle
 from nightloc.mapping.visual import relative_heading
 from nightloc.mapping.warping import PanoramaWarper, WarpParams
 from nightloc.synth import SynthScene
@@ -25,7 +26,7 @@ def test_direction_tables_follow_the_triangle():
     magnified by the sine rule's ratio (to the scales' spacing)."""
     params = WarpParams()
     warper = PanoramaWarper(np.zeros((1, 24, 48), np.uint8), params)
-    alphas, level, sign = warper._tables
+    alphas, level, sign = warper.directions, warper.level, warper.sign
     step = 2 * math.pi / 48
     log_spacing = math.log(warper.scales[1] / warper.scales[0])
     checked = 0
@@ -34,7 +35,7 @@ def test_direction_tables_follow_the_triangle():
             theta = float(np.remainder(-step * c - alphas[g] + math.pi, 2 * math.pi) - math.pi)
             off = abs(theta)
             assert sign[g, c] == (1 if theta >= 0 else -1)
-            if level[g, c, 0] == -2:  # on the axis
+            if level[g, c, 0] == len(warper.scales):  # on the axis: any scale, no move
                 assert min(off, math.pi - off) < math.radians(params.axis_degrees) + 1e-9
                 continue
             for m in np.flatnonzero(level[g, c] >= 0):
@@ -111,3 +112,44 @@ def test_bad_input():
         WarpParams(elevation_top=-10.0, elevation_bottom=10.0)
     with pytest.raises(ValueError, match="max_parallax"):
         WarpParams(max_parallax=0.0)
+
+
+def test_core_costs_match_the_numpy_oracle(living_room_day):
+    """The compiled costs are the numpy oracle's bit for bit (real frames, the default tables,
+    windows wrapping round both ends, every direction and shift for one pair), on 1 and 2
+    threads."""
+    images = nightloc.Preparer().prepare(living_room_day)[:8]
+    warper = PanoramaWarper(images, threads=1)
+    tables = (warper.images, warper.stacks, warper.row_begin, warper.row_end, warper.level, warper.sign)
+    pairs = np.array([[0, 5], [3, 1], [7, 7], [2, 6]])
+    grid = len(warper.directions)
+    for first_direction, n_directions, first_shift, n_shifts in (
+        (np.array([0, 90, 40, 95]), 17, np.array([44, 0, 3, 20]), 9),
+        (np.zeros(4), grid, np.zeros(4), 48),
+    ):
+        expected = warp_oracle.warp_costs(*tables, pairs, first_direction, n_directions, first_shift, n_shifts)
+        for threads in (1, 2):
+            warper.threads = threads
+            got = warper.costs(pairs, first_direction, n_directions, first_shift, n_shifts)
+            assert got.dtype == np.float64 and got.shape == expected.shape
+            np.testing.assert_array_equal(got, expected)
+
+
+def test_core_costs_bad_input():
+    images = np.zeros((3, 24, 48), np.uint8)
+    warper = PanoramaWarper(images)
+    with pytest.raises(ValueError, match="frame index 3"):
+        warper.costs(np.array([[0, 3]]), np.zeros(1), 1, np.zeros(1), 1)
+    with pytest.raises(ValueError, match="n_directions"):
+        warper.costs(np.array([[0, 1]]), np.zeros(1), 0, np.zeros(1), 1)
+    args = [warper.images, warper.stacks, warper.row_begin, warper.row_end, warper.level, warper.sign]
+    bad_level = warper.level.copy()
+    bad_level[0, 0, 0] = 99
+    with pytest.raises(ValueError, match="level 99"):
+        nightloc._core.warp_costs(*args[:4], bad_level, args[5], np.zeros((1, 2), np.int32), np.zeros(1, np.int32), 1,
+                                  np.zeros(1, np.int32), 1)  # fmt: skip
+    with pytest.raises(ValueError, match="stacks must have shape"):
+        nightloc._core.warp_costs(args[0], args[1][:2], *args[2:], np.zeros((1, 2), np.int32), np.zeros(1, np.int32), 1,
+                                  np.zeros(1, np.int32), 1)  # fmt: skip
+    with pytest.raises(TypeError, match="int32"):
+        nightloc._core.warp_costs(*args, np.zeros((1, 2), np.int64), np.zeros(1, np.int32), 1, np.zeros(1, np.int32), 1)

@@ -78,12 +78,12 @@ class TeachParams:
     unwrap_stage: float = 10.0
     sequence_window: int = 3
     max_distance: float = 1.5
-    place_candidates: int = 6
+    place_candidates: int = 10
     strong_score: float = 10.0
     gate_sigmas: float = 3.0
-    heading_method: Literal["warp", "axis"] = "axis"
+    heading_method: Literal["warp", "axis"] = "warp"
     heading_std: float = 0.005
-    heading_std_per_metre: float = 0.05
+    heading_std_per_metre: float = 0.03
     unsure_heading: float = 0.15
     axis_half_width: float = math.radians(30.0)
     direction_range: float = math.radians(30.0)
