@@ -157,7 +157,7 @@ def test_search_seqslam(benchmark, threads):
 
 MOTIONS = {
     "window": (route.RouteParams(filter_motion="window"), False),
-    "speed": (route.RouteParams(), False),
+    "speed": (route.RouteParams(filter_motion="speed"), False),
     "odometry": (route.RouteParams(), True),
 }
 
@@ -197,7 +197,7 @@ def test_filter_motion_oracle(benchmark, motion):
     """The numpy oracle of the speed and odometry models (tests/route_oracle.py), 150 x 150."""
     matrix, steps, distances = _small_route()
     benchmark.group = f"route filter {motion} model, 150 x 150"
-    params = route.RouteParams()
+    params = route.RouteParams(filter_motion="speed")
     extra = (steps, distances) if motion == "odometry" else (None, None)
     benchmark.pedantic(ro.route_filter_planes, args=(matrix, params, None, *extra), rounds=1)
 
@@ -207,6 +207,6 @@ def test_filter_motion_core(benchmark, motion):
     """The core's speed and odometry models, 150 x 150, one thread."""
     matrix, steps, distances = _small_route()
     benchmark.group = f"route filter {motion} model, 150 x 150"
-    params = route.RouteParams()
+    params = route.RouteParams(filter_motion="speed")
     kwargs = {"advances": steps, "reference_distances": distances} if motion == "odometry" else {}
     benchmark.pedantic(route.route_filter, args=(matrix, params, None, 1), kwargs=kwargs, rounds=5)

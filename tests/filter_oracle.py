@@ -90,7 +90,23 @@ class OracleFilter:
             confidence_radius, estimate_window).
     """
 
-    def __init__(self, weights, height, width, x0, y0, dx, dy, place_of_ref, ref_headings, columns, shifts, settings):
+    def __init__(
+        self,
+        weights,
+        height,
+        width,
+        x0,
+        y0,
+        dx,
+        dy,
+        place_of_ref,
+        ref_headings,
+        columns,
+        shifts,
+        settings,
+        field_of_view=0.0,
+        window_columns=0,
+    ):
         self.w = weights.tocsr()
         self.h, self.wd = height, width
         self.x0, self.y0, self.dx, self.dy = x0, y0, dx, dy
@@ -101,7 +117,11 @@ class OracleFilter:
         self.shifts = np.asarray(shifts)
         self.s = dict(settings)
         full = len(self.shifts) == columns and np.array_equal(self.shifts, np.arange(columns))
-        self.can_pose = self.s["heading_bins"] > 1 and self.headings is not None and full
+        # a forward camera: the table's columns are the column offsets -c .. c of a window
+        self.fov, self.c = field_of_view, window_columns
+        self.candidates = np.arange(-self.c, self.c + 1) if self.c else self.shifts
+        forward = self.c > 0 and self.fov > 0
+        self.can_pose = self.s["heading_bins"] > 1 and self.headings is not None and (full or forward)
         self.bins = self.s["heading_bins"] if self.can_pose else 1
         self.outside = np.diff(self.w.indptr) == 0
         self.reset()
@@ -218,7 +238,7 @@ class OracleFilter:
         n, _n_shifts = t.shape
         best = np.argmin(t, axis=1)
         self.mins = t[np.arange(n), best]
-        self.best_shifts = self.shifts[best]
+        self.best_shifts = self.candidates[best]
         s_min = self.mins.min()
         spread = float(np.median(self.mins)) - s_min
         settle = self.s.get("settle_frames", 0)
@@ -227,7 +247,24 @@ class OracleFilter:
         lam = temper * self.s["likelihood_gain"] / spread if spread > 0 else 0.0
         bins = self.bins if self.pose else 1
         place_scores = np.full((bins, self.places), np.inf)
-        if self.pose:  # every reference and bin at once: the score at the bin's fractional shift
+        if self.pose and self.c:  # a forward camera: each reference in the bins that see it
+            theta = self.offset + TWO_PI / self.bins * np.arange(bins)
+            delta = np.angle(np.exp(1j * (theta[None, :] - self.headings[:, None])))  # (n, bins) in (-pi, pi]
+            x = delta * self.columns / self.fov + self.c  # the column offset's index
+            seen = np.abs(x - self.c) <= self.c
+            j0 = np.minimum(np.floor(np.where(seen, x, 0)).astype(np.int64), 2 * self.c)
+            j1 = np.minimum(j0 + 1, 2 * self.c)
+            a = np.where(seen, x, 0) - j0
+            rows = np.arange(n)[:, None]
+            v = np.where(seen, (1 - a) * t[rows, j0] + a * t[rows, j1], np.inf)
+            # a bin spans its step: the best of the columns within half a step of its centre too
+            half = 0.5 * TWO_PI / self.bins * self.columns / self.fov
+            for j in range(2 * self.c + 1):
+                spanned = seen & (np.abs(j - x) <= half + 1e-12)
+                v = np.where(spanned, np.minimum(v, t[:, j][:, None]), v)
+            np.minimum.at(place_scores.T, self.place_of_ref, v)
+            place_scores[np.isinf(place_scores)] = float(np.median(self.mins))  # none in view: no evidence
+        elif self.pose:  # every reference and bin at once: the score at the bin's fractional shift
             c = (self.offset - self.headings) * self.columns / TWO_PI  # (n,)
             k = self.columns / self.bins * np.arange(bins)[None, :] + c[:, None]  # (n, bins)
             kf = np.floor(k)

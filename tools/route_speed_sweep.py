@@ -61,7 +61,8 @@ def enhanced_pair(refs: np.ndarray, queries: np.ndarray, params: route.RoutePara
 
 def real_pair(data: Path, reference: str, query: str, params: route.RouteParams, cache: Path | None):
     """The enhanced matrix and weights of a frame-aligned real pair (cached by shape and preparation)."""
-    key = f"{reference}-{query}-{params.shift_window[0]}x{params.shift_window[1]}".replace("/", "_")
+    columns, rows = params.effective_shift_window
+    key = f"{reference}-{query}-{columns}x{rows}".replace("/", "_")
     stored = cache / f"{key}.npz" if cache is not None else None
     if stored is not None and stored.exists():
         with np.load(stored) as saved:

@@ -208,8 +208,10 @@ py::array_t<float, py::array::c_style> checked_table(const py::array& a, std::si
 class GridFilterPy {
 public:
     GridFilterPy(Weights weights, double x0, double y0, double dx, double dy, const py::array& place_of_ref,
-                 const py::object& ref_headings, std::size_t columns, const py::array& shifts, const py::dict& settings)
-        : filter_(make_map(std::move(weights), x0, y0, dx, dy, place_of_ref, ref_headings, columns, shifts),
+                 const py::object& ref_headings, std::size_t columns, const py::array& shifts, const py::dict& settings,
+                 double field_of_view, std::size_t window_columns, std::size_t window_rows)
+        : filter_(make_map(std::move(weights), x0, y0, dx, dy, place_of_ref, ref_headings, columns, shifts,
+                           field_of_view, window_columns, window_rows),
                   make_settings(settings)) {}
 
     void reset() { filter_.reset(); }
@@ -335,7 +337,8 @@ public:
 private:
     static nightloc::GridFilterMap make_map(Weights weights, double x0, double y0, double dx, double dy,
                                             const py::array& place_of_ref, const py::object& ref_headings,
-                                            std::size_t columns, const py::array& shifts) {
+                                            std::size_t columns, const py::array& shifts, double field_of_view,
+                                            std::size_t window_columns, std::size_t window_rows) {
         nightloc::GridFilterMap map;
         map.weights = std::move(weights);
         map.x0 = x0;
@@ -347,6 +350,8 @@ private:
             map.ref_headings = vector_of<double>(ref_headings.cast<py::array>(), "ref_headings");
         map.columns = columns;
         map.shifts = vector_of<std::int32_t>(shifts, "shifts");
+        map.field_of_view = field_of_view;
+        map.window = {window_columns, window_rows};
         return map;
     }
 
@@ -436,9 +441,10 @@ void register_localization(py::module_& m) {
     py::class_<GridFilterPy>(m, "GridFilter",
                              "The grid Bayes filter over position x heading (nightloc/grid_filter.hpp).")
         .def(py::init<Weights, double, double, double, double, const py::array&, const py::object&, std::size_t,
-                      const py::array&, const py::dict&>(),
+                      const py::array&, const py::dict&, double, std::size_t, std::size_t>(),
              py::arg("weights"), py::arg("x0"), py::arg("y0"), py::arg("dx"), py::arg("dy"), py::arg("place_of_ref"),
-             py::arg("ref_headings"), py::arg("columns"), py::arg("shifts"), py::arg("settings"))
+             py::arg("ref_headings"), py::arg("columns"), py::arg("shifts"), py::arg("settings"),
+             py::arg("field_of_view") = 0.0, py::arg("window_columns") = 0, py::arg("window_rows") = 0)
         .def("reset", &GridFilterPy::reset)
         .def(
             "__copy__", [](const GridFilterPy& f) { return GridFilterPy(f); },
@@ -460,6 +466,7 @@ void register_localization(py::module_& m) {
         .def_property_readonly("offset", [](const GridFilterPy& f) { return f.core().offset(); })
         .def_property_readonly("lambda_", [](const GridFilterPy& f) { return f.core().lambda(); })
         .def_property_readonly("frames", [](const GridFilterPy& f) { return f.core().frames(); })
+        .def_property_readonly("forward", [](const GridFilterPy& f) { return f.core().forward(); })
         .def_property_readonly("sparse_blocks", [](const GridFilterPy& f) { return f.core().sparse_blocks(); })
         .def_property_readonly("memory_bytes", [](const GridFilterPy& f) { return f.core().memory_bytes(); });
 

@@ -125,7 +125,22 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
             "grid filter: negligible must be in [0, 1)");
     require(s.settle_frames <= 1000, "grid filter: settle_frames must be 0..1000");
 
-    can_pose_ = s.heading_bins > 1 && !map_.ref_headings.empty() && full;
+    const ShiftWindow& window = map_.window;
+    require(window.columns < map_.columns && window.rows <= 1000,
+            "grid filter: the window must hold fewer columns than the image and at most 1000 rows");
+    if (window.columns > 0) {
+        require(map_.shifts.size() == 1 && map_.shifts[0] == 0,
+                "grid filter: a column window is a forward camera's: its shift list must be {0}");
+        require(std::isfinite(map_.field_of_view) && map_.field_of_view >= 0 && map_.field_of_view <= kTwoPi,
+                "grid filter: field_of_view must be in [0, 2 pi] radians");
+        for (auto dx = -static_cast<std::int32_t>(window.columns); dx <= static_cast<std::int32_t>(window.columns);
+             ++dx)
+            candidates_.push_back(dx);
+    } else {
+        candidates_ = map_.shifts;
+    }
+    const bool forward_pose = window.columns > 0 && map_.field_of_view > 0;
+    can_pose_ = s.heading_bins > 1 && !map_.ref_headings.empty() && (full || forward_pose);
     bins_ = can_pose_ ? s.heading_bins : 1;
     require(bins_ <= (std::size_t{1} << 28) / cells_, "grid filter: heading bins x cells is too large");
 
@@ -560,6 +575,12 @@ void GridFilter::update_image(const std::uint8_t* query, const std::uint8_t* ref
                                        " images but the map has " + std::to_string(n_refs()));
     // the sums into a buffer kept between frames (no 4 bytes per entry allocated, zeroed and
     // faulted in per frame), then rotational_sad's scores: float(double(sum) / pixels)
+    if (map_.window.columns > 0 || map_.window.rows > 0) {  // the translation window: means over the overlap
+        rotational_sad(query, refs, n_refs_in, image_height, map_.columns, map_.shifts.data(), map_.shifts.size(),
+                       map_.window, table_.data(), nullptr, threads);
+        update(table_.data());
+        return;
+    }
     sums_table_.resize(table_.size());
     rotational_sad_sums(query, refs, n_refs_in, image_height, map_.columns, map_.shifts.data(), map_.shifts.size(),
                         sums_table_.data(), threads);
@@ -589,7 +610,7 @@ void GridFilter::update(const float* table) {
         }
     }
     if (table != table_.data()) std::copy(table, table + n * S, table_.begin());
-    for (std::size_t i = 0; i < n; ++i) best_shifts_[i] = map_.shifts[static_cast<std::size_t>(best_shifts_[i])];
+    for (std::size_t i = 0; i < n; ++i) best_shifts_[i] = candidates_[static_cast<std::size_t>(best_shifts_[i])];
     // the median by selection (the two middle values for an even count), not a full sort
     sorted_.assign(mins_.begin(), mins_.end());
     const auto middle = sorted_.begin() + static_cast<std::ptrdiff_t>(n / 2);
@@ -633,7 +654,7 @@ void GridFilter::update(const float* table) {
                 fill[b];
         }
     };
-    if (pose_ && bins_ == map_.columns) {  // bin b is column shift c0 + b: one fraction per reference
+    if (pose_ && !forward() && bins_ == map_.columns) {  // bin b is shift c0 + b: one fraction per reference
         const auto W = static_cast<double>(map_.columns);
         for (std::size_t i = 0; i < n; ++i) {
             ref_c0_[i] = static_cast<std::int32_t>(shift_of_bin0(i, W));
@@ -652,7 +673,39 @@ void GridFilter::update(const float* table) {
         // per place and bin the lowest score of its references; place p's bins at p * B (made
         // here only: the common case above needs none)
         place_scores_.assign(B * places_, inf);
-        if (pose_) {
+        if (pose_ && forward()) {
+            // a forward camera: each reference only in the bins whose heading sees it within the
+            // window (column offset dx = wrap(theta_b - heading_i) columns / field_of_view)
+            // window (column offset dx = wrap(theta_b - heading_i) columns / field_of_view); a bin
+            // spans step radians, half_span columns each side of its centre: its score is the best
+            // of the columns it spans (and of the interpolated centre)
+            const double per_radian = static_cast<double>(map_.columns) / map_.field_of_view;
+            const auto c = static_cast<double>(map_.window.columns);
+            const double step = kTwoPi / static_cast<double>(bins_);
+            const double half_span = 0.5 * step * per_radian;
+            const std::size_t last = 2 * map_.window.columns;
+            for (std::size_t i = 0; i < n; ++i) {
+                const float* row = table + i * S;
+                float* ps = place_scores_.data() + static_cast<std::size_t>(row_of_ref_[i]) * B;
+                for (std::size_t b = 0; b < bins_; ++b) {
+                    const double dx = wrap(offset_ + step * static_cast<double>(b) - map_.ref_headings[i]) * per_radian;
+                    if (!(std::fabs(dx) <= c)) continue;  // not in view from this heading
+                    const double x = dx + c;              // in [0, 2 c]
+                    const auto j0 = std::min(static_cast<std::size_t>(x), last);
+                    const std::size_t j1 = std::min(j0 + 1, last);
+                    const double a = x - static_cast<double>(j0);
+                    auto v = static_cast<float>((1.0 - a) * row[j0] + a * row[j1]);
+                    const double lo = std::max(std::ceil(x - half_span), 0.0);
+                    const double hi = std::min(std::floor(x + half_span), static_cast<double>(last));
+                    for (auto j = static_cast<std::size_t>(lo); static_cast<double>(j) <= hi; ++j)
+                        v = std::min(v, row[j]);
+                    ps[b] = std::min(ps[b], v);
+                }
+            }
+            // a place none of whose references is in view: the frame's median (no evidence)
+            for (float& v : place_scores_)
+                if (v == inf) v = static_cast<float>(median);
+        } else if (pose_) {
             const auto W = static_cast<double>(map_.columns);
             const auto columns = static_cast<std::int32_t>(map_.columns);
             const double per_bin = W / static_cast<double>(bins_);

@@ -165,6 +165,9 @@ void validate(const RouteFilterParams& p) {
                 " speed planes; widen speed_step");
     require(std::isfinite(p.speed_jitter) && p.speed_jitter >= 0.0 && p.speed_jitter <= 1000.0,
             "speed_jitter must be in [0, 1000] references per frame, got " + std::to_string(p.speed_jitter));
+    require(p.speed_jitter * static_cast<double>(p.speed_cells) <= 2000.0,
+            "speed_jitter x speed_cells must be at most 2000 cells (each plane's kernel spans twice that), got " +
+                std::to_string(p.speed_jitter * static_cast<double>(p.speed_cells)));
     require(std::isfinite(p.speed_change) && p.speed_change >= 0.0 && p.speed_change <= 50.0 * p.speed_step,
             "speed_change must be in [0, 50 * speed_step] references per frame, got " + std::to_string(p.speed_change));
     require(p.speed_tau > 0.0,
@@ -346,6 +349,13 @@ RouteFilter::RouteFilter(std::size_t n_refs, const RouteFilterParams& params, co
         cells_ = params.odometry_cells;
         reference_distance_.assign(reference_distances, reference_distances + n_refs);
         spacing_ = length / static_cast<double>(n_refs - 1);
+        // 1 / the gap after each reference (a gap of 0 is never divided by: the target interval
+        // always ends above the target distance).
+        inverse_gap_.assign(n_refs, 0.0);
+        for (std::size_t r = 0; r + 1 < n_refs; ++r) {
+            const double gap = reference_distance_[r + 1] - reference_distance_[r];
+            if (gap > 0.0) inverse_gap_[r] = 1.0 / gap;
+        }
         plane_prior_.assign(1, 1.0);
     } else if (params.motion == RouteMotion::kSpeed) {
         chain_ = speed_chain(params);
@@ -631,7 +641,7 @@ double RouteFilter::move_planes() {
     // plane on the threads (each plane's sum in a fixed order, the planes' in plane order).
     const std::size_t m = n_refs_ * cells_;
     plane_mass_.resize(planes_);
-    detail::parallel_for(planes_, threads_, [&](std::size_t s) {
+    detail::parallel_for(planes_, plane_threads(), [&](std::size_t s) {
         const double* b = belief_.data() + s * m;
         double* p = scratch_.data() + s * m;
         std::fill(p, p + m, 0.0);
@@ -672,7 +682,7 @@ double RouteFilter::move_odometry(double advance, double* speed) {
                 u = (goal - d[0]) / spacing_;
             } else {
                 while (r + 1 < n && d[r + 1] <= goal) ++r;
-                u = r + 1 < n ? static_cast<double>(r) + (goal - d[r]) / (d[r + 1] - d[r])
+                u = r + 1 < n ? static_cast<double>(r) + (goal - d[r]) * inverse_gap_[r]
                               : static_cast<double>(n - 1) + (goal - d[n - 1]) / spacing_;
             }
             const double from = (static_cast<double>(c) + 0.5) / k - 0.5;
@@ -689,13 +699,14 @@ double RouteFilter::move_odometry(double advance, double* speed) {
     *speed = mass > 0.0 ? travelled / mass : 0.0;
     const std::vector<double> taps = odometry_spread(advance, spacing_, params_);
     if (taps.size() == 1) return sum_of(target, m);
-    // Spread: out[c] = sum_i taps[i] * target[c - (i - h)], into the chain scratch, copied back.
+    // Spread: out[c] = sum_i taps[i] * target[c - (i - h)], into the chain scratch, which then
+    // becomes the prediction.
     double* p = chain_scratch_.data();
     std::fill(p, p + m, 0.0);
     const auto half = static_cast<std::int64_t>(taps.size() / 2);
     for (std::size_t i = 0; i < taps.size(); ++i) shift_add(target, p, m, static_cast<std::int64_t>(i) - half, taps[i]);
-    std::copy(p, p + m, target);
-    return sum_of(target, m);
+    scratch_.swap(chain_scratch_);
+    return sum_of(scratch_.data(), m);
 }
 
 void RouteFilter::mix_planes() {
@@ -706,7 +717,7 @@ void RouteFilter::mix_planes() {
     for (std::size_t pass = 0; pass < chain_.passes; ++pass) {
         const double* p = scratch_.data();
         double* q = chain_scratch_.data();
-        detail::parallel_for(planes, threads_, [&](std::size_t s) {
+        detail::parallel_for(planes, plane_threads(), [&](std::size_t s) {
             const double keep = 1.0 - chain_.up[s] - chain_.down[s];
             const double* here = p + s * m;
             double* out = q + s * m;
@@ -719,6 +730,11 @@ void RouteFilter::mix_planes() {
         });
         scratch_.swap(chain_scratch_);
     }
+}
+
+int RouteFilter::plane_threads() const noexcept {
+    // A plane is worth a thread from about 64k cells on (below, waking the threads costs more).
+    return n_refs_ * cells_ >= 65536 ? threads_ : 1;
 }
 
 double RouteFilter::novelty(double advance) const noexcept {
@@ -751,21 +767,23 @@ RouteFilterStep RouteFilter::update_planes(const double* likelihood, double like
         (off_ * (1.0 - params_.rejoin) + on * params_.leave) * (likelihood_sum / static_cast<double>(n_refs_));
 
     // 2. Update: posterior = prediction x likelihood (the same for every cell and plane of a
-    // reference), plane by plane on the threads, each plane's sum in a fixed order.
+    // reference), plane by plane (on the threads when the planes are large), each plane's sum in
+    // a fixed order.
     plane_mass_.resize(planes_);
     const std::size_t cells = cells_;
-    detail::parallel_for(planes_, threads_, [&](std::size_t s) {
+    const double* cell_likelihood = likelihood;
+    if (cells > 1) {
+        cell_likelihood_.resize(m);
+        for (std::size_t r = 0; r < n_refs_; ++r)
+            for (std::size_t k = 0; k < cells; ++k) cell_likelihood_[r * cells + k] = likelihood[r];
+        cell_likelihood = cell_likelihood_.data();
+    }
+    const int threads = plane_threads();
+    detail::parallel_for(planes_, threads, [&](std::size_t s) {
         const double offset = spread * plane_prior_[s];
         const double* p = scratch_.data() + s * m;
         double* b = belief_.data() + s * m;
-        if (cells == 1) {
-            for (std::size_t c = 0; c < m; ++c) b[c] = (scale * p[c] + offset) * likelihood[c];
-        } else {
-            for (std::size_t r = 0; r < n_refs_; ++r) {
-                const double l = likelihood[r];
-                for (std::size_t k = 0; k < cells; ++k) b[r * cells + k] = (scale * p[r * cells + k] + offset) * l;
-            }
-        }
+        for (std::size_t c = 0; c < m; ++c) b[c] = (scale * p[c] + offset) * cell_likelihood[c];
         plane_mass_[s] = sum_of(b, m);
     });
     double total = off;
@@ -774,27 +792,27 @@ RouteFilterStep RouteFilter::update_planes(const double* likelihood, double like
         reset();  // cannot happen with floor > 0; with floor = 0 every place may be ruled out
         return answer(marginal_.data(), std::numeric_limits<double>::quiet_NaN());
     }
-    // 3. Normalize and sum over planes and cells per reference, in blocks of references on the
-    // threads (each reference's sum: planes in order, cells in order).
+    // 3. Normalize, then sum over the planes (in plane order) per cell and over each reference's
+    // cells (in cell order).
     const double inverse = 1.0 / total;
     off_ = off * inverse;
-    const std::size_t blocks = std::min<std::size_t>(n_refs_, 64);
-    detail::parallel_for(blocks, threads_, [&](std::size_t block) {
-        const std::size_t lo = n_refs_ * block / blocks;
-        const std::size_t hi = n_refs_ * (block + 1) / blocks;
-        for (std::size_t r = lo; r < hi; ++r) marginal_[r] = 0.0;
-        for (std::size_t s = 0; s < planes_; ++s) {
-            double* b = belief_.data() + s * m;
-            for (std::size_t r = lo; r < hi; ++r) {
-                double sum = 0.0;
-                for (std::size_t k = 0; k < cells; ++k) {
-                    b[r * cells + k] *= inverse;
-                    sum += b[r * cells + k];
-                }
-                marginal_[r] += sum;
-            }
-        }
+    detail::parallel_for(planes_, threads, [&](std::size_t s) {
+        double* b = belief_.data() + s * m;
+        for (std::size_t c = 0; c < m; ++c) b[c] *= inverse;
     });
+    double* cell_sum = cells > 1 ? cell_likelihood_.data() : marginal_.data();  // the cells' likelihood is spent
+    std::copy(belief_.data(), belief_.data() + m, cell_sum);
+    for (std::size_t s = 1; s < planes_; ++s) {
+        const double* b = belief_.data() + s * m;
+        for (std::size_t c = 0; c < m; ++c) cell_sum[c] += b[c];
+    }
+    if (cells > 1) {
+        for (std::size_t r = 0; r < n_refs_; ++r) {
+            double sum = cell_sum[r * cells];
+            for (std::size_t k = 1; k < cells; ++k) sum += cell_sum[r * cells + k];
+            marginal_[r] = sum;
+        }
+    }
     if (!odometry_) {
         // The posterior's mean speed.
         double weighted = 0.0;

@@ -237,6 +237,15 @@ void test_paths_identical() {
     GridFilterSettings other_bins = settings;  // bins other than the columns: a shift per bin
     other_bins.heading_bins = 12;
     check_paths_identical("12 bins over 16 columns", many, other_bins, false);
+    // a forward camera: its table's columns are the offsets -4 .. 4 of a column window, its
+    // heading bins see the references in view
+    SmallMap forward = small_map(23, 37, 30, true, 6);
+    forward.map.shifts = {0};
+    forward.map.window = {4, 0};
+    forward.map.field_of_view = kTwoPi / 6;
+    const GridFilter probe_forward(forward.map, settings);
+    CHECK(probe_forward.can_pose() && probe_forward.forward() && probe_forward.n_shifts() == 9);
+    check_paths_identical("a forward camera", forward, settings, false);
 }
 
 void test_integer_motion_moves_a_delta() {

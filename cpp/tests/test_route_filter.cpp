@@ -322,9 +322,10 @@ void test_speed_and_odometry_models() {
         advances.push_back(v);
     }
     const std::vector<float> matrix = route_rows(positions, n, 21, 2.5f);
-    nightloc::RouteFilterParams speed;
+    nightloc::RouteFilterParams speed;  // the speed model with a loose prior, for a speed that swings
     speed.motion = nightloc::RouteMotion::kSpeed;
-    speed.speed_cells = 2;
+    speed.speed_change = 0.1;
+    speed.speed_tau = 6.0;
     std::vector<double> distances(n);
     for (std::size_t r = 0; r < n; ++r) distances[r] = 0.5 * static_cast<double>(r);
     std::vector<double> metres(advances);
@@ -346,7 +347,7 @@ void test_speed_and_odometry_models() {
     std::printf("speed 0.5-1.5x: window model %zu, speed model %zu, odometry model %zu of %zu frames within 2\n",
                 window_ok, speed_ok, odometry_ok, positions.size() - 20);
     CHECK(odometry_ok == positions.size() - 20);
-    CHECK(speed_ok * 10 >= (positions.size() - 20) * 9 && speed_ok >= window_ok);
+    CHECK(speed_ok * 100 >= (positions.size() - 20) * 98 && speed_ok > window_ok);
     // Threads, steps one by one and every SIMD path this CPU has: the same bits.
     CHECK(run_filter(matrix, n, speed, nullptr, {}, 3) == by_speed);
     CHECK(run_filter(matrix, n, odometry, distances.data(), metres, 3) == by_odometry);

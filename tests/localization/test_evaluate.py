@@ -344,3 +344,19 @@ def test_log_odometry_without_a_log_is_a_clear_error(tmp_path):
     )
     with pytest.raises(nightloc.DatasetError, match=r"odometry\.csv"):
         evaluate(ref_map, bare, EvaluationSettings(odometry="log", methods=("filter",)))
+
+
+def test_the_filter_evaluates_a_forward_camera_map_with_its_column_window(tmp_path):
+    """A forward camera's map with headings: the filter's tables are its column-window tables
+    (match_traverse builds them as the filter will read them), and wheel odometry drives it."""
+    from nightloc.synth import Camera, make_dataset
+
+    folders = make_dataset("living_room", tmp_path / "fwd", camera=Camera(48, 24), view="forward", threads=1)
+    ref_map = nightloc.ReferenceMap.build(folders["day_reference"], params=nightloc.PreparationParams(wrap=False))
+    matches = match_traverse(ref_map, folders["night_query"], tables=True)
+    window = ref_map.params.width // 4  # the default column window: a quarter of the prepared width
+    assert matches.tables.shape == (32, len(ref_map), 2 * window + 1)
+    settings = EvaluationSettings(methods=("filter",), noise_models=(0,), odometry="robot", interpolation=(True,))
+    evaluation = evaluate(ref_map, matches, settings)
+    errors = evaluation.errors(method="filter")
+    assert errors.size == 32 and np.isfinite(errors).all() and np.median(errors) < 1.5

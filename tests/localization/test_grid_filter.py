@@ -5,6 +5,7 @@ the API's errors."""
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 
@@ -16,6 +17,7 @@ from filter_oracle import OracleFilter
 from nightloc.localization.grid_filter import FilterParams
 from nightloc.localization.localizer import Localizer
 from nightloc.localization.odometry import MapDisplacement, NoiseModel, RobotMotion, wrap_angle
+from nightloc.matching.sad import shift_table
 
 # Tolerances against the float64 oracle: the core keeps float32 beliefs and sums 50-tap kernels
 # in float, so beliefs agree to ~1e-6 of their maximum per step; over a few steps 1e-4 leaves room.
@@ -39,7 +41,7 @@ def _oracle(loc: Localizer) -> OracleFilter:
         place[members] = p
     return OracleFilter(
         m.weights, g.height, g.width, g.x0, g.y0, g.dx, g.dy, place, loc.ref_map.headings,
-        loc.ref_map.params.width, f.shifts, f.settings,
+        loc.ref_map.params.width, f.shifts, f.settings, f.field_of_view, f.window[0],
     )  # fmt: skip
 
 
@@ -465,14 +467,87 @@ def test_map_without_headings_is_position_only_and_refuses_wheel_odometry():
     loc.update_table(rng.uniform(15, 25, (6, 16)).astype(np.float32), (0.3, 0.0))
 
 
-def test_forward_camera_is_position_only_with_the_closest_reference_heading():
+def test_forward_camera_without_headings_is_position_only():
     rng = np.random.default_rng(15)
-    ref_map = _random_map(rng, n=6, shifts_all=False)
+    ref_map = _random_map(rng, n=6, headings=False, shifts_all=False)
     loc = Localizer(ref_map, grid_width=20, grid_height=20)
     table = rng.uniform(15, 25, (6, 1)).astype(np.float32)
     e = loc.update_table(table)
-    assert not loc._filter.can_pose
-    assert e.heading == pytest.approx(wrap_angle(ref_map.headings[e.ref_index]))
+    assert not loc._filter.can_pose and loc._filter.window == (0, 0)
+    assert math.isnan(e.heading)
+    with pytest.raises(ValueError, match="map-frame"):
+        loc.update_table(table, RobotMotion(0.3))
+
+
+@pytest.mark.sanitize
+@pytest.mark.parametrize("seed", [0, 1])
+def test_forward_camera_with_headings_equals_the_oracle(seed):
+    """A forward camera's map keeps its headings: heading bins whose likelihood uses the references
+    in view (column offsets within the window), driven by wheel odometry as a panorama's."""
+    rng = np.random.default_rng(30 + seed)
+    ref_map = _random_map(rng, n=14, shifts_all=False)
+    loc = Localizer(ref_map, odometry_noise=2, grid_width=30, grid_height=24, field_of_view=60.0)
+    f = loc._filter
+    assert f.can_pose and f.core.forward and f.window == (4, 0) and list(f.columns) == list(range(-4, 5))
+    oracle = _oracle(loc)
+    for k, motion in enumerate(MOTIONS):
+        table = rng.uniform(15, 25, (len(ref_map), 9)).astype(np.float32)
+        estimate = loc.update_table(table, motion if k else None)
+        if k:
+            _apply(oracle, motion)
+        oracle.update(table)
+        _check_against_oracle(loc, oracle, estimate)
+    # the frame's own table: the window search (means over the overlap)
+    query = rng.integers(0, 256, (8, 16), dtype=np.uint8)
+    want = shift_table(query, ref_map.images, [0], shift_window=(4, 0)).scores
+    np.testing.assert_array_equal(loc.score_table(query, prepared=True), want)
+    a, b = copy.copy(loc), copy.copy(loc)
+    ea, eb = a.update(query, RobotMotion(0.1), prepared=True), b.update_table(want, RobotMotion(0.1))
+    assert (ea.x, ea.y, ea.heading, ea.credible_radius) == (eb.x, eb.y, eb.heading, eb.credible_radius)
+
+
+def _forward_world(rng, step=1.0, nx=7, ny=5, columns=48, height=24):
+    """Places on a lattice, each seen by four references facing east, north, west and south: the
+    forward quarter of a random panorama turned to each heading (the recipe of issue 22: each
+    panorama cut to its forward 90 degrees, left to right); `view(p, heading)` the forward view of
+    the nearest place's panorama at any heading, with noise."""
+    xs, ys = np.meshgrid(np.arange(nx) * step, np.arange(ny) * step)
+    places = np.column_stack([xs.ravel(), ys.ravel()])
+    panoramas = nightloc.patch_normalize(rng.integers(0, 256, (len(places), height, 4 * columns), dtype=np.uint8))
+
+    def cut(panorama, heading):  # column 0 of a panorama looks along heading 0; columns turn right
+        turn = round(heading * 4 * columns / (2 * np.pi))
+        return np.roll(panorama, turn + columns // 2, axis=1)[:, :columns]
+
+    headings = np.repeat([[0.0, np.pi / 2, np.pi, -np.pi / 2]], len(places), axis=0).ravel()
+    positions = np.repeat(places, 4, axis=0)
+    images = np.stack([cut(panoramas[i // 4], h) for i, h in enumerate(headings)])
+    params = nightloc.PreparationParams(width=columns, height=height, wrap=False)
+    ref_map = nightloc.ReferenceMap(images, positions, headings, params=params)
+
+    def view(p, heading):
+        k = int(np.argmin(np.hypot(*(places - p).T)))
+        noisy = cut(panoramas[k], heading).astype(int) + rng.integers(-20, 21, (height, columns))
+        return np.clip(noisy, 0, 255).astype(np.uint8)
+
+    return ref_map, view
+
+
+def test_forward_camera_follows_a_robot_with_wheel_odometry():
+    rng = np.random.default_rng(31)
+    ref_map, view = _forward_world(rng)
+    loc = Localizer(ref_map, odometry_noise=1)
+    assert loc._filter.can_pose
+    pose = np.array([0.6, 0.8]), 0.3
+    errors, heading_errors = [], []
+    for k in range(16):
+        p, h = pose
+        e = loc.update(view(p, h), RobotMotion(0.35, 0.0, 0.12) if k else None, prepared=True)
+        errors.append(math.hypot(e.x - p[0], e.y - p[1]))
+        heading_errors.append(abs(wrap_angle(e.heading - h)))
+        pose = (p + 0.35 * np.array([math.cos(h), math.sin(h)]), h + 0.12)
+    assert np.median(errors[6:]) < 0.5
+    assert np.median(heading_errors[6:]) < math.radians(10)
 
 
 def test_map_frame_odometry_collapses_heading_and_wheel_odometry_restores_it():

@@ -188,17 +188,19 @@ def _correct(result, truth, skip: int = 20) -> float:
 
 def test_speed_model_stays_locked_when_the_speed_swings():
     # 0.5-1.5x the reference's speed, a full swing every 50 frames, on weak evidence (a quarter
-    # of each query frame is the place): the speed model follows it, the window model lags
-    # behind at both ends of the swing.
+    # of each query frame is the place): a speed model with a loose prior follows it (every
+    # frame), the window model lags behind at both ends of the swing; the default prior, tuned
+    # not to lose precision on constant-speed pairs, sits in between (docs/route_mode.md).
     speeds = 1.0 + 0.5 * np.sin(2 * np.pi * np.arange(300) / 50)
     refs, queries, truth = ro.synthetic_route_at(330, _positions(speeds), seed=3, likeness=0.25)
+    loose = dataclasses.replace(SPEED, filter_speed_change=0.1, filter_speed_tau=6.0, shift_window=(0, 0))
     window = route.match_prepared(refs, queries, route.RouteParams(filter_motion="window", shift_window=(0, 0)))
-    speed = route.match_prepared(refs, queries, dataclasses.replace(SPEED, shift_window=(0, 0)))
+    speed = route.match_prepared(refs, queries, loose)
     assert speed.motion == "speed" and window.motion == "window"
-    assert _correct(speed, truth) > 0.9
-    assert _correct(speed, truth) > _correct(window, truth) + 0.05
+    assert _correct(speed, truth) > 0.98
+    assert _correct(window, truth) < 0.9
     # The speed it reports follows the true one (a few frames behind).
-    assert np.corrcoef(speed.speed[30:], np.roll(speeds, 4)[30:])[0, 1] > 0.7
+    assert np.corrcoef(speed.speed[30:], np.roll(speeds, 3)[30:])[0, 1] > 0.8
     assert np.isnan(window.speed).all()
 
 
@@ -265,7 +267,8 @@ def test_streaming_localizer_with_odometry_equals_the_batch(tmp_path):
     np.testing.assert_array_equal([u.ref for u in updates], batch.refs)
     np.testing.assert_array_equal([u.confidence for u in updates], batch.confidence)
     np.testing.assert_array_equal([u.speed for u in updates], batch.speed)
-    assert nightloc.RouteLocalizer(refs, prepared=True).update(queries[0], prepared=True).speed is None
+    window_model = route.RouteParams(filter_motion="window")
+    assert nightloc.RouteLocalizer(refs, window_model, prepared=True).update(queries[0], prepared=True).speed is None
     with pytest.raises(ValueError, match="pass advance="):
         localizer.update(queries[0], prepared=True)
     plain = nightloc.RouteLocalizer(refs, prepared=True)
@@ -407,6 +410,7 @@ def test_bad_motion_inputs_are_named():
         ({"filter_speed_tau": 0.0}, "filter_speed_tau"),
         ({"filter_speed_change": -1.0}, "filter_speed_change"),
         ({"filter_speed_cells": 0}, "filter_speed_cells"),
+        ({"filter_speed_cells": 64, "filter_speed_jitter": 100.0}, "filter_speed_jitter x speed_cells"),
         ({"filter_odometry_cells": 65}, "filter_odometry_cells"),
         ({"filter_odometry_noise": math.nan}, "filter_odometry_noise"),
         ({"filter_odometry_novelty": -1.0}, "filter_odometry_novelty"),
@@ -417,3 +421,14 @@ def test_bad_motion_inputs_are_named():
         route.RouteParams(filter_motion="teleport")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="use fewer speed planes or cells"):
         route.RouteFilter(2_000_000, dataclasses.replace(SPEED, filter_speed_cells=64, filter_speed_step=0.01))
+
+
+def test_route_params_defaults_are_the_cores():
+    """RouteParams' filter defaults and the C++ RouteFilterParams' defaults are the same model."""
+    ours, core = route.RouteParams().core_filter_params(), _core.RouteFilterParams()
+    for field in (
+        "vmin", "vmax", "backward", "floor", "sharpness", "clip", "leave", "rejoin", "window", "motion",
+        "speed_min", "speed_max", "speed_step", "speed_jitter", "speed_change", "speed_tau", "speed_cells",
+        "odometry_noise", "odometry_jitter", "odometry_novelty", "odometry_cells",
+    ):  # fmt: skip
+        assert getattr(ours, field) == getattr(core, field), field

@@ -175,7 +175,67 @@ def test_cli_writes_a_world(tmp_path, capsys):
     assert description["darkness"] == 0.5 and description["seed"] == 2
 
 
-@pytest.mark.parametrize("argument", [["--darkness", "4"], ["--seed", "-3"], ["--size", "big"], ["--size", "4x2"]])
+def test_forward_camera_world_cuts_the_forward_quarter_and_maps_four_ways(tmp_path):
+    from nightloc.synth.dataset import SynthScene, forward_view
+
+    folders = make_dataset("living_room", tmp_path / "fwd", camera=TINY, view="forward", threads=1)
+    plans = {p.name: p for p in plan_traverses("living_room")}
+    day = nightloc.load_traverse(folders["day_reference"])
+    n = len(plans["day_reference"].positions)
+    assert len(day.names) == 4 * n and day.read(0).shape == (24, 12, 3)
+    turned = np.angle(np.exp(1j * (day.headings[n : 2 * n] - day.headings[:n])))
+    np.testing.assert_allclose(turned, np.pi / 2, atol=1e-5)  # the second drive looks 90 degrees left
+    np.testing.assert_allclose(day.positions[n : 2 * n], day.positions[:n], atol=1e-5)
+    # a frame is its panorama's forward quarter: columns -W/8 .. W/8 around the heading, left to right
+    scene = SynthScene("living_room", camera=TINY)
+    x, y = day.positions[n + 3]
+    panorama = scene.frame(
+        "day", float(x), float(y), float(day.headings[n + 3]), scene.frame_rng("day_reference", n + 3)
+    )
+    assert np.array_equal(day.read(n + 3), forward_view(panorama))
+    assert np.array_equal(forward_view(panorama), np.concatenate([panorama[:, -6:], panorama[:, :6]], axis=1))
+    assert json.loads((tmp_path / "fwd" / "dataset.json").read_text())["view"] == "forward"
+
+
+def test_a_tilted_camera_looks_up_by_its_pitch_along_the_heading_and_by_its_roll_to_the_side():
+    from dataclasses import replace
+
+    from nightloc.synth.dataset import SynthScene
+
+    scene = SynthScene("garden", camera=SMALL)
+    x, y, heading = 3.0, 2.0, 0.4
+    assert np.array_equal(scene.tilted_frame("day", x, y, heading, 0.0, 0.0), scene.frame("day", x, y, heading))
+    # pitched 5 degrees up: the column along the heading sees what a camera aimed 5 degrees higher
+    # sees (an independent render: the elevation range moved up), the opposite column 5 lower
+    up = replace(
+        SMALL, elevation_top_deg=SMALL.elevation_top_deg + 5, elevation_bottom_deg=SMALL.elevation_bottom_deg + 5
+    )
+    down = replace(
+        SMALL, elevation_top_deg=SMALL.elevation_top_deg - 5, elevation_bottom_deg=SMALL.elevation_bottom_deg - 5
+    )
+    plain = scene.frame("day", x, y, heading).astype(int)
+    aimed = {
+        name: SynthScene("garden", camera=camera).frame("day", x, y, heading).astype(int)
+        for name, camera in (("up", up), ("down", down))
+    }
+
+    def distance(a, b, column):  # mean grey-level difference of one column (its own exposure aside)
+        return np.abs(a[:, column] - b[:, column]).mean()
+
+    tilted = scene.tilted_frame("day", x, y, heading, 5.0, 0.0).astype(int)
+    for near, far, column in (("up", "down", 0), ("down", "up", SMALL.width // 2)):
+        closest = distance(tilted, aimed[near], column)
+        assert closest < 0.7 * distance(tilted, plain, column) and closest < 0.5 * distance(tilted, aimed[far], column)
+    # rolled (left side up): the column 90 degrees left looks higher, as a pitch there would
+    rolled = scene.tilted_frame("day", x, y, heading, 0.0, 5.0).astype(int)
+    left = 3 * SMALL.width // 4  # columns turn right: 90 degrees left is three quarters round
+    assert distance(rolled, aimed["up"], left) < 0.5 * distance(rolled, aimed["down"], left)
+
+
+@pytest.mark.parametrize(
+    "argument",
+    [["--darkness", "4"], ["--seed", "-3"], ["--size", "big"], ["--size", "4x2"], ["--tilt", "-1"]],
+)
 def test_cli_bad_values_are_one_line_errors(tmp_path, capsys, argument):
     assert main(["synth", "--world", "garden", "--out", str(tmp_path / "g"), *argument]) == 2
     err = capsys.readouterr().err

@@ -14,7 +14,8 @@
 // is centred on offset() + 2*pi*b/B radians (counter-clockwise from +x); offset() in
 // [0, 2*pi/B) follows the turns exactly (a turn rolls whole bins and moves the offset by the
 // rest: no smearing by interpolation). Pose mode (B > 1) needs reference headings and a full
-// panorama (shift list 0..columns-1); otherwise, and while the odometry is map-frame or unknown
+// panorama (shift list 0..columns-1) or a forward camera searched over a column window (its
+// field of view given); otherwise, and while the odometry is map-frame or unknown
 // (which carries no turn: heading bins would go stale), the belief is position-only (one slice,
 // the heading marginalized); a robot-frame motion expands it again, uniform over heading.
 //
@@ -46,6 +47,10 @@
 //   t = min(1, (k + 1) / settle_frames) for the k-th frame since reset() (k from 0), else 1;
 //   pose mode: the score of reference i in bin b is T linearly interpolated at the fractional
 //   shift k = (theta_b - heading_i) * columns / (2 pi) (circular); position mode: m_i;
+//   a forward camera: the score of reference i in bin b is T linearly interpolated at the column
+//   offset dx = wrap(theta_b - heading_i) columns / field_of_view, for the references with
+//   |dx| <= window.columns only (those within the camera's view of theta_b); a place none of
+//   whose references is in view takes the frame's median score (no evidence either way);
 //   per place (references at one position) the lowest; per bin the place scores are interpolated
 //   onto the cells with the map's weights (cells without weights take the bin's highest place
 //   score: never preferred); likelihood = exp(-lambda (score - s_min)); belief *= likelihood,
@@ -70,6 +75,7 @@
 #include <vector>
 
 #include "nightloc/heatmap.hpp"
+#include "nightloc/sad.hpp"
 
 namespace nightloc {
 namespace detail {
@@ -127,8 +133,16 @@ struct GridFilterMap {
     double dx = 1, dy = 1;                       ///< cell spacing, metres
     std::vector<std::int32_t> place_of_ref;      ///< n_refs: the place of each reference
     std::vector<double> ref_headings;            ///< n_refs radians, or empty (no headings)
-    std::size_t columns = 48;                    ///< panorama columns (columns per 360 degrees)
+    std::size_t columns = 48;                    ///< image columns (a panorama: columns per 360 degrees)
     std::vector<std::int32_t> shifts;            ///< the table's column shifts (n_shifts)
+    /// The search's translation window: a forward camera (shifts {0}) compares at column offsets
+    /// dx = -window.columns .. window.columns (the table's columns, in that order); rows: row
+    /// offsets (a tilting robot), for either camera. update_image searches with it.
+    ShiftWindow window{};
+    /// A forward camera's horizontal field of view, radians (0: a panorama). With window.columns
+    /// > 0 and reference headings, the filter keeps heading bins: heading theta sees reference i
+    /// at column offset dx = wrap(theta - heading_i) columns / field_of_view.
+    double field_of_view = 0;
 };
 
 /// One estimate of the filter.
@@ -181,7 +195,10 @@ public:
     std::size_t height() const noexcept { return height_; }
     std::size_t width() const noexcept { return width_; }
     std::size_t n_refs() const noexcept { return map_.place_of_ref.size(); }
-    std::size_t n_shifts() const noexcept { return map_.shifts.size(); }
+    /// The table's columns: the shifts, or a forward camera's column offsets (2 window.columns + 1).
+    std::size_t n_shifts() const noexcept { return candidates_.size(); }
+    /// Whether the filter is a forward camera's (heading bins from its column offsets).
+    bool forward() const noexcept { return map_.window.columns > 0; }
     const GridFilterSettings& settings() const noexcept { return settings_; }
 
     /// The belief, active_bins() x height x width, multiplied by scale() (sums to 1).
@@ -263,6 +280,7 @@ private:
     mutable std::vector<float> sums_;        // running sums of the box passes
     std::vector<std::uint32_t> sums_table_;  // update_image's sums (kept between frames)
     std::vector<float> table_, mins_, sorted_, bin_high_, place_scores_, log_lik_;
+    std::vector<std::int32_t> candidates_;      // the table's column candidates: shifts or offsets dx
     std::vector<std::int32_t> row_of_ref_;      // each reference's row of the per-place arrays (see the constructor)
     std::vector<std::int32_t> ref_c0_;          // per reference: the whole column shift of bin 0 in this frame
     std::vector<double> ref_fraction_;          // and its fraction (bin b: columns c0 + b, c0 + b + 1)

@@ -75,16 +75,16 @@ struct RouteFilterParams {
     double leave = 1e-2;     ///< probability per frame of leaving the route, [0, 1]
     double rejoin = 1e-2;    ///< probability per frame of rejoining it (uniformly), [0, 1]
     std::size_t window = 2;  ///< confidence = belief mass within +-window references of the best
-    RouteMotion motion = RouteMotion::kWindow;  ///< without reference distances
-    double speed_min = 0.5;                     ///< slowest speed plane, references per frame, [-1000, 1000]
-    double speed_max = 1.5;                     ///< fastest speed plane, [speed_min, 1000]
-    double speed_step = 0.1;                    ///< spacing of the speed planes (> 0; at most 1000 planes)
-    double speed_jitter = 0.2;       ///< half-width of each plane's speed window, references per frame (>= 0)
-    double speed_change = 0.06;      ///< standard deviation of the speed's change per frame (>= 0)
-    double speed_tau = 4.0;          ///< frames for a speed to relax towards 1 (> 0; inf: no pull)
-    std::size_t speed_cells = 1;     ///< position cells per reference of the speed model, 1 .. 64
-    double odometry_noise = 0.05;    ///< relative standard deviation of an odometry advance, [0, 10]
-    double odometry_jitter = 0.1;    ///< extra position noise per frame, references, [0, 100]
+    RouteMotion motion = RouteMotion::kSpeed;  ///< without reference distances
+    double speed_min = 0.5;                    ///< slowest speed plane, references per frame, [-1000, 1000]
+    double speed_max = 1.5;                    ///< fastest speed plane, [speed_min, 1000]
+    double speed_step = 0.1;                   ///< spacing of the speed planes (> 0; at most 1000 planes)
+    double speed_jitter = 0.2;                 ///< half-width of each plane's speed window, references per frame (>= 0)
+    double speed_change = 0.07;                ///< standard deviation of the speed's change per frame (>= 0)
+    double speed_tau = 4.0;                    ///< frames for a speed to relax towards 1 (> 0; inf: no pull)
+    std::size_t speed_cells = 2;               ///< position cells per reference of the speed model, 1 .. 64
+    double odometry_noise = 0.05;              ///< relative standard deviation of an odometry advance, [0, 10]
+    double odometry_jitter = 0.1;              ///< extra position noise per frame, references, [0, 100]
     double odometry_novelty = 1.0;   ///< references of travel for a frame's full evidence, [0, 1000] (0: always full)
     std::size_t odometry_cells = 4;  ///< position cells per reference of the odometry model, 1 .. 64
 };
@@ -203,6 +203,7 @@ private:
     RouteFilterStep update_window(const double* likelihood, double likelihood_sum);
     RouteFilterStep update_planes(const double* likelihood, double likelihood_sum, double advance);
     double novelty(double advance) const noexcept;
+    int plane_threads() const noexcept;
     double move_planes();
     double move_odometry(double advance, double* speed);
     void mix_planes();
@@ -219,12 +220,14 @@ private:
     std::vector<double> plane_prior_;          // the speed prior (odometry: one plane)
     std::vector<double> cell_distance_;        // odometry: distance along the route of each cell
     std::vector<double> reference_distance_;   // odometry
+    std::vector<double> inverse_gap_;          // odometry: 1 / (distance to the next reference)
     double spacing_ = 1.0;                     // odometry: mean distance per reference
     std::vector<double> belief_;
     std::vector<double> scratch_;
     std::vector<double> chain_scratch_;
     std::vector<double> marginal_;
     std::vector<double> plane_mass_;
+    std::vector<double> cell_likelihood_;
     std::vector<double> likelihood_;
     double off_ = 0.0;
     int threads_ = 1;

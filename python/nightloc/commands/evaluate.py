@@ -261,6 +261,7 @@ def run(args: argparse.Namespace) -> int:
             threads=args.threads,
             tables="filter" in settings.methods,
             odometry=settings.odometry == "log",
+            filter_params=filter_params,
         )
         matching_s = time.perf_counter() - start
         alignment = map_alignment(ref_map, args.survey)

@@ -14,12 +14,19 @@ at the same time refuses; files in OUT that nightloc did not write are kept):
   traverse order and the frames' names; ``ref`` -1, ``score`` nan and ``ref_image`` empty where a
   query has no match; lower score = more confident), and for the filter ``confidence,off_route``;
 * ``OUT/pr.csv``: ``threshold,precision,recall`` when ground truth is available;
-* ``OUT/summary.json``: the method and its parameters, the preparation, sizes, timings, recall at
+* ``OUT/summary.json``: the method and its parameters, the filter's motion model and why
+  (``motion_model``, ``motion_model_because``), the preparation, sizes, timings, recall at
   100 % precision, best F1, the fraction of queries matched correctly at any score, and why there
   is no ground truth when there is none;
 * figures ``difference_matrix.png`` and, with ground truth, ``pr_curve.png`` and
   ``correspondence.png`` (the paper's Figure 23), and for the filter ``filter_confidence.png``,
   unless ``--no-figures``; ``--figure-format pdf|svg`` writes them as PDF or SVG instead.
+
+The filter's motion model (``--odometry auto``): when both traverses carry odometry
+(``odometry.csv``, a bag's odometry, or poses) it predicts by the distance travelled
+(:mod:`nightloc.route.odometry`); otherwise, or with ``--odometry none``, it runs the
+parameters' ``filter_motion`` (the speed window or the speed model), and the printed line and
+``summary.json`` say which ran and why (e.g. odometry in one traverse only).
 
 Several methods (``--method seqslam,filter``) share the prepared images and the difference
 matrix; each writes its set into ``OUT/<method>/``, and ``OUT/summary.json`` holds the

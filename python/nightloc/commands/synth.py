@@ -41,6 +41,15 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         f"(default {DEFAULT_DARKNESS})",
     )
     parser.add_argument("--size", default="192x96", help="panorama WIDTHxHEIGHT in pixels (default 192x96)")
+    parser.add_argument(
+        "--camera",
+        choices=("panoramic", "forward"),
+        default="panoramic",
+        help="panoramic (default) or forward: frames cut to the panorama's forward 90 degrees, the day reference "
+        "driven looking four ways",
+    )
+    parser.add_argument("--tilt", type=float, default=0.0, help="std of each frame's pitch and roll, degrees")
+    parser.add_argument("--height-jitter", type=float, default=0.0, help="std of each frame's camera height, metres")
     parser.add_argument("--overwrite", action="store_true", help="replace a dataset that exists at OUT")
     parser.add_argument("--threads", type=int, default=None, help="render threads (default all cores)")
     parser.set_defaults(run=run)
@@ -73,11 +82,17 @@ def run(args: argparse.Namespace) -> int:
     if args.threads is not None and args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
     camera = Camera(*parse_size(args.size))
+    for name, value in (("--tilt", args.tilt), ("--height-jitter", args.height_jitter)):
+        if not (math.isfinite(value) and 0.0 <= value <= 20.0):
+            raise ValueError(f"{name} must be in [0, 20], got {value}")
+    looks = {"view": args.camera, "tilt_deg": args.tilt, "height_std": args.height_jitter}
     start = time.perf_counter()
     if args.world == "all":  # one set holding every world: all appear together, or none changes
         with output_set(args.out, command="synth", overwrite=args.overwrite) as out:
             written = {
-                world: make_dataset(world, out / world, args.seed, args.darkness, camera=camera, threads=args.threads)
+                world: make_dataset(
+                    world, out / world, args.seed, args.darkness, camera=camera, threads=args.threads, **looks
+                )
                 for world in WORLD_NAMES
             }
         written = {world: {n: args.out / world / n for n in folders} for world, folders in written.items()}
@@ -91,6 +106,7 @@ def run(args: argparse.Namespace) -> int:
                 camera=camera,
                 overwrite=args.overwrite,
                 threads=args.threads,
+                **looks,
             )
         }
     for world, folders in written.items():

@@ -47,10 +47,10 @@ from ..errors import DatasetError
 from ..io.atomic import atomic_file
 from ..io.reference_map import ReferenceMap
 from ..io.traverse import Traverse, load_traverse
-from ..matching.sad import MatchResult, difference_matrix, rotational_sad, shifts_to_headings
+from ..matching.sad import MatchResult, difference_matrix, rotational_sad, shift_table, shifts_to_headings
 from ..preparation.preparer import Preparer
 from ..progress import progress
-from .grid_filter import FilterParams
+from .grid_filter import FilterParams, table_window
 from .localizer import Estimate, LocalizationParams, Localizer
 from .odometry import (
     NOISE_MODELS,
@@ -234,6 +234,7 @@ def match_traverse(
     *,
     tables: bool = False,
     odometry: bool | PathLike = False,
+    filter_params: FilterParams | None = None,
 ) -> QueryMatches:
     """Prepares every frame of ``query`` with the map's parameters and matches it against the map.
 
@@ -242,6 +243,8 @@ def match_traverse(
             frame x reference x shift).
         odometry: also read the query's own odometry: True for ``<query>/odometry.csv``, or the
             CSV's path.
+        filter_params: the filter's parameters the tables are for (default its defaults): a
+            forward camera's column window and the row window (``table_window``).
 
     Raises:
         DatasetError: the query has no poses (ground truth is needed to evaluate), or the
@@ -263,15 +266,25 @@ def match_traverse(
     table_array = None
     if tables:
         n_shifts = len(ref_map.params.shifts) if ref_map.params.shifts is not None else ref_map.params.width
-        size = len(prepared) * len(ref_map) * n_shifts * 4
+        # the filter's translation window: a forward camera's column offsets, row offsets
+        window = table_window(
+            ref_map.params.width, n_shifts, ref_map.headings is not None, filter_params or FilterParams()
+        )
+        columns = 2 * window[0] + 1 if window[0] else n_shifts
+        size = len(prepared) * len(ref_map) * columns * 4
         if size > MAX_TABLE_BYTES:
             raise ValueError(
                 f"the filter's rotational tables of {len(prepared)} frames x {len(ref_map)} references would take "
                 f"{size / 2**30:.1f} GB (at most {MAX_TABLE_BYTES / 2**30:.0f}); evaluate fewer frames (frame_step)"
             )
-        table_array = np.stack(
-            [rotational_sad(q, ref_map.images, shifts=ref_map.params.shifts, threads=threads) for q in prepared]
-        )
+        if window == (0, 0):
+            table_array = np.stack(
+                [rotational_sad(q, ref_map.images, shifts=ref_map.params.shifts, threads=threads) for q in prepared]
+            )
+        else:
+            table_array = np.stack(
+                [shift_table(q, ref_map.images, ref_map.params.shifts, threads, window).scores for q in prepared]
+            )
     width = ref_map.params.width
     results = tuple(
         MatchResult(int(np.argmin(scores[i])), scores[i], shifts[i], shifts_to_headings(shifts[i], width), width)
@@ -648,7 +661,9 @@ def evaluate(
         if want_tables and matches.tables is None:
             raise ValueError("the filter needs the rotational tables: match_traverse(..., tables=True)")
     else:
-        matches = match_traverse(ref_map, query, name, threads, tables=want_tables, odometry=want_log)
+        matches = match_traverse(
+            ref_map, query, name, threads, tables=want_tables, odometry=want_log, filter_params=filter_params
+        )
     if name is not None and isinstance(query, QueryMatches):
         matches = dataclasses.replace(matches, name=name)
     if settings.odometry == "robot" and matches.headings is None:

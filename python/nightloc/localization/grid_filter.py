@@ -39,7 +39,7 @@ from ..config import params_section
 from .heatmap import HeatMapper
 from .odometry import MapDisplacement, NoiseModel, RobotMotion, noise_model, wrap_angle
 
-__all__ = ["MOTION_NONE", "MOTION_UNKNOWN", "FilterParams", "FilterState", "GridFilter"]
+__all__ = ["MOTION_NONE", "MOTION_UNKNOWN", "FilterParams", "FilterState", "GridFilter", "table_window"]
 
 #: Motion codes of the core: no prediction (the first frame), unknown motion, map frame, robot frame.
 MOTION_NONE, MOTION_UNKNOWN, MOTION_MAP, MOTION_ROBOT = 0, 1, 2, 3
@@ -71,6 +71,14 @@ class FilterParams:
             (from 0) weighs ``min(1, (k + 1) / settle_frames)`` of ``likelihood_gain``, so that a
             few frames agreeing on a look-alike place do not make the belief certain of it; 0 or
             1: every frame weighs the same.
+        field_of_view: a forward camera's horizontal field of view, degrees (maps of forward
+            images, ``PreparationParams(wrap=False)``, with headings: heading bins whose
+            likelihood uses the references in view; panoramas ignore it).
+        forward_window: a forward camera's column window: each reference is compared at column
+            offsets -w .. w (the heading differences within w columns' worth of the field of
+            view); 0: a quarter of the image's width.
+        row_window: row offsets -r .. r searched for every comparison (a tilting robot: its
+            camera pitches; either camera); 0: none.
         negligible: a heading bin whose largest value after the last frame is below this share of
             the belief's largest moves with the odometry without the position blur (each of its
             cells off by at most that share of the peak; most bins of a belief that has settled
@@ -87,6 +95,9 @@ class FilterParams:
     estimate_window: int = 2
     negligible: float = 1e-3
     settle_frames: int = 12
+    field_of_view: float = 90.0
+    forward_window: int = 0
+    row_window: int = 0
 
     def validate(self) -> None:
         """Checks ranges (called on construction); raises ValueError naming the field."""
@@ -106,6 +117,12 @@ class FilterParams:
             raise ValueError(f"negligible must be in [0, 1), got {self.negligible}")
         if not 0 <= self.settle_frames <= 1000:
             raise ValueError(f"settle_frames must be 0..1000 frames, got {self.settle_frames}")
+        if not (math.isfinite(self.field_of_view) and 0 < self.field_of_view <= 360):
+            raise ValueError(f"field_of_view must be in (0, 360] degrees, got {self.field_of_view}")
+        if not 0 <= self.forward_window <= 1000:
+            raise ValueError(f"forward_window must be 0..1000 columns, got {self.forward_window}")
+        if not 0 <= self.row_window <= 1000:
+            raise ValueError(f"row_window must be 0..1000 rows, got {self.row_window}")
 
 
 @dataclass(frozen=True)
@@ -134,6 +151,18 @@ class FilterState:
     shifts: np.ndarray | None = None
 
 
+def table_window(columns: int, n_shifts: int, has_headings: bool, params: FilterParams) -> tuple[int, int]:
+    """The translation window ``(columns, rows)`` of the filter's tables for images of ``columns``
+    columns searched at ``n_shifts`` shifts: a forward camera (one shift) with headings compares
+    at column offsets within ``params.forward_window`` (0: a quarter of the width); every search
+    at row offsets within ``params.row_window``. What ``shift_table`` takes as ``shift_window``."""
+    forward = n_shifts == 1 and columns > 1  # a forward camera (wrap=False): one shift, 0
+    window_columns = (params.forward_window or max(columns // 4, 1)) if forward and has_headings else 0
+    if window_columns >= columns:
+        raise ValueError(f"forward_window must be below the image's {columns} columns, got {window_columns}")
+    return window_columns, params.row_window
+
+
 #: The core's motion arguments ``(kind, a, b, c)`` (see :func:`motion_code`).
 MotionCode = tuple[int, float, float, float]
 
@@ -156,8 +185,8 @@ class GridFilter:
         mapper: the localizer's :class:`~nightloc.localization.heatmap.HeatMapper` (grid,
             interpolation weights, places).
         headings: ``(N,)`` reference headings (radians) or None.
-        columns: panorama columns of the prepared images (columns per 360 degrees).
-        shifts: the column shifts matched (None = all columns, a panorama).
+        columns: columns of the prepared images (a panorama: columns per 360 degrees).
+        shifts: the column shifts matched (None = all columns, a panorama; [0]: a forward camera).
         params: :class:`FilterParams`.
         noise: the odometry noise per step (a Table III model number or a NoiseModel).
         confidence_radius: metres; confidence = belief within it.
@@ -177,6 +206,14 @@ class GridFilter:
         self.noise = noise_model(noise)
         self.mapper = mapper
         self.shifts = np.arange(columns, dtype=np.int32) if shifts is None else np.asarray(shifts, dtype=np.int32)
+        window_columns, _ = table_window(columns, len(self.shifts), headings is not None, params)
+        #: The table's columns: the shifts, or a forward camera's column offsets -w .. w.
+        self.columns = (
+            np.arange(-window_columns, window_columns + 1, dtype=np.int32) if window_columns else self.shifts.copy()
+        )
+        #: The search's translation window (columns, rows): what ``shift_table`` takes.
+        self.window = (window_columns, params.row_window)
+        self.field_of_view = math.radians(params.field_of_view) if window_columns else 0.0
         place_of_ref = mapper.place_of_ref
         grid = mapper.grid
         settings = {
@@ -206,6 +243,9 @@ class GridFilter:
             int(columns),
             self.shifts,
             settings,
+            self.field_of_view,
+            self.window[0],
+            self.window[1],
         )
 
     def __copy__(self) -> GridFilter:

@@ -54,7 +54,7 @@ from .._validate import (
 )
 from ..config import params_section
 from ..io.reference_map import ReferenceMap
-from ..matching.sad import MatchResult, match
+from ..matching.sad import MatchResult, match, rotational_sad, shift_table
 from .grid_filter import MOTION_NONE, FilterParams, FilterState, GridFilter, MotionCode, motion_code
 from .heatmap import HeatMapper
 from .odometry import Motion, NoiseModel, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
@@ -413,18 +413,33 @@ class Localizer:
         result = match(query, self.ref_map.images, shifts=self._shifts, threads=self.threads)
         return self.update_match(result, odometry, return_heatmap=return_heatmap)
 
+    def score_table(self, frame: np.ndarray, *, prepared: bool | None = None) -> np.ndarray:
+        """The filter's measurement of one frame: ``(N, columns)`` float32, what :meth:`update_table`
+        takes (:func:`nightloc.rotational_sad` against the map with its shifts, or with the
+        filter's translation window, ``shift_table(..., shift_window=...).scores``: a forward
+        camera's column offsets, ``row_window``)."""
+        flt = self._require_filter("score_table")
+        if prepared is None:
+            prepared = isinstance(frame, np.ndarray) and frame.dtype == np.uint8 and frame.shape == self._prepared_shape
+        query = uint8_array(frame if prepared else self.ref_map.preparer.prepare(frame), 2, "frame")
+        same_image_size(query, self.ref_map.images, "the prepared frame's", "the map's")
+        if flt.window == (0, 0):
+            return rotational_sad(query, self.ref_map.images, shifts=flt.shifts, threads=self.threads)
+        return shift_table(query, self.ref_map.images, flt.shifts, self.threads, flt.window).scores
+
     def update_table(self, table: np.ndarray, odometry: object = None, *, return_heatmap: bool = False) -> Estimate:
-        """The filter's :meth:`update` from the frame's whole rotational SAD table, ``(N, n_shifts)``
-        float32 (:func:`nightloc.rotational_sad` of the prepared frame against the map, with the
-        map's shifts): the measurement the filter uses. NaN or infinity: ValueError, the belief
-        unchanged."""
+        """The filter's :meth:`update` from the frame's whole rotational SAD table, ``(N, columns)``
+        float32 (:meth:`score_table`: :func:`nightloc.rotational_sad` of the prepared frame against
+        the map, with the map's shifts, or with the filter's translation window): the measurement
+        the filter uses. NaN or infinity: ValueError, the belief unchanged."""
         flt = self._require_filter("update_table")
         t = np.asarray(table)
         if t.dtype != np.float32:
             raise TypeError(f"table must have dtype float32 (as rotational_sad returns), got {t.dtype}")
-        shape = (len(self.ref_map), len(flt.shifts))
+        shape = (len(self.ref_map), len(flt.columns))
         if t.shape != shape:
-            raise ValueError(f"table must be {shape} (references, shifts), got shape {t.shape}")
+            what = "column offsets" if flt.window[0] else "shifts"
+            raise ValueError(f"table must be {shape} (references, {what}), got shape {t.shape}")
         with self._guard("update"):
             motion = self._motion(odometry)
             state = flt.step_table(np.ascontiguousarray(t), motion)
@@ -466,7 +481,9 @@ class Localizer:
             if headings is not None and scores is not None and shifts is not None:
                 # position-only: the closest reference's match
                 width = self.ref_map.params.width
-                heading = float(wrap_angle(float(headings[ref]) + 2.0 * math.pi * float(shifts[ref]) / width))
+                flt = self._require_filter("heading")
+                turn = float(shifts[ref]) * (flt.field_of_view if flt.window[0] else 2.0 * math.pi) / width
+                heading = float(wrap_angle(float(headings[ref]) + turn))
             else:
                 heading = self._heading if scores is None else math.nan
         self._heading = heading

@@ -4,10 +4,15 @@ The probabilistic successor of SeqSLAM's trajectory search (``RouteParams.method
 the default). The belief ``b[r]`` = P(the current query frame shows reference r), plus an
 off-route probability, is carried from frame to frame:
 
-1. **predict**: the reference advances by ``floor(x + v)`` for a speed v uniform in
-   ``vmin .. vmax`` references per frame and a sub-frame phase x uniform in [0, 1)
-   (:func:`motion_kernel`; default 0.8 .. 1.2: P(0) = P(2) = 0.05, P(1) = 0.9), or steps back
-   one reference with probability ``filter_backward``; ``filter_floor`` of the belief is spread
+1. **predict** by a motion model (``docs/route_mode.md``): *odometry* when given the
+   references' distances along the route and each query's advance (the belief on cells of a
+   reference, each moved by the distance travelled, with relative noise
+   ``filter_odometry_noise``); else ``filter_motion``: the *window* (the reference advances by
+   ``floor(x + v)`` for a speed v uniform in ``vmin .. vmax`` references per frame and a
+   sub-frame phase x uniform in [0, 1), :func:`motion_kernel`; default 0.8 .. 1.2: P(0) =
+   P(2) = 0.05, P(1) = 0.9) or the *speed* model (a belief over position x speed planes, the
+   speed a random walk pulled back towards 1, ``filter_speed_*``); with probability
+   ``filter_backward`` the reference steps back one instead; ``filter_floor`` of the belief is spread
    uniformly over the route (a lost filter finds the route again); ``filter_leave`` of the
    on-route mass leaves the route and ``filter_rejoin`` of the off-route mass comes back,
    uniformly.

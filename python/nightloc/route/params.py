@@ -136,12 +136,12 @@ class RouteParams:
     filter_rejoin: float = 1e-2
     filter_window: int = 2
     filter_min_texture: float = 1.0
-    filter_motion: Literal["speed", "window"] = "window"
+    filter_motion: Literal["speed", "window"] = "speed"
     filter_speed_min: float = 0.5
     filter_speed_max: float = 1.5
     filter_speed_step: float = 0.1
     filter_speed_jitter: float = 0.2
-    filter_speed_change: float = 0.08
+    filter_speed_change: float = 0.07
     filter_speed_tau: float = 4.0
     filter_speed_cells: int = 2
     filter_odometry_noise: float = 0.05

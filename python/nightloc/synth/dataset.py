@@ -17,6 +17,7 @@ import os
 import shutil
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +31,7 @@ from ..progress import progress
 from .lighting import Lighting, make_lighting
 from .paths import TRAVERSE_NAMES, TraversePlan, plan_traverses
 from .render import Camera, render_panorama, render_radiance
-from .sensor import Exposure, metered_exposure
+from .sensor import Exposure, capture, metered_exposure
 from .world import ALL_WORLDS, WORLD_NAMES, World, build_world
 
 __all__ = [
@@ -40,6 +41,7 @@ __all__ = [
     "SynthScene",
     "default_cache_dir",
     "default_dataset",
+    "forward_view",
     "make_dataset",
 ]
 
@@ -93,11 +95,55 @@ class SynthScene:
             self.world, self.lighting[condition], self.exposure[condition], x, y, heading, self.camera, rng
         )
 
+    def tilted_frame(
+        self,
+        condition: str,
+        x: float,
+        y: float,
+        heading: float,
+        pitch_deg: float,
+        roll_deg: float,
+        height: float | None = None,
+        rng: np.random.Generator | None = None,
+    ) -> np.ndarray:
+        """:meth:`frame` from a tilted camera: pitched ``pitch_deg`` (nose up) and rolled ``roll_deg``
+        (left side up), ``height`` metres above the ground (default the world's). A panorama's
+        column at azimuth a (relative to the heading, counter-clockwise) then looks ``pitch cos a + roll sin a``
+        degrees higher: rendered over a taller elevation range and each column resampled there
+        (small tilts: the columns' slant across a pixel is left out)."""
+        cam = self.camera
+        margin = abs(pitch_deg) + abs(roll_deg) + 1.0
+        rows_per_degree = cam.height / (cam.elevation_top_deg - cam.elevation_bottom_deg)
+        extra = int(np.ceil(margin * rows_per_degree))
+        tall = replace(
+            cam,
+            height=cam.height + 2 * extra,
+            elevation_top_deg=cam.elevation_top_deg + extra / rows_per_degree,
+            elevation_bottom_deg=cam.elevation_bottom_deg - extra / rows_per_degree,
+        )
+        radiance = render_radiance(self.world, self.lighting[condition], x, y, heading, tall, height)
+        relative = -2.0 * np.pi * np.arange(cam.width) / cam.width  # column azimuth minus the heading
+        lift = pitch_deg * np.cos(relative) + roll_deg * np.sin(relative)  # degrees, per column
+        # row r of the tilted camera looks at the tall image's row r + extra - lift rows_per_degree
+        source = np.arange(cam.height)[:, None] + extra - lift[None, :] * rows_per_degree
+        r0 = np.clip(np.floor(source).astype(int), 0, tall.height - 2)
+        frac = np.clip(source - r0, 0.0, 1.0)[..., None].astype(np.float32)
+        columns = np.arange(cam.width)[None, :]
+        out = (1 - frac) * radiance[r0, columns] + frac * radiance[r0 + 1, columns]
+        return capture(out.astype(np.float32), self.exposure[condition], rng)
+
     def frame_rng(self, traverse: str, index: int) -> np.random.Generator:
         """The noise generator of frame ``index`` of ``traverse`` (independent of render order)."""
         world_id = ALL_WORLDS.index(self.world.name)
         traverse_id = sum(ord(c) * (i + 1) for i, c in enumerate(traverse))
         return np.random.default_rng([self.seed, 5, world_id, traverse_id, int(index)])
+
+    def tilt_rng(self, traverse: str, index: int) -> np.random.Generator:
+        """The generator of frame ``index``'s tilt and camera height (its own: the untilted frames do
+        not change)."""
+        world_id = ALL_WORLDS.index(self.world.name)
+        traverse_id = sum(ord(c) * (i + 1) for i, c in enumerate(traverse))
+        return np.random.default_rng([self.seed, 7, world_id, traverse_id, int(index)])
 
     def odometry_rng(self, traverse: str) -> np.random.Generator:
         """The generator of ``traverse``'s wheel-odometry noise (its own: the images do not depend on it)."""
@@ -105,14 +151,24 @@ class SynthScene:
         traverse_id = sum(ord(c) * (i + 1) for i, c in enumerate(traverse))
         return np.random.default_rng([self.seed, 6, world_id, traverse_id])
 
-    def render_plan(self, plan: TraversePlan, threads: int | None = None) -> Iterator[np.ndarray]:
-        """Renders the frames of ``plan`` in order (``threads`` at a time; default all cores)."""
+    def render_plan(
+        self, plan: TraversePlan, threads: int | None = None, tilt_deg: float = 0.0, height_std: float = 0.0
+    ) -> Iterator[np.ndarray]:
+        """Renders the frames of ``plan`` in order (``threads`` at a time; default all cores).
+        ``tilt_deg`` > 0: each frame's camera pitched and rolled by N(0, tilt_deg) degrees;
+        ``height_std`` > 0: its height off by N(0, height_std) metres (a robot on a lawn); both
+        from the frame's own seeded generator (:meth:`tilted_frame`)."""
         self.world.check_camera_positions(plan.positions)
 
         def one(index: int) -> np.ndarray:
             x, y = plan.positions[index]
-            return self.frame(
-                plan.condition, float(x), float(y), float(plan.headings[index]), self.frame_rng(plan.name, index)
+            heading, rng = float(plan.headings[index]), self.frame_rng(plan.name, index)
+            if tilt_deg <= 0 and height_std <= 0:
+                return self.frame(plan.condition, float(x), float(y), heading, rng)
+            pitch, roll, lift = self.tilt_rng(plan.name, index).normal(0.0, 1.0, 3) * (tilt_deg, tilt_deg, height_std)
+            height = self.world.camera_height + float(np.clip(lift, -3 * height_std, 3 * height_std))
+            return self.tilted_frame(
+                plan.condition, float(x), float(y), heading, float(pitch), float(roll), height, rng
             )
 
         workers = thread_count(threads)
@@ -170,6 +226,9 @@ def make_dataset(
     camera: Camera | None = None,
     overwrite: bool = False,
     threads: int | None = None,
+    view: str = "panoramic",
+    tilt_deg: float = 0.0,
+    height_std: float = 0.0,
 ) -> dict[str, Path]:
     """Renders every traverse of ``world`` into ``out_dir`` and returns their folders by name.
 
@@ -187,6 +246,12 @@ def make_dataset(
         camera: panorama size and optics (default 192 x 96, elevations +50..-30 degrees).
         overwrite: replace a dataset that exists at ``out_dir`` (else FileExistsError).
         threads: render threads (default all cores; the images do not depend on it).
+        view: ``"panoramic"`` or ``"forward"``: each frame cut to the panorama's forward 90 degrees
+            (columns within +-width/8 of the heading, left to right), and the day reference driven
+            four times, looking along its path and at 90, 180 and 270 degrees to it (a forward
+            camera's map needs references facing several ways; docs/localization.md).
+        tilt_deg: std of each frame's camera pitch and roll, degrees (a robot on a lawn), 0 none.
+        height_std: std of each frame's camera height about the world's, metres, 0 none.
 
     The dataset is written as one set (:func:`nightloc.io.atomic.output_set`): the traverses and
     ``dataset.json`` appear together, or -- on an error or an interruption -- the previous
@@ -195,17 +260,45 @@ def make_dataset(
     """
     if world not in ALL_WORLDS:
         raise ValueError(f"unknown world {world!r}; choose one of {', '.join(ALL_WORLDS)}")
+    if view not in ("panoramic", "forward"):
+        raise ValueError(f"view must be 'panoramic' or 'forward', got {view!r}")
+    for name, value in (("tilt_deg", tilt_deg), ("height_std", height_std)):
+        if not (np.isfinite(value) and 0 <= value <= 20):
+            raise ValueError(f"{name} must be in [0, 20], got {value}")
     scene = SynthScene(world, seed, darkness, camera)
     plans = plan_traverses(world, scene.seed)
+    if view == "forward":
+        plans = [_four_ways(plan) if plan.name == "day_reference" else plan for plan in plans]
     with output_set(out_dir, command="synth", overwrite=overwrite, overwrite_hint="overwrite=True") as out:
         for plan in plans:
             frames = progress(
-                scene.render_plan(plan, threads), total=len(plan.positions), desc=f"{world}/{plan.name}", unit="frame"
+                scene.render_plan(plan, threads, tilt_deg, height_std),
+                total=len(plan.positions),
+                desc=f"{world}/{plan.name}",
+                unit="frame",
             )
+            if view == "forward":
+                frames = (forward_view(frame) for frame in frames)
             odometry = SYNTH_WHEEL_NOISE.simulate(plan.positions, plan.headings, scene.odometry_rng(plan.name))
             save_traverse(out / plan.name, frames, positions=plan.positions, headings=plan.headings, odometry=odometry)
-        _write_json_atomic(out / "dataset.json", scene.describe(plans))
+        description = scene.describe(plans)
+        description.update(view=view, tilt_deg=float(tilt_deg), height_std_m=float(height_std))
+        _write_json_atomic(out / "dataset.json", description)
     return {plan.name: Path(out_dir) / plan.name for plan in plans}
+
+
+def forward_view(panorama: np.ndarray) -> np.ndarray:
+    """A forward camera's image cut from a panorama: the columns within +-width/8 of the heading
+    (column 0), left to right: ``(H, W/4, ...)``."""
+    width = panorama.shape[1]
+    return np.roll(panorama, width // 8, axis=1)[:, : width // 4]
+
+
+def _four_ways(plan: TraversePlan) -> TraversePlan:
+    """The plan driven four times: along its headings and turned by 90, 180 and 270 degrees."""
+    turns = np.repeat(np.arange(4) * (np.pi / 2), len(plan.positions))
+    headings = np.angle(np.exp(1j * (np.tile(plan.headings, 4) + turns)))
+    return TraversePlan(plan.name, plan.condition, np.tile(plan.positions, (4, 1)), headings)
 
 
 def default_cache_dir() -> Path:

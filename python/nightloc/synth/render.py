@@ -115,10 +115,13 @@ class RayHits:
     elevation: np.ndarray
 
 
-def cast_rays(world: World, x: float, y: float, heading: float, camera: Camera = Camera()) -> RayHits:
-    """Casts every ray of the panorama taken at ``(x, y)`` with ``heading`` (rad)."""
+def cast_rays(
+    world: World, x: float, y: float, heading: float, camera: Camera = Camera(), height: float | None = None
+) -> RayHits:
+    """Casts every ray of the panorama taken at ``(x, y)`` with ``heading`` (rad), the camera
+    ``height`` metres above the ground (default the world's ``camera_height``)."""
     geometry = world.geometry
-    height = world.camera_height
+    height = world.camera_height if height is None else float(height)
     azimuth = column_azimuths(heading, camera.width, camera.oversample_x)
     elevation = row_elevations(camera)
     slope = np.tan(elevation)
@@ -206,10 +209,17 @@ def _atlas(world: World) -> _Atlas:
 
 
 def render_radiance(
-    world: World, lighting: Lighting, x: float, y: float, heading: float, camera: Camera = Camera()
+    world: World,
+    lighting: Lighting,
+    x: float,
+    y: float,
+    heading: float,
+    camera: Camera = Camera(),
+    height: float | None = None,
 ) -> np.ndarray:
-    """Linear scene radiance of the panorama at ``(x, y, heading)``: ``(height, width, 3)`` float32 RGB."""
-    hits = cast_rays(world, x, y, heading, camera)
+    """Linear scene radiance of the panorama at ``(x, y, heading)``: ``(height, width, 3)`` float32
+    RGB (``height``: the camera's above the ground, default the world's)."""
+    hits = cast_rays(world, x, y, heading, camera, height)
     rows, cols = hits.kind.shape
     kind = hits.kind.ravel()
     radiance = np.empty((rows * cols, 3), np.float32)
