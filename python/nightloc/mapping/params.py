@@ -44,7 +44,8 @@ class TeachParams:
             direction of travel together, each column free to move along its parallax);
             ``"axis"``: the columns along the line between the two places.
         heading_std, heading_std_per_metre: a visual heading's standard deviation, radians,
-            ``heading_std + heading_std_per_metre * distance`` (parallax grows with distance).
+            ``heading_std + heading_std_per_metre * distance`` (parallax grows with distance;
+            0.03 suits min-warping, 0.05 the less sure ``"axis"`` headings).
         unsure_heading: radians; a place pair whose relative heading the estimate knows less
             well than this is measured at every shift (and, warping, every direction).
         axis_half_width: radians; ``"axis"``: columns compared either side of the line.
