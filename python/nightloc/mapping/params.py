@@ -79,7 +79,7 @@ class TeachParams:
     unwrap_stage: float = 10.0
     sequence_window: int = 3
     max_distance: float = 1.5
-    place_candidates: int = 10
+    place_candidates: int = 6
     strong_score: float = 10.0
     gate_sigmas: float = 3.0
     heading_method: Literal["warp", "axis"] = "warp"
