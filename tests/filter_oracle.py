@@ -278,7 +278,9 @@ class OracleFilter:
             np.minimum.at(place_scores[0], self.place_of_ref, self.mins)
         gain = -lam * math.log2(math.e)
         cap = self.s.get("score_cap", 0.0)  # scores beyond s_min + cap spread count as that
-        lowest = max(LOWEST_LOG2, -temper * self.s["likelihood_gain"] * cap * math.log2(math.e)) if cap > 0 else LOWEST_LOG2
+        lowest = LOWEST_LOG2
+        if cap > 0:
+            lowest = max(LOWEST_LOG2, -temper * self.s["likelihood_gain"] * cap * math.log2(math.e))
         y_places = np.maximum(gain * (place_scores - s_min), lowest)  # (bins, places)
         y_fill = np.maximum(gain * (place_scores.max(axis=1) - s_min), lowest)  # (bins,)
         y_cells = (self.w @ y_places.T).T  # (bins, cells)
