@@ -3,7 +3,8 @@
     nightloc evaluate REFERENCE QUERY --out OUT [--method paper,filter] [--seq-lengths 1-10]
                       [--noise-models 0,1,2,3] [--interpolation on,off] [--repeats 1] [--seed 0]
                       [--odometry map|robot|log] [--odometry-noise 1|DIST,HEADING]
-                      [--params FILE.toml] [--heatmap-frames 12,30] [--no-figures] [--figure-format png|pdf|svg]
+                      [--params FILE.toml] [--shift-window COLUMNS,ROWS] [--heatmap-frames 12,30] [--no-figures]
+                      [--figure-format png|pdf|svg]
 
 REFERENCE is a traverse folder with poses (``images/`` + ``poses.csv``) or a map file written
 by ``nightloc build-map``; QUERY is a traverse folder with poses (the ground truth). Writes the
@@ -59,6 +60,7 @@ from ..localization.odometry import NoiseModel, noise_model
 from ..preparation.params import PreparationParams
 from .bag_options import add_bag_options, bag_options
 from .camera_option import add_camera_option, preparation_for_camera
+from .shift_window_option import add_shift_window_option, filter_params_with_window, parse_shift_window
 from .wording import refuse_map_as_traverse
 
 
@@ -99,6 +101,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--params", type=Path, help="TOML file with [localization] and/or [preparation] tables")
     add_camera_option(
         parser, "The query's camera: it must be the map's (a reference folder is prepared for it; default panoramic)."
+    )
+    add_shift_window_option(
+        parser,
+        "the filter's translation window: +-ROWS rows searched in every comparison (a tilting robot) and, for a "
+        "forward camera, +-COLUMNS column offsets over which its headings are told apart (default: [filter] "
+        "forward_window and row_window: a quarter of the width, 0 rows); a panoramic map takes 0,ROWS",
     )
     parser.add_argument("--heatmap-frames", help="query frames (0-based) for heat-map figures (default: one, chosen)")
     parser.add_argument(
@@ -235,6 +243,7 @@ def run(args: argparse.Namespace) -> int:
     heatmap_frames = (
         None if args.heatmap_frames is None else list(parse_int_list(args.heatmap_frames, "--heatmap-frames"))
     )
+    window = parse_shift_window(args.shift_window)
     sections = load_params_file(args.params) if args.params is not None else {}
     localization = sections.get("localization", LocalizationParams())
     filter_params = sections.get("filter")
@@ -255,6 +264,7 @@ def run(args: argparse.Namespace) -> int:
         start = time.perf_counter()
         ref_map = load_reference(args.reference, preparation, args.camera, args.params, bag)
         ref_map.check_frames(query.read(0).shape, f"the query {query.root}", args.camera)
+        filter_params = filter_params_with_window(filter_params, window, ref_map.camera, ref_map.images.shape[1:])
         matches = match_traverse(
             ref_map,
             query,

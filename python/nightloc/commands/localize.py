@@ -2,8 +2,8 @@
 
     nightloc localize MAP_OR_REFERENCE LOG --out OUT [--format csv|tum|csv,tum] [--odometry FILE|none]
                       [--odometry-noise 1|DIST,HEADING] [--params FILE.toml] [--camera panoramic|forward]
-                      [--image-topic T] [--odometry-topic T] [--pose-topic T] [--sync-tolerance S]
-                      [--threads N] [--no-figures]
+                      [--shift-window COLUMNS,ROWS] [--image-topic T] [--odometry-topic T] [--pose-topic T]
+                      [--sync-tolerance S] [--threads N] [--no-figures]
 
 MAP_OR_REFERENCE is a map file written by ``nightloc build-map`` or a reference traverse (a folder
 with poses, or a bag with a pose topic). LOG is a traverse folder (``images/``, no poses needed),
@@ -51,6 +51,7 @@ from ..localization.odometry import traverse_odometry
 from .bag_options import add_bag_options, bag_options
 from .camera_option import add_camera_option
 from .evaluate import load_reference, parse_noise
+from .shift_window_option import add_shift_window_option, filter_params_with_window, parse_shift_window
 from .wording import duration, refuse_map_as_traverse
 
 __all__ = ["TRAJECTORY_HEADER", "parse_formats", "register", "run"]
@@ -87,6 +88,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--params", type=Path, help="TOML file with [localization], [filter] and/or [preparation]")
     add_camera_option(
         parser, "The log's camera: it must be the map's (a reference folder is prepared for it; default panoramic)."
+    )
+    add_shift_window_option(
+        parser,
+        "the filter's translation window: +-ROWS rows searched in every comparison (a tilting robot) and, for a "
+        "forward camera, +-COLUMNS column offsets over which its headings are told apart (default: [filter] "
+        "forward_window and row_window: a quarter of the width, 0 rows); a panoramic map takes 0,ROWS",
     )
     parser.add_argument("--threads", type=int, default=1, help="matching threads (default 1, as on a robot)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw trajectory.png")
@@ -136,6 +143,7 @@ def run(args: argparse.Namespace) -> int:
     formats = parse_formats(args.format)
     if args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
+    window = parse_shift_window(args.shift_window)
     sections = load_params_file(args.params) if args.params is not None else {}
     params = sections.get("localization", LocalizationParams())
     inputs = (args.map, args.log, args.params, args.odometry if args.odometry not in (None, "none") else None)
@@ -159,9 +167,8 @@ def run(args: argparse.Namespace) -> int:
             f"--format tum needs a heading per frame, and the map {args.map} has no headings (its reference poses "
             f"lack them): use --format csv"
         )
-    localizer = Localizer(
-        ref_map, params, odometry_noise=noise, filter_params=sections.get("filter"), threads=args.threads
-    )
+    filter_params = filter_params_with_window(sections.get("filter"), window, ref_map.camera, ref_map.images.shape[1:])
+    localizer = Localizer(ref_map, params, odometry_noise=noise, filter_params=filter_params, threads=args.threads)
     # Checked and locked before the work; the files appear together at the end, or not at all.
     with output_set(args.out, command="localize", inputs=inputs) as out:
         start = time.perf_counter()

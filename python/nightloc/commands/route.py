@@ -73,6 +73,7 @@ from ..route.pipeline import RouteResult, match_difference, route_difference_mat
 from ..route.preparation import RoutePreparer
 from .bag_options import add_bag_options, bag_options
 from .camera_option import add_camera_option, preparation_for_camera
+from .shift_window_option import add_shift_window_option, parse_shift_window
 from .wording import duration, in_option_words, refuse_map_as_traverse
 
 #: Default tolerances: frames for frame correspondence, metres for positions.
@@ -113,10 +114,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--circular-shifts", action="store_true", default=None, help="360-degree panoramas: search every column shift"
     )
     add_camera_option(parser, "Default forward (--camera panoramic is --circular-shifts).")
-    parser.add_argument(
-        "--shift-window",
-        metavar="COLUMNS,ROWS",
-        help="viewpoint tolerance: compare each pair at its best alignment within +-COLUMNS columns (forward "
+    add_shift_window_option(
+        parser,
+        "viewpoint tolerance: compare each pair at its best alignment within +-COLUMNS columns (forward "
         "cameras) and +-ROWS rows, over the overlap; 0,0 compares one alignment",
     )
     parser.add_argument(
@@ -190,20 +190,6 @@ def route_params_from_args(args: argparse.Namespace) -> tuple:
         shift_window=parse_shift_window(args.shift_window),
     )
     return params, preparation
-
-
-def parse_shift_window(text: str | None) -> tuple[int, int] | None:
-    """``--shift-window COLUMNS,ROWS`` as a pair of ints >= 0 (None when not given)."""
-    if text is None:
-        return None
-    parts = str(text).split(",")
-    try:
-        values = tuple(int(part) for part in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 2 or min(values) < 0:
-        raise ValueError(f"--shift-window {text!r}: expected COLUMNS,ROWS, two integers >= 0 such as 8,2")
-    return (values[0], values[1])
 
 
 # --------------------------------------------------------------------------------------------
