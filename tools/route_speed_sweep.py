@@ -30,6 +30,7 @@ import dataclasses
 import itertools
 import math
 import sys
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -158,7 +159,7 @@ class SyntheticRoute:
         if stored is not None and stored.exists():
             return np.load(stored)
         points, headings = path_pose(arc)
-        rng = np.random.default_rng(abs(hash(name)) % (2**32))
+        rng = np.random.default_rng(zlib.crc32(name.encode()))  # str hash() differs per process
         # a driven robot wanders a little sideways and in heading
         side = np.convolve(rng.normal(0, 0.03, len(arc) + 8), np.ones(9) / 3, mode="valid")[: len(arc)]
         points = points + side[:, None] * np.stack([-np.sin(headings), np.cos(headings)], axis=1)
