@@ -633,9 +633,10 @@ void GridFilter::update(const float* table) {
     ++frames_;
     // the outlier-robust likelihood: a score above s_min + score_cap spread counts as that one, so
     // a frame that matches a look-alike cannot erase the place the prior holds (log2 units)
-    const double lowest = settings_.score_cap > 0
-                              ? std::max(kLowestLog2, -temper * settings_.likelihood_gain * settings_.score_cap * kLog2e)
-                              : kLowestLog2;
+    const double lowest =
+        settings_.score_cap > 0
+            ? std::max(kLowestLog2, -temper * settings_.likelihood_gain * settings_.score_cap * kLog2e)
+            : kLowestLog2;
 
     // per place and bin the log2-likelihood y = max(-lambda log2(e) (score - s_min), -60) of the
     // place's lowest score (of its references), in groups of kGroupBins bins (a pass of the

@@ -55,8 +55,8 @@
 //   whose references is in view takes the frame's median score (no evidence either way);
 //   per place (references at one position) the lowest; per bin the place scores are interpolated
 //   onto the cells with the map's weights (cells without weights take the bin's highest place
-//   score: never preferred); likelihood = exp(-lambda (score - s_min)), at least that cap (and 2^-60); belief *= likelihood,
-//   normalized (when nothing is left, the likelihood alone).
+//   score: never preferred); likelihood = exp(-lambda (score - s_min)), at least that cap (and
+//   2^-60); belief *= likelihood, normalized (when nothing is left, the likelihood alone).
 //
 // Estimate: the marginal over heading M; its first maximum, refined to the M-weighted mean of
 // the (2 window + 1)^2 cells around it; covariance of M about its mean (m^2); credible_radius:
