@@ -1,4 +1,5 @@
-"""Build time of a teach run (issue 20's target: 2 000 images on 2 cores in at most 30 s).
+"""Build time of a teach run (issue 20's target: 2 000 images on 2 cores in at most 30 s), and
+the speed of its min-warping kernel against the numpy oracle.
 
 The drive: the large garden's perimeter pass and mowing rows, then back along the same path (a
 second mowing), resampled to 2 000 frames (0.45 m apart), rendered at 96x48 (prepared to 48x24 as
@@ -12,7 +13,9 @@ visual constraints and the ATE against the true poses.
 
 from __future__ import annotations
 
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,6 +26,9 @@ import nightloc
 from nightloc.mapping import TeachWarning, absolute_trajectory_error, teach_run
 from nightloc.synth import Camera, SynthScene, plan_traverses
 from nightloc.synth.dataset import SYNTH_WHEEL_NOISE
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+import warp_oracle
 
 FRAMES = 2000
 
@@ -64,3 +70,31 @@ def test_teach_run_2000_frames(benchmark, drive):
     )
     assert len(teach_map) == FRAMES and teach_map.pose_source == "optimised"
     assert ate < 0.5 * reckoned
+
+
+@pytest.fixture(scope="module")
+def warp_case():
+    """16 pairs of 48x24 panoramas of the living room's day drive, the teach run's window (17
+    directions x 9 shifts), with the default tables."""
+    from nightloc.mapping.warping import PanoramaWarper
+
+    from synth_support import default_synth_data
+
+    images = nightloc.Preparer().prepare(nightloc.load_traverse(default_synth_data()["living_room"]["day_reference"]))
+    warper = PanoramaWarper(images, threads=1)
+    rng = np.random.default_rng(4)
+    pairs = rng.integers(0, len(images), (16, 2))
+    return warper, pairs, rng.integers(0, len(warper.directions), 16), rng.integers(0, 48, 16)
+
+
+@pytest.mark.parametrize("implementation", ["numpy", "core"])
+def test_warp_costs(benchmark, warp_case, implementation):
+    """Min-warping costs of 16 pairs (one thread): the core against its numpy oracle."""
+    warper, pairs, first_direction, first_shift = warp_case
+    benchmark.group = "min-warping: 16 pairs of 48x24 panoramas, 17 directions x 9 shifts"
+    if implementation == "core":
+        out = benchmark(warper.costs, pairs, first_direction, 17, first_shift, 9)
+    else:
+        tables = (warper.images, warper.stacks, warper.row_begin, warper.row_end, warper.level, warper.sign)
+        out = benchmark(warp_oracle.warp_costs, *tables, pairs, first_direction, 17, first_shift, 9)
+    assert out.shape == (16, 17, 9) and np.isfinite(out).all()

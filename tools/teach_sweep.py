@@ -1,7 +1,7 @@
 """The teach run's accuracy over odometry draws: map ATE and night error per world and seed.
 
     python tools/teach_sweep.py [--worlds garden,living_room] [--seeds 0-4] [--large DIR]
-                                [--set name=value ...] [--night] [--decompose]
+                                [--set name=value ...] [--night] [--decompose] [--night-repeats N]
 
 For each world and seed the day drive's wheel odometry is drawn afresh
 (``WheelNoise().simulate(poses, default_rng([seed, 20]))``, the draws of docs/teach_run.md),
@@ -73,13 +73,15 @@ def heading_rmse_deg(estimate: np.ndarray, truth: np.ndarray) -> float:
     return float(np.degrees(np.sqrt(np.mean(error**2))))
 
 
-def night_error(ref_map: ReferenceMap, query: Path, transform: RigidTransform2D | None) -> float:
-    """Median night error (m) of the filter on ``ref_map``; ``transform`` takes the map frame to
-    the survey frame (None: the map is in the survey frame)."""
+def night_error(ref_map: ReferenceMap, query: Path, transform: RigidTransform2D | None, repeats: int = 1) -> float:
+    """Median night error (m) of the filter on ``ref_map`` over the query frames from the 10th
+    (and ``repeats`` odometry draws); ``transform`` takes the map frame to the survey frame
+    (None: the map is in the survey frame)."""
     matches = match_traverse(ref_map, query, tables=True)
     if transform is not None:
         matches = align_to_map(matches, transform)
-    evaluation = evaluate(ref_map, matches, NIGHT, LocalizationParams())
+    settings = dataclasses.replace(NIGHT, repeats=repeats)
+    evaluation = evaluate(ref_map, matches, settings, LocalizationParams())
     later = evaluation.frame_index() >= NIGHT_FROM
     return float(np.median(evaluation.columns["error_m"][evaluation.select(method="filter") & later]))
 
@@ -99,14 +101,14 @@ def with_poses(ref_map: ReferenceMap, positions: np.ndarray, headings: np.ndarra
 
 
 def run_world(
-    name: str, folder: Path, seeds: list[int], teach: TeachParams, night: bool, decompose: bool
+    name: str, folder: Path, seeds: list[int], teach: TeachParams, night: bool, decompose: bool, repeats: int = 1
 ) -> list[dict]:
     day = load_traverse(folder / "day_reference")
     query = folder / "night_query"
     truth = np.asarray(day.positions)
     truth_headings = np.asarray(day.headings)
     surveyed = ReferenceMap.build(folder / "day_reference") if night else None
-    surveyed_night = night_error(surveyed, query, None) if surveyed is not None else float("nan")
+    surveyed_night = night_error(surveyed, query, None, repeats) if surveyed is not None else float("nan")
     rows = []
     for seed in seeds:
         odometry = WheelNoise().simulate(truth, truth_headings, np.random.default_rng([seed, 20]))
@@ -131,19 +133,21 @@ def run_world(
             "seconds": seconds,
         }
         if night:
-            row["night"] = night_error(taught, query, fit)
+            row["night"] = night_error(taught, query, fit, repeats)
             row["night_surveyed"] = surveyed_night
         if decompose and surveyed is not None:
             moved = fit.apply(positions)
             moved_headings = fit.apply_headings(taught.headings)
             row["night_taught_headings"] = night_error(
-                with_poses(surveyed, truth, moved_headings, "surveyed"), query, None
+                with_poses(surveyed, truth, moved_headings, "surveyed"), query, None, repeats
             )
             row["night_taught_positions"] = night_error(
-                with_poses(surveyed, moved, truth_headings, "surveyed"), query, None
+                with_poses(surveyed, moved, truth_headings, "surveyed"), query, None, repeats
             )
             _, _, rescaled = similarity_fit(positions, truth)
-            row["night_unscaled"] = night_error(with_poses(surveyed, rescaled, moved_headings, "surveyed"), query, None)
+            row["night_unscaled"] = night_error(
+                with_poses(surveyed, rescaled, moved_headings, "surveyed"), query, None, repeats
+            )
         rows.append(row)
         say(json.dumps({k: round(v, 4) if isinstance(v, float) else v for k, v in row.items()}))
     return rows
@@ -180,6 +184,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     parser.add_argument("--night", action="store_true")
     parser.add_argument("--decompose", action="store_true")
+    parser.add_argument("--night-repeats", type=int, default=1, help="night odometry draws per map (default 1)")
     args = parser.parse_args(argv)
     low, _, high = args.seeds.partition("-")
     seeds = list(range(int(low), int(high or low) + 1))
@@ -201,7 +206,9 @@ def main(argv: list[str] | None = None) -> int:
         folders["large_garden"] = args.large
     rows = []
     for world in worlds:
-        rows += run_world(world, folders[world], seeds, teach, args.night or args.decompose, args.decompose)
+        rows += run_world(
+            world, folders[world], seeds, teach, args.night or args.decompose, args.decompose, args.night_repeats
+        )
     summarise(rows)
     return 0
 

@@ -7,6 +7,7 @@ void register_preparation(py::module_& m);   // register_preparation.cpp: nightl
 void register_matching(py::module_& m);      // register_matching.cpp: nightloc.matching
 void register_localization(py::module_& m);  // register_localization.cpp: nightloc.localization
 void register_route(py::module_& m);         // register_route.cpp: nightloc.route
+void register_mapping(py::module_& m);       // register_mapping.cpp: nightloc.mapping
 
 PYBIND11_MODULE(_core, m) {
     m.doc() =
@@ -16,4 +17,5 @@ PYBIND11_MODULE(_core, m) {
     register_matching(m);
     register_localization(m);
     register_route(m);
+    register_mapping(m);
 }

@@ -296,3 +296,19 @@ class HeatSequence:
     def size(self) -> int: ...
     @property
     def capacity(self) -> int: ...
+
+# The teach run (cpp/bindings/register_mapping.cpp; use nightloc.mapping.warping)
+def warp_costs(
+    images: npt.NDArray[np.uint8],
+    stacks: npt.NDArray[np.uint8],
+    row_begin: npt.NDArray[np.int32],
+    row_end: npt.NDArray[np.int32],
+    level: npt.NDArray[np.int32],
+    sign: npt.NDArray[np.int32],
+    pairs: npt.NDArray[np.int32],
+    first_direction: npt.NDArray[np.int32],
+    n_directions: int,
+    first_shift: npt.NDArray[np.int32],
+    n_shifts: int,
+    threads: int = 1,
+) -> npt.NDArray[np.float64]: ...

@@ -174,25 +174,42 @@ def measure_constraints(
         unsure_heading: radians; a pair whose relative heading is less sure than this is
             measured over the whole image.
         min_axis_distance: metres; closer places are compared over every column.
-        warper: measures pairs apart by min-warping (:mod:`~nightloc.mapping.warping`) instead
-            of the columns along the line between them; None: those columns.
+        warper: measures pairs apart (not unsure) by min-warping (:mod:`~nightloc.mapping.warping`)
+            instead of the columns along the line between them; None: those columns.
         direction_range: radians; directions of travel tried either side of the estimate's.
     """
     unsure = np.zeros(len(poses)) if heading_uncertainty is None else np.asarray(heading_uncertainty, np.float64)
-    out = []
+    plans = []
     for pair in pairs:
         i, j = pair.i, pair.j
         dx, dy = poses[j, :2] - poses[i, :2]
         distance = math.hypot(dx, dy)
         strong = pair.kind == "place" and pair.score <= strong_score
         lost = pair.kind == "place" and math.hypot(unsure[i], unsure[j]) > unsure_heading
-        axis = None if distance < min_axis_distance or strong or lost else math.atan2(dy, dx) - poses[i, 2]
+        line = math.atan2(dy, dx) - poses[i, 2]  # the direction from i to j in i's frame
         prior = None if strong or lost else poses[j, 2] - poses[i, 2]
-        if warper is not None and not strong and distance >= min_axis_distance:
-            centre = None if lost else math.atan2(dy, dx) - poses[i, 2]
-            warped = warper.measure(i, j, centre, direction_range, prior, 4)
-            heading, score = warped.heading, float(pair.score)
+        # an unsure pair (no prediction to search around) is compared over the whole image: in the
+        # first round, before the heading stage has had its say; warped later (the same maps)
+        warped = warper is not None and not strong and not lost and distance >= min_axis_distance
+        plans.append((pair, distance, strong, lost, line, prior, warped))
+    warp_jobs = [k for k, plan in enumerate(plans) if plan[6]]
+    measured: dict[int, float] = {}
+    if warper is not None and warp_jobs:
+        results = warper.measure_many(
+            np.array([[plans[k][0].i, plans[k][0].j] for k in warp_jobs]),
+            np.array([plans[k][4] for k in warp_jobs]),
+            direction_range,
+            np.array([plans[k][5] for k in warp_jobs]),
+            4,
+        )
+        measured = {k: result.heading for k, result in zip(warp_jobs, results) if math.isfinite(result.heading)}
+    out = []
+    for k, (pair, distance, strong, lost, line, prior, _) in enumerate(plans):
+        i, j = pair.i, pair.j
+        if k in measured:
+            heading, score = measured[k], float(pair.score)
         else:
+            axis = None if distance < min_axis_distance or strong or lost else line
             heading, score = relative_heading(images[j], images[i], axis, axis_half_width, prior=prior)
         spread = 0.0 if strong else max_distance if lost else distance  # a strong pair's places coincide
         along = None

@@ -319,19 +319,21 @@ def optimise_graph(
         marginals = gtsam.Marginals(graph, result)
         keys = np.unique(np.append(np.arange(0, n, max(1, int(marginal_stride))), n - 1))
         sampled = np.array([marginals.marginalCovariance(int(k)) for k in keys])
-        frames = np.arange(n)
-        local = np.stack(
-            [np.interp(frames, keys, sampled[:, a, b]) for a in range(3) for b in range(3)], axis=1
-        ).reshape(n, 3, 3)
     except (RuntimeError, IndexError, ValueError) as error:  # gtsam's IndeterminantLinearSystemException, ...
         raise MappingError(f"the pose graph of {n} frames could not be solved: {error}") from None
-    if not (np.isfinite(poses).all() and np.isfinite(local).all() and math.isfinite(final_error)):
+    if not (np.isfinite(poses).all() and np.isfinite(sampled).all() and math.isfinite(final_error)):
         raise MappingError(f"the pose graph of {n} frames has no finite solution (a degenerate odometry log?)")
-    # GTSAM states a Pose2's covariance in its own (body) frame; the map's is in the map frame
-    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
-    turn = np.zeros((n, 3, 3))
+    # GTSAM states a Pose2's covariance in its own (body) frame; the map's is in the map frame.
+    # Turned into the map frame first, then interpolated: a robot turning on the spot between
+    # two sampled frames turns its body frame, not its uncertainty.
+    c, s = np.cos(poses[keys, 2]), np.sin(poses[keys, 2])
+    turn = np.zeros((len(keys), 3, 3))
     turn[:, 0, 0], turn[:, 0, 1], turn[:, 1, 0], turn[:, 1, 1], turn[:, 2, 2] = c, -s, s, c, 1.0
-    covariances = turn @ local @ np.swapaxes(turn, 1, 2)
+    in_map = turn @ sampled @ np.swapaxes(turn, 1, 2)
+    frames = np.arange(n)
+    covariances = np.stack(
+        [np.interp(frames, keys, in_map[:, a, b]) for a in range(3) for b in range(3)], axis=1
+    ).reshape(n, 3, 3)
     covariances = 0.5 * (covariances + np.swapaxes(covariances, 1, 2))
     return GraphSolution(
         poses=poses,

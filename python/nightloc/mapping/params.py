@@ -44,7 +44,8 @@ class TeachParams:
             direction of travel together, each column free to move along its parallax);
             ``"axis"``: the columns along the line between the two places.
         heading_std, heading_std_per_metre: a visual heading's standard deviation, radians,
-            ``heading_std + heading_std_per_metre * distance`` (parallax grows with distance).
+            ``heading_std + heading_std_per_metre * distance`` (parallax grows with distance;
+            0.03 suits min-warping, 0.05 the less sure ``"axis"`` headings).
         unsure_heading: radians; a place pair whose relative heading the estimate knows less
             well than this is measured at every shift (and, warping, every direction).
         axis_half_width: radians; ``"axis"``: columns compared either side of the line.
@@ -81,9 +82,9 @@ class TeachParams:
     place_candidates: int = 6
     strong_score: float = 10.0
     gate_sigmas: float = 3.0
-    heading_method: Literal["warp", "axis"] = "axis"
+    heading_method: Literal["warp", "axis"] = "warp"
     heading_std: float = 0.005
-    heading_std_per_metre: float = 0.05
+    heading_std_per_metre: float = 0.03
     unsure_heading: float = 0.15
     axis_half_width: float = math.radians(30.0)
     direction_range: float = math.radians(30.0)

@@ -236,7 +236,7 @@ def teach_poses(
     solution = None
     if panoramic:
         scores, _ = difference_matrix(images, images, threads=threads)
-        warper = PanoramaWarper(images, teach.warp) if teach.heading_method == "warp" else None
+        warper = PanoramaWarper(images, teach.warp, threads) if teach.heading_method == "warp" else None
         poses = reckoned.copy()
         turn_std = np.sqrt(step_cov[:, 2, 2])
         # with the turn bias a variable, each step's own noise alone
@@ -309,8 +309,9 @@ def teach_poses(
                 constraints,
                 robust_scale=teach.robust_scale,
                 closed_loop_std=teach.closed_loop_std if teach.closed_loop else None,
-                # intermediate rounds gate with about 100 marginals along the drive, the last has all
-                marginal_stride=1 if round_index == teach.rounds - 1 else max(1, len(images) // 100),
+                # intermediate rounds gate with about 100 marginals along the drive (interpolated in
+                # the map frame), the last has every frame's up to 999 frames, then about 500
+                marginal_stride=max(1, len(images) // (500 if round_index == teach.rounds - 1 else 100)),
             )
             poses = solution.poses.copy()
             poses[:, 2] = np.unwrap(poses[:, 2])

@@ -24,8 +24,9 @@ The vertical magnification needs the elevation of the prepared image's top and b
 as equally spaced in elevation.
 
 :class:`PanoramaWarper` precomputes each frame's magnified copies and the tables of which of B's
-columns each of A's columns may move to for every direction of travel; :meth:`PanoramaWarper.
-measure` then estimates one pair.
+columns each of A's columns may move to for every direction of travel; the compiled core scores
+the hypotheses of many pairs at once (``nightloc/warp.hpp``, GIL released, threaded), and
+:meth:`PanoramaWarper.measure_many` picks each pair's best.
 """
 
 from __future__ import annotations
@@ -35,6 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import _core
+from .._validate import thread_count
 from .visual import subcolumn_minimum
 
 __all__ = ["PanoramaWarper", "WarpMeasurement", "WarpParams"]
@@ -106,98 +109,116 @@ class WarpMeasurement:
 
 
 class PanoramaWarper:
-    """Min-warping of prepared panoramas (module text).
+    """Min-warping of prepared panoramas (module text), in the compiled core.
+
+    Builds, once per drive, each frame's magnified copies (``stacks``, ``(N, L, H, W)`` uint8:
+    linear interpolation between rows in 8-bit fixed point) and the tables of where each column
+    may move for every direction of travel on the grid (``level``, ``sign``); the core then
+    scores hypotheses ``(direction, shift)`` of many pairs at once (:meth:`costs`).
 
     Args:
         images: ``(N, H, W)`` uint8 prepared 360-degree panoramas.
         params: :class:`WarpParams`.
+        threads: the core's threads (None: all cores).
     """
 
-    def __init__(self, images: np.ndarray, params: WarpParams | None = None):
+    def __init__(self, images: np.ndarray, params: WarpParams | None = None, threads: int | None = None):
         self.params = params or WarpParams()
         stack = np.asarray(images)
         if stack.ndim != 3 or stack.dtype != np.uint8:
             raise ValueError(f"images must be (N, H, W) uint8, got {stack.dtype} {stack.shape}")
-        self.images = stack
-        _, height, width = stack.shape
+        self.images = np.ascontiguousarray(stack)
+        width = stack.shape[2]
         self.width = width
+        self.threads = thread_count(threads)
         p = self.params
         if p.scales == 1:
             self.scales = np.ones(1)
         else:
             self.scales = np.exp(np.linspace(-math.log(p.max_scale), math.log(p.max_scale), p.scales))
-        top, bottom = math.radians(p.elevation_top), math.radians(p.elevation_bottom)
-        elevation = top - (np.arange(height) + 0.5) * (top - bottom) / height
-        # row weights per scale: B's rows whose source elevation lies inside A's image
-        self._sources = []
-        weights = np.zeros((len(self.scales), height))
-        for level, s in enumerate(self.scales):
-            source = (top - np.arctan(np.tan(elevation) / s)) / (top - bottom) * height - 0.5
-            inside = (source >= 0) & (source <= height - 1)
-            low = np.clip(np.floor(source).astype(np.intp), 0, height - 2)
-            self._sources.append((low, np.clip(source - low, 0.0, 1.0), inside))
-            weights[level] = inside
-        self._row_weights = weights
-        counts = weights.sum(axis=1)
-        self._usable = counts >= max(1, height // 3)
-        self._row_counts = np.maximum(counts, 1)
-        self._stacks: dict[int, np.ndarray] = {}
-        self._tables = self._direction_tables()
+        self.row_begin, self.row_end, self.stacks = _magnified(self.images, self.scales, p)
+        self.directions, self.level, self.sign = _direction_tables(width, self.scales, p)
+        self._cache: dict[tuple[int, ...], WarpMeasurement] = {}
 
-    def _stack(self, index: int) -> np.ndarray:
-        """``(L, H, W)`` float32: frame ``index`` magnified by each scale (0 outside)."""
-        cached = self._stacks.get(index)
-        if cached is None:
-            a = self.images[index].astype(np.float32)
-            cached = np.zeros((len(self.scales), *a.shape), np.float32)
-            for level, (low, frac, inside) in enumerate(self._sources):
-                rows = (1.0 - frac)[:, None] * a[low] + frac[:, None] * a[low + 1]
-                cached[level] = np.where(inside[:, None], rows, 0.0)
-            self._stacks[index] = cached
-        return cached
+    def costs(
+        self,
+        pairs: np.ndarray,
+        first_direction: np.ndarray,
+        n_directions: int,
+        first_shift: np.ndarray,
+        n_shifts: int,
+    ) -> np.ndarray:
+        """``(P, n_directions, n_shifts)`` float64 mean column costs (lower = better): pair ``p``
+        (frames ``pairs[p, 0]`` = A, ``pairs[p, 1]`` = B) at grid direction ``first_direction[p]
+        + d`` (of ``len(self.directions)``) and column shift ``first_shift[p] + s``."""
+        return _core.warp_costs(
+            self.images,
+            self.stacks,
+            self.row_begin,
+            self.row_end,
+            self.level,
+            self.sign,
+            np.ascontiguousarray(pairs, dtype=np.int32).reshape(-1, 2),
+            np.ascontiguousarray(first_direction, dtype=np.int32),
+            int(n_directions),
+            np.ascontiguousarray(first_shift, dtype=np.int32),
+            int(n_shifts),
+            self.threads,
+        )
 
-    def _direction_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """For every direction of travel on the grid (``G = direction_steps * W`` directions):
-        ``level (G, W, M + 1)`` the scale index of A's column ``c`` moved ``m`` columns away from
-        the direction (-1 where not allowed), ``sign (G, W)`` which way it moves."""
-        p = self.params
-        w = self.width
-        step = 2.0 * math.pi / w
-        grid = p.direction_steps * w
-        alphas = np.arange(grid) * (2.0 * math.pi / grid)
-        moves = np.arange(w // 2 + 1)
-        azimuth = -step * np.arange(w)
-        theta = np.remainder(azimuth[None, :] - alphas[:, None] + math.pi, 2 * math.pi) - math.pi  # (G, W)
-        sign = np.where(theta >= 0, 1, -1).astype(np.intp)
-        off = np.abs(theta)
-        moved = off[:, :, None] + moves[None, None, :] * step  # |theta'|
-        limit = np.minimum(np.arctan2(np.sin(off), np.cos(off) - p.max_parallax), math.pi)
-        allowed = moved <= limit[:, :, None] + 1e-9
-        with np.errstate(divide="ignore", invalid="ignore"):
-            magnification = np.sin(np.minimum(moved, math.pi)) / np.sin(off)[:, :, None]
-        log_scales = np.log(self.scales)
-        if len(self.scales) == 1:
-            level = np.zeros(moved.shape, np.intp)
-        else:
-            spacing = log_scales[1] - log_scales[0]
-            raw = np.rint((np.log(np.maximum(magnification, 1e-9)) - log_scales[0]) / spacing)
-            level = np.clip(np.nan_to_num(raw, nan=0.0), 0, len(self.scales) - 1).astype(np.intp)
-        near = (off < math.radians(p.axis_degrees)) | (off > math.pi - math.radians(p.axis_degrees))
-        level = np.where(allowed, level, -1)
-        level[near] = -1
-        level[near, 0] = -2  # on the axis: the azimuth stays, any magnification
-        return alphas, level, sign
+    def measure_many(
+        self,
+        pairs: np.ndarray,
+        directions: np.ndarray,
+        direction_range: float,
+        headings: np.ndarray,
+        windows: np.ndarray | int,
+    ) -> list[WarpMeasurement]:
+        """Estimates ``(psi, alpha)`` of every pair ``(i, j)`` (A = ``i``, B = ``j``).
 
-    def column_costs(self, i: int, j: int) -> np.ndarray:
-        """``(L + 1, W, W)``: mean absolute difference of A's (frame ``i``) column ``c``
-        magnified by each scale against B's (frame ``j``) column ``c'``; the last layer is the
-        best over the scales (for columns on the axis). Unusable scales are infinite."""
-        stack = self._stack(i)  # (L, H, W)
-        query = self.images[j].astype(np.float32)  # (H, W)
-        diff = np.abs(stack[:, :, :, None] - query[None, :, None, :])  # (L, H, W, W)
-        costs = np.einsum("lhab,lh->lab", diff, self._row_weights, optimize=True) / self._row_counts[:, None, None]
-        costs[~self._usable] = np.inf
-        return np.concatenate([costs, costs.min(axis=0, keepdims=True)])
+        A pair asked again with the same frames, directions and shifts (the teach run's next
+        round, its estimate moved by less than a grid step) is answered from a cache.
+
+        Args:
+            pairs: ``(P, 2)`` frame indices.
+            directions: ``(P,)`` radians in A's frame, the centre of the directions of travel
+                tried (NaN: every direction).
+            direction_range: radians either side of the centre.
+            headings: ``(P,)`` radians, the centre of the relative headings tried (NaN: every
+                shift).
+            windows: ``(P,)`` (or one) columns either side of the heading's shift tried.
+        """
+        pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+        directions = np.asarray(directions, dtype=np.float64).reshape(-1)
+        headings = np.asarray(headings, dtype=np.float64).reshape(-1)
+        windows = np.broadcast_to(np.asarray(windows, dtype=np.int64), (len(pairs),))
+        w, grid = self.width, len(self.directions)
+        half = int(math.ceil(direction_range / (2 * math.pi) * grid))
+        every_direction = ~np.isfinite(directions) | (2 * half + 1 >= grid)
+        every_shift = ~np.isfinite(headings) | (2 * windows + 1 >= w)
+        first_d = np.where(
+            every_direction, 0, np.rint(np.nan_to_num(directions) / (2 * math.pi) * grid).astype(np.int64) - half
+        )
+        n_d = np.where(every_direction, grid, 2 * half + 1)
+        first_s = np.where(
+            every_shift, 0, np.rint(np.nan_to_num(headings) * w / (2 * math.pi)).astype(np.int64) - windows
+        )
+        n_s = np.where(every_shift, w, 2 * windows + 1)
+        keys = [
+            (int(pairs[k, 0]), int(pairs[k, 1]), int(first_d[k] % grid), int(n_d[k]), int(first_s[k] % w), int(n_s[k]))
+            for k in range(len(pairs))
+        ]
+        missing = [k for k, key in enumerate(keys) if key not in self._cache]
+        groups: dict[tuple[int, int], list[int]] = {}
+        for k in missing:
+            groups.setdefault((int(n_d[k]), int(n_s[k])), []).append(k)
+        for (directions_tried, shifts_tried), chosen in groups.items():
+            table = self.costs(
+                pairs[chosen], np.mod(first_d[chosen], grid), directions_tried, np.mod(first_s[chosen], w), shifts_tried
+            )
+            for row, k in enumerate(chosen):
+                self._cache[keys[k]] = self._best(table[row], int(first_d[k]), int(first_s[k]), bool(every_shift[k]))
+        return [self._cache[key] for key in keys]
 
     def measure(
         self,
@@ -208,54 +229,85 @@ class PanoramaWarper:
         heading: float | None,
         window: int,
     ) -> WarpMeasurement:
-        """Estimates ``(psi, alpha)`` of frames ``i`` (A) and ``j`` (B).
+        """:meth:`measure_many` of one pair; None for ``direction`` / ``heading``: all of them."""
+        return self.measure_many(
+            np.array([[i, j]]),
+            np.array([np.nan if direction is None else direction]),
+            direction_range,
+            np.array([np.nan if heading is None else heading]),
+            window,
+        )[0]
 
-        Args:
-            i, j: frame indices.
-            direction: radians in A's frame, the centre of the directions of travel tried; None:
-                all directions.
-            direction_range: radians either side of ``direction``.
-            heading: radians, the centre of the relative headings tried; None: every shift.
-            window: columns either side of ``heading`` tried.
-        """
-        w = self.width
-        alphas, level, sign = self._tables
-        grid = len(alphas)
-        if direction is None or direction_range >= math.pi:
-            picked = np.arange(grid)
-        else:
-            centre = int(round(direction / (2 * math.pi) * grid))
-            half = int(math.ceil(direction_range / (2 * math.pi) * grid))
-            picked = np.arange(centre - half, centre + half + 1) % grid
-        if heading is None or 2 * window + 1 >= w:
-            shifts = np.arange(w)
-            circular = True
-        else:
-            centre_shift = int(round(heading * w / (2 * math.pi)))
-            shifts = np.arange(centre_shift - window, centre_shift + window + 1)
-            circular = False
-        costs = self.column_costs(i, j)  # (L + 1, W, W)
-        flat = np.concatenate([costs.reshape(-1), [np.inf]])
-        lv = level[picked]  # (A, W, M + 1)
-        moves = np.arange(lv.shape[2])
-        columns = np.arange(w)
-        # B's column of A's column c moved m away from the direction, at shift k
-        target = columns[None, :, None] - sign[picked][:, :, None] * moves[None, None, :]  # (A, W, M + 1)
-        layer = np.where(lv == -2, len(self.scales), lv)
-        base = np.where(lv == -1, -1, layer * w * w + columns[None, :, None] * w)  # (A, W, M + 1)
-        out = np.empty((len(picked), len(shifts)))
-        for index, k in enumerate(shifts):
-            gathered = np.where(base >= 0, base + (target + k) % w, len(flat) - 1)
-            best = flat[gathered].min(axis=2)  # (A, W)
-            finite = np.isfinite(best)
-            out[:, index] = np.where(finite, best, 0.0).sum(axis=1) / np.maximum(finite.sum(axis=1), 1)
-        a, k = np.unravel_index(int(np.argmin(out)), out.shape)
-        local = subcolumn_minimum(out[a], circular=circular)
-        shift = (local if circular else shifts[0] + local) % w
+    def _best(self, table: np.ndarray, first_direction: int, first_shift: int, circular: bool) -> WarpMeasurement:
+        """The best hypothesis of one pair's ``(directions, shifts)`` table, its shift refined."""
+        w, grid = self.width, len(self.directions)
+        if not np.isfinite(table).any():
+            return WarpMeasurement(float("nan"), float("nan"), float("inf"))
+        d, k = np.unravel_index(int(np.argmin(table)), table.shape)
+        local = subcolumn_minimum(table[d], circular=circular)
+        shift = (first_shift + local) % w
         psi = 2.0 * math.pi * shift / w
-        alpha = float(alphas[picked[a]])
+        alpha = float(self.directions[(first_direction + d) % grid])
         return WarpMeasurement(
             heading=psi - 2.0 * math.pi if psi > math.pi else psi,
             direction=alpha - 2.0 * math.pi if alpha > math.pi else alpha,
-            cost=float(out[a, k]),
+            cost=float(table[d, k]),
         )
+
+
+def _magnified(images: np.ndarray, scales: np.ndarray, params: WarpParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(row_begin, row_end, stacks)``: per scale the rows of B whose source elevation lies in
+    A's image (int32 ``(L,)``), and every frame magnified by every scale, ``(N, L, H, W)`` uint8
+    (8-bit fixed-point interpolation between rows; 0 outside the rows)."""
+    n, height, width = images.shape
+    top, bottom = math.radians(params.elevation_top), math.radians(params.elevation_bottom)
+    elevation = top - (np.arange(height) + 0.5) * (top - bottom) / height
+    stacks = np.zeros((n, len(scales), height, width), np.uint8)
+    row_begin = np.zeros(len(scales), np.int32)
+    row_end = np.zeros(len(scales), np.int32)
+    wide = images.astype(np.int32)
+    for level, s in enumerate(scales):
+        source = (top - np.arctan(np.tan(elevation) / s)) / (top - bottom) * height - 0.5
+        inside = np.flatnonzero((source >= 0) & (source <= height - 1))  # contiguous: monotone in the row
+        if len(inside) < max(1, height // 3):
+            continue  # too few rows to compare: the core skips an empty range
+        row_begin[level], row_end[level] = inside[0], inside[-1] + 1
+        low = np.clip(np.floor(source).astype(np.intp), 0, max(height - 2, 0))
+        high = np.minimum(low + 1, height - 1)
+        frac = np.clip(np.rint((source - low) * 256), 0, 256).astype(np.int32)
+        rows = slice(inside[0], inside[-1] + 1)
+        mixed = (256 - frac[rows, None]) * wide[:, low[rows], :] + frac[rows, None] * wide[:, high[rows], :]
+        stacks[:, level, rows, :] = ((mixed + 128) >> 8).astype(np.uint8)
+    return row_begin, row_end, stacks
+
+
+def _direction_tables(width: int, scales: np.ndarray, params: WarpParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For every direction of travel on the grid (``G = direction_steps * W``): ``directions``
+    ``(G,)`` radians in A's frame; ``level (G, W, M)`` int32 the scale index of A's column ``c``
+    moved ``m`` columns away from the direction (``L``: any scale, for columns on the axis; -1:
+    not allowed); ``sign (G, W)`` int32, column ``c`` moved ``m`` lands on ``c + k - sign * m``."""
+    step = 2.0 * math.pi / width
+    grid = params.direction_steps * width
+    directions = np.arange(grid) * (2.0 * math.pi / grid)
+    moves = np.arange(width // 2 + 1)
+    azimuth = -step * np.arange(width)
+    theta = np.remainder(azimuth[None, :] - directions[:, None] + math.pi, 2 * math.pi) - math.pi  # (G, W)
+    sign = np.where(theta >= 0, 1, -1).astype(np.int32)
+    off = np.abs(theta)
+    moved = off[:, :, None] + moves[None, None, :] * step  # |theta'|
+    limit = np.minimum(np.arctan2(np.sin(off), np.cos(off) - params.max_parallax), math.pi)
+    allowed = moved <= limit[:, :, None] + 1e-9
+    with np.errstate(divide="ignore", invalid="ignore"):
+        magnification = np.sin(np.minimum(moved, math.pi)) / np.sin(off)[:, :, None]
+    if len(scales) == 1:
+        level = np.zeros(moved.shape, np.int32)
+    else:
+        log_scales = np.log(scales)
+        spacing = log_scales[1] - log_scales[0]
+        raw = np.rint((np.log(np.maximum(np.nan_to_num(magnification, nan=1.0), 1e-9)) - log_scales[0]) / spacing)
+        level = np.clip(raw, 0, len(scales) - 1).astype(np.int32)
+    near = (off < math.radians(params.axis_degrees)) | (off > math.pi - math.radians(params.axis_degrees))
+    level = np.where(allowed, level, -1).astype(np.int32)
+    level[near] = -1
+    level[near, 0] = len(scales)  # on the axis: the azimuth stays, at any magnification
+    return directions, np.ascontiguousarray(level), np.ascontiguousarray(sign)
