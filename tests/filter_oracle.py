@@ -277,8 +277,12 @@ class OracleFilter:
         else:
             np.minimum.at(place_scores[0], self.place_of_ref, self.mins)
         gain = -lam * math.log2(math.e)
-        y_places = np.maximum(gain * (place_scores - s_min), LOWEST_LOG2)  # (bins, places)
-        y_fill = np.maximum(gain * (place_scores.max(axis=1) - s_min), LOWEST_LOG2)  # (bins,)
+        cap = self.s.get("score_cap", 0.0)  # scores beyond s_min + cap spread count as that
+        lowest = LOWEST_LOG2
+        if cap > 0:
+            lowest = max(LOWEST_LOG2, -temper * self.s["likelihood_gain"] * cap * math.log2(math.e))
+        y_places = np.maximum(gain * (place_scores - s_min), lowest)  # (bins, places)
+        y_fill = np.maximum(gain * (place_scores.max(axis=1) - s_min), lowest)  # (bins,)
         y_cells = (self.w @ y_places.T).T  # (bins, cells)
         y_cells[:, self.outside] = y_fill[:, None]
         y_cells = np.maximum(y_cells, LOWEST_LOG2)

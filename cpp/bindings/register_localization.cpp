@@ -386,6 +386,8 @@ private:
                 s.negligible = v.cast<double>();
             else if (key == "settle_frames")
                 s.settle_frames = v.cast<std::size_t>();
+            else if (key == "score_cap")
+                s.score_cap = v.cast<double>();
             else
                 throw py::value_error("unknown grid filter setting '" + key + "'");
         }

@@ -124,6 +124,7 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
     require(std::isfinite(s.negligible) && s.negligible >= 0 && s.negligible < 1,
             "grid filter: negligible must be in [0, 1)");
     require(s.settle_frames <= 1000, "grid filter: settle_frames must be 0..1000");
+    require(finite_nonnegative(s.score_cap), "grid filter: score_cap must be finite and >= 0");
 
     const ShiftWindow& window = map_.window;
     require(window.columns < map_.columns && window.rows <= 1000,
@@ -630,6 +631,12 @@ void GridFilter::update(const float* table) {
             : 1.0;
     lambda_ = spread > 0 ? temper * settings_.likelihood_gain / spread : 0.0;
     ++frames_;
+    // the outlier-robust likelihood: a score above s_min + score_cap spread counts as that one, so
+    // a frame that matches a look-alike cannot erase the place the prior holds (log2 units)
+    const double lowest =
+        settings_.score_cap > 0
+            ? std::max(kLowestLog2, -temper * settings_.likelihood_gain * settings_.score_cap * kLog2e)
+            : kLowestLog2;
 
     // per place and bin the log2-likelihood y = max(-lambda log2(e) (score - s_min), -60) of the
     // place's lowest score (of its references), in groups of kGroupBins bins (a pass of the
@@ -664,7 +671,7 @@ void GridFilter::update(const float* table) {
         twice_.resize(4 * map_.columns);
         row_y_.resize(map_.columns);
         k.lerp_log_lik(table, n, map_.columns, row_of_ref_.data(), first_of_place_.data(), ref_c0_.data(),
-                       ref_fraction_.data(), gain, s_min, kLowestLog2, log_lik_.data(), group_rows, twice_.data(),
+                       ref_fraction_.data(), gain, s_min, lowest, log_lik_.data(), group_rows, twice_.data(),
                        row_y_.data());
         bin_high_.assign(B, inf);  // here the bins' lowest y
         k.group_min(log_lik_.data(), places_, B, group_rows, bin_high_.data());
@@ -734,10 +741,10 @@ void GridFilter::update(const float* table) {
         }
         bin_high_.assign(B, -inf);
         k.column_max(place_scores_.data(), places_, B, bin_high_.data());
-        k.log_lik(place_scores_.data(), places_, B, gain, s_min, kLowestLog2, log_lik_.data(), group_rows, 0);
+        k.log_lik(place_scores_.data(), places_, B, gain, s_min, lowest, log_lik_.data(), group_rows, 0);
         std::vector<float>& fill = row_y_;
         fill.resize(B);
-        k.log_lik(bin_high_.data(), 1, B, gain, s_min, kLowestLog2, fill.data(), 1, 0);
+        k.log_lik(bin_high_.data(), 1, B, gain, s_min, lowest, fill.data(), 1, 0);
         // fill is grouped with one row: bin b at (b / 4) * 4 + b % 4 = b
         set_fill(fill.data());
     }

@@ -292,7 +292,7 @@ def test_four_frames_agreeing_on_a_look_alike_do_not_make_the_start_confident():
     standing = RobotMotion(0.0, 0.0, 0.0)
     confidence = {}
     for settle in (0, 12):
-        loc = Localizer(ref_map, grid_width=30, grid_height=24, settle_frames=settle)
+        loc = Localizer(ref_map, grid_width=30, grid_height=24, settle_frames=settle, score_cap=0.0)
         for k, table in enumerate(tables):
             estimate = loc.update_table(table, standing if k else None)
         confidence[settle] = estimate.confidence
@@ -440,10 +440,11 @@ def test_a_robot_driven_off_the_map_keeps_a_defined_belief():
 
 @pytest.mark.sanitize  # drives the core (CI runs it again under ASan + UBSan)
 @pytest.mark.parametrize("n_refs", [1, 2])
-def test_one_or_two_references(n_refs):
+@pytest.mark.parametrize("cap", [0.0, 1.45])
+def test_one_or_two_references(n_refs, cap):
     rng = np.random.default_rng(13)
     ref_map = _random_map(rng, n=n_refs)
-    loc = Localizer(ref_map, grid_width=21, grid_height=21)
+    loc = Localizer(ref_map, grid_width=21, grid_height=21, score_cap=cap)
     table = rng.uniform(15, 25, (n_refs, 16)).astype(np.float32)
     e = loc.update_table(table)
     assert math.isfinite(e.x) and math.isfinite(e.y) and 0 <= e.ref_index < n_refs
@@ -451,7 +452,8 @@ def test_one_or_two_references(n_refs):
         assert loc._filter.core.lambda_ == 0.0
     else:
         assert loc._filter.core.lambda_ > 0.0
-        assert e.ref_index == int(np.argmin(table.min(axis=1)))
+        if not cap:  # capped, two random rows are mostly at the cap: the place of more good bins wins
+            assert e.ref_index == int(np.argmin(table.min(axis=1)))
     e = loc.update_table(table, RobotMotion(0.2, 0.0, 0.5))
     assert math.isfinite(e.heading)
 
@@ -604,3 +606,27 @@ def test_filter_params_round_trip_through_toml(tmp_path):
     rng = np.random.default_rng(19)
     loc = Localizer(_random_map(rng, n=5), filter_params=params, grid_width=10, grid_height=10)
     assert loc._filter.core.heading_bins == 24
+
+
+@pytest.mark.parametrize("cap", [0.0, 0.8, 1.45])
+def test_one_frame_weighs_against_a_place_by_at_most_the_score_cap(cap):
+    """The outlier-robust likelihood (issue 22 item 3): a frame that matches a look-alike cannot
+    erase a place: scores beyond s_min + score_cap (median - min) count as that one, so from a
+    uniform start no cell holds less than exp(-likelihood_gain score_cap) of the most likely
+    (without the cap, a place scoring far worse than the median is all but erased); the core
+    equals the oracle."""
+    rng = np.random.default_rng(31)
+    ref_map = _random_map(rng, n=11, headings=False)
+    loc = Localizer(ref_map, grid_width=60, grid_height=50, settle_frames=0, score_cap=cap)
+    oracle = _oracle(loc)
+    table = np.full((11, 16), 40.0, dtype=np.float32)
+    table[:, 5] = [10.0] + [20.0] * 9 + [200.0]  # median 20, spread 10; the last place far worse
+    estimate = loc.update_table(table)
+    oracle.update(table)
+    _check_against_oracle(loc, oracle, estimate)
+    marginal = loc._filter.marginal()
+    ratio = marginal.min() / marginal.max()
+    if cap:
+        assert ratio >= math.exp(-3.0 * cap) * (1 - 1e-4)
+    else:  # the cells nearest the far worse place: under a twentieth of the default cap's share
+        assert ratio < math.exp(-3.0 * 1.45) / 20

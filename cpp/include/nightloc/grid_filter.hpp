@@ -45,6 +45,8 @@
 //   m_i = min_k T[i, k], s_min = min_i m_i, spread = median_i m_i - s_min,
 //   lambda = t likelihood_gain / spread (0 when spread is 0: a frame of ties carries no position),
 //   t = min(1, (k + 1) / settle_frames) for the k-th frame since reset() (k from 0), else 1;
+//   an outlier-robust likelihood: scores above s_min + score_cap spread count as that (when
+//   score_cap > 0), so one frame weighs against a place by at most exp(-t likelihood_gain score_cap);
 //   pose mode: the score of reference i in bin b is T linearly interpolated at the fractional
 //   shift k = (theta_b - heading_i) * columns / (2 pi) (circular); position mode: m_i;
 //   a forward camera: the score of reference i in bin b is T linearly interpolated at the column
@@ -53,8 +55,8 @@
 //   whose references is in view takes the frame's median score (no evidence either way);
 //   per place (references at one position) the lowest; per bin the place scores are interpolated
 //   onto the cells with the map's weights (cells without weights take the bin's highest place
-//   score: never preferred); likelihood = exp(-lambda (score - s_min)); belief *= likelihood,
-//   normalized (when nothing is left, the likelihood alone).
+//   score: never preferred); likelihood = exp(-lambda (score - s_min)), at least that cap (and
+//   2^-60); belief *= likelihood, normalized (when nothing is left, the likelihood alone).
 //
 // Estimate: the marginal over heading M; its first maximum, refined to the M-weighted mean of
 // the (2 window + 1)^2 cells around it; covariance of M about its mean (m^2); credible_radius:
@@ -124,6 +126,7 @@ struct GridFilterSettings {
                                       ///< largest moves without the position blur (0: every bin is blurred)
     std::size_t settle_frames = 12;   ///< frame k after reset() (k from 0) weighs (k + 1) / settle_frames
                                       ///< of the likelihood gain until it reaches it (0 or 1: no tempering)
+    double score_cap = 1.45;          ///< scores above s_min + score_cap spread count as that (0: no cap)
 };
 
 /// What the filter knows of the map (python: built from the HeatMapper of the localizer).

@@ -16,7 +16,8 @@ localization; docs/localization.md) keeps a belief over the heat-map grid **x he
 2. **updates** by the frame's whole rotational SAD table: for every heading bin and reference the
    score of the shift that turns the reference into that heading (interpolated between columns),
    ``likelihood = exp(-lambda (score - s_min))`` with ``lambda = likelihood_gain / (median - min)``
-   of the frame's per-reference minimum scores, interpolated onto the grid with the map's
+   of the frame's per-reference minimum scores (scores beyond ``score_cap`` x (median - min)
+   above the lowest count as that: one frame cannot erase a place), interpolated onto the grid with the map's
    weights (in log space);
 3. **estimates** position (the marginal's peak refined to the mean of the cells around it),
    heading, covariance, ``credible_radius`` and ``confidence`` (the belief within
@@ -83,6 +84,10 @@ class FilterParams:
             the belief's largest moves with the odometry without the position blur (each of its
             cells off by at most that share of the peak; most bins of a belief that has settled
             are such, and the blur is most of an update); 0 blurs every bin.
+        score_cap: an outlier-robust likelihood: a score more than ``score_cap`` x (median - min)
+            of the frame's minimum scores above its lowest counts as that much, so one frame
+            weighs against a place by at most ``exp(-likelihood_gain * score_cap)`` (a frame that
+            matches a look-alike cannot erase the place the odometry points to); 0: no cap.
     """
 
     heading_bins: int = 0
@@ -98,12 +103,13 @@ class FilterParams:
     field_of_view: float = 90.0
     forward_window: int = 0
     row_window: int = 0
+    score_cap: float = 1.45
 
     def validate(self) -> None:
         """Checks ranges (called on construction); raises ValueError naming the field."""
         if not 0 <= self.heading_bins <= 4096:
             raise ValueError(f"heading_bins must be 0 (one per panorama column) .. 4096, got {self.heading_bins}")
-        for name in ("likelihood_gain", "position_floor", "heading_floor", "unknown_spread"):
+        for name in ("likelihood_gain", "position_floor", "heading_floor", "unknown_spread", "score_cap"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value}")
@@ -230,6 +236,7 @@ class GridFilter:
             "estimate_window": params.estimate_window,
             "negligible": params.negligible,
             "settle_frames": params.settle_frames,
+            "score_cap": params.score_cap,
         }
         self.settings = settings  # what the core was given (tests build their oracle from it)
         self.core = _core.GridFilter(
