@@ -2,6 +2,7 @@
 #include "query_plan.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -27,34 +28,55 @@ void write_rolled(const std::uint8_t* query, std::size_t height, std::size_t wid
     std::memset(dst + height * width, 0, stride - height * width);
 }
 
+// Copies n bytes: 16 at a time, the last 16 overlapping the previous ones (inline stores
+// rather than a library call per short row); memcpy when n < 16.
+void copy_row(std::uint8_t* dst, const std::uint8_t* src, std::size_t n) {
+    if (n < 16) {
+        std::memcpy(dst, src, n);
+        return;
+    }
+    for (std::size_t c = 0; c + 16 < n; c += 16) std::memcpy(dst + c, src + c, 16);
+    std::memcpy(dst + n - 16, src + n - 16, 16);
+}
+
+// The rows of a query with `pad` zeros on either side: row r at padded + r * (width + 2 pad) + pad.
+void write_padded(const std::uint8_t* query, std::size_t height, std::size_t width, std::size_t pad,
+                  std::vector<std::uint8_t>& padded) {
+    const std::size_t row_stride = width + 2 * pad;
+    padded.assign(height * row_stride, 0);
+    for (std::size_t r = 0; r < height; ++r) std::memcpy(padded.data() + r * row_stride + pad, query + r * width, width);
+}
+
 // Writes `lead` zeros, then dst(r, c) = query(r, c + offset) where 0 <= c + offset < width,
-// else 0; zeros up to `stride`.
-void write_offset(const std::uint8_t* query, std::size_t height, std::size_t width, std::int32_t offset,
-                  std::size_t lead, std::uint8_t* dst, std::size_t stride) {
+// else 0; zeros up to `stride`. `padded` holds the query's rows with `pad` >= |offset| zeros on
+// either side (write_padded).
+void write_offset(const std::uint8_t* padded, std::size_t pad, std::size_t height, std::size_t width,
+                  std::int32_t offset, std::size_t lead, std::uint8_t* dst, std::size_t stride) {
     std::memset(dst, 0, lead);
     dst += lead;
     stride -= lead;
-    const std::size_t shift = std::min(static_cast<std::size_t>(offset < 0 ? -std::int64_t{offset} : offset), width);
-    for (std::size_t r = 0; r < height; ++r) {
-        const std::uint8_t* src_row = query + r * width;
-        std::uint8_t* dst_row = dst + r * width;
-        if (offset >= 0) {
-            std::memcpy(dst_row, src_row + shift, width - shift);
-            std::memset(dst_row + (width - shift), 0, shift);
-        } else {
-            std::memset(dst_row, 0, shift);
-            std::memcpy(dst_row + shift, src_row, width - shift);
-        }
-    }
+    const std::size_t row_stride = width + 2 * pad;
+    const std::uint8_t* src = padded + static_cast<std::ptrdiff_t>(pad) + offset;
+    for (std::size_t r = 0; r < height; ++r) copy_row(dst + r * width, src + r * row_stride, width);
     std::memset(dst + height * width, 0, stride - height * width);
 }
 
-void write_copy(const SearchShape& shape, const std::uint8_t* query, std::int32_t shift, std::uint8_t* dst,
-                std::size_t stride) {
+// The largest |offset| of a non-wrapping shape's offsets.
+std::size_t largest_offset(const SearchShape& shape) {
+    std::size_t largest = 0;
+    for (std::size_t j = 0; j < shape.n_shifts; ++j) {
+        const std::int32_t v = shape.shifts[j];
+        largest = std::max(largest, static_cast<std::size_t>(v < 0 ? -std::int64_t{v} : v));
+    }
+    return largest;
+}
+
+void write_copy(const SearchShape& shape, const std::uint8_t* query, const std::uint8_t* padded, std::size_t pad,
+                std::int32_t shift, std::uint8_t* dst, std::size_t stride) {
     if (shape.wrap) {
         write_rolled(query, shape.height, shape.width, static_cast<std::size_t>(shift), dst, stride);
     } else {
-        write_offset(query, shape.height, shape.width, shift, shape.lead, dst, stride);
+        write_offset(padded, pad, shape.height, shape.width, shift, shape.lead, dst, stride);
     }
 }
 
@@ -226,13 +248,18 @@ void QueryPlan::prepare(const std::uint8_t* queries, std::size_t count, std::siz
     query_count_ = count;
     slot_begin_ = slot_begin;
     slot_count_ = std::min(slots_per_block_, shape_.n_shifts - slot_begin);
+    // Every byte of the buffer is written below: no zeroing first.
     if (offset_layout_) {
         const std::size_t bytes = offset_copies_ * stride_, n_chunks = stride_ / kChunk;
-        buffer_.assign_zero(count * bytes);
+        const std::int32_t last = offset_e0_ + 2 * static_cast<std::int32_t>(offset_copies_ - 1);
+        const std::size_t pad = static_cast<std::size_t>(
+            std::max<std::int64_t>(std::abs(std::int64_t{offset_e0_}), std::abs(std::int64_t{last})));
+        buffer_.reserve(count * bytes);
         for (std::size_t k = 0; k < count; ++k) {
             std::uint8_t* dst = buffer_.data() + k * bytes;
+            write_padded(queries + k * query_stride, shape_.height, shape_.width, pad, padded_);
             for (std::size_t m = 0; m < offset_copies_; ++m) {
-                write_offset(queries + k * query_stride, shape_.height, shape_.width,
+                write_offset(padded_.data(), pad, shape_.height, shape_.width,
                              offset_e0_ + 2 * static_cast<std::int32_t>(m), shape_.lead, rolled_temp_.get(), stride_);
                 for (std::size_t c = 0; c < n_chunks; ++c) {
                     std::memcpy(dst + (c * offset_copies_ + m) * kChunk, rolled_temp_.get() + c * kChunk, kChunk);
@@ -240,16 +267,18 @@ void QueryPlan::prepare(const std::uint8_t* queries, std::size_t count, std::siz
             }
         }
     } else if (all_shifts_) {
-        buffer_.assign_zero(count * interleaved_bytes_);
+        buffer_.reserve(count * interleaved_bytes_);
         for (std::size_t k = 0; k < count; ++k) {
             interleave_query(queries + k * query_stride, shape_.height, shape_.width, rolled_temp_.get(),
                              buffer_.data() + k * interleaved_bytes_);
         }
     } else {
-        buffer_.assign_zero(count * slot_count_ * stride_);
+        buffer_.reserve(count * slot_count_ * stride_);
+        const std::size_t pad = shape_.wrap ? 0 : largest_offset(shape_);
         for (std::size_t k = 0; k < count; ++k) {
+            if (!shape_.wrap) write_padded(queries + k * query_stride, shape_.height, shape_.width, pad, padded_);
             for (std::size_t j = 0; j < slot_count_; ++j) {
-                write_copy(shape_, queries + k * query_stride, shape_.shifts[slot_begin + j],
+                write_copy(shape_, queries + k * query_stride, padded_.data(), pad, shape_.shifts[slot_begin + j],
                            buffer_.data() + (k * slot_count_ + j) * stride_, stride_);
             }
         }

@@ -117,6 +117,7 @@ private:
     std::size_t slot_count_ = 0;
     AlignedBytes buffer_;
     std::unique_ptr<std::uint8_t[]> rolled_temp_;
+    std::vector<std::uint8_t> padded_;  // non-wrapping shapes: the query's rows padded with zeros
 };
 
 }  // namespace nightloc::detail
