@@ -54,7 +54,7 @@ public:
                 tail[k] = dst + full;
             } else {
                 std::uint8_t* dst = tails_ + k * V;
-                std::memcpy(dst, src + full, pixels_ - full);
+                copy_short(dst, src + full, pixels_ - full);
                 row[k] = src;
                 tail[k] = dst;
             }
@@ -62,6 +62,23 @@ public:
     }
 
 private:
+    // Copies n < V bytes, reading and writing no byte outside them: fixed-size pieces (inline
+    // moves, overlapping at the end) rather than a library call per reference and pass.
+    static void copy_short(std::uint8_t* dst, const std::uint8_t* src, std::size_t n) {
+        if (n >= 16) {
+            for (std::size_t c = 0; c + 16 < n; c += 16) std::memcpy(dst + c, src + c, 16);
+            std::memcpy(dst + n - 16, src + n - 16, 16);
+        } else if (n >= 8) {
+            std::memcpy(dst, src, 8);
+            std::memcpy(dst + n - 8, src + n - 8, 8);
+        } else if (n >= 4) {
+            std::memcpy(dst, src, 4);
+            std::memcpy(dst + n - 4, src + n - 4, 4);
+        } else {
+            for (std::size_t c = 0; c < n; ++c) dst[c] = src[c];
+        }
+    }
+
     static constexpr std::size_t kStageMinCopies = 4;
     static constexpr std::size_t kStageMaxBytes = std::size_t{256} * 1024;
     std::size_t pixels_, padded_;

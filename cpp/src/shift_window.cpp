@@ -122,6 +122,7 @@ typedef std::uint8_t Byte8 __attribute__((vector_size(8)));
 typedef std::uint16_t Word8 __attribute__((vector_size(16)));
 typedef std::uint32_t Dword8 __attribute__((vector_size(32)));
 typedef std::uint64_t Qword2 __attribute__((vector_size(16)));
+typedef std::uint32_t Dword4 __attribute__((vector_size(16)));
 
 template <class V>
 V load_vector(const void* p) {
@@ -354,6 +355,44 @@ struct SideSums {
         }
         return difference;
     }
+    /// NV == 1, sx <= 8: out[sx] = lead, out[sx - a] = lead + the sum of columns [0, a) and
+    /// out[sx + a] = lead + the sum of columns [width - a, width), a = 1 .. sx; running sums in
+    /// 32-bit vector lanes.
+    void running_sums(std::uint32_t lead, std::size_t sx, std::uint32_t* out) const {
+        const Dword4 zero = {0, 0, 0, 0}, leads = {lead, lead, lead, lead};
+        // Columns 0, 2, 4, 6 (e_left), 1, 3, 5, 7 (o_left), width - 8, width - 6, .. (e_right) and
+        // width - 7, width - 5, .. (o_right) widened, then in the orders 7, 6, .., 0 and width - 1,
+        // width - 2, .., width - 8.
+        const Dword4 e_left = __builtin_convertvector(__builtin_shufflevector(even[0], even[0], 0, 1, 2, 3), Dword4);
+        const Dword4 o_left = __builtin_convertvector(__builtin_shufflevector(odd[0], odd[0], 0, 1, 2, 3), Dword4);
+        const Dword4 e_right = __builtin_convertvector(__builtin_shufflevector(even[0], even[0], 4, 5, 6, 7), Dword4);
+        const Dword4 o_right = __builtin_convertvector(__builtin_shufflevector(odd[0], odd[0], 4, 5, 6, 7), Dword4);
+        const Dword4 left_lo = __builtin_shufflevector(e_left, o_left, 7, 3, 6, 2);
+        const Dword4 left_hi = __builtin_shufflevector(e_left, o_left, 5, 1, 4, 0);
+        const Dword4 right_lo = __builtin_shufflevector(e_right, o_right, 7, 3, 6, 2);
+        const Dword4 right_hi = __builtin_shufflevector(e_right, o_right, 5, 1, 4, 0);
+        // Left: sums from each lane to the last (columns [0, c]); right: from the first lane on.
+        Dword4 l_hi = left_hi + __builtin_shufflevector(left_hi, zero, 1, 2, 3, 4);
+        l_hi += __builtin_shufflevector(l_hi, zero, 2, 3, 4, 4);
+        Dword4 l_lo = left_lo + __builtin_shufflevector(left_lo, zero, 1, 2, 3, 4);
+        l_lo += __builtin_shufflevector(l_lo, zero, 2, 3, 4, 4);
+        l_lo += __builtin_shufflevector(l_hi, l_hi, 0, 0, 0, 0);
+        Dword4 r_lo = right_lo + __builtin_shufflevector(right_lo, zero, 4, 0, 1, 2);
+        r_lo += __builtin_shufflevector(r_lo, zero, 4, 4, 0, 1);
+        Dword4 r_hi = right_hi + __builtin_shufflevector(right_hi, zero, 4, 0, 1, 2);
+        r_hi += __builtin_shufflevector(r_hi, zero, 4, 4, 0, 1);
+        r_hi += __builtin_shufflevector(r_lo, r_lo, 3, 3, 3, 3);
+        // sums[8 - a] = left a columns, sums[8] = lead, sums[8 + a] = right a columns.
+        std::uint32_t buffer[17];
+        std::uint32_t* const sums = sx == 8 ? out : buffer;
+        l_lo += leads, l_hi += leads, r_lo += leads, r_hi += leads;
+        std::memcpy(sums, &l_lo, sizeof l_lo);
+        std::memcpy(sums + 4, &l_hi, sizeof l_hi);
+        sums[8] = lead;
+        std::memcpy(sums + 9, &r_lo, sizeof r_lo);
+        std::memcpy(sums + 13, &r_hi, sizeof r_hi);
+        if (sx != 8) std::copy(buffer + (8 - sx), buffer + (9 + sx), out);
+    }
     /// out[c] = column c's sum for c < 8 NV, out[8 NV + c] = column width - 1 - c's.
     void columns(std::uint16_t* out) const {
         for (std::size_t v = 0; v < NV; ++v) {
@@ -392,12 +431,17 @@ void Window::edge_sums_narrow(const std::uint8_t* ref, std::size_t band_begin, s
     for (std::size_t t = band_begin; t < band_end; ++t) {
         const std::int32_t d = dy(t);
         const SideSums<NV>& excluded = d < 0 ? top[magnitude(d)] : bottom[magnitude(d)];
+        std::uint32_t* dst = out + (t - band_begin) * n;
+        const std::uint32_t lead = band_lead(t) != 0 ? lead_sum(ref, t) : 0;
+        if constexpr (NV == 1) {
+            (total - excluded).running_sums(lead, sx, dst);
+            continue;
+        }
         // Column c from the left at band_cols[c], column width - 1 - c at band_cols[kRight + c].
         std::uint16_t band_cols[16 * NV];
         (total - excluded).columns(band_cols);
         constexpr std::size_t kRight = 8 * NV;
-        std::uint32_t* dst = out + (t - band_begin) * n;
-        dst[sx] = band_lead(t) != 0 ? lead_sum(ref, t) : 0;
+        dst[sx] = lead;
         std::uint32_t left = dst[sx], right = dst[sx];
         for (std::size_t c = 0; c < sx; ++c) {
             left += band_cols[c];
