@@ -249,7 +249,7 @@ void Window::best_of_bands(const std::uint32_t* s, std::size_t band_stride, cons
     }
 }
 
-std::uint32_t Window::lead_sum(const std::uint8_t* ref, std::size_t band) const {
+inline std::uint32_t Window::lead_sum(const std::uint8_t* ref, std::size_t band) const {
     const std::uint8_t* p = ref + ref_start(band);
     const std::uint8_t* const end = ref + ref_offset(band);
     std::uint32_t sum = 0;
