@@ -71,6 +71,7 @@ Window::Window(std::size_t height, std::size_t width, const std::int32_t* shifts
     rank_dy_.resize(n_ranks);
     slot_rank_.resize(n_ranks);
     slot_inverse_.resize(n_ranks);
+    slot_band_.resize(n_ranks);
     for (std::size_t t = 0; t < n_bands(); ++t) {
         for (std::size_t j = 0; j < n_columns(); ++j) {
             const std::uint32_t r = rank(t, j);
@@ -80,6 +81,7 @@ Window::Window(std::size_t height, std::size_t width, const std::int32_t* shifts
             rank_dy_[r] = dy(t);
             slot_rank_[t * n_columns() + j] = r;
             slot_inverse_[t * n_columns() + j] = 1.0f / static_cast<float>(band_rows(t) * cols);
+            slot_band_[t * n_columns() + j] = static_cast<std::uint32_t>(t);
         }
     }
 }
@@ -232,7 +234,10 @@ void Window::best_of_bands(const std::uint32_t* s, std::size_t band_stride, cons
         lowest = band_lowest < lowest ? band_lowest : lowest;
     }
     const float threshold = contender_threshold(lowest);
-    auto sum_of = [&](std::size_t index) { return s[index / n * band_stride + index % n] - e[index]; };
+    auto sum_of = [&](std::size_t index) {
+        const std::size_t band = slot_band_[index];
+        return s[band * band_stride + (index - band * n)] - e[index];
+    };
     std::size_t index_sum = 0;
     if (count_contenders(keys, total, threshold, index_sum) == 1) {
         best_sum = sum_of(index_sum);

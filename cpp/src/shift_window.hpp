@@ -122,6 +122,7 @@ private:
     std::vector<std::uint32_t> rank_overlap_;
     std::vector<std::uint32_t> slot_rank_;  // band * n_columns + slot -> rank
     std::vector<float> slot_inverse_;       // band * n_columns + slot -> 1 / overlap
+    std::vector<std::uint32_t> slot_band_;  // band * n_columns + slot -> band (no division per pair)
     bool small_sums_ = false;               // every band sum fits an int32
     std::vector<std::size_t> leads_;        // align_bands(): per band, or empty
     std::uint32_t lead_sum(const std::uint8_t* ref, std::size_t band) const;
