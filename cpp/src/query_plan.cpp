@@ -44,7 +44,8 @@ void write_padded(const std::uint8_t* query, std::size_t height, std::size_t wid
                   std::vector<std::uint8_t>& padded) {
     const std::size_t row_stride = width + 2 * pad;
     padded.assign(height * row_stride, 0);
-    for (std::size_t r = 0; r < height; ++r) std::memcpy(padded.data() + r * row_stride + pad, query + r * width, width);
+    for (std::size_t r = 0; r < height; ++r)
+        std::memcpy(padded.data() + r * row_stride + pad, query + r * width, width);
 }
 
 // Writes `lead` zeros, then dst(r, c) = query(r, c + offset) where 0 <= c + offset < width,
