@@ -4,14 +4,13 @@ renders at known poses (the synthetic living room's near walls) and the geometry
 from __future__ import annotations
 
 import math
-import threading
-import time
 
 import numpy as np
 import pytest
 
 import nightloc
 import warp_oracle
+from gil_support import python_runs_during
 from nightloc.mapping.visual import relative_heading
 from nightloc.mapping.warping import PanoramaWarper, WarpParams
 from nightloc.synth import SynthScene
@@ -178,23 +177,7 @@ def test_core_costs_release_the_gil():
     warper = PanoramaWarper(rng.integers(0, 256, (40, 24, 48), dtype=np.uint8), threads=1)
     pairs = rng.integers(0, 40, (150, 2))
     grid = len(warper.directions)
-    state: dict[str, float] = {}
-
-    def worker():
-        state["t0"] = time.perf_counter()
-        warper.costs(pairs, np.zeros(150), grid, np.zeros(150), 48)
-        state["t1"] = time.perf_counter()
-
-    thread = threading.Thread(target=worker)
-    first = last = None
-    thread.start()
-    while "t1" not in state:
-        now = time.perf_counter()
-        if "t0" in state:
-            first = now if first is None else first
-            last = now
-    thread.join()
-    assert first is not None and last is not None and last - first > 0.5 * (state["t1"] - state["t0"])
+    assert python_runs_during(lambda: warper.costs(pairs, np.zeros(150), grid, np.zeros(150), 48)) > 0.5
 
 
 @pytest.mark.sanitize

@@ -3,17 +3,22 @@ issue says: query frame k is the night (winter) frame at round(p_k), p_{k+1} = p
 a sin(2 pi k / 50 + phi); with odometry the query's advance is the true one times
 1 + N(0, 0.05), the reference's one per frame. A query frame's row of the enhanced difference
 matrix depends on that frame alone, so the resampled query's matrix is rows of the aligned
-pair's. One phase here (tools/route_speed_sweep.py runs all three and the noise draws)."""
+pair's. One phase here (tools/route_speed_sweep.py, whose positions these are, runs all three and
+the noise draws)."""
 
 from __future__ import annotations
 
-import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import nightloc
 from nightloc import route
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
+from route_speed_sweep import issue_positions  # the issue's recipe, as the sweep builds it
 
 pytestmark = pytest.mark.slow
 
@@ -38,17 +43,6 @@ def _pair(shared_data, name):
     return _matrices[name]
 
 
-def _positions(n_refs, amplitude, phase):
-    positions = [0.0]
-    k = 0
-    while True:
-        following = positions[-1] + 1.0 + amplitude * math.sin(2 * math.pi * k / 50 + phase)
-        k += 1
-        if round(following) > n_refs - 1:
-            return np.array(positions)
-        positions.append(following)
-
-
 def _evaluate(enhanced, weights, index, params, **odometry):
     refs, confidence, _ = route.route_filter(enhanced[index], params, weights[index], **odometry)
     truth = route.GroundTruth.from_frames(len(index), enhanced.shape[1], 2, index)
@@ -58,7 +52,7 @@ def _evaluate(enhanced, weights, index, params, **odometry):
 @pytest.mark.parametrize("name", sorted(PAIRS))
 def test_odometry_meets_the_targets_at_a_speed_of_055_to_145(shared_data, name):
     enhanced, weights = _pair(shared_data, name)
-    positions = _positions(enhanced.shape[1], 0.45, 2.1)
+    positions = issue_positions(enhanced.shape[1], 0.45, 2.1)
     index = np.rint(positions).astype(np.int64)
     rng = np.random.default_rng(19)
     advances = np.diff(positions, prepend=positions[0]) * (1.0 + rng.normal(0.0, 0.05, len(positions)))
@@ -76,7 +70,7 @@ def test_speed_model_on_nordland_at_a_speed_of_07_to_13(shared_data):
     # The speed model follows a speed of 0.7-1.3x better than the window model, short of issue
     # 19's 0.95 / 0.80 (docs/route_mode.md: the figures, and why).
     enhanced, weights = _pair(shared_data, "nordland")
-    index = np.rint(_positions(enhanced.shape[1], 0.3, 0.0)).astype(np.int64)
+    index = np.rint(issue_positions(enhanced.shape[1], 0.3, 0.0)).astype(np.int64)
     speed = _evaluate(enhanced, weights, index, route.RouteParams(filter_motion="speed"))
     window = _evaluate(enhanced, weights, index, route.RouteParams(filter_motion="window"))
     assert speed.best_f1 > window.best_f1 and speed.recall_at_100 > window.recall_at_100
