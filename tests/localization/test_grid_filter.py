@@ -84,6 +84,22 @@ MOTIONS = [
 ]
 
 
+def _drive_beside_oracle(loc: Localizer, rng, columns: int = 16) -> list:
+    """Drives ``loc`` and its numpy oracle through :data:`MOTIONS` with random score tables of
+    ``columns`` columns, checking them against each other after every frame; the estimates."""
+    oracle = _oracle(loc)
+    estimates = []
+    for k, motion in enumerate(MOTIONS):
+        table = rng.uniform(15, 25, (len(loc.ref_map), columns)).astype(np.float32)
+        estimate = loc.update_table(table, motion if k else None)
+        if k:
+            _apply(oracle, motion)
+        oracle.update(table)
+        _check_against_oracle(loc, oracle, estimate)
+        estimates.append(estimate)
+    return estimates
+
+
 @pytest.mark.sanitize  # drives the core (CI runs it again under ASan + UBSan)
 @pytest.mark.parametrize("seed", [0, 1, 2])
 @pytest.mark.parametrize("noise", [0, 3, NoiseModel(0.05, 0.3)])
@@ -91,15 +107,9 @@ def test_core_equals_the_numpy_oracle_on_random_maps_and_motions(seed, noise):
     rng = np.random.default_rng(seed)
     ref_map = _random_map(rng, n=int(rng.integers(3, 16)))
     loc = Localizer(ref_map, odometry_noise=noise, grid_width=int(rng.integers(20, 45)), grid_height=30)
-    oracle = _oracle(loc)
-    for k, motion in enumerate(MOTIONS):
-        table = rng.uniform(15, 25, (len(ref_map), 16)).astype(np.float32)
-        estimate = loc.update_table(table, motion if k else None)
-        if k:
-            _apply(oracle, motion)
-        oracle.update(table)
-        _check_against_oracle(loc, oracle, estimate)
-        assert estimate.frames == k + 1 and estimate.method == "filter"
+    estimates = _drive_beside_oracle(loc, rng)
+    assert [e.frames for e in estimates] == list(range(1, len(MOTIONS) + 1))
+    assert all(e.method == "filter" for e in estimates)
 
 
 def test_position_only_maps_equal_the_oracle():
@@ -164,29 +174,15 @@ def test_core_equals_the_numpy_oracle_on_a_map_of_many_places(noise):
     ref_map = _many_place_map(rng)
     loc = Localizer(ref_map, odometry_noise=noise, grid_width=40, grid_height=30)
     assert loc._filter.core.sparse_blocks > 0  # the interpolation of many places is exercised
-    oracle = _oracle(loc)
-    for k, motion in enumerate(MOTIONS):
-        table = rng.uniform(15, 25, (len(ref_map), 16)).astype(np.float32)
-        estimate = loc.update_table(table, motion if k else None)
-        if k:
-            _apply(oracle, motion)
-        oracle.update(table)
-        _check_against_oracle(loc, oracle, estimate)
+    _drive_beside_oracle(loc, rng)
 
 
 def test_heading_bins_other_than_columns_equal_the_oracle():
     rng = np.random.default_rng(22)
     ref_map = _random_map(rng, n=11)
     loc = Localizer(ref_map, odometry_noise=2, grid_width=30, grid_height=24, heading_bins=24)
-    oracle = _oracle(loc)
     assert loc.pose_belief.shape[0] == 24
-    for k, motion in enumerate(MOTIONS):
-        table = rng.uniform(15, 25, (len(ref_map), 16)).astype(np.float32)
-        estimate = loc.update_table(table, motion if k else None)
-        if k:
-            _apply(oracle, motion)
-        oracle.update(table)
-        _check_against_oracle(loc, oracle, estimate)
+    _drive_beside_oracle(loc, rng)
 
 
 def test_every_simd_path_gives_the_same_beliefs_on_a_map_of_many_places():
@@ -491,14 +487,7 @@ def test_forward_camera_with_headings_equals_the_oracle(seed):
     loc = Localizer(ref_map, odometry_noise=2, grid_width=30, grid_height=24, field_of_view=60.0)
     f = loc._filter
     assert f.can_pose and f.core.forward and f.window == (4, 0) and list(f.columns) == list(range(-4, 5))
-    oracle = _oracle(loc)
-    for k, motion in enumerate(MOTIONS):
-        table = rng.uniform(15, 25, (len(ref_map), 9)).astype(np.float32)
-        estimate = loc.update_table(table, motion if k else None)
-        if k:
-            _apply(oracle, motion)
-        oracle.update(table)
-        _check_against_oracle(loc, oracle, estimate)
+    _drive_beside_oracle(loc, rng, columns=9)
     # the frame's own table: the window search (means over the overlap)
     query = rng.integers(0, 256, (8, 16), dtype=np.uint8)
     want = shift_table(query, ref_map.images, [0], shift_window=(4, 0)).scores
