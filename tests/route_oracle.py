@@ -491,3 +491,20 @@ def synthetic_route_at(
         darker = 0.6 * source + 20 + rng.normal(0, noise, size=source.shape)
         queries[q] = np.clip(darker, 0, 255).astype(np.uint8)
     return refs, queries, truth
+
+
+def noisy_matrix(seed: int, n_query: int = 90, n_ref: int = 70) -> tuple[np.ndarray, np.ndarray]:
+    """A test problem for the filter: ``(n_query, n_ref)`` float32 scores with a true reference
+    0.7 per query frame lower by 2, a row without spread, NaN and inf entries, and ``(n_query,)``
+    evidence weights (one 0)."""
+    rng = np.random.default_rng(seed)
+    matrix = rng.normal(3.0, 1.0, size=(n_query, n_ref)).astype(np.float32)
+    truth = (np.arange(n_query) * 0.7).astype(int) % n_ref
+    matrix[np.arange(n_query), truth] -= 2.0
+    matrix[5, :] = 1.0  # a row without spread
+    matrix[9, ::7] = np.nan  # constant enhancement windows
+    matrix[10, :] = np.nan
+    matrix[11, 3] = np.inf
+    weights = rng.uniform(0, 1, n_query)
+    weights[20] = 0.0
+    return matrix, weights

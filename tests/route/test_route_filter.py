@@ -46,17 +46,8 @@ def test_motion_kernel_equals_oracle(vmin, vmax, backward):
 @pytest.mark.parametrize("index", range(len(PARAMS)))
 def test_filter_equals_oracle(index):
     p = PARAMS[index]
-    rng = np.random.default_rng(index)
     n_query, n_ref = 120, 90
-    matrix = rng.normal(3.0, 1.0, size=(n_query, n_ref)).astype(np.float32)
-    truth = (np.arange(n_query) * 0.7).astype(int) % n_ref
-    matrix[np.arange(n_query), truth] -= 2.0
-    matrix[5, :] = 1.0  # a row without spread
-    matrix[9, ::7] = np.nan  # constant enhancement windows
-    matrix[10, :] = np.nan
-    matrix[11, 3] = np.inf
-    weights = rng.uniform(0, 1, n_query)
-    weights[20] = 0.0
+    matrix, weights = ro.noisy_matrix(index, n_query, n_ref)
     refs, confidence, off_route = route.route_filter(matrix, p, weights)
     o_refs, o_confidence, o_off, o_belief = ro.route_filter(matrix, p, weights)
     np.testing.assert_array_equal(refs, o_refs)

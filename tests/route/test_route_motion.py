@@ -41,20 +41,6 @@ ODOMETRY_PARAMS = [
 ]
 
 
-def _matrix(seed: int, n_query: int = 90, n_ref: int = 70):
-    rng = np.random.default_rng(seed)
-    matrix = rng.normal(3.0, 1.0, size=(n_query, n_ref)).astype(np.float32)
-    truth = (np.arange(n_query) * 0.7).astype(int) % n_ref
-    matrix[np.arange(n_query), truth] -= 2.0
-    matrix[5, :] = 1.0  # a row without spread
-    matrix[9, ::7] = np.nan  # constant enhancement windows
-    matrix[10, :] = np.nan
-    matrix[11, 3] = np.inf
-    weights = rng.uniform(0, 1, n_query)
-    weights[20] = 0.0
-    return matrix, weights
-
-
 def _odometry(seed: int, n_query: int, n_ref: int):
     rng = np.random.default_rng(seed)
     distances = np.cumsum(rng.uniform(0.2, 2.0, n_ref))
@@ -78,7 +64,7 @@ def _stream(filt, matrix, weights, advances=None):
 @pytest.mark.parametrize("index", range(len(SPEED_PARAMS)))
 def test_speed_model_equals_oracle_and_streams_bit_for_bit(index):
     p = SPEED_PARAMS[index]
-    matrix, weights = _matrix(index)
+    matrix, weights = ro.noisy_matrix(index)
     refs, confidence, off_route, speed, motion = route.route_filter_run(matrix, p, weights)
     assert motion == "speed"
     o_refs, o_confidence, o_off, o_speed, o_belief = ro.route_filter_planes(matrix, p, weights)
@@ -98,7 +84,7 @@ def test_speed_model_equals_oracle_and_streams_bit_for_bit(index):
 @pytest.mark.parametrize("index", range(len(ODOMETRY_PARAMS)))
 def test_odometry_model_equals_oracle_and_streams_bit_for_bit(index):
     p = ODOMETRY_PARAMS[index]
-    matrix, weights = _matrix(10 + index)
+    matrix, weights = ro.noisy_matrix(10 + index)
     advances, distances = _odometry(index, *matrix.shape)
     refs, confidence, off_route, speed, motion = route.route_filter_run(
         matrix, p, weights, advances=advances, reference_distances=distances
@@ -142,7 +128,7 @@ def test_speed_chain_and_spread_equal_oracle(index):
 
 def test_identical_on_every_simd_path(simd_path):
     """The speed and odometry models on this path give the scalar path's bits."""
-    matrix, weights = _matrix(31, 60, 150)
+    matrix, weights = ro.noisy_matrix(31, 60, 150)
     advances, distances = _odometry(31, 60, 150)
     runs = (
         lambda: route.route_filter_run(matrix, SPEED_PARAMS[1], weights),
@@ -158,7 +144,7 @@ def test_identical_on_every_simd_path(simd_path):
 
 
 def test_threads_do_not_change_the_result():
-    matrix, weights = _matrix(4, 150, 80)
+    matrix, weights = ro.noisy_matrix(4, 150, 80)
     advances, distances = _odometry(4, 150, 80)
     for kwargs in ({}, {"advances": advances, "reference_distances": distances}):
         params = SPEED if not kwargs else route.RouteParams()
@@ -390,7 +376,7 @@ def test_command_names_the_motion_model(tmp_path, capsys, ref_odometry, query_od
 
 
 def test_bad_motion_inputs_are_named():
-    matrix, _ = _matrix(1, 30, 20)
+    matrix, _ = ro.noisy_matrix(1, 30, 20)
     with pytest.raises(ValueError, match="advances must be a 1-D array of 30"):
         route.route_filter(matrix, advances=np.ones(29), reference_distances=np.arange(20.0))
     with pytest.raises(ValueError, match="advances must be finite"):
