@@ -27,7 +27,7 @@ from typing import Any, Union, cast
 from ..errors import DatasetError
 from .atomic import atomic_file
 from .files import open_regular
-from .poses import check_heading, parse_timestamp, refuse_other_delimiter
+from .poses import check_heading, parse_timestamp, refuse_misspelt_columns, refuse_other_delimiter
 
 __all__ = [
     "MAP_COLUMNS",
@@ -64,8 +64,12 @@ def _number(text: str, column: str, file: Path, line: int) -> float:
 def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[OdometryRow], str]:
     """The rows of an odometry CSV in file order and its form, ``"robot"`` or ``"map"``.
 
+    Columns other than the key, ``forward,left,turn``, ``dx,dy`` and ``timestamp`` are ignored,
+    except a near miss of one of those names (``trun``), which is refused naming it.
+
     Raises:
-        DatasetError: missing file, header without a known form, malformed or repeated rows.
+        DatasetError: missing file, header without a known form, a misspelt column, malformed or
+            repeated rows.
     """
     path = Path(file)
     if not os.path.lexists(path) or path.is_dir():
@@ -89,6 +93,13 @@ def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[
                 if header is None:
                     refuse_other_delimiter(fields, path, line, f"{key_column},forward,left,turn or {key_column},dx,dy")
                     header = [f.strip().lower() for f in fields]
+                    refuse_misspelt_columns(
+                        header,
+                        (key_column, *ROBOT_COLUMNS, *MAP_COLUMNS, "timestamp"),
+                        path,
+                        line,
+                        f"{key_column},forward,left,turn or {key_column},dx,dy [,timestamp]",
+                    )
                     if key_column not in header:
                         raise DatasetError(
                             f"{path} line {line}: missing column {key_column!r}; the header must be "
