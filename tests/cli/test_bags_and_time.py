@@ -206,6 +206,31 @@ def test_bag_errors_on_the_command_line(garden, tmp_path, capsys):
     assert (tmp_path / "o" / "trajectory.csv").is_file()
 
 
+def test_a_bag_whose_camera_starts_before_its_odometry_localizes_with_a_warning(garden, tmp_path, capsys):
+    """The first frames come before the first odometry message: they are skipped, named with their
+    times, and the others localize as the bag without them does."""
+    night = garden["night"]
+    frames = [night.read(i) for i in range(len(night))]
+    frame_ns = garden["frame_ns"]
+    odometry = _odom_frame(night.positions, night.headings)
+    early = write_bag(tmp_path / "early", frames, frame_ns, odometry=odometry[3:], odometry_ns=frame_ns[3:])
+    out = tmp_path / "early_run"
+    assert main(["localize", str(garden["map"]), str(early), "--out", str(out), "--no-figures"]) == 0
+    captured = capsys.readouterr()
+    [warning] = captured.err.splitlines()
+    times = [float(f"{n // NS}.{n % NS:09d}") for n in frame_ns[:3]]
+    assert warning.startswith(f"nightloc localize: warning: bag {early}: 3 of {len(night)} frames of /camera/image_raw")
+    assert "before the odometry /odom starts" in warning and ", ".join(f"{t:.3f}" for t in times) in warning
+    rows = _rows(out / "trajectory.csv")
+    assert [r["image"] for r in rows] == [f"frame_{i:06d}" for i in range(3, len(night))]
+    # the oracle: a bag recorded from the fourth frame on
+    trimmed = write_bag(tmp_path / "trimmed", frames[3:], frame_ns[3:], odometry=odometry[3:])
+    assert main(["localize", str(garden["map"]), str(trimmed), "--out", str(tmp_path / "trimmed_run")]) == 0
+    assert capsys.readouterr().err == ""
+    expected = _rows(tmp_path / "trimmed_run" / "trajectory.csv")
+    assert [(r["x"], r["y"], r["timestamp"]) for r in rows] == [(r["x"], r["y"], r["timestamp"]) for r in expected]
+
+
 def test_a_folder_log_with_a_timestamp_column_carries_its_times(garden, tmp_path, capsys):
     night = garden["folders"]["night_query"]
     log = tmp_path / "log"
