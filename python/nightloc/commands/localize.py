@@ -68,7 +68,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument("map", type=Path, help="map file (nightloc build-map) or reference traverse (folder or bag)")
     parser.add_argument("log", type=Path, help="the night log: a traverse folder (images/), a video file or a ROS bag")
-    parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
+    parser.add_argument("--out", type=Path, required=True, help="output folder (created with its parents if missing)")
     parser.add_argument(
         "--format",
         default="csv",
@@ -147,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
     sections = load_params_file(args.params) if args.params is not None else {}
     params = sections.get("localization", LocalizationParams())
     inputs = (args.map, args.log, args.params, args.odometry if args.odometry not in (None, "none") else None)
-    check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
+    check_output_path(args.out, folder=True, inputs=inputs, parents=True)  # a file in the way fails now
     refuse_map_as_traverse(args.log, "LOG", "the map comes first: nightloc localize MAP LOG --out OUT")
     log = load_traverse(args.log, **bag_options(args))
     if "tum" in formats and log.timestamps is None:
@@ -170,7 +170,7 @@ def run(args: argparse.Namespace) -> int:
     filter_params = filter_params_with_window(sections.get("filter"), window, ref_map.camera, ref_map.images.shape[1:])
     localizer = Localizer(ref_map, params, odometry_noise=noise, filter_params=filter_params, threads=args.threads)
     # Checked and locked before the work; the files appear together at the end, or not at all.
-    with output_set(args.out, command="localize", inputs=inputs) as out:
+    with output_set(args.out, command="localize", inputs=inputs, parents=True) as out:
         start = time.perf_counter()
         estimates = [
             localizer.update(frame, odometry[i]) for i, frame in log.frames(progress_desc=f"localizing {log.root.name}")

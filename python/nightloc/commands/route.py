@@ -93,7 +93,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument("reference", help="reference traverse: folder, video or ROS bag")
     parser.add_argument("query", help="query traverse: folder, video or ROS bag")
-    parser.add_argument("--out", required=True, help="output folder (created if missing)")
+    parser.add_argument("--out", required=True, help="output folder (created with its parents if missing)")
     parser.add_argument(
         "--preset",
         choices=sorted(PRESETS),
@@ -372,7 +372,7 @@ def run(args: argparse.Namespace) -> int:
             raise  # about the file's keys, in its words
         raise in_option_words(error, _OPTIONS) from None
     inputs = (args.reference, args.query, args.params)
-    check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
+    check_output_path(args.out, folder=True, inputs=inputs, parents=True)  # a file in the way fails now
     usage = "nightloc route compares two traverses: nightloc route REFERENCE QUERY --out OUT"
     refuse_map_as_traverse(args.reference, "REFERENCE", usage)
     refuse_map_as_traverse(args.query, "QUERY", usage)
@@ -395,7 +395,7 @@ def run(args: argparse.Namespace) -> int:
     plan = motion_plan(reference, query, params.filter_motion, args.odometry == "auto") if "filter" in methods else None
 
     # Checked and locked before the work; the files appear together at the end, or not at all.
-    with output_set(args.out, command="route", inputs=inputs) as out:
+    with output_set(args.out, command="route", inputs=inputs, parents=True) as out:
         preparer = RoutePreparer(params, preparation)
         start = time.perf_counter()
         refs = preparer(reference)

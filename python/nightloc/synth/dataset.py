@@ -229,6 +229,7 @@ def make_dataset(
     view: str = "panoramic",
     tilt_deg: float = 0.0,
     height_std: float = 0.0,
+    parents: bool = False,
 ) -> dict[str, Path]:
     """Renders every traverse of ``world`` into ``out_dir`` and returns their folders by name.
 
@@ -252,6 +253,7 @@ def make_dataset(
             camera's map needs references facing several ways; docs/localization.md).
         tilt_deg: std of each frame's camera pitch and roll, degrees (a robot on a lawn), 0 none.
         height_std: std of each frame's camera height about the world's, metres, 0 none.
+        parents: create the missing parent folders of ``out_dir`` (removed again on failure).
 
     The dataset is written as one set (:func:`nightloc.io.atomic.output_set`): the traverses and
     ``dataset.json`` appear together, or -- on an error or an interruption -- the previous
@@ -269,7 +271,9 @@ def make_dataset(
     plans = plan_traverses(world, scene.seed)
     if view == "forward":
         plans = [_four_ways(plan) if plan.name == "day_reference" else plan for plan in plans]
-    with output_set(out_dir, command="synth", overwrite=overwrite, overwrite_hint="overwrite=True") as out:
+    with output_set(
+        out_dir, command="synth", overwrite=overwrite, overwrite_hint="overwrite=True", parents=parents
+    ) as out:
         for plan in plans:
             frames = progress(
                 scene.render_plan(plan, threads, tilt_deg, height_std),
