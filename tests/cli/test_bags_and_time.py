@@ -41,6 +41,16 @@ def read_tum(path) -> np.ndarray:
     return np.array(rows)
 
 
+def _without_times(traverse: Path, copy: Path) -> Path:
+    """A copy of a traverse folder with the timestamp column dropped from its CSV files."""
+    shutil.copytree(traverse, copy)
+    for name in ("poses.csv", "odometry.csv"):
+        rows = [line.split(",") for line in (copy / name).read_text().splitlines()]
+        keep = [k for k, column in enumerate(rows[0]) if column != "timestamp"]
+        (copy / name).write_text("\n".join(",".join(row[k] for k in keep) for row in rows) + "\n")
+    return copy
+
+
 def _odom_frame(positions, headings, rotation=-1.1, shift=(12.0, 7.5)):
     """The drive as its own odometry reports it: in an odom frame turned and moved from the map's."""
     c, s = math.cos(rotation), math.sin(rotation)
@@ -196,7 +206,8 @@ def test_bag_errors_on_the_command_line(garden, tmp_path, capsys):
     argv = ["localize", str(garden["map"]), str(folders["night_query"]), "--out", str(tmp_path / "o")]
     assert main([*argv, "--image-topic", "/camera"]) == 2
     assert "--image-topic applies to ROS bags" in capsys.readouterr().err
-    assert main([*argv, "--format", "tum"]) == 2  # a folder without a timestamp column
+    untimed = _without_times(folders["night_query"], tmp_path / "untimed")
+    assert main(["localize", str(garden["map"]), str(untimed), "--out", str(tmp_path / "o"), "--format", "tum"]) == 2
     err = capsys.readouterr().err
     assert "--format tum needs each frame's time" in err and "timestamp column" in err
     assert main([*argv, "--format", "kml"]) == 2
@@ -233,8 +244,7 @@ def test_a_bag_whose_camera_starts_before_its_odometry_localizes_with_a_warning(
 
 def test_a_folder_log_with_a_timestamp_column_carries_its_times(garden, tmp_path, capsys):
     night = garden["folders"]["night_query"]
-    log = tmp_path / "log"
-    shutil.copytree(night, log)
+    log = _without_times(night, tmp_path / "log")
     (log / "poses.csv").unlink()
     lines = (log / "odometry.csv").read_text().splitlines()
     times = [100.0 + 0.25 * k for k in range(len(lines) - 1)]

@@ -224,15 +224,24 @@ def odometry_values(motions: Sequence[object]) -> tuple[str, list[tuple[float, .
 
 
 def write_odometry_csv(
-    file: PathLike, keys: Sequence[object], motions: Sequence[object], key_column: str = "image"
+    file: PathLike,
+    keys: Sequence[object],
+    motions: Sequence[object],
+    key_column: str = "image",
+    timestamps: Sequence[float] | None = None,
 ) -> Path:
-    """Writes an odometry CSV atomically, one row per key (see :func:`odometry_values`)."""
+    """Writes an odometry CSV atomically, one row per key (see :func:`odometry_values`), with a
+    ``timestamp`` column (seconds) when ``timestamps`` are given."""
     if len(keys) != len(motions):
         raise ValueError(f"{len(motions)} odometry rows for {len(keys)} frames")
+    if timestamps is not None and len(timestamps) != len(keys):
+        raise ValueError(f"{len(timestamps)} timestamps for {len(keys)} frames")
     form, values = odometry_values(motions)
     with atomic_file(file, "w", newline="") as stream:
         writer = csv.writer(stream, lineterminator="\n")
-        writer.writerow([key_column, *(ROBOT_COLUMNS if form == "robot" else MAP_COLUMNS)])
-        for key, row in zip(keys, values):
-            writer.writerow([key, *(repr(v) for v in row)])
+        columns = [key_column, *(ROBOT_COLUMNS if form == "robot" else MAP_COLUMNS)]
+        writer.writerow(columns + (["timestamp"] if timestamps is not None else []))
+        for k, (key, row) in enumerate(zip(keys, values)):
+            stamp = [] if timestamps is None else [repr(float(timestamps[k]))]
+            writer.writerow([key, *(repr(v) for v in row), *stamp])
     return Path(file)

@@ -315,13 +315,26 @@ def checked_poses(positions: object | None, headings: object | None) -> tuple[np
     return pos, head
 
 
-def write_pose_csv(file: Path, names: Sequence[str], positions: np.ndarray, headings: np.ndarray | None) -> None:
-    """Writes ``image,x,y[,heading]`` rows (``repr`` of the floats: they read back bit-exact)."""
+def write_pose_csv(
+    file: Path,
+    names: Sequence[str],
+    positions: np.ndarray,
+    headings: np.ndarray | None,
+    timestamps: Sequence[float] | np.ndarray | None = None,
+) -> None:
+    """Writes ``image,x,y[,heading][,timestamp]`` rows (``repr`` of the floats: they read back
+    bit-exact; ``timestamps`` in seconds)."""
     with open(file, "w", newline="", encoding="utf-8") as handle:
         writer = csv.writer(handle, lineterminator="\n")
-        writer.writerow(["image", "x", "y"] + (["heading"] if headings is not None else []))
+        writer.writerow(
+            ["image", "x", "y"]
+            + (["heading"] if headings is not None else [])
+            + (["timestamp"] if timestamps is not None else [])
+        )
         for i, name in enumerate(names):
             row = [name, repr(float(positions[i, 0])), repr(float(positions[i, 1]))]
             if headings is not None:
                 row.append(repr(float(headings[i])))
+            if timestamps is not None:
+                row.append(repr(float(timestamps[i])))
             writer.writerow(row)
