@@ -148,7 +148,7 @@ def test_frames_of_another_camera_are_refused_naming_both(ws, capsys, tmp_path):
         assert "has 120x60 frames" in err and "built from 60x30 frames" in err, err
         assert "resize the frames to 60x30" in err and "build a map from 120x60 frames" in err, err
     assert not (tmp_path / "b").exists()
-    with pytest.raises(ValueError, match="120x60 frames.*60x30 frames"):
+    with pytest.raises(ValueError, match=r"120x60 frames.*60x30 frames"):
         ws.map.check_frames(bigger.read(0).shape, "the log")
     # a reference traverse is prepared for the log's frames, and route mode needs only their shape
     assert main(["localize", str(bigger.root), str(bigger.root), "--out", str(tmp_path / "b"), "--no-figures"]) == 0

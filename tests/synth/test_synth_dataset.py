@@ -3,6 +3,7 @@ and the night-vs-day matching signal (informative but hard)."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 from pathlib import Path
@@ -57,7 +58,7 @@ def _drive_times(positions: np.ndarray) -> list[float]:
     """Oracle of the frames' times: 1 s, then each straight step driven at 0.4 m/s, never less than
     a 10 Hz camera's period; milliseconds."""
     times = [1.0]
-    for (x0, y0), (x1, y1) in zip(positions[:-1], positions[1:]):
+    for (x0, y0), (x1, y1) in itertools.pairwise(positions):
         times.append(times[-1] + max(math.hypot(x1 - x0, y1 - y0) / 0.4, 0.1))
     return [round(t, 3) for t in times]
 
