@@ -1,6 +1,7 @@
 """``nightloc localize``: a recorded night log (frames + odometry) turned into a trajectory.
 
-    nightloc localize MAP_OR_REFERENCE LOG --out OUT [--format csv|tum|csv,tum] [--odometry FILE|none]
+    nightloc localize MAP_OR_REFERENCE LOG --out OUT [--format csv|tum|csv,tum] [--min-confidence C]
+                      [--odometry FILE|none]
                       [--odometry-noise 1|DIST,HEADING] [--params FILE.toml] [--camera panoramic|forward]
                       [--shift-window COLUMNS,ROWS] [--image-topic T] [--odometry-topic T] [--pose-topic T]
                       [--sync-tolerance S] [--threads N] [--no-figures]
@@ -24,6 +25,9 @@ Writes, each file atomically:
   carries no times);
 * ``OUT/trajectory.tum`` (``--format tum``): ``timestamp x y z qx qy qz qw`` per frame, the TUM
   format ``evo`` reads (:mod:`nightloc.io.trajectory`); needs the frames' times and headings;
+  beside it ``OUT/trajectory_confidence.csv``: ``timestamp,confidence,credible_radius``, one row
+  per line of the TUM file. ``--min-confidence C`` keeps only the frames whose confidence is at
+  least C in both (a cold start left out of ``evo``'s statistics); ``trajectory.csv`` keeps all;
 * ``OUT/trajectory.png`` (unless ``--no-figures``; ``--figure-format pdf|svg`` for another
   format): the references, the estimated path with its credible radius, and the true path when
   LOG has poses — then the command also prints the median and 90th-percentile distance errors.
@@ -44,7 +48,15 @@ from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set
 from ..io.odometry_csv import ODOMETRY_FILE
 from ..io.reference_map import ReferenceMap
-from ..io.trajectory import TRAJECTORY_FORMATS, TRAJECTORY_HEADER, write_trajectory_csv, write_tum
+from ..io.trajectory import (
+    TRAJECTORY_FORMATS,
+    TRAJECTORY_HEADER,
+    TUM_CONFIDENCE_FILE,
+    confident_frames,
+    write_trajectory_csv,
+    write_tum,
+    write_tum_confidence,
+)
 from ..io.traverse import Traverse, load_traverse
 from ..localization.localizer import LocalizationParams, Localizer
 from ..localization.odometry import traverse_odometry
@@ -72,8 +84,14 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument(
         "--format",
         default="csv",
-        help="csv (trajectory.csv, default), tum (trajectory.tum: timestamp x y z qx qy qz qw, as evo reads), "
-        "or csv,tum",
+        help="csv (trajectory.csv, default), tum (trajectory.tum: timestamp x y z qx qy qz qw, as evo reads, and "
+        f"{TUM_CONFIDENCE_FILE}: timestamp,confidence,credible_radius per TUM line), or csv,tum",
+    )
+    parser.add_argument(
+        "--min-confidence",
+        type=float,
+        default=0.0,
+        help="--format tum: write only the frames whose confidence is at least this, in [0, 1] (default 0: all)",
     )
     parser.add_argument(
         "--odometry",
@@ -141,6 +159,8 @@ def run(args: argparse.Namespace) -> int:
     """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
     noise = parse_noise(args.odometry_noise)
     formats = parse_formats(args.format)
+    if not 0.0 <= args.min_confidence <= 1.0:
+        raise ValueError(f"--min-confidence must be in [0, 1], got {args.min_confidence}")
     if args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
     window = parse_shift_window(args.shift_window)
@@ -180,7 +200,10 @@ def run(args: argparse.Namespace) -> int:
         if "csv" in formats:
             written.append(write_trajectory_csv(out / "trajectory.csv", log.names, estimates, log.timestamps).name)
         if "tum" in formats and log.timestamps is not None:
-            written.append(write_tum(out / "trajectory.tum", log.timestamps, estimates).name)
+            chosen = confident_frames(estimates, args.min_confidence)
+            times, confident = [log.timestamps[k] for k in chosen], [estimates[k] for k in chosen]
+            written.append(write_tum(out / "trajectory.tum", times, confident).name)
+            written.append(write_tum_confidence(out / TUM_CONFIDENCE_FILE, times, confident).name)
         positions = np.array([(e.x, e.y) for e in estimates])
         truth = None if log.positions is None else np.asarray(log.positions, dtype=np.float64)
         if not args.no_figures:
@@ -213,6 +236,10 @@ def run(args: argparse.Namespace) -> int:
         f"{len(estimates)} frames of {log.root} localized against {len(ref_map)} references in {duration(seconds)} "
         f"({duration(seconds / max(len(estimates), 1))} per frame)"
     )
+    if "tum" in formats and args.min_confidence > 0:
+        print(
+            f"trajectory.tum: {len(chosen)} of {len(estimates)} frames, those of confidence >= {args.min_confidence:g}"
+        )
     if truth is not None:
         errors = np.hypot(*(positions - truth).T)
         print(
