@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import re
+import shutil
 
 import numpy as np
 import pytest
@@ -66,6 +67,88 @@ def garden(tmp_path_factory):
         "drive_map": drive_map,
         "night": nightloc.load_traverse(folders["night_query"]),
     }
+
+
+def test_errors_against_a_map_in_the_drives_frame_are_those_of_a_rigid_fit(garden, capsys, monkeypatch):
+    import nightloc.figures.trajectory as trajectory_module
+
+    drawn = {}
+    real = trajectory_module.trajectory_figure
+
+    def spy(*args, **kwargs):
+        drawn.update(truth=args[2], caption=kwargs["caption"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(trajectory_module, "trajectory_figure", spy)
+    night, root = garden["night"], garden["root"]
+    assert main(["localize", str(garden["drive"]), str(night.root), "--out", str(root / "drive_run")]) == 0
+    printed = capsys.readouterr().out
+    assert "rigid 2D fit of the map onto" in printed and "day_reference/poses.csv" in printed, printed
+    rows = _rows(root / "drive_run" / "trajectory.csv")
+    estimates = np.array([[float(r["x"]), float(r["y"])] for r in rows])  # in the drive's frame
+    oracle = np.median(_fitted_errors(estimates, night.positions))
+    reported = _printed_median(printed)
+    assert abs(reported - oracle) <= 0.15, (reported, oracle)
+    # the true path is drawn where the map is: in the drive's frame
+    np.testing.assert_allclose(drawn["truth"], DRIVE.apply(night.positions), atol=1e-6)
+    assert "rigid fit" in drawn["caption"]
+    # the same night against the surveyed map errs as much
+    assert main(["localize", str(garden["surveyed"]), str(night.root), "--out", str(root / "run"), "--no-figures"]) == 0
+    surveyed = capsys.readouterr().out
+    assert "rigid" not in surveyed
+    assert abs(_printed_median(surveyed) - reported) <= 0.15, (surveyed, printed)
+
+
+def test_without_a_survey_the_frames_are_said_to_differ_and_survey_names_one(garden, tmp_path, capsys):
+    anonymous = garden["drive_map"]
+    nameless = nightloc.ReferenceMap(
+        anonymous.images,
+        anonymous.positions,
+        anonymous.headings,
+        anonymous.names,
+        anonymous.params,
+        "",
+        anonymous.frame_size,
+        pose_source="optimised",
+    ).save(tmp_path / "nameless.map")
+    night = garden["night"]
+    assert main(["localize", str(nameless), str(night.root), "--out", str(tmp_path / "a"), "--no-figures"]) == 0
+    printed = capsys.readouterr().out
+    assert "no distance errors" in printed and "--survey DAY" in printed and "median" not in printed, printed
+    survey = garden["folders"]["day_reference"]
+    argv = ["localize", str(nameless), str(night.root), "--out", str(tmp_path / "b"), "--no-figures"]
+    assert main([*argv, "--survey", str(survey)]) == 0
+    printed = capsys.readouterr().out
+    assert "rigid 2D fit" in printed and "median" in printed
+    # a survey that does not list the map's frames is an error before any work
+    other = tmp_path / "other"
+    shutil.copytree(survey, other)
+    lines = (other / "poses.csv").read_text().splitlines()
+    (other / "poses.csv").write_text("\n".join(lines[:11]) + "\n")  # 10 of the map's 24 frames
+    argv = ["localize", str(nameless), str(night.root), "--out", str(tmp_path / "c"), "--survey", str(other)]
+    assert main(argv) == 2
+    assert "poses.csv" in capsys.readouterr().err and not (tmp_path / "c").exists()
+
+
+@pytest.mark.slow
+def test_a_teach_run_map_localizes_within_a_rigid_fit_of_the_truth(garden, tmp_path, capsys):
+    """The real thing: a map from the day drive's wheel odometry alone (GTSAM)."""
+    pytest.importorskip("gtsam")
+    drive = tmp_path / "day"
+    shutil.copytree(garden["folders"]["day_reference"], drive)
+    survey = tmp_path / "survey"
+    shutil.copytree(drive, survey)
+    (drive / "poses.csv").unlink()
+    assert main(["build-map", str(drive), str(tmp_path / "teach.map")]) == 0
+    capsys.readouterr()
+    night = garden["night"]
+    out = tmp_path / "run"
+    argv = ["localize", str(tmp_path / "teach.map"), str(night.root), "--out", str(out), "--no-figures"]
+    assert main([*argv, "--survey", str(survey)]) == 0
+    printed = capsys.readouterr().out
+    estimates = np.array([[float(r["x"]), float(r["y"])] for r in _rows(out / "trajectory.csv")])
+    oracle = np.median(_fitted_errors(estimates, night.positions))
+    assert abs(_printed_median(printed) - oracle) <= 0.15, (printed, oracle)
 
 
 def test_the_tum_trajectory_comes_with_each_poses_confidence(garden, tmp_path, capsys):

@@ -1,7 +1,7 @@
 """``nightloc localize``: a recorded night log (frames + odometry) turned into a trajectory.
 
     nightloc localize MAP_OR_REFERENCE LOG --out OUT [--format csv|tum|csv,tum] [--min-confidence C]
-                      [--odometry FILE|none]
+                      [--odometry FILE|none] [--survey DAY]
                       [--odometry-noise 1|DIST,HEADING] [--params FILE.toml] [--camera panoramic|forward]
                       [--shift-window COLUMNS,ROWS] [--image-topic T] [--odometry-topic T] [--pose-topic T]
                       [--sync-tolerance S] [--threads N] [--no-figures]
@@ -31,6 +31,12 @@ Writes, each file atomically:
 * ``OUT/trajectory.png`` (unless ``--no-figures``; ``--figure-format pdf|svg`` for another
   format): the references, the estimated path with its credible radius, and the true path when
   LOG has poses — then the command also prints the median and 90th-percentile distance errors.
+
+A map built by a teach run lives in its day drive's odometry frame and a log's ``poses.csv`` in its
+survey frame: the true poses are moved into the map's frame by the best rigid 2D fit of the map
+onto the day drive's survey (``--survey DAY``, default the map's source traverse; as ``nightloc
+evaluate`` does) before any error is computed or drawn, and the command says so; without a survey
+it says that the frames differ and reports no errors.
 """
 
 from __future__ import annotations
@@ -58,6 +64,7 @@ from ..io.trajectory import (
     write_tum_confidence,
 )
 from ..io.traverse import Traverse, load_traverse
+from ..localization.evaluation import map_alignment
 from ..localization.localizer import LocalizationParams, Localizer
 from ..localization.odometry import traverse_odometry
 from .bag_options import add_bag_options, bag_options
@@ -113,6 +120,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "forward camera, +-COLUMNS column offsets over which its headings are told apart (default: [filter] "
         "forward_window and row_window: a quarter of the width, 0 rows); a panoramic map takes 0,ROWS",
     )
+    parser.add_argument(
+        "--survey",
+        type=Path,
+        help="a teach-run map (no survey of its own): the day traverse whose poses.csv aligns the map's frame with "
+        "the log's poses (default the map's source traverse)",
+    )
     parser.add_argument("--threads", type=int, default=1, help="matching threads (default 1, as on a robot)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw trajectory.png")
     add_figure_format_option(parser)
@@ -155,6 +168,28 @@ def _log_odometry(log: Traverse, option: str | None) -> list:
         raise
 
 
+def _truth_in_map_frame(log: Traverse, ref_map: ReferenceMap, survey: Path | None) -> tuple[np.ndarray | None, str]:
+    """The log's true positions (``(N, 2)`` metres) in the map's frame, or None, and a line saying
+    how they were aligned ("" for a surveyed map: one frame). A teach run's map is aligned by
+    :func:`nightloc.localization.evaluation.map_alignment` (the rigid fit of the map onto the day
+    drive's survey); without a survey there is no truth to compare with, and the line says so."""
+    if log.positions is None:
+        return None, ""
+    truth = np.asarray(log.positions, dtype=np.float64)
+    try:
+        alignment = map_alignment(ref_map, survey)
+    except DatasetError as error:
+        if survey is not None:
+            raise
+        return None, (
+            f"no distance errors: {error} (--survey DAY); the trajectory is in the map's frame, the log's poses "
+            f"in their survey frame"
+        )
+    if alignment is None:
+        return truth, ""
+    return alignment[0].inverse().apply(truth), alignment[1]
+
+
 def run(args: argparse.Namespace) -> int:
     """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
     noise = parse_noise(args.odometry_noise)
@@ -166,7 +201,13 @@ def run(args: argparse.Namespace) -> int:
     window = parse_shift_window(args.shift_window)
     sections = load_params_file(args.params) if args.params is not None else {}
     params = sections.get("localization", LocalizationParams())
-    inputs = (args.map, args.log, args.params, args.odometry if args.odometry not in (None, "none") else None)
+    inputs = (
+        args.map,
+        args.log,
+        args.params,
+        args.odometry if args.odometry not in (None, "none") else None,
+        args.survey,
+    )
     check_output_path(args.out, folder=True, inputs=inputs, parents=True)  # a file in the way fails now
     refuse_map_as_traverse(args.log, "LOG", "the map comes first: nightloc localize MAP LOG --out OUT")
     log = load_traverse(args.log, **bag_options(args))
@@ -187,6 +228,7 @@ def run(args: argparse.Namespace) -> int:
             f"--format tum needs a heading per frame, and the map {args.map} has no headings (its reference poses "
             f"lack them): use --format csv"
         )
+    truth, alignment_note = _truth_in_map_frame(log, ref_map, args.survey)
     filter_params = filter_params_with_window(sections.get("filter"), window, ref_map.camera, ref_map.images.shape[1:])
     localizer = Localizer(ref_map, params, odometry_noise=noise, filter_params=filter_params, threads=args.threads)
     # Checked and locked before the work; the files appear together at the end, or not at all.
@@ -205,7 +247,6 @@ def run(args: argparse.Namespace) -> int:
             written.append(write_tum(out / "trajectory.tum", times, confident).name)
             written.append(write_tum_confidence(out / TUM_CONFIDENCE_FILE, times, confident).name)
         positions = np.array([(e.x, e.y) for e in estimates])
-        truth = None if log.positions is None else np.asarray(log.positions, dtype=np.float64)
         if not args.no_figures:
             from ..figures._common import figure_path
             from ..figures.trajectory import trajectory_figure
@@ -219,6 +260,11 @@ def run(args: argparse.Namespace) -> int:
                 f"{len(estimates)} frames of {log.root.name} against {len(ref_map)} references; odometry: "
                 f"{source}, noise {args.odometry_noise}; disks: credible radius "
                 f"({localizer.filter_params.credibility:.0%})"
+                + (
+                    "; true path moved into the map's frame by the rigid fit of its survey"
+                    if truth is not None and alignment_note
+                    else ""
+                )
             )
             figure = figure_path(out.path, "trajectory", args.figure_format)
             trajectory_figure(
@@ -240,6 +286,8 @@ def run(args: argparse.Namespace) -> int:
         print(
             f"trajectory.tum: {len(chosen)} of {len(estimates)} frames, those of confidence >= {args.min_confidence:g}"
         )
+    if alignment_note:
+        print(alignment_note)
     if truth is not None:
         errors = np.hypot(*(positions - truth).T)
         print(
