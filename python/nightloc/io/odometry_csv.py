@@ -24,6 +24,8 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any, Union, cast
 
+import numpy as np
+
 from ..errors import DatasetError
 from .atomic import atomic_file
 from .files import open_regular
@@ -228,7 +230,7 @@ def write_odometry_csv(
     keys: Sequence[object],
     motions: Sequence[object],
     key_column: str = "image",
-    timestamps: Sequence[float] | None = None,
+    timestamps: Sequence[float] | np.ndarray | None = None,
 ) -> Path:
     """Writes an odometry CSV atomically, one row per key (see :func:`odometry_values`), with a
     ``timestamp`` column (seconds) when ``timestamps`` are given."""
