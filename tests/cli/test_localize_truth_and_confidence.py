@@ -192,6 +192,8 @@ def test_the_tum_trajectory_comes_with_each_poses_confidence(garden, tmp_path, c
     assert len(_rows(trimmed / "trajectory.csv")) == len(frames)
     assert main([*argv, "--out", str(tmp_path / "bad"), "--min-confidence", "1.5"]) == 2
     assert "--min-confidence must be in [0, 1]" in capsys.readouterr().err
+    assert main([*argv, "--out", str(tmp_path / "csv"), "--min-confidence", "0.5"]) == 2
+    assert "--min-confidence applies to --format tum" in capsys.readouterr().err
 
 
 def test_readme_names_the_confidence_file():

@@ -196,6 +196,10 @@ def run(args: argparse.Namespace) -> int:
     formats = parse_formats(args.format)
     if not 0.0 <= args.min_confidence <= 1.0:
         raise ValueError(f"--min-confidence must be in [0, 1], got {args.min_confidence}")
+    if args.min_confidence > 0 and "tum" not in formats:
+        raise ValueError(
+            "--min-confidence applies to --format tum (trajectory.csv keeps every frame, with its confidence)"
+        )
     if args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
     window = parse_shift_window(args.shift_window)
