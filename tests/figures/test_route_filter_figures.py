@@ -85,7 +85,7 @@ def test_the_confidence_figure_draws_the_level_summary_json_gives_and_names_its_
         line for line in filter_confidence_figure(result, evaluation).axes[0].lines if "100%" in line.get_label()
     ]
     label = level.get_label()
-    shown = re.search(r"confidence >= (\d\.\d+) \(score = 1 - confidence <= (\d\.\d+)\)", label)
+    shown = re.search(r"confidence >= (\d\.\d+)\s+\(score = 1 - confidence <= (\d\.\d+)\)", label)
     assert shown, label
     assert float(shown.group(1)) == pytest.approx(summary["confidence_at_100_precision"], abs=5e-5)
     assert float(shown.group(2)) == pytest.approx(summary["threshold_at_100_precision"], abs=5e-5)

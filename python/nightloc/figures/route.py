@@ -340,7 +340,7 @@ def filter_confidence_figure(
                 color="tab:blue",
                 lw=0.8,
                 ls="--",
-                label=f"100% precision: confidence >= {level:.4f} (score = 1 - confidence <= "
+                label=f"100% precision: confidence >= {level:.4f}\n(score = 1 - confidence <= "
                 f"{evaluation.threshold_at_100:.4f})",
             )
     else:
