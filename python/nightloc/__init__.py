@@ -15,7 +15,7 @@ from __future__ import annotations
 from . import mapping, route  # mapping registers the [teach] parameter table (GTSAM loads on use)
 from ._core import __version__
 from .config import load_params, save_params
-from .errors import DatasetError, MapFormatError, NightlocError
+from .errors import DatasetError, DatasetWarning, MapFormatError, NightlocError, NightlocWarning
 from .io import Traverse, load_traverse, save_traverse
 from .io.reference_map import ReferenceMap
 from .localization import (
@@ -45,6 +45,7 @@ from .route import RouteLocalizer, RouteParams
 __all__ = [
     "DEFAULT_PATCH_SCALE",
     "DatasetError",
+    "DatasetWarning",
     "Estimate",
     "FilterParams",
     "LocalizationParams",
@@ -53,6 +54,7 @@ __all__ = [
     "MapFormatError",
     "MatchResult",
     "NightlocError",
+    "NightlocWarning",
     "NoiseModel",
     "PreparationParams",
     "Preparer",

@@ -14,9 +14,10 @@ import importlib
 import io
 import os
 import sys
+import warnings
 
 from . import __version__
-from .errors import cli_message
+from .errors import NightlocWarning, cli_message
 
 # Sub-command modules; each defines register(subparsers) which adds its parser and sets
 # `run=<function(args) -> int>` as a default.
@@ -97,6 +98,22 @@ def _closed_pipe() -> int:
     return EXIT_CLOSED_PIPE
 
 
+def _print_warnings(command: str) -> None:
+    """Within a ``warnings.catch_warnings()`` block: nightloc's own warnings
+    (:class:`~nightloc.errors.NightlocWarning`) are printed each time, as one line on stderr
+    (``nightloc localize: warning: ...``); other warnings as Python prints them."""
+    warnings.simplefilter("always", NightlocWarning)
+    shown = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, NightlocWarning):
+            print(f"nightloc {command}: warning: {' '.join(str(message).split())}", file=sys.stderr, flush=True)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    warnings.showwarning = show
+
+
 #: Exit status when the reader of stdout closed the pipe (128 + SIGPIPE, as the shell reports).
 EXIT_CLOSED_PIPE = 141
 
@@ -112,7 +129,9 @@ def main(argv: list[str] | None = None) -> int:
     _quiet_opencv()
     _tolerant_streams()
     try:
-        status = int(args.run(args) or 0)
+        with warnings.catch_warnings():
+            _print_warnings(args.command)
+            status = int(args.run(args) or 0)
         sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's last flush
         return status
     except BrokenPipeError:

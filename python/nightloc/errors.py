@@ -1,8 +1,10 @@
-"""Exception types of nightloc.
+"""Exception and warning types of nightloc.
 
 Every error nightloc raises on bad input is a ``TypeError`` (wrong type or dtype) or a
 ``ValueError`` (wrong shape, value, file content); errors about data on disk and user datasets
 use :class:`NightlocError`, a ``ValueError`` that names the file and, where it applies, the line.
+Input that nightloc can use after leaving part of it out gives a :class:`DatasetWarning` (the
+``nightloc`` commands print it as one line on stderr).
 """
 
 from __future__ import annotations
@@ -11,10 +13,12 @@ from typing import TypeVar
 
 __all__ = [
     "DatasetError",
+    "DatasetWarning",
     "MapFormatError",
     "MappingError",
     "MissingDependencyError",
     "NightlocError",
+    "NightlocWarning",
     "cli_message",
     "with_cli_words",
 ]
@@ -57,3 +61,11 @@ class MappingError(NightlocError):
 
 class MissingDependencyError(NightlocError, ImportError):
     """An optional dependency is not installed; the message names the ``pip install`` command."""
+
+
+class NightlocWarning(UserWarning):
+    """Base class of nightloc's warnings: the work went on, but not with everything it was given."""
+
+
+class DatasetWarning(NightlocWarning):
+    """Part of a traverse was left out (e.g. a bag's frames recorded before its odometry starts)."""

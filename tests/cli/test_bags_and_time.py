@@ -41,6 +41,16 @@ def read_tum(path) -> np.ndarray:
     return np.array(rows)
 
 
+def _without_times(traverse: Path, copy: Path) -> Path:
+    """A copy of a traverse folder with the timestamp column dropped from its CSV files."""
+    shutil.copytree(traverse, copy)
+    for name in ("poses.csv", "odometry.csv"):
+        rows = [line.split(",") for line in (copy / name).read_text().splitlines()]
+        keep = [k for k, column in enumerate(rows[0]) if column != "timestamp"]
+        (copy / name).write_text("\n".join(",".join(row[k] for k in keep) for row in rows) + "\n")
+    return copy
+
+
 def _odom_frame(positions, headings, rotation=-1.1, shift=(12.0, 7.5)):
     """The drive as its own odometry reports it: in an odom frame turned and moved from the map's."""
     c, s = math.cos(rotation), math.sin(rotation)
@@ -196,7 +206,8 @@ def test_bag_errors_on_the_command_line(garden, tmp_path, capsys):
     argv = ["localize", str(garden["map"]), str(folders["night_query"]), "--out", str(tmp_path / "o")]
     assert main([*argv, "--image-topic", "/camera"]) == 2
     assert "--image-topic applies to ROS bags" in capsys.readouterr().err
-    assert main([*argv, "--format", "tum"]) == 2  # a folder without a timestamp column
+    untimed = _without_times(folders["night_query"], tmp_path / "untimed")
+    assert main(["localize", str(garden["map"]), str(untimed), "--out", str(tmp_path / "o"), "--format", "tum"]) == 2
     err = capsys.readouterr().err
     assert "--format tum needs each frame's time" in err and "timestamp column" in err
     assert main([*argv, "--format", "kml"]) == 2
@@ -206,10 +217,34 @@ def test_bag_errors_on_the_command_line(garden, tmp_path, capsys):
     assert (tmp_path / "o" / "trajectory.csv").is_file()
 
 
+def test_a_bag_whose_camera_starts_before_its_odometry_localizes_with_a_warning(garden, tmp_path, capsys):
+    """The first frames come before the first odometry message: they are skipped, named with their
+    times, and the others localize as the bag without them does."""
+    night = garden["night"]
+    frames = [night.read(i) for i in range(len(night))]
+    frame_ns = garden["frame_ns"]
+    odometry = _odom_frame(night.positions, night.headings)
+    early = write_bag(tmp_path / "early", frames, frame_ns, odometry=odometry[3:], odometry_ns=frame_ns[3:])
+    out = tmp_path / "early_run"
+    assert main(["localize", str(garden["map"]), str(early), "--out", str(out), "--no-figures"]) == 0
+    captured = capsys.readouterr()
+    [warning] = captured.err.splitlines()
+    times = [float(f"{n // NS}.{n % NS:09d}") for n in frame_ns[:3]]
+    assert warning.startswith(f"nightloc localize: warning: bag {early}: 3 of {len(night)} frames of /camera/image_raw")
+    assert "before the odometry /odom starts" in warning and ", ".join(f"{t:.3f}" for t in times) in warning
+    rows = _rows(out / "trajectory.csv")
+    assert [r["image"] for r in rows] == [f"frame_{i:06d}" for i in range(3, len(night))]
+    # the oracle: a bag recorded from the fourth frame on
+    trimmed = write_bag(tmp_path / "trimmed", frames[3:], frame_ns[3:], odometry=odometry[3:])
+    assert main(["localize", str(garden["map"]), str(trimmed), "--out", str(tmp_path / "trimmed_run")]) == 0
+    assert capsys.readouterr().err == ""
+    expected = _rows(tmp_path / "trimmed_run" / "trajectory.csv")
+    assert [(r["x"], r["y"], r["timestamp"]) for r in rows] == [(r["x"], r["y"], r["timestamp"]) for r in expected]
+
+
 def test_a_folder_log_with_a_timestamp_column_carries_its_times(garden, tmp_path, capsys):
     night = garden["folders"]["night_query"]
-    log = tmp_path / "log"
-    shutil.copytree(night, log)
+    log = _without_times(night, tmp_path / "log")
     (log / "poses.csv").unlink()
     lines = (log / "odometry.csv").read_text().splitlines()
     times = [100.0 + 0.25 * k for k in range(len(lines) - 1)]

@@ -10,12 +10,15 @@
 * **Inputs are sacred**: an output that is, contains or lies inside an input is refused before any
   work (old: ``build-map t t/images/000005.png`` wrote the map over a frame, exit 0; ``route R Q
   --out R`` wrote figures into the reference folder); an existing map or dataset is replaced
-  only with ``--overwrite``; missing parent folders are an error.
+  only with ``--overwrite``; a map file's missing parent folder is an error, while an output
+  folder (``--out``, "created with its parents if missing") is created with its parents, which a
+  failed run removes again.
 """
 
 from __future__ import annotations
 
 import os
+import shutil
 
 import numpy as np
 import pytest
@@ -205,7 +208,7 @@ SACRED = [
     ("demo out contains the cache", lambda r, q, t: ["demo", "--out", str(t), "--cache", str(t / "c")], "contains"),
     ("build-map over an existing map", lambda r, q, t: ["build-map", str(r), str(t / "m" / "ref.map")], "--overwrite"),
     ("build-map into a missing folder", lambda r, q, t: ["build-map", str(r), str(t / "no" / "x.map")], "not exist"),
-    ("route into a missing folder", lambda r, q, t: ["route", str(r), str(q), "--out", str(t / "no/o")], "not exist"),
+    ("route under a file", lambda r, q, t: ["route", str(r), str(q), "--out", str(t / "p.toml" / "o")], "is a file"),
 ]
 
 
@@ -228,3 +231,49 @@ def test_case_count_is_recorded_in_the_readme():
     from reliability_support import reliability_section
 
     assert f"{len(SACRED)} ways of writing over an input" in reliability_section()
+
+
+OUT_FOLDER_COMMANDS = {
+    "localize": lambda r, q, out: ["localize", str(r), str(q), "--out", str(out), "--odometry", "none"],
+    "evaluate": lambda r, q, out: ["evaluate", str(r), str(q), "--out", str(out), *EVALUATE],
+    "route": lambda r, q, out: ["route", str(r), str(q), "--out", str(out), "--ds", "4", "--no-figures"],
+    "synth": lambda r, q, out: ["synth", "--world", "living_room", "--size", "16x8", "--out", str(out)],
+    "demo": None,  # its parents are created the same way (output_set(..., parents=True)); a run takes minutes
+}
+
+
+def test_every_out_folder_says_it_is_created_with_its_parents():
+    """--help and behaviour agree: every command whose --out is a folder says so."""
+    from nightloc.cli import build_parser
+
+    commands = build_parser()._subparsers._group_actions[0].choices
+    for name, parser in commands.items():
+        out = [a for a in parser._actions if "--out" in a.option_strings]
+        if out:
+            assert name in OUT_FOLDER_COMMANDS and "created with its parents if missing" in out[0].help, name
+    assert set(OUT_FOLDER_COMMANDS) <= set(commands)
+
+
+@pytest.mark.parametrize("command", [name for name, argv in OUT_FOLDER_COMMANDS.items() if argv is not None])
+def test_out_folders_are_created_with_their_parents(pair, tmp_path, command, capsys):
+    ref, query = pair
+    out = tmp_path / "runs" / "night" / command
+    assert main(OUT_FOLDER_COMMANDS[command](ref, query, out)) == 0, capsys.readouterr().err
+    assert (out / ".nightloc-output.json").is_file()
+    assert sorted(p.name for p in (tmp_path / "runs" / "night").iterdir()) == [command]  # no lock or staging left
+
+
+def test_a_failed_run_removes_the_parents_it_created(pair, tmp_path, capsys):
+    ref, query = pair
+    broken = tmp_path / "broken"
+    shutil.copytree(query, broken)
+    (broken / "images" / "000017.png").write_bytes(b"not an image")  # found while localizing
+    before = _tree(tmp_path)
+    argv = ["localize", str(ref), str(broken), "--out", str(tmp_path / "runs" / "night" / "o"), "--odometry", "none"]
+    assert main(argv) == 2
+    assert "000017.png" in capsys.readouterr().err
+    assert not (tmp_path / "runs").exists() and _tree(tmp_path) == before
+    # a parent that existed stays
+    (tmp_path / "runs").mkdir()
+    assert main(argv) == 2
+    assert [p.name for p in (tmp_path / "runs").iterdir()] == []

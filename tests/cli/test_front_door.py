@@ -135,7 +135,7 @@ def test_frames_of_another_camera_are_refused_naming_both(ws, capsys, tmp_path):
     # a camera named on the command line must be the map's
     err = _error(capsys, ["localize", ws.map_file, ws.log, "--out", tmp_path / "o", "--camera", "forward"])
     assert "forward camera" in err and "panoramic camera" in err, err
-    # the same camera at another resolution fits
+    # frames of the map's shape at another size are refused too, naming both sizes and the fix
     bigger = nightloc.save_traverse(
         tmp_path / "bigger",
         [np.kron(frame, np.ones((2, 2, 1), np.uint8)) for frame in ws.frames],
@@ -143,7 +143,16 @@ def test_frames_of_another_camera_are_refused_naming_both(ws, capsys, tmp_path):
         ws.headings,
         odometry=[None] * FRAMES,
     )
-    assert main(["localize", str(ws.map_file), str(bigger.root), "--out", str(tmp_path / "b"), "--no-figures"]) == 0
+    for command in (["localize"], ["evaluate", "--seq-lengths", "1"]):
+        err = _error(capsys, [command[0], ws.map_file, bigger.root, "--out", tmp_path / "b", *command[1:]])
+        assert "has 120x60 frames" in err and "built from 60x30 frames" in err, err
+        assert "resize the frames to 60x30" in err and "build a map from 120x60 frames" in err, err
+    assert not (tmp_path / "b").exists()
+    with pytest.raises(ValueError, match=r"120x60 frames.*60x30 frames"):
+        ws.map.check_frames(bigger.read(0).shape, "the log")
+    # a reference traverse is prepared for the log's frames, and route mode needs only their shape
+    assert main(["localize", str(bigger.root), str(bigger.root), "--out", str(tmp_path / "b"), "--no-figures"]) == 0
+    assert main(["route", str(ws.log), str(bigger.root), "--out", str(tmp_path / "r"), "--no-figures"]) == 0
 
 
 def test_a_forward_map_localizes_forward_frames_and_route_takes_the_camera(ws, capsys, tmp_path):

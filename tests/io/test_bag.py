@@ -9,6 +9,7 @@ import math
 import subprocess
 import sys
 import textwrap
+import warnings
 
 import cv2
 import numpy as np
@@ -220,13 +221,47 @@ def test_streams_that_do_not_cover_the_frames_are_named(tmp_path, frames):
                     odometry_ns=[stamp_ns(t + 3600) for t in times])  # fmt: skip
     with pytest.raises(DatasetError, match=r"do not overlap in time: .*different clocks"):
         nightloc.load_traverse(far)
-    late = write_bag(tmp_path / "late", frames[:6], [stamp_ns(t) for t in times], odometry=odom[2:],
-                     odometry_ns=[stamp_ns(t) for t in times[2:]])  # fmt: skip
+    # a gap inside the odometry stream is an error naming the frames in it
+    gap = write_bag(tmp_path / "gap", frames[:6], [stamp_ns(t) for t in times], odometry=odom[[0, 1, 4, 5]],
+                    odometry_ns=[stamp_ns(t) for t in times[[0, 1, 4, 5]]])  # fmt: skip
     with pytest.raises(DatasetError, match=r"2 of 6 the frames of /camera/image_raw lie more than 0.25 s from any"):
-        nightloc.load_traverse(late)
-    assert len(nightloc.load_traverse(late, sync_tolerance=2.5)) == 6  # the first frames hold the first sample
+        nightloc.load_traverse(gap)
+    assert len(nightloc.load_traverse(gap, sync_tolerance=1.0)) == 6
     with pytest.raises(ValueError, match="sync tolerance"):
-        nightloc.load_traverse(late, sync_tolerance=-1)
+        nightloc.load_traverse(gap, sync_tolerance=-1)
+
+
+def test_frames_before_the_odometry_starts_are_skipped_with_a_warning(tmp_path, frames):
+    """A camera started before the odometry: its first frames are left out, named with their
+    times, and the rest of the bag is read as it would be without them."""
+    times = T0 + np.arange(8.0)
+    odom = _circle(times - T0)
+    late = write_bag(tmp_path / "late", frames[:8], [stamp_ns(t) for t in times], odometry=odom[2:],
+                     odometry_ns=[stamp_ns(t) for t in times[2:]])  # fmt: skip
+    with pytest.warns(nightloc.DatasetWarning) as caught:
+        traverse = nightloc.load_traverse(late)
+    [warning] = caught
+    message = str(warning.message)
+    assert "2 of 8 frames of /camera/image_raw are skipped" in message, message
+    assert f"before the odometry /odom starts at {times[2]:.3f} s ({times[0]:.3f}, {times[1]:.3f} s)" in message
+    assert len(traverse) == 6 and traverse.names[0] == "frame_000002"
+    np.testing.assert_allclose(traverse.timestamps, times[2:], rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(traverse.read(0), frames[2])
+    # the motions from the first kept frame on are those of the odometry (the oracle: the drive itself)
+    trimmed = write_bag(tmp_path / "trimmed", frames[2:8], [stamp_ns(t) for t in times[2:]], odometry=odom[2:])
+    expected = nightloc.load_traverse(trimmed)
+    np.testing.assert_allclose(
+        [(m.forward, m.left, m.turn) for m in nightloc.traverse_odometry(traverse)[1:]],
+        [(m.forward, m.left, m.turn) for m in nightloc.traverse_odometry(expected)[1:]],
+    )
+    # frames after the odometry ends too, and every third frame: counted among the kept ones
+    early = write_bag(tmp_path / "early", frames[:8], [stamp_ns(t) for t in times], odometry=odom[:5],
+                      odometry_ns=[stamp_ns(t) for t in times[:5]])  # fmt: skip
+    with pytest.warns(nightloc.DatasetWarning, match=r"1 of 3 frames .* after the odometry /odom ends at"):
+        assert nightloc.load_traverse(early, frame_step=3).names == ("frame_000000", "frame_000003")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert len(nightloc.load_traverse(late, sync_tolerance=2.5)) == 8  # within the tolerance: all kept
 
 
 def test_unreadable_images_and_wrong_places_are_named(tmp_path, frames):

@@ -391,3 +391,24 @@ def test_nordland_folder_loads_as_route_traverse(shared_data):
     images = [image for _, image in part.frames()]
     assert all(image.shape == (32, 64, 3) and image.dtype == np.uint8 for image in images)
     np.testing.assert_array_equal(images[0], cv2.imread(str(folder / traverse.names[1000])))
+
+
+def test_save_traverse_writes_the_frames_times_into_both_csv_files(tmp_path):
+    frames = [np.full((8, 16, 3), 30 * k, np.uint8) for k in range(3)]
+    times = [12.5, 12.75, 13.0]
+    motions = [None, nightloc.RobotMotion(0.3, 0.0, 0.1), nightloc.RobotMotion(0.3, 0.0, 0.0)]
+    saved = nightloc.save_traverse(tmp_path / "t", frames, np.zeros((3, 2)), np.zeros(3), odometry=motions,
+                                   timestamps=times)  # fmt: skip
+    assert saved.timestamps.tolist() == times
+    for name in ("poses.csv", "odometry.csv"):
+        header, *rows = (saved.root / name).read_text().splitlines()
+        assert header.endswith(",timestamp") and [float(r.rsplit(",", 1)[1]) for r in rows] == times
+    odometry_only = nightloc.save_traverse(tmp_path / "o", frames, odometry=motions, timestamps=times)
+    assert odometry_only.timestamps.tolist() == times and not (odometry_only.root / "poses.csv").exists()
+    with pytest.raises(ValueError, match=r"timestamps\[2\] = 1.0 is before timestamps\[1\]"):
+        nightloc.save_traverse(tmp_path / "b", frames, np.zeros((3, 2)), timestamps=[0.0, 2.0, 1.0])
+    with pytest.raises(ValueError, match="pass positions or odometry"):
+        nightloc.save_traverse(tmp_path / "c", frames, timestamps=times)
+    with pytest.raises(ValueError, match="2 timestamps but 3 images"):
+        nightloc.save_traverse(tmp_path / "d", frames, np.zeros((3, 2)), timestamps=times[:2])
+    assert not [p.name for p in tmp_path.iterdir() if p.name not in ("t", "o")]

@@ -108,13 +108,15 @@ def _odometry_lines(day):
 def test_missing_odometry_row(small_drive):
     lines = _odometry_lines(small_drive)
     (small_drive / "odometry.csv").write_text("\n".join(lines[:5] + lines[6:]) + "\n")
-    with pytest.raises(DatasetError, match=r"has no row for image '000004\.png'"):
+    with pytest.raises(DatasetError, match=r"no row for image '000004\.png'"):
         teach_run(small_drive)
 
 
 def test_non_finite_odometry(small_drive):
     lines = _odometry_lines(small_drive)
-    lines[3] = lines[3].rsplit(",", 1)[0] + ",nan"
+    cells = lines[3].split(",")
+    cells[lines[0].split(",").index("turn")] = "nan"
+    lines[3] = ",".join(cells)
     (small_drive / "odometry.csv").write_text("\n".join(lines) + "\n")
     with pytest.raises(DatasetError, match="line 4: column 'turn' is 'nan'; odometry must be finite"):
         teach_run(small_drive)

@@ -3,6 +3,7 @@ and the night-vs-day matching signal (informative but hard)."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 from pathlib import Path
@@ -39,7 +40,8 @@ def test_make_dataset_layout_and_poses(tmp_path):
     for name, folder in folders.items():
         traverse = nightloc.load_traverse(folder)
         assert len(traverse) == {"day_reference": 52, "night_query": 32}[name]
-        assert (folder / "poses.csv").read_text().splitlines()[0] == "image,x,y,heading"
+        assert (folder / "poses.csv").read_text().splitlines()[0] == "image,x,y,heading,timestamp"
+        assert (folder / "odometry.csv").read_text().splitlines()[0] == "image,forward,left,turn,timestamp"
         np.testing.assert_allclose(traverse.positions, plans[name].positions)
         np.testing.assert_allclose(traverse.headings, plans[name].headings)
         image = traverse.read(0)
@@ -50,6 +52,43 @@ def test_make_dataset_layout_and_poses(tmp_path):
     assert description["traverses"]["night_query"] == {"condition": "night", "frames": 32}
     hidden = [p.name for p in (tmp_path / "room").iterdir() if p.name.startswith(".")]
     assert hidden == [".nightloc-output.json"]  # the set's record of its files; no leftovers
+
+
+def _drive_times(positions: np.ndarray) -> list[float]:
+    """Oracle of the frames' times: 1 s, then each straight step driven at 0.4 m/s, never less than
+    a 10 Hz camera's period; milliseconds."""
+    times = [1.0]
+    for (x0, y0), (x1, y1) in itertools.pairwise(positions):
+        times.append(times[-1] + max(math.hypot(x1 - x0, y1 - y0) / 0.4, 0.1))
+    return [round(t, 3) for t in times]
+
+
+def test_synthetic_traverses_carry_their_frames_times(tmp_path):
+    """poses.csv and odometry.csv end with each frame's time, from the documented drive speed and
+    camera rate, so a bag or a TUM trajectory can be made from them without inventing a frame rate."""
+    folders = make_dataset("living_room", tmp_path / "room", seed=3, camera=TINY)
+    plans = {p.name: p for p in plan_traverses("living_room", 3)}
+    description = json.loads((tmp_path / "room" / "dataset.json").read_text())
+    assert description["timing"] == {"drive_speed_m_s": 0.4, "camera_rate_hz": 10.0, "first_frame_s": 1.0}
+    for name, folder in folders.items():
+        expected = _drive_times(plans[name].positions)
+        traverse = nightloc.load_traverse(folder)
+        np.testing.assert_allclose(traverse.timestamps, expected, rtol=0, atol=1e-9)
+        assert (np.diff(traverse.timestamps) >= 0.1 - 1e-9).all()
+        (folder / "poses.csv").unlink()  # the times are in odometry.csv too
+        np.testing.assert_allclose(nightloc.load_traverse(folder).timestamps, expected, rtol=0, atol=1e-9)
+
+
+def test_a_bag_made_from_a_synthetic_traverse_keeps_its_times(tmp_path):
+    from bag_support import stamp_ns, write_bag
+
+    night = nightloc.load_traverse(default_synth_data()["garden"]["night_query"])
+    frames = [night.read(i) for i in range(len(night))]
+    stamps = [stamp_ns(t) for t in night.timestamps]
+    poses = np.column_stack([night.positions, night.headings])
+    bag = nightloc.load_traverse(write_bag(tmp_path / "night", frames, stamps, odometry=poses))
+    np.testing.assert_allclose(bag.timestamps, night.timestamps, rtol=0, atol=1e-6)
+    assert night.timestamps[0] == 1.0 and len(bag) == len(night)
 
 
 def test_traverses_mirror_table_one():

@@ -174,7 +174,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "on/off; prints the median errors and writes CSV files and figures.",
     )
     parser.add_argument(
-        "--out", type=Path, default=Path("nightloc_demo"), help="output folder (default ./nightloc_demo)"
+        "--out",
+        type=Path,
+        default=Path("nightloc_demo"),
+        help="output folder (default ./nightloc_demo; created with its parents if missing)",
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the odometry noise (non-negative, default 0)")
     parser.add_argument("--repeats", type=int, default=1, help="odometry noise draws per noise model (default 1)")
@@ -197,7 +200,7 @@ def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     cache = args.cache if args.cache is not None else default_cache_dir()
     # The whole OUT folder is one set: both worlds appear together at the end, or nothing changes.
-    with output_set(args.out, command="demo", inputs=(cache,)) as out:
+    with output_set(args.out, command="demo", inputs=(cache,), parents=True) as out:
         print(f"synthetic dataset in {cache} (generated on first use, ~10 s)", flush=True)
         folders = default_dataset(cache_dir=cache)
         settings = EvaluationSettings(repeats=args.repeats, seed=args.seed, methods=("paper", "filter"))

@@ -74,7 +74,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument("reference", type=Path, help="reference traverse (folder or bag, with poses) or map file")
     parser.add_argument("query", type=Path, help="query traverse (folder, video or bag) with poses (ground truth)")
-    parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
+    parser.add_argument("--out", type=Path, required=True, help="output folder (created with its parents if missing)")
     parser.add_argument("--seq-lengths", default="1-10", help="sequence lengths, e.g. 1-10 or 1,3,7 (default 1-10)")
     parser.add_argument("--noise-models", default="0,1,2,3", help="Table III noise models (default 0,1,2,3)")
     parser.add_argument("--interpolation", default="on,off", help="on, off or on,off (default on,off)")
@@ -249,7 +249,7 @@ def run(args: argparse.Namespace) -> int:
     filter_params = sections.get("filter")
     preparation = sections.get("preparation")
     inputs = (args.reference, args.query, args.params, args.survey)
-    check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
+    check_output_path(args.out, folder=True, inputs=inputs, parents=True)  # a file in the way fails now
     refuse_map_as_traverse(args.query, "QUERY", "the reference comes first: nightloc evaluate REFERENCE QUERY")
     bag = bag_options(args)
     query = load_traverse(args.query, **bag)  # names, times and poses only
@@ -260,7 +260,7 @@ def run(args: argparse.Namespace) -> int:
     if heatmap_frames is not None and (min(heatmap_frames) < 0 or max(heatmap_frames) >= len(query)):
         raise ValueError(f"--heatmap-frames must be in 0..{len(query) - 1} for {len(query)} query frames")
     # Checked and locked before the work; the files appear together at the end, or not at all.
-    with output_set(args.out, command="evaluate", inputs=inputs) as out:
+    with output_set(args.out, command="evaluate", inputs=inputs, parents=True) as out:
         start = time.perf_counter()
         ref_map = load_reference(args.reference, preparation, args.camera, args.params, bag)
         ref_map.check_frames(query.read(0).shape, f"the query {query.root}", args.camera)

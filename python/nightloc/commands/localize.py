@@ -1,6 +1,7 @@
 """``nightloc localize``: a recorded night log (frames + odometry) turned into a trajectory.
 
-    nightloc localize MAP_OR_REFERENCE LOG --out OUT [--format csv|tum|csv,tum] [--odometry FILE|none]
+    nightloc localize MAP_OR_REFERENCE LOG --out OUT [--format csv|tum|csv,tum] [--min-confidence C]
+                      [--odometry FILE|none] [--survey DAY]
                       [--odometry-noise 1|DIST,HEADING] [--params FILE.toml] [--camera panoramic|forward]
                       [--shift-window COLUMNS,ROWS] [--image-topic T] [--odometry-topic T] [--pose-topic T]
                       [--sync-tolerance S] [--threads N] [--no-figures]
@@ -24,9 +25,18 @@ Writes, each file atomically:
   carries no times);
 * ``OUT/trajectory.tum`` (``--format tum``): ``timestamp x y z qx qy qz qw`` per frame, the TUM
   format ``evo`` reads (:mod:`nightloc.io.trajectory`); needs the frames' times and headings;
+  beside it ``OUT/trajectory_confidence.csv``: ``timestamp,confidence,credible_radius``, one row
+  per line of the TUM file. ``--min-confidence C`` keeps only the frames whose confidence is at
+  least C in both (a cold start left out of ``evo``'s statistics); ``trajectory.csv`` keeps all;
 * ``OUT/trajectory.png`` (unless ``--no-figures``; ``--figure-format pdf|svg`` for another
   format): the references, the estimated path with its credible radius, and the true path when
   LOG has poses — then the command also prints the median and 90th-percentile distance errors.
+
+A map built by a teach run lives in its day drive's odometry frame and a log's ``poses.csv`` in its
+survey frame: the true poses are moved into the map's frame by the best rigid 2D fit of the map
+onto the day drive's survey (``--survey DAY``, default the map's source traverse; as ``nightloc
+evaluate`` does) before any error is computed or drawn, and the command says so; without a survey
+it says that the frames differ and reports no errors.
 """
 
 from __future__ import annotations
@@ -44,8 +54,17 @@ from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set
 from ..io.odometry_csv import ODOMETRY_FILE
 from ..io.reference_map import ReferenceMap
-from ..io.trajectory import TRAJECTORY_FORMATS, TRAJECTORY_HEADER, write_trajectory_csv, write_tum
+from ..io.trajectory import (
+    TRAJECTORY_FORMATS,
+    TRAJECTORY_HEADER,
+    TUM_CONFIDENCE_FILE,
+    confident_frames,
+    write_trajectory_csv,
+    write_tum,
+    write_tum_confidence,
+)
 from ..io.traverse import Traverse, load_traverse
+from ..localization.evaluation import map_alignment
 from ..localization.localizer import LocalizationParams, Localizer
 from ..localization.odometry import traverse_odometry
 from .bag_options import add_bag_options, bag_options
@@ -68,12 +87,18 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument("map", type=Path, help="map file (nightloc build-map) or reference traverse (folder or bag)")
     parser.add_argument("log", type=Path, help="the night log: a traverse folder (images/), a video file or a ROS bag")
-    parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
+    parser.add_argument("--out", type=Path, required=True, help="output folder (created with its parents if missing)")
     parser.add_argument(
         "--format",
         default="csv",
-        help="csv (trajectory.csv, default), tum (trajectory.tum: timestamp x y z qx qy qz qw, as evo reads), "
-        "or csv,tum",
+        help="csv (trajectory.csv, default), tum (trajectory.tum: timestamp x y z qx qy qz qw, as evo reads, and "
+        f"{TUM_CONFIDENCE_FILE}: timestamp,confidence,credible_radius per TUM line), or csv,tum",
+    )
+    parser.add_argument(
+        "--min-confidence",
+        type=float,
+        default=0.0,
+        help="--format tum: write only the frames whose confidence is at least this, in [0, 1] (default 0: all)",
     )
     parser.add_argument(
         "--odometry",
@@ -94,6 +119,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "the filter's translation window: +-ROWS rows searched in every comparison (a tilting robot) and, for a "
         "forward camera, +-COLUMNS column offsets over which its headings are told apart (default: [filter] "
         "forward_window and row_window: a quarter of the width, 0 rows); a panoramic map takes 0,ROWS",
+    )
+    parser.add_argument(
+        "--survey",
+        type=Path,
+        help="a teach-run map (no survey of its own): the day traverse whose poses.csv aligns the map's frame with "
+        "the log's poses (default the map's source traverse)",
     )
     parser.add_argument("--threads", type=int, default=1, help="matching threads (default 1, as on a robot)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw trajectory.png")
@@ -137,17 +168,51 @@ def _log_odometry(log: Traverse, option: str | None) -> list:
         raise
 
 
+def _truth_in_map_frame(log: Traverse, ref_map: ReferenceMap, survey: Path | None) -> tuple[np.ndarray | None, str]:
+    """The log's true positions (``(N, 2)`` metres) in the map's frame, or None, and a line saying
+    how they were aligned ("" for a surveyed map: one frame). A teach run's map is aligned by
+    :func:`nightloc.localization.evaluation.map_alignment` (the rigid fit of the map onto the day
+    drive's survey); without a survey there is no truth to compare with, and the line says so."""
+    if log.positions is None:
+        return None, ""
+    truth = np.asarray(log.positions, dtype=np.float64)
+    try:
+        alignment = map_alignment(ref_map, survey)
+    except DatasetError as error:
+        if survey is not None:
+            raise
+        return None, (
+            f"no distance errors: {error} (--survey DAY); the trajectory is in the map's frame, the log's poses "
+            f"in their survey frame"
+        )
+    if alignment is None:
+        return truth, ""
+    return alignment[0].inverse().apply(truth), alignment[1]
+
+
 def run(args: argparse.Namespace) -> int:
     """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
     noise = parse_noise(args.odometry_noise)
     formats = parse_formats(args.format)
+    if not 0.0 <= args.min_confidence <= 1.0:
+        raise ValueError(f"--min-confidence must be in [0, 1], got {args.min_confidence}")
+    if args.min_confidence > 0 and "tum" not in formats:
+        raise ValueError(
+            "--min-confidence applies to --format tum (trajectory.csv keeps every frame, with its confidence)"
+        )
     if args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
     window = parse_shift_window(args.shift_window)
     sections = load_params_file(args.params) if args.params is not None else {}
     params = sections.get("localization", LocalizationParams())
-    inputs = (args.map, args.log, args.params, args.odometry if args.odometry not in (None, "none") else None)
-    check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
+    inputs = (
+        args.map,
+        args.log,
+        args.params,
+        args.odometry if args.odometry not in (None, "none") else None,
+        args.survey,
+    )
+    check_output_path(args.out, folder=True, inputs=inputs, parents=True)  # a file in the way fails now
     refuse_map_as_traverse(args.log, "LOG", "the map comes first: nightloc localize MAP LOG --out OUT")
     log = load_traverse(args.log, **bag_options(args))
     if "tum" in formats and log.timestamps is None:
@@ -167,10 +232,11 @@ def run(args: argparse.Namespace) -> int:
             f"--format tum needs a heading per frame, and the map {args.map} has no headings (its reference poses "
             f"lack them): use --format csv"
         )
+    truth, alignment_note = _truth_in_map_frame(log, ref_map, args.survey)
     filter_params = filter_params_with_window(sections.get("filter"), window, ref_map.camera, ref_map.images.shape[1:])
     localizer = Localizer(ref_map, params, odometry_noise=noise, filter_params=filter_params, threads=args.threads)
     # Checked and locked before the work; the files appear together at the end, or not at all.
-    with output_set(args.out, command="localize", inputs=inputs) as out:
+    with output_set(args.out, command="localize", inputs=inputs, parents=True) as out:
         start = time.perf_counter()
         estimates = [
             localizer.update(frame, odometry[i]) for i, frame in log.frames(progress_desc=f"localizing {log.root.name}")
@@ -180,9 +246,11 @@ def run(args: argparse.Namespace) -> int:
         if "csv" in formats:
             written.append(write_trajectory_csv(out / "trajectory.csv", log.names, estimates, log.timestamps).name)
         if "tum" in formats and log.timestamps is not None:
-            written.append(write_tum(out / "trajectory.tum", log.timestamps, estimates).name)
+            chosen = confident_frames(estimates, args.min_confidence)
+            times, confident = [log.timestamps[k] for k in chosen], [estimates[k] for k in chosen]
+            written.append(write_tum(out / "trajectory.tum", times, confident).name)
+            written.append(write_tum_confidence(out / TUM_CONFIDENCE_FILE, times, confident).name)
         positions = np.array([(e.x, e.y) for e in estimates])
-        truth = None if log.positions is None else np.asarray(log.positions, dtype=np.float64)
         if not args.no_figures:
             from ..figures._common import figure_path
             from ..figures.trajectory import trajectory_figure
@@ -196,6 +264,11 @@ def run(args: argparse.Namespace) -> int:
                 f"{len(estimates)} frames of {log.root.name} against {len(ref_map)} references; odometry: "
                 f"{source}, noise {args.odometry_noise}; disks: credible radius "
                 f"({localizer.filter_params.credibility:.0%})"
+                + (
+                    "; true path moved into the map's frame by the rigid fit of its survey"
+                    if truth is not None and alignment_note
+                    else ""
+                )
             )
             figure = figure_path(out.path, "trajectory", args.figure_format)
             trajectory_figure(
@@ -213,6 +286,12 @@ def run(args: argparse.Namespace) -> int:
         f"{len(estimates)} frames of {log.root} localized against {len(ref_map)} references in {duration(seconds)} "
         f"({duration(seconds / max(len(estimates), 1))} per frame)"
     )
+    if "tum" in formats and args.min_confidence > 0:
+        print(
+            f"trajectory.tum: {len(chosen)} of {len(estimates)} frames, those of confidence >= {args.min_confidence:g}"
+        )
+    if alignment_note:
+        print(alignment_note)
     if truth is not None:
         errors = np.hypot(*(positions - truth).T)
         print(

@@ -16,7 +16,9 @@ at the same time refuses; files in OUT that nightloc did not write are kept):
 * ``OUT/pr.csv``: ``threshold,precision,recall`` when ground truth is available;
 * ``OUT/summary.json``: the method and its parameters, the filter's motion model and why
   (``motion_model``, ``motion_model_because``), the preparation, sizes, timings, recall at
-  100 % precision, best F1, the fraction of queries matched correctly at any score, and why there
+  100 % precision with its threshold (``threshold_at_100_precision`` on the score scale named by
+  ``score_scale``; for the filter also ``confidence_at_100_precision``, the level the confidence
+  figure draws), best F1, the fraction of queries matched correctly at any score, and why there
   is no ground truth when there is none;
 * figures ``difference_matrix.png`` and, with ground truth, ``pr_curve.png`` and
   ``correspondence.png`` (the paper's Figure 23), and for the filter ``filter_confidence.png``,
@@ -93,7 +95,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument("reference", help="reference traverse: folder, video or ROS bag")
     parser.add_argument("query", help="query traverse: folder, video or ROS bag")
-    parser.add_argument("--out", required=True, help="output folder (created if missing)")
+    parser.add_argument("--out", required=True, help="output folder (created with its parents if missing)")
     parser.add_argument(
         "--preset",
         choices=sorted(PRESETS),
@@ -372,7 +374,7 @@ def run(args: argparse.Namespace) -> int:
             raise  # about the file's keys, in its words
         raise in_option_words(error, _OPTIONS) from None
     inputs = (args.reference, args.query, args.params)
-    check_output_path(args.out, folder=True, inputs=inputs)  # a file in the way fails now
+    check_output_path(args.out, folder=True, inputs=inputs, parents=True)  # a file in the way fails now
     usage = "nightloc route compares two traverses: nightloc route REFERENCE QUERY --out OUT"
     refuse_map_as_traverse(args.reference, "REFERENCE", usage)
     refuse_map_as_traverse(args.query, "QUERY", usage)
@@ -388,6 +390,7 @@ def run(args: argparse.Namespace) -> int:
         f"the reference {reference.root}",
         args.camera,
         remedy="route mode matches two traverses of one camera",
+        exact_size=False,
     )
     truth, truth_kind, no_truth = ground_truth_for(args.ground_truth, reference, query, args.tolerance)
     for p in per_method:
@@ -395,7 +398,7 @@ def run(args: argparse.Namespace) -> int:
     plan = motion_plan(reference, query, params.filter_motion, args.odometry == "auto") if "filter" in methods else None
 
     # Checked and locked before the work; the files appear together at the end, or not at all.
-    with output_set(args.out, command="route", inputs=inputs) as out:
+    with output_set(args.out, command="route", inputs=inputs, parents=True) as out:
         preparer = RoutePreparer(params, preparation)
         start = time.perf_counter()
         refs = preparer(reference)
@@ -493,16 +496,22 @@ def _write_method(
         "figures": figures,
     }
     if evaluation is not None:
-        summary.update(_metrics(evaluation))
+        summary.update(route_metrics(result, evaluation))
     write_text(folder / "summary.json", json.dumps(summary, indent=1, default=_json_default) + "\n")
     return summary
 
 
-def _metrics(evaluation: RouteEvaluation) -> dict:
+def route_metrics(result: RouteResult, evaluation: RouteEvaluation) -> dict:
+    """summary.json's precision-recall figures. Thresholds are on the score scale (a match is
+    accepted when its score is at most the threshold; the filter's score is ``1 - confidence``);
+    ``confidence_at_100_precision`` is the same threshold on the filter's confidence scale
+    (:meth:`RouteResult.confidence_at`, as the confidence figure draws it; None for SeqSLAM)."""
     positives = int(evaluation.positives.sum())
     return {
         "recall_at_100_precision": evaluation.recall_at_100,
+        "score_scale": "1 - confidence" if result.method == "filter" else "uniqueness ratio",
         "threshold_at_100_precision": _finite_or_none(evaluation.threshold_at_100),
+        "confidence_at_100_precision": result.confidence_at(evaluation.threshold_at_100),
         "best_f1": evaluation.best_f1,
         "best_f1_precision": evaluation.best_f1_precision,
         "best_f1_recall": evaluation.best_f1_recall,
@@ -539,12 +548,7 @@ def _print_method(result: RouteResult, evaluation, truth, truth_kind, no_truth, 
 
 def _motion_words(result: RouteResult) -> str:
     """The filter's motion model for the printed line, with the reason when odometry was not used."""
-    p = result.params
-    words = {
-        "odometry": "odometry motion model",
-        "speed": f"speed motion model {p.filter_speed_min:g}..{p.filter_speed_max:g}",
-        "window": f"speed window {p.vmin:g}..{p.vmax:g}",
-    }[result.motion or p.filter_motion]
+    words = result.motion_words()
     if result.motion == "odometry":
         return f"{words} ({result.motion_note})"
     if result.motion_note and "neither" not in result.motion_note:

@@ -31,7 +31,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="which world (default garden; all = the default dataset's, garden and living_room; large_garden is "
         "the 25x15 m lawn of the teach run, about 1000 frames)",
     )
-    parser.add_argument("--out", required=True, type=Path, help="output folder")
+    parser.add_argument("--out", required=True, type=Path, help="output folder (created with its parents if missing)")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"random seed (default {DEFAULT_SEED})")
     parser.add_argument(
         "--darkness",
@@ -88,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
     looks = {"view": args.camera, "tilt_deg": args.tilt, "height_std": args.height_jitter}
     start = time.perf_counter()
     if args.world == "all":  # one set holding every world: all appear together, or none changes
-        with output_set(args.out, command="synth", overwrite=args.overwrite) as out:
+        with output_set(args.out, command="synth", overwrite=args.overwrite, parents=True) as out:
             written = {
                 world: make_dataset(
                     world, out / world, args.seed, args.darkness, camera=camera, threads=args.threads, **looks
@@ -106,6 +106,7 @@ def run(args: argparse.Namespace) -> int:
                 camera=camera,
                 overwrite=args.overwrite,
                 threads=args.threads,
+                parents=True,
                 **looks,
             )
         }

@@ -76,8 +76,8 @@ def route_caption(
     ground_truth: str | None = None,
 ) -> str:
     """What a route figure shows, in two lines: the traverses (names and frame counts), the
-    preset with any parameter changed from it, the search (the filter's sharpness and speeds, or
-    SeqSLAM's ds, speeds and mode) and the ground truth.
+    preset with any parameter changed from it, the search (the filter's motion model as it ran,
+    with its speeds, and sharpness; or SeqSLAM's ds, speeds and mode) and the ground truth.
 
     ``reference`` and ``query`` are names, or paths (shown by their last two parts); ``preset``
     defaults to the preset closest to ``result.params`` (fewest fields changed).
@@ -89,7 +89,7 @@ def route_caption(
     data = f"reference {_name(reference)} ({result.n_refs} frames) vs query {_name(query)} ({result.n_queries} frames)"
     setting = f"preset {preset}" + (f" with {', '.join(changed)}" if changed else "")
     if params.method == "filter":
-        search = f"route filter, sharpness {params.filter_sharpness:g}, speeds {params.vmin:g}-{params.vmax:g}"
+        search = f"route filter, {result.motion_words()}, sharpness {params.filter_sharpness:g}"
     else:
         search = f"SeqSLAM ds {params.effective_ds}, speeds {params.vmin:g}-{params.vmax:g}, {params.mode}"
     lines = [data, f"{setting}; {search}" + (f"; ground truth: {ground_truth}" if ground_truth else "")]
@@ -333,9 +333,16 @@ def filter_confidence_figure(
             linewidths=0,
             label=f"confidence, wrong match ({int((~good).sum())})",
         )
-        if math.isfinite(evaluation.threshold_at_100):
-            level = 1.0 - evaluation.threshold_at_100
-            ax.axhline(level, color="tab:blue", lw=0.8, ls="--", label=f"100% precision above {level:.3f}")
+        level = result.confidence_at(evaluation.threshold_at_100)
+        if level is not None:
+            ax.axhline(
+                level,
+                color="tab:blue",
+                lw=0.8,
+                ls="--",
+                label=f"100% precision: confidence >= {level:.4f}\n(score = 1 - confidence <= "
+                f"{evaluation.threshold_at_100:.4f})",
+            )
     else:
         ax.scatter(queries, result.confidence, s=4, color="tab:blue", linewidths=0, label="confidence")
     ax.plot(queries, result.off_route, color="tab:orange", lw=0.8, label="off-route probability")

@@ -22,6 +22,8 @@ moved aside first, and a kill between the two renames is repaired by the next wr
 * leftovers of killed writes of the same target (hidden ``.<name>.<random>.partial`` and
   ``.old`` entries) are removed by the next write, under the lock;
 * the parent folder must exist (a typo must not create a tree of folders): FileNotFoundError;
+  except for a command's output folder (``parents=True``), which is created with its parents,
+  the parents it made being removed again when the command fails;
 * a symbolic link at the output path is followed: the file or folder it points to is replaced
   and the link stays (a link loop is refused);
 * an output that is, contains or lies inside one of the command's inputs is refused before any
@@ -104,6 +106,38 @@ def _check_parent(target: Path, user: Path) -> None:
     raise FileNotFoundError(f"cannot write {user}: the folder {shown} does not exist (create it first)")
 
 
+def _check_ancestors(target: Path, user: Path) -> None:
+    """NotADirectoryError when an existing ancestor of ``target`` is a file (missing ones are fine)."""
+    blocking = next((p for p in target.parents if p.exists() and not p.is_dir()), None)
+    if blocking is not None:
+        raise NotADirectoryError(f"cannot write {user}: {blocking} is a file, not a folder")
+
+
+def _make_parents(target: Path, user: Path) -> list[Path]:
+    """Creates the missing parent folders of ``target``; returns those it made, outermost first."""
+    _check_ancestors(target, user)
+    missing = [p for p in target.parents if not p.exists()][::-1]
+    made = []
+    try:
+        for folder in missing:
+            try:
+                os.mkdir(folder)
+            except FileExistsError:  # made meanwhile by another process: not ours to remove
+                continue
+            made.append(folder)
+    except OSError:
+        _remove_made(made)
+        raise
+    return made
+
+
+def _remove_made(made: list[Path]) -> None:
+    """Removes the folders :func:`_make_parents` made, innermost first, where they are still empty."""
+    for folder in reversed(made):
+        with contextlib.suppress(OSError):
+            os.rmdir(folder)
+
+
 def _inside(inner: Path, outer: Path) -> bool:
     return outer in inner.parents
 
@@ -129,15 +163,20 @@ def refuse_overlap(output: PathLike, inputs: Iterable[PathLike | None], folder: 
 
 
 def check_output_path(
-    path: PathLike, folder: bool = False, *, overwrite: bool = True, inputs: Iterable[PathLike | None] = ()
+    path: PathLike,
+    folder: bool = False,
+    *,
+    overwrite: bool = True,
+    inputs: Iterable[PathLike | None] = (),
+    parents: bool = False,
 ) -> Path:
     """Fails early, before any work, when ``path`` cannot become an output file (or ``folder``).
 
     Raises IsADirectoryError when a file is wanted and ``path`` is a folder, NotADirectoryError
     when a folder is wanted and ``path`` is a file or an existing parent is a file,
-    FileNotFoundError when the parent folder is missing, FileExistsError when a file exists and
-    ``overwrite`` is False, and ValueError when the output overlaps ``inputs``
-    (:func:`refuse_overlap`). Creates nothing; returns ``path``.
+    FileNotFoundError when the parent folder is missing (unless ``parents``: it will be created),
+    FileExistsError when a file exists and ``overwrite`` is False, and ValueError when the output
+    overlaps ``inputs`` (:func:`refuse_overlap`). Creates nothing; returns ``path``.
     """
     user = Path(path)
     target = _resolve(user)
@@ -145,7 +184,10 @@ def check_output_path(
         raise IsADirectoryError(f"{user} is a folder; give a file name")
     if folder and target.exists() and not target.is_dir():
         raise NotADirectoryError(f"{user} exists and is a file, not a folder")
-    _check_parent(target, user)
+    if parents:
+        _check_ancestors(target, user)
+    else:
+        _check_parent(target, user)
     refuse_overlap(user, inputs, folder)
     if not folder and not overwrite and os.path.lexists(target):
         raise with_cli_words(
@@ -648,6 +690,7 @@ def output_set(
     inputs: Iterable[PathLike | None] = (),
     overwrite_hint: str = "--overwrite",
     wait: float | None = 0.0,
+    parents: bool = False,
 ) -> Iterator[OutputSet]:
     """Context manager: a command's output folder, written as one set (see the module docstring).
 
@@ -657,7 +700,7 @@ def output_set(
     at ``path`` changes.
 
     Args:
-        path: the output folder (its parent must exist).
+        path: the output folder (its parent must exist, unless ``parents``).
         command: recorded in the manifest and named in messages, e.g. ``"evaluate"``.
         overwrite: replace an earlier set at ``path`` (results: True; user data such as a
             dataset: False unless asked, ``overwrite_hint`` naming how).
@@ -665,9 +708,12 @@ def output_set(
             refused (ValueError).
         wait: seconds to wait for another run writing ``path`` (0: refuse at once with
             BlockingIOError; None: wait as long as it takes).
+        parents: create the missing parent folders of ``path`` (a command's ``--out``); those
+            made are removed again when the set is not written.
 
     Raises:
-        FileNotFoundError: the parent folder is missing. NotADirectoryError: ``path`` is a file.
+        FileNotFoundError: the parent folder is missing (and not ``parents``).
+        NotADirectoryError: ``path`` (or one of its parents) is a file.
         FileExistsError: ``path`` holds files nightloc did not write (and no manifest), or an
         earlier set with ``overwrite=False``, or a user's file where this run writes one (at the
         end; the previous set stays). ValueError: overlap with an input, ``path`` is the
@@ -684,13 +730,18 @@ def output_set(
             f"the output folder {user} is (or contains) the current folder, which replacing it would pull "
             f"from under you; choose a sub-folder"
         )
-    with locked_target(user, wait=wait):
-        previous = _read_previous(target, user, overwrite, overwrite_hint)
-        staging = staging_folder(target)
-        try:
-            result = OutputSet(staging, target, user, command, previous)
-            yield result
-            result._commit()
-        except BaseException:
-            shutil.rmtree(staging, ignore_errors=True)
-            raise
+    made = _make_parents(target, user) if parents else []
+    try:
+        with locked_target(user, wait=wait):
+            previous = _read_previous(target, user, overwrite, overwrite_hint)
+            staging = staging_folder(target)
+            try:
+                result = OutputSet(staging, target, user, command, previous)
+                yield result
+                result._commit()
+            except BaseException:
+                shutil.rmtree(staging, ignore_errors=True)
+                raise
+    except BaseException:
+        _remove_made(made)
+        raise

@@ -18,13 +18,16 @@ MCAP storage) and lone ``.mcap`` / ``.db3`` files.
   frame's position and heading in the map frame.
 
 Streams are matched by time: positions are interpolated linearly between the two samples around
-a frame, headings along the shorter turn; a frame whose nearest sample is more than
-``sync_tolerance`` seconds away (:data:`DEFAULT_SYNC_TOLERANCE_S`) is an error naming how many
-frames and the times both streams cover. Topics are chosen automatically when the bag holds one
-of each kind; otherwise ``image_topic`` / ``odometry_topic`` / ``pose_topic`` name them (the
-error lists the candidates). Opening a bag reads its messages once, keeping only times and poses
-(a few numbers per frame); frames are decoded one at a time as they are read, so an hour-long
-bag takes the memory of a few frames.
+a frame, headings along the shorter turn. Frames recorded before the odometry (or pose) stream
+starts, or after it ends, by more than ``sync_tolerance`` seconds
+(:data:`DEFAULT_SYNC_TOLERANCE_S`) are left out with a :class:`~nightloc.errors.DatasetWarning`
+naming how many and their times (a camera started before the odometry); any other frame whose
+nearest sample is more than ``sync_tolerance`` away (a gap in a stream), or streams that do not
+overlap at all, are an error naming how many frames and the times both streams cover. Topics are
+chosen automatically when the bag holds one of each kind; otherwise ``image_topic`` /
+``odometry_topic`` / ``pose_topic`` name them (the error lists the candidates). Opening a bag
+reads its messages once, keeping only times and poses (a few numbers per frame); frames are
+decoded one at a time as they are read, so an hour-long bag takes the memory of a few frames.
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ import dataclasses
 import itertools
 import math
 import os
+import warnings
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, Union
@@ -40,7 +44,7 @@ from typing import Any, Union
 import cv2
 import numpy as np
 
-from ..errors import DatasetError
+from ..errors import DatasetError, DatasetWarning
 from .kinds import ROS1_BAG, bag_kind
 
 __all__ = [
@@ -480,6 +484,10 @@ def _index(
             odometry = f"/tf:{parent}:{child}"
             odometry_samples = tf_samples[(parent, child)]
     keep = np.arange(0, len(records), frame_step)
+    streams = [(f"the pose topic {pose}", pose_samples)] if pose is not None else []
+    if odometry is not None:
+        streams.append((f"the odometry {odometry}", odometry_samples))
+    keep = _within_streams(keep, times[keep], streams, tolerance, image, bag)
     kept_times = times[keep]
     positions = headings = motions = None
     if pose is not None:
@@ -525,6 +533,45 @@ def _frame_times(stamps: list[float | None], records: list[int], topic: str, bag
             f"{times[k - 1]:.6f} s); frames must be recorded in time order"
         )
     return times
+
+
+def _shown_times(times: np.ndarray) -> str:
+    """A few frame times (s) in words: all of up to four, else the first two ... the last."""
+    if times.size <= 4:
+        return ", ".join(f"{t:.3f}" for t in times) + " s"
+    return f"{times[0]:.3f}, {times[1]:.3f}, ..., {times[-1]:.3f} s"
+
+
+def _within_streams(
+    keep: np.ndarray, times: np.ndarray, streams: list[tuple[str, list]], tolerance: float, topic: str, bag: Path
+) -> np.ndarray:
+    """``keep`` (indices of the frames of the image ``topic`` at ``times``, ascending) without the
+    frames recorded more than ``tolerance`` before the first or after the last sample of a stream
+    (``(words, samples)``, each sample's time first), with a DatasetWarning naming them. When no
+    frame lies within every stream, nothing is left out (the matching then names the streams that
+    do not overlap)."""
+    inside = np.ones(times.size, dtype=bool)
+    reasons = []
+    for stream, samples in streams:
+        if not samples:
+            continue
+        stamps = np.array([sample[0] for sample in samples], dtype=np.float64)
+        first, last = float(stamps.min()), float(stamps.max())
+        early, late = times < first - tolerance, times > last + tolerance
+        if early.any():
+            reasons.append(f"{int(early.sum())} before {stream} starts at {first:.3f} s ({_shown_times(times[early])})")
+        if late.any():
+            reasons.append(f"{int(late.sum())} after {stream} ends at {last:.3f} s ({_shown_times(times[late])})")
+        inside &= ~(early | late)
+    if inside.all() or not inside.any():
+        return keep
+    warnings.warn(
+        f"bag {bag}: {int((~inside).sum())} of {times.size} frames of {topic} are skipped, recorded outside the "
+        f"streams they need: {'; '.join(reasons)}; the other {int(inside.sum())} frames are kept",
+        DatasetWarning,
+        stacklevel=4,
+    )
+    return keep[inside]
 
 
 def _matched(samples: list, times: np.ndarray, tolerance: float, stream: str, frames: str) -> np.ndarray:

@@ -24,10 +24,12 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any, Union, cast
 
+import numpy as np
+
 from ..errors import DatasetError
 from .atomic import atomic_file
 from .files import open_regular
-from .poses import check_heading, parse_timestamp, refuse_other_delimiter
+from .poses import check_heading, parse_timestamp, refuse_misspelt_columns, refuse_other_delimiter
 
 __all__ = [
     "MAP_COLUMNS",
@@ -64,8 +66,12 @@ def _number(text: str, column: str, file: Path, line: int) -> float:
 def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[OdometryRow], str]:
     """The rows of an odometry CSV in file order and its form, ``"robot"`` or ``"map"``.
 
+    Columns other than the key, ``forward,left,turn``, ``dx,dy`` and ``timestamp`` are ignored,
+    except a near miss of one of those names (``trun``), which is refused naming it.
+
     Raises:
-        DatasetError: missing file, header without a known form, malformed or repeated rows.
+        DatasetError: missing file, header without a known form, a misspelt column, malformed or
+            repeated rows.
     """
     path = Path(file)
     if not os.path.lexists(path) or path.is_dir():
@@ -89,6 +95,13 @@ def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[
                 if header is None:
                     refuse_other_delimiter(fields, path, line, f"{key_column},forward,left,turn or {key_column},dx,dy")
                     header = [f.strip().lower() for f in fields]
+                    refuse_misspelt_columns(
+                        header,
+                        (key_column, *ROBOT_COLUMNS, *MAP_COLUMNS, "timestamp"),
+                        path,
+                        line,
+                        f"{key_column},forward,left,turn or {key_column},dx,dy [,timestamp]",
+                    )
                     if key_column not in header:
                         raise DatasetError(
                             f"{path} line {line}: missing column {key_column!r}; the header must be "
@@ -213,15 +226,24 @@ def odometry_values(motions: Sequence[object]) -> tuple[str, list[tuple[float, .
 
 
 def write_odometry_csv(
-    file: PathLike, keys: Sequence[object], motions: Sequence[object], key_column: str = "image"
+    file: PathLike,
+    keys: Sequence[object],
+    motions: Sequence[object],
+    key_column: str = "image",
+    timestamps: Sequence[float] | np.ndarray | None = None,
 ) -> Path:
-    """Writes an odometry CSV atomically, one row per key (see :func:`odometry_values`)."""
+    """Writes an odometry CSV atomically, one row per key (see :func:`odometry_values`), with a
+    ``timestamp`` column (seconds) when ``timestamps`` are given."""
     if len(keys) != len(motions):
         raise ValueError(f"{len(motions)} odometry rows for {len(keys)} frames")
+    if timestamps is not None and len(timestamps) != len(keys):
+        raise ValueError(f"{len(timestamps)} timestamps for {len(keys)} frames")
     form, values = odometry_values(motions)
     with atomic_file(file, "w", newline="") as stream:
         writer = csv.writer(stream, lineterminator="\n")
-        writer.writerow([key_column, *(ROBOT_COLUMNS if form == "robot" else MAP_COLUMNS)])
-        for key, row in zip(keys, values):
-            writer.writerow([key, *(repr(v) for v in row)])
+        columns = [key_column, *(ROBOT_COLUMNS if form == "robot" else MAP_COLUMNS)]
+        writer.writerow(columns + (["timestamp"] if timestamps is not None else []))
+        for k, (key, row) in enumerate(zip(keys, values)):
+            stamp = [] if timestamps is None else [repr(float(timestamps[k]))]
+            writer.writerow([key, *(repr(v) for v in row), *stamp])
     return Path(file)

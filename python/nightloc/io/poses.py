@@ -29,6 +29,7 @@ __all__ = [
     "parse_timestamp",
     "poses_from_rows",
     "read_pose_csv",
+    "refuse_misspelt_columns",
     "refuse_other_delimiter",
     "wrap_headings",
     "write_pose_csv",
@@ -52,6 +53,45 @@ def refuse_other_delimiter(fields: Sequence[str], file: Path, line: int, header:
             raise DatasetError(
                 f"{file} line {line}: the columns are separated by {words} ({fields[0].strip()!r}); nightloc reads "
                 f"comma-separated values: save it with commas ({header})"
+            )
+
+
+def _edit_distance(a: str, b: str) -> int:
+    """Edits (insertions, deletions, substitutions, swaps of neighbours) that turn ``a`` into ``b``."""
+    previous, current = list(range(len(b) + 1)), [0] * (len(b) + 1)
+    before: list[int] = []
+    for i in range(1, len(a) + 1):
+        current = [i] + [0] * len(b)
+        for j in range(1, len(b) + 1):
+            current[j] = min(previous[j] + 1, current[j - 1] + 1, previous[j - 1] + (a[i - 1] != b[j - 1]))
+            if i > 1 and j > 1 and a[i - 1] == b[j - 2] and a[i - 2] == b[j - 1]:
+                current[j] = min(current[j], before[j - 2] + 1)
+        before, previous = previous, current
+    return previous[len(b)]
+
+
+def _near_miss(column: str, known: str) -> bool:
+    """True when ``column`` (not a name nightloc reads) looks like a misspelling of ``known``: at
+    most one edit away from a name of 4-6 letters, two from a longer one; names of 1-3 letters
+    (``x``, ``dy``) have no near misses, so ``z`` or ``dz`` are ignored like any other column."""
+    if len(known) < 4 or len(column) < 3:
+        return False
+    return _edit_distance(column, known) <= (1 if len(known) < 7 else 2)
+
+
+def refuse_misspelt_columns(header: Sequence[str], known: Sequence[str], file: Path, line: int, expected: str) -> None:
+    """DatasetError when a column of ``header`` is a near miss (:func:`_near_miss`) of a name in
+    ``known`` that the header lacks (``haeding`` for ``heading``): the misspelt column would
+    otherwise be ignored as another column, silently. ``expected`` words the header nightloc
+    reads, for the message."""
+    for column in header:
+        if column in known:
+            continue
+        close = [name for name in known if name not in header and _near_miss(column, name)]
+        if close:
+            raise DatasetError(
+                f"{file} line {line}: column {column!r} is not one nightloc reads; did you mean {close[0]!r}? The "
+                f"columns are {expected} (others are ignored): rename it"
             )
 
 
@@ -160,9 +200,11 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
     """Rows of a poses CSV: ``(rows, has_heading)``.
 
     The CSV must have a header with ``key_column`` (``image`` or ``frame``), ``x`` and ``y``;
-    ``heading`` and ``timestamp`` (seconds) are optional and other columns are ignored. Column names are matched without
-    case and surrounding blanks; a UTF-8 byte-order mark and CRLF line ends are accepted; blank
-    lines are skipped. Keys must be unique.
+    ``heading`` and ``timestamp`` (seconds) are optional and other columns are ignored, except a
+    near miss of one of these names (``haeding``), which is refused naming it
+    (:func:`refuse_misspelt_columns`). Column names are matched without case and surrounding
+    blanks; a UTF-8 byte-order mark and CRLF line ends are accepted; blank lines are skipped.
+    Keys must be unique.
     """
     try:
         with io.TextIOWrapper(
@@ -181,6 +223,13 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
                     refuse_other_delimiter(fields, file, line, f"{key_column},x,y[,heading]")
                     header = [field.strip().lower() for field in fields]
                     header_line = line
+                    refuse_misspelt_columns(
+                        header,
+                        (key_column, "x", "y", "heading", "timestamp"),
+                        file,
+                        line,
+                        f"{key_column},x,y[,heading][,timestamp]",
+                    )
                     for column in (key_column, "x", "y"):
                         if column not in header:
                             raise DatasetError(
@@ -266,13 +315,26 @@ def checked_poses(positions: object | None, headings: object | None) -> tuple[np
     return pos, head
 
 
-def write_pose_csv(file: Path, names: Sequence[str], positions: np.ndarray, headings: np.ndarray | None) -> None:
-    """Writes ``image,x,y[,heading]`` rows (``repr`` of the floats: they read back bit-exact)."""
+def write_pose_csv(
+    file: Path,
+    names: Sequence[str],
+    positions: np.ndarray,
+    headings: np.ndarray | None,
+    timestamps: Sequence[float] | np.ndarray | None = None,
+) -> None:
+    """Writes ``image,x,y[,heading][,timestamp]`` rows (``repr`` of the floats: they read back
+    bit-exact; ``timestamps`` in seconds)."""
     with open(file, "w", newline="", encoding="utf-8") as handle:
         writer = csv.writer(handle, lineterminator="\n")
-        writer.writerow(["image", "x", "y"] + (["heading"] if headings is not None else []))
+        writer.writerow(
+            ["image", "x", "y"]
+            + (["heading"] if headings is not None else [])
+            + (["timestamp"] if timestamps is not None else [])
+        )
         for i, name in enumerate(names):
             row = [name, repr(float(positions[i, 0])), repr(float(positions[i, 1]))]
             if headings is not None:
                 row.append(repr(float(headings[i])))
+            if timestamps is not None:
+                row.append(repr(float(timestamps[i])))
             writer.writerow(row)

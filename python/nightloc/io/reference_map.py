@@ -298,9 +298,10 @@ class ReferenceMap:
         return self._frame_size
 
     def check_frames(self, frame_shape: Sequence[int], frames: str, camera: str | None = None) -> None:
-        """ValueError naming both cameras when frames of ``frame_shape`` (``(H, W[, C])``, from
-        ``frames``, e.g. "the log night") cannot be matched against this map: another shape than
-        the map's frames, or a ``camera`` other than the map's (:func:`check_frames_fit`)."""
+        """ValueError naming both cameras (or both sizes) when frames of ``frame_shape`` (``(H,
+        W[, C])``, from ``frames``, e.g. "the log night") cannot be matched against this map:
+        another size than the map's recorded :attr:`frame_size` (none recorded: not checked), or a
+        ``camera`` other than the map's (:func:`check_frames_fit`)."""
         name = f"the map {self._source_name()}"
         check_frames_fit(frame_shape, self._frame_size, self.camera, frames, name, camera)
 

@@ -8,8 +8,11 @@
   ``timestamp tx ty tz qx qy qz qw``, separated by single spaces, no header: seconds, metres
   (``tz`` 0: the robot moves in the plane) and the unit quaternion of the heading, a rotation
   about z (``qx = qy = 0``, ``qz = sin(heading / 2)``, ``qw = cos(heading / 2)``).
+* ``trajectory_confidence.csv`` beside a TUM file (the format has no column for it): header
+  :data:`TUM_CONFIDENCE_HEADER`, one row per line of the TUM file, in its order and with its
+  timestamp written the same way: the filter's confidence and credible radius (m) of that pose.
 
-Both are written atomically (:func:`nightloc.io.atomic.atomic_file`).
+All are written atomically (:func:`nightloc.io.atomic.atomic_file`).
 """
 
 from __future__ import annotations
@@ -25,7 +28,16 @@ import numpy as np
 
 from .atomic import atomic_file
 
-__all__ = ["TRAJECTORY_FORMATS", "TRAJECTORY_HEADER", "write_trajectory_csv", "write_tum"]
+__all__ = [
+    "TRAJECTORY_FORMATS",
+    "TRAJECTORY_HEADER",
+    "TUM_CONFIDENCE_FILE",
+    "TUM_CONFIDENCE_HEADER",
+    "confident_frames",
+    "write_trajectory_csv",
+    "write_tum",
+    "write_tum_confidence",
+]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -33,6 +45,9 @@ PathLike = Union[str, "os.PathLike[str]"]
 TRAJECTORY_HEADER = ("image", "x", "y", "heading", "confidence", "credible_radius", "ref_index", "timestamp")
 #: The formats ``nightloc localize --format`` writes, and their file names.
 TRAJECTORY_FORMATS = {"csv": "trajectory.csv", "tum": "trajectory.tum"}
+#: The file that pairs each line of ``trajectory.tum`` with the pose's confidence, and its columns.
+TUM_CONFIDENCE_FILE = "trajectory_confidence.csv"
+TUM_CONFIDENCE_HEADER = ("timestamp", "confidence", "credible_radius")
 
 
 def _time(value: float | None) -> str:
@@ -65,6 +80,27 @@ def write_trajectory_csv(
                     _time(None if timestamps is None else timestamps[k]),
                 ]
             )
+    return Path(path)
+
+
+def confident_frames(estimates: Sequence[Any], min_confidence: float = 0.0) -> list[int]:
+    """Indices of the estimates whose ``confidence`` is at least ``min_confidence`` (in [0, 1];
+    0 keeps every frame). ValueError for a threshold outside [0, 1]."""
+    if not (isinstance(min_confidence, (int, float)) and 0.0 <= min_confidence <= 1.0):
+        raise ValueError(f"the minimum confidence must be in [0, 1], got {min_confidence!r}")
+    return [k for k, e in enumerate(estimates) if e.confidence >= min_confidence]
+
+
+def write_tum_confidence(path: PathLike, timestamps: Sequence[float] | np.ndarray, estimates: Sequence[Any]) -> Path:
+    """Writes ``trajectory_confidence.csv`` (header :data:`TUM_CONFIDENCE_HEADER`) atomically:
+    one row per estimate, as :func:`write_tum` writes their lines, with the same timestamps."""
+    if len(timestamps) != len(estimates):
+        raise ValueError(f"{len(timestamps)} timestamps for {len(estimates)} estimates")
+    with atomic_file(path, "w", newline="") as stream:
+        writer = csv.writer(stream, lineterminator="\n")
+        writer.writerow(TUM_CONFIDENCE_HEADER)
+        for t, e in zip(timestamps, estimates):
+            writer.writerow([repr(float(t)), f"{e.confidence:.4f}", f"{e.credible_radius:.4f}"])
     return Path(path)
 
 

@@ -439,6 +439,24 @@ def _load_folder(root: Path, frame_step: int, poses: Path | None) -> Traverse:
     )
 
 
+def _checked_times(timestamps: object | None, written_somewhere: bool) -> np.ndarray | None:
+    """``timestamps`` given to :func:`save_traverse` as ``(N,)`` float64 seconds, or ValueError
+    (not finite, going back in time, or nothing to write them into)."""
+    if timestamps is None:
+        return None
+    if not written_somewhere:
+        raise ValueError("timestamps are written into poses.csv or odometry.csv: pass positions or odometry too")
+    times = np.asarray(timestamps, dtype=np.float64)
+    if times.ndim != 1 or not np.isfinite(times).all():
+        raise ValueError(f"timestamps must be (N,) finite seconds, got shape {times.shape}")
+    if (np.diff(times) < 0).any():
+        k = int(np.flatnonzero(np.diff(times) < 0)[0]) + 1
+        raise ValueError(
+            f"timestamps[{k}] = {float(times[k])!r} is before timestamps[{k - 1}] = {float(times[k - 1])!r}"
+        )
+    return times
+
+
 def _every(times: np.ndarray | None, step: int) -> np.ndarray | None:
     return None if times is None else times[::step]
 
@@ -638,6 +656,7 @@ def save_traverse(
     names: Sequence[str] | None = None,
     *,
     odometry: Sequence[object] | None = None,
+    timestamps: Sequence[float] | np.ndarray | None = None,
     image_format: str = "png",
     overwrite: bool = False,
 ) -> Traverse:
@@ -657,6 +676,8 @@ def save_traverse(
             used; None is written as zero): ``nightloc.RobotMotion`` (wheel odometry, written as
             ``image,forward,left,turn``) or ``MapDisplacement`` / ``(dx, dy)`` (``image,dx,dy``);
             written to ``odometry.csv`` (:mod:`nightloc.io.odometry_csv`).
+        timestamps: N times in seconds (finite, never decreasing), or None: written as the
+            ``timestamp`` column of ``poses.csv`` and ``odometry.csv`` (so it needs one of them).
         image_format: file suffix of the default names (``png``, ``jpg``, ``bmp``, ``tif``, ...).
         overwrite: replace an existing traverse folder at ``path`` (a folder holding anything
             else than ``images/``, ``poses.csv`` and ``odometry.csv`` is never replaced).
@@ -688,6 +709,7 @@ def save_traverse(
         odometry_values(motions)  # checks every motion before anything is written
         if pos is not None and len(motions) != len(pos):
             raise ValueError(f"{len(motions)} odometry rows but {len(pos)} positions")
+    times = _checked_times(timestamps, pos is not None or motions is not None)
     expected = len(pos) if pos is not None else (len(file_names) if file_names is not None else None)
     if pos is not None and file_names is not None and len(file_names) != len(pos):
         raise ValueError(f"{len(file_names)} names but {len(pos)} positions")
@@ -719,10 +741,12 @@ def save_traverse(
             raise ValueError("images is empty: a traverse needs at least one image")
         if expected is not None and len(written) != expected:
             raise ValueError(f"{len(written)} images but {expected} positions/names")
+        if times is not None and len(times) != len(written):
+            raise ValueError(f"{len(times)} timestamps but {len(written)} images")
         if pos is not None:
-            write_pose_csv(staging / _POSE_FILE, written, pos, head)
+            write_pose_csv(staging / _POSE_FILE, written, pos, head, times)
         if motions is not None:
             if len(motions) != len(written):
                 raise ValueError(f"{len(motions)} odometry rows but {len(written)} images")
-            write_odometry_csv(staging / ODOMETRY_FILE, written, motions)
+            write_odometry_csv(staging / ODOMETRY_FILE, written, motions, timestamps=times)
     return load_traverse(target)

@@ -7,8 +7,11 @@ match also gives the heading); a forward camera's window is clipped at the borde
 from; frames of another camera give matches that mean nothing, so the commands refuse them:
 
 * frames whose width/height differs from the map's frames by more than
-  :data:`ASPECT_TOLERANCE` come from another camera (the same camera at another resolution keeps
-  its shape);
+  :data:`ASPECT_TOLERANCE` come from another camera;
+* frames of the map's shape but another size (the same camera at another resolution) are
+  refused too, naming both sizes: the map is matched against frames of its recorded size only
+  (a map that records no frame size checks the camera alone; two traverses in route mode need
+  only the same shape);
 * a camera named on the command line (``--camera``) must be the map's.
 
 From its shape alone a frame is taken for a panorama when it is at least
@@ -84,12 +87,14 @@ def check_frames_fit(
     map_name: str,
     camera: str | None = None,
     remedy: str = "use a map built from this camera (nightloc build-map --camera {camera})",
+    exact_size: bool = True,
 ) -> None:
     """ValueError, naming both cameras, when frames of ``frame_shape`` (``(H, W[, C])``, from
     ``frames``, e.g. "the log night_run") do not fit the map ``map_name``: another width/height
     than the map's frames (``map_frame_size``, ``(width, height)``, None when the map does not
     record it), or a ``camera`` named for the frames that is not ``map_camera``. ``remedy``
-    ends the message (``{camera}``: the frames' camera)."""
+    ends the message (``{camera}``: the frames' camera). ``exact_size``: frames of the map's
+    shape but another size are refused too, naming both sizes (False: the shape is enough)."""
     width, height = _size(frame_shape)
     looks = shape_camera(width, height)
     if camera is not None and camera != map_camera:
@@ -102,6 +107,13 @@ def check_frames_fit(
     map_width, map_height = int(map_frame_size[0]), int(map_frame_size[1])
     aspect, map_aspect = width / height, map_width / map_height
     if abs(aspect / map_aspect - 1.0) <= ASPECT_TOLERANCE:
+        if exact_size and (width, height) != (map_width, map_height):
+            raise ValueError(
+                f"{frames} has {width}x{height} frames, but {map_name} was built from {map_width}x{map_height} frames: "
+                f"a map is matched against frames of its own size only; resize the frames to {map_width}x{map_height} "
+                f"if they are the same camera at another resolution, or build a map from {width}x{height} frames "
+                f"(nightloc build-map)"
+            )
         return
     said = camera if camera is not None else looks
     advice = f"; {remedy.format(camera=said)}" if remedy else ""

@@ -117,6 +117,26 @@ class RouteResult:
         """``(n_query,)`` bool: queries with a match."""
         return self.refs >= 0
 
+    def motion_words(self) -> str:
+        """The filter's motion model as it ran, with the speeds it used ("speed motion model
+        0.5..1.5", "speed window 0.8..1.2", "odometry motion model"); "" for SeqSLAM."""
+        if self.method != "filter":
+            return ""
+        p = self.params
+        return {
+            "odometry": "odometry motion model",
+            "speed": f"speed motion model {p.filter_speed_min:g}..{p.filter_speed_max:g}",
+            "window": f"speed window {p.vmin:g}..{p.vmax:g}",
+        }[self.motion or p.filter_motion]
+
+    def confidence_at(self, score: float) -> float | None:
+        """The filter's confidence at a score threshold: its scores are ``1 - confidence``, so the
+        matches of ``score <= t`` are those of ``confidence >= 1 - t``. None for SeqSLAM (its
+        scores are uniqueness ratios) or a threshold that is not finite."""
+        if self.method != "filter" or not np.isfinite(score):
+            return None
+        return 1.0 - float(score)
+
 
 def block_rows(n_cols: int, cells: int = BLOCK_CELLS) -> int:
     """Rows per block so that a block holds about ``cells`` cells (at least 8 rows)."""

@@ -2,8 +2,11 @@
 
 ``make_dataset("garden", out_dir)`` renders every traverse of the world (see
 :mod:`nightloc.synth.paths`) and writes each with :func:`nightloc.save_traverse` as
-``out_dir/<traverse>/images/000000.png ... + poses.csv`` (header ``image,x,y,heading``), plus
-``out_dir/dataset.json`` describing the world (mapped area, lighting, camera, generator version).
+``out_dir/<traverse>/images/000000.png ... + poses.csv`` (header ``image,x,y,heading,timestamp``)
+``+ odometry.csv`` (``image,forward,left,turn,timestamp``), plus ``out_dir/dataset.json``
+describing the world (mapped area, lighting, camera, the drive's timing, generator version). The
+times are the plan's (:meth:`~nightloc.synth.paths.TraversePlan.timestamps`: a documented drive
+speed and camera rate).
 
 Determinism: every frame's sensor noise comes from its own generator seeded with
 ``(seed, world, traverse, frame)``, so the same seed gives byte-identical images whatever the
@@ -29,7 +32,7 @@ from ..io.traverse import save_traverse
 from ..localization.wheel_noise import WheelNoise
 from ..progress import progress
 from .lighting import Lighting, make_lighting
-from .paths import TRAVERSE_NAMES, TraversePlan, plan_traverses
+from .paths import CAMERA_RATE_HZ, DRIVE_SPEED_M_S, FIRST_FRAME_S, TRAVERSE_NAMES, TraversePlan, plan_traverses
 from .render import Camera, render_panorama, render_radiance
 from .sensor import Exposure, capture, metered_exposure
 from .world import ALL_WORLDS, WORLD_NAMES, World, build_world
@@ -46,7 +49,7 @@ __all__ = [
 ]
 
 #: Bumped whenever the generator's output changes; part of the cache folder's name.
-GENERATOR_VERSION = "2"
+GENERATOR_VERSION = "3"
 DEFAULT_SEED = 0
 #: Night darkness of the default data (see :mod:`nightloc.synth.sensor`).
 DEFAULT_DARKNESS = 1.0
@@ -208,6 +211,11 @@ class SynthScene:
                 "turn_std_rad": SYNTH_WHEEL_NOISE.turn_std,
                 "turn_bias_std_rad_per_step": SYNTH_WHEEL_NOISE.turn_bias_std,
             },
+            "timing": {
+                "drive_speed_m_s": DRIVE_SPEED_M_S,
+                "camera_rate_hz": CAMERA_RATE_HZ,
+                "first_frame_s": FIRST_FRAME_S,
+            },
             "sun_direction": [round(float(v), 6) for v in day.sun_direction] if day.sun_direction is not None else None,
             "traverses": {p.name: {"condition": p.condition, "frames": int(len(p.positions))} for p in plans},
         }
@@ -229,6 +237,7 @@ def make_dataset(
     view: str = "panoramic",
     tilt_deg: float = 0.0,
     height_std: float = 0.0,
+    parents: bool = False,
 ) -> dict[str, Path]:
     """Renders every traverse of ``world`` into ``out_dir`` and returns their folders by name.
 
@@ -236,11 +245,11 @@ def make_dataset(
         world: ``"garden"`` (day_reference, night_reference, night_query), ``"living_room"``
             (day_reference, night_query) or ``"large_garden"`` (day_reference, night_query; 25 x 15
             m, about 1000 frames, rendered on demand only).
-        out_dir: the dataset folder (its parent must exist); each traverse goes to
+        out_dir: the dataset folder (its parent must exist, unless ``parents``); each traverse goes to
             ``out_dir/<traverse>`` (``images/`` + ``poses.csv`` + ``odometry.csv``: realistic
             wheel odometry between consecutive frames, :data:`SYNTH_WHEEL_NOISE`, its own seeded
-            noise per traverse; the exact motions follow from ``poses.csv``), the description to
-            ``out_dir/dataset.json``.
+            noise per traverse; the exact motions follow from ``poses.csv``; both files end with
+            the frames' ``timestamp``), the description to ``out_dir/dataset.json``.
         seed: same seed -> byte-identical images.
         darkness: night darkness in [0, 3] (default 1.0; see :mod:`nightloc.synth.sensor`).
         camera: panorama size and optics (default 192 x 96, elevations +50..-30 degrees).
@@ -252,6 +261,7 @@ def make_dataset(
             camera's map needs references facing several ways; docs/localization.md).
         tilt_deg: std of each frame's camera pitch and roll, degrees (a robot on a lawn), 0 none.
         height_std: std of each frame's camera height about the world's, metres, 0 none.
+        parents: create the missing parent folders of ``out_dir`` (removed again on failure).
 
     The dataset is written as one set (:func:`nightloc.io.atomic.output_set`): the traverses and
     ``dataset.json`` appear together, or -- on an error or an interruption -- the previous
@@ -269,7 +279,9 @@ def make_dataset(
     plans = plan_traverses(world, scene.seed)
     if view == "forward":
         plans = [_four_ways(plan) if plan.name == "day_reference" else plan for plan in plans]
-    with output_set(out_dir, command="synth", overwrite=overwrite, overwrite_hint="overwrite=True") as out:
+    with output_set(
+        out_dir, command="synth", overwrite=overwrite, overwrite_hint="overwrite=True", parents=parents
+    ) as out:
         for plan in plans:
             frames = progress(
                 scene.render_plan(plan, threads, tilt_deg, height_std),
@@ -280,7 +292,14 @@ def make_dataset(
             if view == "forward":
                 frames = (forward_view(frame) for frame in frames)
             odometry = SYNTH_WHEEL_NOISE.simulate(plan.positions, plan.headings, scene.odometry_rng(plan.name))
-            save_traverse(out / plan.name, frames, positions=plan.positions, headings=plan.headings, odometry=odometry)
+            save_traverse(
+                out / plan.name,
+                frames,
+                positions=plan.positions,
+                headings=plan.headings,
+                odometry=odometry,
+                timestamps=plan.timestamps(),
+            )
         description = scene.describe(plans)
         description.update(view=view, tilt_deg=float(tilt_deg), height_std_m=float(height_std))
         _write_json_atomic(out / "dataset.json", description)
@@ -323,6 +342,9 @@ def _complete(folder: Path) -> bool:
                     return False
                 if not (folder / world / name / "odometry.csv").is_file():  # caches written before odometry.csv
                     return False
+                with open_regular(folder / world / name / "poses.csv", "poses file", ValueError) as stream:
+                    if b"timestamp" not in stream.readline(4096):  # caches written before the frames' times
+                        return False
                 if not isinstance(info, dict) or len(os.listdir(images)) != info.get("frames"):
                     return False
         except (OSError, ValueError, KeyError, TypeError, AttributeError):

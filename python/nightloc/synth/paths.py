@@ -15,6 +15,11 @@ large_garden/night_query   night   103     across the lawn, along it, back down 
 Headings follow the direction of travel with a random wobble (std 8 degrees); the night
 traverses also wander sideways off the nominal path (std 5-8 cm), as a driven robot does. The
 seed draws the wobble, the sideways error and the living room's random query poses.
+
+Times (:meth:`TraversePlan.timestamps`): the robot drives from frame to frame in a straight line
+at :data:`DRIVE_SPEED_M_S`, and its camera (:data:`CAMERA_RATE_HZ`) takes frames at least one
+period apart; the first frame is at :data:`FIRST_FRAME_S` (a ROS header stamp of 0 reads as
+"unset", so a bag made from a traverse keeps its times).
 """
 
 from __future__ import annotations
@@ -24,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["TRAVERSE_NAMES", "TraversePlan", "plan_traverses"]
+__all__ = ["CAMERA_RATE_HZ", "DRIVE_SPEED_M_S", "FIRST_FRAME_S", "TRAVERSE_NAMES", "TraversePlan", "plan_traverses"]
 
 TRAVERSE_NAMES: dict[str, tuple[str, ...]] = {
     "garden": ("day_reference", "night_reference", "night_query"),
@@ -33,6 +38,12 @@ TRAVERSE_NAMES: dict[str, tuple[str, ...]] = {
 }
 
 HEADING_WOBBLE = np.radians(8.0)
+#: The synthetic robot's speed between frames (m/s), which gives the frames their times.
+DRIVE_SPEED_M_S = 0.4
+#: The synthetic camera's frame rate (Hz): two frames are at least one period apart.
+CAMERA_RATE_HZ = 10.0
+#: Time of each traverse's first frame (s).
+FIRST_FRAME_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -50,6 +61,14 @@ class TraversePlan:
     condition: str
     positions: np.ndarray
     headings: np.ndarray
+
+    def timestamps(self) -> np.ndarray:
+        """``(N,)`` seconds of the frames: :data:`FIRST_FRAME_S`, then for each step the straight
+        distance from the previous frame at :data:`DRIVE_SPEED_M_S`, at least one camera period
+        (``1 / CAMERA_RATE_HZ``); rounded to milliseconds."""
+        steps = np.hypot(*np.diff(np.asarray(self.positions, dtype=np.float64), axis=0).T)
+        gaps = np.maximum(steps / DRIVE_SPEED_M_S, 1.0 / CAMERA_RATE_HZ)
+        return np.round(FIRST_FRAME_S + np.concatenate([[0.0], np.cumsum(gaps)]), 3)
 
 
 def wrap_angle(angles: np.ndarray) -> np.ndarray:
