@@ -63,7 +63,8 @@ def camera_study_figure(
         right.set_ylabel("error (m): median, p95 dotted")
         right.set_title(f"{method}: error vs light at {size[0]}x{size[1]}")
         right.legend(loc="upper left")
-    fig.suptitle(f"camera study, {study.world}: {settings.draws} noise draws, sequence length {settings.seq_len}")
+    draws = f"{settings.draws} noise draw{'s' if settings.draws != 1 else ''}"
+    fig.suptitle(f"camera study, {study.world}: {draws}, sequence length {settings.seq_len}")
     if path is not None:
         save_figure(fig, path)
     return fig

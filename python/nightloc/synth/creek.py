@@ -64,7 +64,7 @@ def _creek_ground(rng: np.random.Generator, length: float) -> GroundMap:
     ppm = 10.0
     x0, y0, x1, y1 = -30.0, -30.0, length + 30.0, 30.0
     rows, cols = int((y1 - y0) * ppm), int((x1 - x0) * ppm)
-    xs, ys = np.meshgrid(x0 + (np.arange(cols) + 0.5) / ppm, y0 + (np.arange(rows) + 0.5) / ppm)
+    ys = np.repeat((y0 + (np.arange(rows) + 0.5) / ppm)[:, None], cols, axis=1)
     blotch = fbm(rng, rows, cols, max(4, rows // 30), max(4, cols // 30), octaves=4)
     fine = value_noise(rng, rows, cols, rows // 3, cols // 3)
     litter_dark, litter_light = np.array([0.10, 0.08, 0.05], np.float32), np.array([0.30, 0.24, 0.14], np.float32)
