@@ -65,7 +65,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="pixels as FULL_WELL:READ_NOISE in electrons (default "
         f"{','.join(f'{s.full_well:g}:{s.read_noise:g}' for s in DEFAULT_SENSORS)}: 1, 2, 4 and 8 um pixels)",
     )
-    parser.add_argument("--draws", type=int, default=3, help="noise draws per cell (default 3)")
+    parser.add_argument("--draws", type=int, default=5, help="noise draws per cell (default 5)")
     parser.add_argument("--seed", type=int, default=0, help="world and noise seed (default 0)")
     parser.add_argument("--seq-len", type=int, default=7, help="the paper's sequence length (default 7)")
     parser.add_argument("--noise-model", type=int, default=1, help="Table III odometry noise model (default 1)")

@@ -102,13 +102,14 @@ class Sensor:
 #: Matching resolutions (width, height): 72 to 4 608 pixels; the paper's 48 x 24 among them.
 DEFAULT_SIZES: tuple[tuple[int, int], ...] = ((12, 6), (16, 8), (24, 12), (32, 16), (48, 24), (64, 32), (96, 48))
 #: Night darkness levels (0 = night lighting exposed like day; each step of 1: 100x fewer photons).
-DEFAULT_DARKNESS_LEVELS: tuple[float, ...] = (0.0, 1.0, 1.5, 2.0, 2.5)
-#: Pixels from a small phone pixel to a large full-frame one (1, 2, 4 and 8 um).
+DEFAULT_DARKNESS_LEVELS: tuple[float, ...] = (0.0, 1.0, 1.5, 2.0, 2.5, 3.0)
+#: Pixels from a small phone pixel to a large full-frame one (1, 2, 4 and 8 um), with typical read
+#: noise at high gain (a large low-light sensor reads out with fewer electrons of noise).
 DEFAULT_SENSORS: tuple[Sensor, ...] = (
     Sensor(1000.0, 1.5),
     Sensor(4000.0, 2.5),
-    Sensor(16000.0, 3.0),
-    Sensor(64000.0, 5.0),
+    Sensor(16000.0, 2.5),
+    Sensor(64000.0, 2.0),
 )
 
 
@@ -131,7 +132,7 @@ class StudySettings:
     sizes: tuple[tuple[int, int], ...] = DEFAULT_SIZES
     darkness: tuple[float, ...] = DEFAULT_DARKNESS_LEVELS
     sensors: tuple[Sensor, ...] = DEFAULT_SENSORS
-    draws: int = 3
+    draws: int = 5
     seed: int = 0
     seq_len: int = 7
     noise_model: int = 1
@@ -291,7 +292,13 @@ class CameraStudy:
                         f"{method} {small.width}x{small.height} ({small.pixels} px, {small.median_m:.2f} m; best "
                         f"{best.median_m:.2f} m at {best.width}x{best.height})"
                     )
-                lines.append(f"darkness {darkness:g}, {sensor.label}: " + "; ".join(parts))
+                lost = all(
+                    min(r.median_m for r in self.rows if (r.darkness, r.sensor, r.method) == (darkness, sensor, m))
+                    > 1.0
+                    for m in self.settings.methods
+                )
+                note = " -- lost at every resolution (best median over 1 m)" if lost else ""
+                lines.append(f"darkness {darkness:g}, {sensor.label}: " + "; ".join(parts) + note)
         return lines
 
 

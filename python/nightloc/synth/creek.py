@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +39,7 @@ from .world import GroundMap, World
 __all__ = [
     "CREEK_DARKNESS",
     "CREEK_FRAMES",
+    "CREEK_FULL_WELL",
     "CREEK_LENGTH_M",
     "PATH_HALF_WIDTH",
     "build_creek",
@@ -51,9 +53,12 @@ CREEK_LENGTH_M = 500.0
 PATH_HALF_WIDTH = 0.9
 #: Frames of each walk (the paper's Table I).
 CREEK_FRAMES = {"day_reference": 272, "night_query": 315}
-#: The night's darkness (:mod:`nightloc.synth.sensor`): a moonless sky, exposed 1/100 as much as
-#: a metered night frame would be.
-CREEK_DARKNESS = 1.0
+#: The night's darkness (:mod:`nightloc.synth.sensor`): 10**-5 of the electrons of a metered
+#: exposure; a moonless sky (about 0.002 lux) exposed 1/8 s at walking pace (docs/camera_study.md).
+CREEK_DARKNESS = 2.5
+#: The walking camera's pixel: a large-well full-frame sensor (8 um pixels, the paper's Sony
+#: alpha 7S class), full well and read noise in electrons.
+CREEK_FULL_WELL, CREEK_READ_NOISE = 64000.0, 2.0
 #: Where each walk keeps: metres left of the path's centre line.
 DAY_LANE, NIGHT_LANE = -0.25, 0.15
 #: Seconds between frames: the day walk covers 1.8 m a frame (1.2 m/s), the night walk 1.56 m
@@ -282,6 +287,14 @@ def make_creek_dataset(
         raise ValueError(f"frames must give day_reference and night_query at least 2 frames each, got {frames!r}")
     world = build_creek(seed)
     scene = RouteScene(world, seed, darkness)
+    # the large pixel collects CREEK_FULL_WELL / FULL_WELL times the electrons (metered_exposure)
+    night = scene.exposure["night"]
+    scene.exposure["night"] = replace(
+        night,
+        electrons_per_unit=night.electrons_per_unit * CREEK_FULL_WELL / night.full_well,
+        full_well=CREEK_FULL_WELL,
+        read_noise=CREEK_READ_NOISE,
+    )
     walks = {
         "day_reference": creek_drive(world, "day", counts["day_reference"], DAY_LANE, seed),
         "night_query": creek_drive(world, "night", counts["night_query"], NIGHT_LANE, seed + 1),
@@ -290,7 +303,7 @@ def make_creek_dataset(
         out_dir, command="synth", overwrite=overwrite, overwrite_hint="overwrite=True", parents=parents
     ) as out:
         for name, walk in walks.items():
-            frames = progress(
+            images = progress(
                 (render_drive(scene, _one(walk, i), "forward")[0] for i in range(len(walk.positions))),
                 total=len(walk.positions),
                 desc=f"creek/{name}",
@@ -298,7 +311,7 @@ def make_creek_dataset(
             )
             save_traverse(
                 out / name,
-                frames,
+                images,
                 positions=walk.positions,
                 headings=walk.headings,
                 timestamps=1.0 + np.arange(len(walk.positions)) * FRAME_PERIOD_S,
@@ -308,6 +321,7 @@ def make_creek_dataset(
             "world": "creek",
             "seed": int(seed),
             "darkness": float(darkness),
+            "night_sensor": {"full_well_e": CREEK_FULL_WELL, "read_noise_e": CREEK_READ_NOISE},
             "length_m": CREEK_LENGTH_M,
             "camera": {"view": "forward", "width": 96, "height": 96, "height_above_ground_m": CAMERA_HEIGHT},
             "traverses": {
