@@ -43,7 +43,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
             "Renders a synthetic world's night drives at each darkness level and with each sensor pixel, localizes "
             "them at each matching resolution (paper's method and grid filter, several noise draws) and writes "
             "OUT/camera_study.csv and OUT/figures/camera_study.png as one set; prints, per light level, the smallest "
-            "resolution within 10 %% of the best."
+            "resolution within 10 % of the best."
         ),
     )
     parser.add_argument("--world", choices=ALL_WORLDS, default="garden", help="synthetic world (default garden)")
@@ -71,7 +71,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--noise-model", type=int, default=1, help="Table III odometry noise model (default 1)")
     parser.add_argument("--method", default="paper,filter", help="paper, filter or paper,filter (default both)")
     parser.add_argument(
-        "--quick", action="store_true", help="a small grid for tests: 12x6 and 48x24, darkness 0 and 2, one sensor"
+        "--quick",
+        action="store_true",
+        help="a small grid for tests: 12x6 and 48x24, darkness 0 and 2, the 4000:2.5 sensor, one draw "
+        "(replaces --sizes, --darkness, --sensors and --draws)",
     )
     parser.add_argument("--threads", type=int, help="matching and render threads (default all cores)")
     add_figure_format_option(parser)
