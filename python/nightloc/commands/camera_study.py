@@ -108,7 +108,8 @@ def run(args: argparse.Namespace) -> int:
         study.write_csv(out / "camera_study.csv")
         (out / "figures").mkdir()
         camera_study_figure(study, path=out / "figures" / f"camera_study.{args.figure_format}")
-    print(f"camera study of {args.world}: {len(study.rows)} cells, {settings.draws} draws")
+    draws = f"{settings.draws} noise draw{'s' if settings.draws != 1 else ''}"
+    print(f"camera study of {args.world}: {len(study.rows)} cells, {draws}")
     print("smallest resolution within 10 % of the best median, per light level and sensor:")
     for line in study.summary_lines():
         print(f"  {line}")
