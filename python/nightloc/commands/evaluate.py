@@ -15,8 +15,11 @@ into OUT at the same time refuses; files in OUT that nightloc did not write are 
   ``query,image,seq_len,noise_model,interpolation,repeat,x_est,y_est,x_true,y_true,error_m,ref_index,method``
   (``method`` paper or filter; the filter's ``seq_len`` is the number of frames seen so far;
   ``noise_model`` -1 with ``--odometry log``);
-* ``OUT/summary.csv``: ``seq_len,noise_model,interpolation,n,median_m,mean_m,p90_m,method`` (the
-  filter's rows summarize all its frames, seq_len 0);
+* ``OUT/summary.csv``:
+  ``seq_len,noise_model,interpolation,n,median_m,mean_m,p90_m,p95_m,share_over_1m,longest_run_over_1m,method``
+  (the filter's rows summarize all its frames, seq_len 0; n, median, mean and p90 over every frame,
+  the tail -- p95, the share of frames over 1 m, the longest run of such frames in one draw -- over
+  the frames from the 10th on);
 
 ``--method`` picks the paper's sequence matching (default: the paper's experiments), the grid
 Bayes filter, or both; ``--odometry`` simulated map-frame displacements (the paper), simulated
