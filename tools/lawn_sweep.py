@@ -13,6 +13,8 @@ wheel odometry, the truth moved into its frame) and its night drive is localized
 ``odometry.csv`` (the filter told noise model 1, as ``nightloc localize`` is by default). Rooms
 (``--rooms``): the default dataset's garden and living room night queries against their day maps,
 map-frame and wheel odometry simulated with noise models 0-3 over ``--draws`` draws.
+``--lawn-noise 0,1,3`` adds the lawns' night drives with simulated map-frame odometry of those
+Table III models (``nightloc evaluate --odometry map``; one draw each).
 
 Every row prints, over the frames from the 10th on (``nightloc.localization.tail``): median, p95,
 share over 1 m and longest run over 1 m for the filter, the same for the paper's 10-frame
@@ -126,7 +128,7 @@ def lawn_cases(cache: Path, labels: list[str], teach: bool) -> list[Case]:
 def _teach_map(day: Path) -> nightloc.ReferenceMap:
     from nightloc.mapping import teach_run
 
-    return teach_run(day).map
+    return teach_run(day, threads=1)[0]
 
 
 def room_cases(cache: Path) -> list[Case]:
@@ -165,10 +167,15 @@ def _tail_cells(tail: TailMetrics) -> str:
     return f"{tail.median_m:.2f} | {tail.p95_m:.2f} | {100 * tail.share_over_1m:.1f} % | {tail.longest_run_over_1m}"
 
 
-def runs_of(case: Case, draws: int):
-    """``(label, odometry, noise)`` of every run of the case."""
+def runs_of(case: Case, draws: int, lawn_noise: tuple[int, ...] = ()):
+    """``(label, odometry, noise)`` of every run of the case: a lawn's own log (and with
+    ``lawn_noise`` simulated map-frame odometry of those Table III models, one draw each), a
+    room's simulated map-frame and wheel odometry of every model over ``draws`` draws."""
     if case.kind == "log":
         yield "log", [None, *case.matches.odometry[1:]], 1
+        settings = EvaluationSettings(odometry="map")
+        for model in lawn_noise:
+            yield f"map {model}", simulated_odometry(case.matches, model, 0, settings), model
         return
     for kind in ("map", "robot"):
         settings = EvaluationSettings(odometry=kind, repeats=draws)
@@ -177,12 +184,14 @@ def runs_of(case: Case, draws: int):
                 yield f"{kind} {model}", simulated_odometry(case.matches, model, repeat, settings), model
 
 
-def sweep(cases: list[Case], draws: int, overrides: dict, quiet: bool, paper: dict) -> dict:
+def sweep(
+    cases: list[Case], draws: int, overrides: dict, quiet: bool, paper: dict, lawn_noise: tuple[int, ...] = ()
+) -> dict:
     """Runs every case; returns per group (lawn / room label) the filter's runs and counts."""
     groups: dict[str, dict] = {}
     for case in cases:
         per_label: dict[str, dict] = {}
-        for label, odometry, noise in runs_of(case, draws):
+        for label, odometry, noise in runs_of(case, draws, lawn_noise):
             errors, confidence = run_filter(case, odometry, noise, overrides)
             key = (case.name, label, len(per_label.get(label, {}).get("filter", [])))
             if key not in paper:
@@ -193,7 +202,7 @@ def sweep(cases: list[Case], draws: int, overrides: dict, quiet: bool, paper: di
             entry["wrong"] += int(np.sum((errors > 1.0) & (confidence > 0.9)))
             entry["frames"] += errors.size
         for label, entry in per_label.items():
-            group = "lawns" if case.kind == "log" else f"{case.name} {label}"
+            group = f"lawns {'' if label == 'log' else label}".strip() if case.kind == "log" else f"{case.name} {label}"
             g = groups.setdefault(group, {"filter": [], "paper": [], "wrong": 0, "frames": 0})
             for name in ("filter", "paper"):
                 g[name].extend(entry[name])
@@ -233,6 +242,9 @@ def main() -> None:
     parser.add_argument("--draws", type=int, default=3, help="noise draws per model in the rooms (default 3)")
     parser.add_argument("--teach", action="store_true", help="also a teach-run map per lawn")
     parser.add_argument("--kidnap", action="store_true", help="kidnap the robot on each lawn")
+    parser.add_argument(
+        "--lawn-noise", default="", help="also simulated map-frame odometry on the lawns, Table III models (e.g. 0,1,3)"
+    )
     parser.add_argument("--param", action="append", default=[], help="filter parameter, e.g. likelihood_gain=3.5")
     parser.add_argument("--grid", action="append", default=[], help="sweep a parameter, e.g. likelihood_gain=2,3,4")
     parser.add_argument("--quiet", action="store_true", help="only the groups' summary lines")
@@ -256,7 +268,8 @@ def main() -> None:
                 "| conf. wrong |"
             )
             emit("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-        groups = sweep(cases, args.draws, overrides, args.quiet, paper)
+        lawn_noise = tuple(_parse_ints(args.lawn_noise)) if args.lawn_noise else ()
+        groups = sweep(cases, args.draws, overrides, args.quiet, paper, lawn_noise)
         emit("\n| group | median | p95 | > 1 m | longest | paper: median | p95 | > 1 m | longest | conf. wrong |")
         emit("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
         for name, g in groups.items():

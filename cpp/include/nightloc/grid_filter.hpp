@@ -119,7 +119,7 @@ struct GridFilterSettings {
     double distance_std = 0.0;        ///< odometry noise per step, metres
     double heading_std = 0.0;         ///< odometry noise per step, radians
     double position_floor = 0.05;     ///< metres of blur per step added in quadrature (model error)
-    double heading_floor = 0.05;      ///< radians of heading blur per step added in quadrature
+    double heading_floor = 0.06;      ///< radians of heading blur per step added in quadrature
     double uniform_floor = 1.5e-2;    ///< share of the belief spread uniformly per prediction
     double unknown_spread = 2.0;      ///< metres of blur when the motion is unknown
     double credibility = 0.9;         ///< mass of the credible disk

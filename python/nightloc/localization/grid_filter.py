@@ -98,7 +98,7 @@ class FilterParams:
     heading_bins: int = 0
     likelihood_gain: float = 3.0
     position_floor: float = 0.05
-    heading_floor: float = 0.05
+    heading_floor: float = 0.06
     uniform_floor: float = 1.5e-2
     unknown_spread: float = 2.0
     credibility: float = 0.9
