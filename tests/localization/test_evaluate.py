@@ -299,6 +299,13 @@ def test_filter_rows_hold_every_frame_once_per_draw_and_match_the_localizer():
     paper = ev.columns["error_m"][ev.select(method="paper", noise_model=3)][later]
     mine = ev.columns["error_m"][ev.select(method="filter", noise_model=3)][later]
     assert np.median(mine) < np.median(paper)
+    # the comparison table: median and tail of both methods, over the two draws from the 10th frame
+    [row] = [line for line in ev.compare_table().splitlines() if line.strip().startswith("3 |")]
+    paper_cell, filter_cell = (cell.split() for cell in row.split("|")[1:])
+    for cell, errors in ((paper_cell, paper), (filter_cell, mine)):
+        assert float(cell[0]) == pytest.approx(np.median(errors), abs=0.006)
+        assert float(cell[1]) == pytest.approx(np.percentile(errors, 95), abs=0.006)
+        assert float(cell[2]) == pytest.approx(100 * np.mean(errors > 1.0), abs=0.06)
 
 
 def test_log_odometry_is_the_querys_own_and_equals_exact_wheel_odometry():

@@ -315,7 +315,10 @@ def run(args: argparse.Namespace) -> int:
             print(evaluation.table(interpolation=interp))
     if "filter" in settings.methods:
         first = min(10, len(matches.results))
-        print(f"the Bayes filter beside the paper's method: median distance error (m) over frames {first} on:")
+        print(
+            f"the Bayes filter beside the paper's method over frames {first} on: median and p95 distance error (m), "
+            f"share of frames over 1 m, longest run of them:"
+        )
         print(evaluation.compare_table(first_frame=first))
     print(f"wrote {args.out}/" + ", ".join(written))
     return 0

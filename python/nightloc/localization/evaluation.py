@@ -633,21 +633,28 @@ class Evaluation:
         return index
 
     def compare_table(self, query: str | None = None, first_frame: int = 10, seq_len: int = 10) -> str:
-        """Median error (m) per noise model: the paper's method at ``seq_len`` beside the filter,
-        both over the query frames from the ``first_frame``-th on (the filter's first frames
-        start from nothing, the paper's from short sequences)."""
-        lines = [f"noise | paper n={seq_len} | filter", "-" * 30]
-        later = self.frame_index() >= first_frame - 1
+        """Per noise model, the paper's method at ``seq_len`` beside the filter, both over the query
+        frames from the ``first_frame``-th on (the filter's first frames start from nothing, the
+        paper's from short sequences): the median and the tail (p95 in metres, the share of frames
+        over 1 m, the longest run of them; :func:`~nightloc.localization.tail.tail_metrics`)."""
+        columns = (f"paper n={seq_len}: median, p95, > 1 m, run", "filter: median, p95, > 1 m, run")
+        header = "noise | " + " | ".join(columns)
+        lines = [header, "-" * len(header)]
+
+        def cell(mask: np.ndarray) -> str:
+            tail = self.tail(mask, first_frame)
+            if tail.n == 0:
+                return f"{'-':>27}"
+            return (
+                f"{tail.median_m:6.2f} {tail.p95_m:6.2f} {100 * tail.share_over_1m:5.1f} % "
+                f"{tail.longest_run_over_1m:4d}"
+            )
+
         for model in self.settings.models:
-            paper = self.columns["error_m"][
-                self.select(seq_len=seq_len, noise_model=model, interpolation=True, query=query, method="paper") & later
-            ]
-            filt = self.columns["error_m"][
-                self.select(noise_model=model, interpolation=True, query=query, method="filter") & later
-            ]
-            cells = [f"{np.median(e):9.2f}" if e.size else "        -" for e in (paper, filt)]
+            paper = self.select(seq_len=seq_len, noise_model=model, interpolation=True, query=query, method="paper")
+            filt = self.select(noise_model=model, interpolation=True, query=query, method="filter")
             label = "log" if model == LOG_NOISE_MODEL else str(model)
-            lines.append(f"{label:>5} | {cells[0]} | {cells[1]}")
+            lines.append(f"{label:>5} | {cell(paper):>{len(columns[0])}} | {cell(filt):>{len(columns[1])}}")
         return "\n".join(lines)
 
 
