@@ -140,14 +140,17 @@ def trajectory_figure(
                     label=f"{LOST_M:g} m: {100 * tail.share_over_1m:.1f} % over, longest run "
                     f"{tail.longest_run_over_1m} (p95 {tail.p95_m:.2f} m, from frame {FIRST_FRAME})",
                 )
+        handles, labels = panel.get_legend_handles_labels()
         if trust is not None:
             right = panel.twinx()
             right.plot(np.arange(len(trust)), trust, color="tab:green", linewidth=1.0, label="confidence")
             right.set_ylim(0, 1.05)
             right.set_ylabel("confidence", color="tab:green")
             right.tick_params(axis="y", colors="tab:green")
-            right.legend(loc="upper left")
-        if finite.size or radius is not None:
+            more = right.get_legend_handles_labels()
+            # one legend for both axes, on the right axis (drawn above the errors)
+            right.legend(handles + more[0], labels + more[1], loc="upper right", fontsize="small")
+        elif handles:
             panel.legend(loc="upper right")
         panel.set_xlabel("frame")
         panel.set_ylabel("distance error (m)")
