@@ -388,6 +388,8 @@ private:
                 s.settle_frames = v.cast<std::size_t>();
             else if (key == "score_cap")
                 s.score_cap = v.cast<double>();
+            else if (key == "lookalike_places")
+                s.lookalike_places = v.cast<double>();
             else
                 throw py::value_error("unknown grid filter setting '" + key + "'");
         }
@@ -468,6 +470,7 @@ void register_localization(py::module_& m) {
         .def_property_readonly("offset", [](const GridFilterPy& f) { return f.core().offset(); })
         .def_property_readonly("lambda_", [](const GridFilterPy& f) { return f.core().lambda(); })
         .def_property_readonly("frames", [](const GridFilterPy& f) { return f.core().frames(); })
+        .def_property_readonly("score_cap", [](const GridFilterPy& f) { return f.core().score_cap(); })
         .def_property_readonly("forward", [](const GridFilterPy& f) { return f.core().forward(); })
         .def_property_readonly("sparse_blocks", [](const GridFilterPy& f) { return f.core().sparse_blocks(); })
         .def_property_readonly("memory_bytes", [](const GridFilterPy& f) { return f.core().memory_bytes(); });
