@@ -310,7 +310,7 @@ int run(int argc, char** argv) {
         out << "image,x,y,heading,confidence,credible_radius\n";
         for (std::size_t k = 0; k < frames.size(); ++k) {
             const auto& e = estimates[k];
-            out << frames[k] << ',' << number(e.x, 6) << ',' << number(e.y, 6) << ',' << number(e.heading, 7) << ','
+            out << frames[k] << ',' << number(e.x, 9) << ',' << number(e.y, 9) << ',' << number(e.heading, 9) << ','
                 << number(e.confidence, 6) << ',' << number(e.credible_radius, 6) << '\n';
         }
         out.flush();
