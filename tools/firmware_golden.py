@@ -110,7 +110,7 @@ def write_expected(path: Path, names: list[str], estimates: list[nightloc.Estima
 
 def main(argv: list[str]) -> int:
     if len(argv) != 1:
-        print("usage: python tools/firmware_golden.py OUT_FOLDER (e.g. cpp/tests/data/replay)", file=sys.stderr)
+        sys.stderr.write("usage: python tools/firmware_golden.py OUT_FOLDER (e.g. cpp/tests/data/replay)\n")
         return 2
     target = Path(argv[0])
     target.mkdir(parents=True, exist_ok=True)
@@ -136,7 +136,7 @@ def main(argv: list[str]) -> int:
         shutil.copy(map_file, target / "map.npz")
         shutil.copytree(log, target / "log")
         shutil.copy(work / "expected.csv", target / "expected.csv")
-    print(f"wrote {target}/map.npz, log/ and expected.csv")
+    sys.stdout.write(f"wrote {target}/map.npz, log/ and expected.csv\n")
     return 0
 
 

@@ -115,9 +115,9 @@ bool natural_less(const std::string& a, const std::string& b) {
 
 // The frames of LOG/images: PGM/PPM files (other image files are refused), natural order.
 std::vector<std::string> list_frames(const std::string& folder) {
-    static const char* image_suffixes[] = {".png", ".jpg", ".jpeg", ".jpe", ".bmp", ".dib",  ".tif",
-                                           ".tiff", ".webp", ".pgm", ".ppm", ".pbm", ".pnm", ".pxm",
-                                           ".sr",  ".ras", ".jp2", ".gif", ".apng", ".avif", ".pam"};
+    static const char* image_suffixes[] = {".png",  ".jpg",  ".jpeg", ".jpe", ".bmp",  ".dib",  ".tif",
+                                           ".tiff", ".webp", ".pgm",  ".ppm", ".pbm",  ".pnm",  ".pxm",
+                                           ".sr",   ".ras",  ".jp2",  ".gif", ".apng", ".avif", ".pam"};
     DIR* dir = opendir(folder.c_str());
     if (dir == nullptr) throw Failure(folder + ": cannot be listed (" + std::strerror(errno) + "); LOG needs images/");
     std::vector<std::string> names;
@@ -169,8 +169,9 @@ struct OdometryRow {
 std::map<std::string, OdometryRow> read_odometry(const std::string& path, std::vector<std::string>& order) {
     std::ifstream in(path, std::ios::binary);
     if (!in) {
-        throw Failure(path + " does not exist or cannot be read; a log needs one row per frame: "
-                             "image,forward,left,turn (wheel odometry) or image,dx,dy (map frame)");
+        throw Failure(path +
+                      " does not exist or cannot be read; a log needs one row per frame: "
+                      "image,forward,left,turn (wheel odometry) or image,dx,dy (map frame)");
     }
     std::map<std::string, OdometryRow> rows;
     std::vector<std::string> header;
@@ -190,14 +191,17 @@ std::map<std::string, OdometryRow> read_odometry(const std::string& path, std::v
                 return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
             };
             key = find("image");
-            if (key == header.size()) throw Failure(where + ": missing column 'image'; the header must be image,forward,left,turn or image,dx,dy");
+            if (key == header.size())
+                throw Failure(where +
+                              ": missing column 'image'; the header must be image,forward,left,turn or image,dx,dy");
             if (find("forward") < header.size() && find("left") < header.size() && find("turn") < header.size()) {
                 columns = {find("forward"), find("left"), find("turn")};
             } else if (find("dx") < header.size() && find("dy") < header.size()) {
                 robot = false;
                 columns = {find("dx"), find("dy")};
             } else {
-                throw Failure(where + ": the header has neither forward,left,turn (wheel odometry) nor dx,dy (map frame)");
+                throw Failure(where +
+                              ": the header has neither forward,left,turn (wheel odometry) nor dx,dy (map frame)");
             }
             continue;
         }
@@ -208,14 +212,17 @@ std::map<std::string, OdometryRow> read_odometry(const std::string& path, std::v
         const std::string name = trim(fields[key]);
         if (name.empty()) throw Failure(where + ": column 'image' is empty");
         if (rows.count(name)) {
-            throw Failure(where + ": image '" + name + "' is listed twice (line " + std::to_string(rows[name].line) + ")");
+            throw Failure(where + ": image '" + name + "' is listed twice (line " + std::to_string(rows[name].line) +
+                          ")");
         }
         OdometryRow row;
         row.line = number;
         std::vector<double> v;
-        for (std::size_t c = 0; c < columns.size(); ++c) v.push_back(finite_number(fields[columns[c]], header[columns[c]], where));
+        for (std::size_t c = 0; c < columns.size(); ++c)
+            v.push_back(finite_number(fields[columns[c]], header[columns[c]], where));
         for (std::size_t c = 0; c < 2; ++c) {
-            if (std::fabs(v[c]) >= 1e8) throw Failure(where + ": column '" + header[columns[c]] + "' is beyond 1e8 metres");
+            if (std::fabs(v[c]) >= 1e8)
+                throw Failure(where + ": column '" + header[columns[c]] + "' is beyond 1e8 metres");
         }
         if (robot) {
             if (std::fabs(v[2]) > 2.0 * M_PI) {
@@ -229,7 +236,8 @@ std::map<std::string, OdometryRow> read_odometry(const std::string& path, std::v
         rows[name] = row;
         order.push_back(name);
     }
-    if (header.empty() || rows.empty()) throw Failure(path + " has no odometry rows; it needs a header and one row per frame");
+    if (header.empty() || rows.empty())
+        throw Failure(path + " has no odometry rows; it needs a header and one row per frame");
     return rows;
 }
 
@@ -311,7 +319,7 @@ int run(int argc, char** argv) {
         for (std::size_t k = 0; k < frames.size(); ++k) {
             const auto& e = estimates[k];
             out << frames[k] << ',' << number(e.x, 9) << ',' << number(e.y, 9) << ',' << number(e.heading, 9) << ','
-                << number(e.confidence, 6) << ',' << number(e.credible_radius, 6) << '\n';
+                << number(e.confidence, 9) << ',' << number(e.credible_radius, 9) << '\n';
         }
         out.flush();
         if (!out) {

@@ -229,8 +229,8 @@ private:
         bool integer = true;
         if (p_ != end_ && *p_ == '-') ++p_;
         if (p_ == end_ || *p_ < '0' || *p_ > '9') fail("unexpected character");
-        while (p_ != end_ && ((*p_ >= '0' && *p_ <= '9') || *p_ == '.' || *p_ == 'e' || *p_ == 'E' || *p_ == '+' ||
-                              *p_ == '-')) {
+        while (p_ != end_ &&
+               ((*p_ >= '0' && *p_ <= '9') || *p_ == '.' || *p_ == 'e' || *p_ == 'E' || *p_ == '+' || *p_ == '-')) {
             if (*p_ == '.' || *p_ == 'e' || *p_ == 'E') integer = false;
             ++p_;
         }
@@ -427,7 +427,8 @@ std::vector<ZipMember> zip_members(const std::uint8_t* data, std::size_t size) {
         if (local > size || size - local < 30 || u32(data + local) != 0x04034b50) {
             zip_fail("local header of " + m.name + " missing (truncated?)");
         }
-        const std::size_t start = static_cast<std::size_t>(local) + 30 + u16(data + local + 26) + u16(data + local + 28);
+        const std::size_t start =
+            static_cast<std::size_t>(local) + 30 + u16(data + local + 26) + u16(data + local + 28);
         if (start > size || unpacked > size - start) zip_fail("member " + m.name + " runs past the end (truncated?)");
         m.offset = start;
         m.size = static_cast<std::size_t>(unpacked);

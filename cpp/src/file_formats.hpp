@@ -55,7 +55,7 @@ std::vector<ZipMember> zip_members(const std::uint8_t* data, std::size_t size);
 
 /// A .npy array's header: element type, shape and where its data starts.
 struct NpyHeader {
-    std::string descr;               ///< e.g. "<f8", "|u1", "<i4"
+    std::string descr;  ///< e.g. "<f8", "|u1", "<i4"
     bool fortran_order = false;
     std::vector<std::size_t> shape;  ///< empty: a scalar
     std::size_t data_offset = 0;     ///< bytes from the start of the .npy member

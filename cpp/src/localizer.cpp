@@ -22,7 +22,9 @@ double wrap_angle(double angle) noexcept {
 }
 
 Localizer::Localizer(const MapFile& map)
-    : map_(map), filter_(map.localizer.map, map.localizer.settings), query_(map.preparation.height * map.preparation.width) {
+    : map_(map),
+      filter_(map.localizer.map, map.localizer.settings),
+      query_(map.preparation.height * map.preparation.width) {
     (void)map_.preparation.settings(map_.preparation.height, map_.preparation.width);  // CLAHE: refused now
     const auto& place_of_ref = map_.localizer.map.place_of_ref;
     std::size_t places = 0;
@@ -32,7 +34,8 @@ Localizer::Localizer(const MapFile& map)
     for (std::size_t p = 0; p < places; ++p) place_start_[p + 1] += place_start_[p];
     place_members_.resize(place_of_ref.size());
     std::vector<std::size_t> next(place_start_.begin(), place_start_.end() - 1);
-    for (std::size_t i = 0; i < place_of_ref.size(); ++i) place_members_[next[static_cast<std::size_t>(place_of_ref[i])]++] = i;
+    for (std::size_t i = 0; i < place_of_ref.size(); ++i)
+        place_members_[next[static_cast<std::size_t>(place_of_ref[i])]++] = i;
     if (map_.localizer.closest_ref.size() != filter_.height() * filter_.width()) {
         throw std::invalid_argument("the map's closest references do not cover its grid");
     }

@@ -93,7 +93,8 @@ public:
     template <class T>
     std::vector<T> vector(const std::string& name, const std::string& descr, const std::vector<std::size_t>& shape) {
         const auto [h, values] = array(name, descr);
-        if (h.shape != shape) fail("array '" + name + "' has shape " + shape_text(h.shape) + ", expected " + shape_text(shape));
+        if (h.shape != shape)
+            fail("array '" + name + "' has shape " + shape_text(h.shape) + ", expected " + shape_text(shape));
         std::vector<T> out(h.count());
         if (!out.empty()) std::memcpy(out.data(), values, out.size() * sizeof(T));
         return out;
@@ -218,7 +219,8 @@ void read_tables(Reader& r, const Json& header, MapFile& m) {
     wrapped.type = Json::Type::object;
     wrapped.object["columns"] = window.array[0];
     wrapped.object["rows"] = window.array[1];
-    t.map.window = ShiftWindow{r.count(wrapped, "columns", "localizer window"), r.count(wrapped, "rows", "localizer window")};
+    t.map.window =
+        ShiftWindow{r.count(wrapped, "columns", "localizer window"), r.count(wrapped, "rows", "localizer window")};
     const Json& settings = r.field(*loc, "settings", Json::Type::object, where);
     for (const auto& [name, value] : settings.object) {
         if (value.type != Json::Type::number) r.fail("the localizer setting '" + name + "' is not a number");
@@ -243,8 +245,9 @@ void read_tables(Reader& r, const Json& header, MapFile& m) {
         if (c < 0 || static_cast<std::size_t>(c) >= m.count) r.fail("filter_closest_ref holds a bad reference");
     }
     try {
-        t.map.weights = std::make_shared<const HeatWeights>(t.grid_height, t.grid_width, static_cast<std::size_t>(places),
-                                                            std::move(indptr), std::move(indices), std::move(data));
+        t.map.weights =
+            std::make_shared<const HeatWeights>(t.grid_height, t.grid_width, static_cast<std::size_t>(places),
+                                                std::move(indptr), std::move(indices), std::move(data));
     } catch (const std::invalid_argument& error) {
         r.fail(std::string("the localizer's interpolation weights are invalid: ") + error.what());
     }
@@ -324,8 +327,9 @@ MapFile load_map_file(const std::string& path) {
         }
     }
     const Json& names = r.field(header, "names", Json::Type::array, "header");
-    if (names.array.size() != m.count) r.fail("the header lists " + std::to_string(names.array.size()) + " names for " +
-                                              std::to_string(m.count) + " images");
+    if (names.array.size() != m.count)
+        r.fail("the header lists " + std::to_string(names.array.size()) + " names for " + std::to_string(m.count) +
+               " images");
     for (const Json& n : names.array) {
         if (n.type != Json::Type::string) r.fail("the header's names are not strings");
         m.names.push_back(n.string);

@@ -81,7 +81,8 @@ int main(int argc, char** argv) {
                 if (!std::isnan(d)) worst = std::fmax(worst, d);
             }
             if (!same) {
-                if (++bad <= 10) std::fprintf(stderr, "row %zu %s: %s, expected %s\n", r + 1, name, va.c_str(), vb.c_str());
+                if (++bad <= 10)
+                    std::fprintf(stderr, "row %zu %s: %s, expected %s\n", r + 1, name, va.c_str(), vb.c_str());
             }
         }
     }

@@ -47,7 +47,8 @@ void test_crc32() {
 Json json(const std::string& s) { return nightloc::detail::parse_json(s.data(), s.size()); }
 
 void test_json() {
-    const Json v = json(R"( {"a": [1, -2.5e3, true, false, null], "b": "x\"\u00e9\ud83d\ude00\n", "c": {}, "d": 0.1} )");
+    const Json v =
+        json(R"( {"a": [1, -2.5e3, true, false, null], "b": "x\"\u00e9\ud83d\ude00\n", "c": {}, "d": 0.1} )");
     CHECK(v.type == Json::Type::object && v.object.size() == 4);
     const Json& a = *v.find("a");
     CHECK(a.array.size() == 5 && a.array[0].integer && a.array[0].number == 1);
@@ -67,7 +68,15 @@ std::vector<std::uint8_t> npy(const std::string& dict, std::size_t data_bytes) {
     std::string header = dict;
     while ((10 + header.size() + 1) % 64) header += ' ';
     header += '\n';
-    std::vector<std::uint8_t> out = {0x93, 'N', 'U', 'M', 'P', 'Y', 1, 0, static_cast<std::uint8_t>(header.size()),
+    std::vector<std::uint8_t> out = {0x93,
+                                     'N',
+                                     'U',
+                                     'M',
+                                     'P',
+                                     'Y',
+                                     1,
+                                     0,
+                                     static_cast<std::uint8_t>(header.size()),
                                      static_cast<std::uint8_t>(header.size() >> 8)};
     out.insert(out.end(), header.begin(), header.end());
     out.resize(out.size() + data_bytes, 7);

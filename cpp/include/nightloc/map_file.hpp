@@ -56,25 +56,25 @@ struct MapPreparation {
 
 /// The default localizer's map-only tables (python: nightloc.localization.filter_tables).
 struct MapLocalizerTables {
-    GridFilterMap map;                     ///< grid, interpolation weights, places, headings, shifts
-    GridFilterSettings settings;           ///< what Python's GridFilter gives the core, key for key
-    std::size_t grid_width = 0;            ///< cells along x
-    std::size_t grid_height = 0;           ///< cells along y
-    std::vector<std::int32_t> closest_ref; ///< per cell: the nearest reference (lowest index of its place)
+    GridFilterMap map;                      ///< grid, interpolation weights, places, headings, shifts
+    GridFilterSettings settings;            ///< what Python's GridFilter gives the core, key for key
+    std::size_t grid_width = 0;             ///< cells along x
+    std::size_t grid_height = 0;            ///< cells along y
+    std::vector<std::int32_t> closest_ref;  ///< per cell: the nearest reference (lowest index of its place)
 };
 
 /// A loaded reference map.
 struct MapFile {
     std::string path;
     int format_version = 0;
-    std::string nightloc_version;          ///< of the nightloc that wrote it
-    std::size_t count = 0;                 ///< N references
-    std::vector<std::uint8_t> images;      ///< N x height x width prepared images, row-major
-    std::vector<double> positions;         ///< N x 2 metres
-    std::vector<double> headings;          ///< N radians, or empty (no headings)
-    std::vector<std::string> names;        ///< N frame names
+    std::string nightloc_version;      ///< of the nightloc that wrote it
+    std::size_t count = 0;             ///< N references
+    std::vector<std::uint8_t> images;  ///< N x height x width prepared images, row-major
+    std::vector<double> positions;     ///< N x 2 metres
+    std::vector<double> headings;      ///< N radians, or empty (no headings)
+    std::vector<std::string> names;    ///< N frame names
     MapPreparation preparation;
-    std::size_t frame_width = 0;           ///< of the camera frames the map was built from (0: unknown)
+    std::size_t frame_width = 0;  ///< of the camera frames the map was built from (0: unknown)
     std::size_t frame_height = 0;
     MapLocalizerTables localizer;
 };

@@ -58,7 +58,14 @@ def filter_tables(ref_map: ReferenceMap) -> tuple[dict[str, Any], dict[str, np.n
     closest = np.array([mapper.closest_ref(cell) for cell in range(grid.width * grid.height)], dtype=np.int32)
     header = {
         "method": localizer.method,
-        "grid": {"x0": grid.x0, "y0": grid.y0, "dx": grid.dx, "dy": grid.dy, "width": grid.width, "height": grid.height},
+        "grid": {
+            "x0": grid.x0,
+            "y0": grid.y0,
+            "dx": grid.dx,
+            "dy": grid.dy,
+            "width": grid.width,
+            "height": grid.height,
+        },
         "columns": int(ref_map.params.width),
         "shifts": [int(s) for s in flt.shifts],
         "field_of_view": float(flt.field_of_view),
