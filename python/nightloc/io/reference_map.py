@@ -13,7 +13,8 @@ the source traverse, ``pose_source`` (where the poses came from: :data:`POSE_SOU
 nightloc version and a SHA-256 checksum of every array. Version 3 adds the default localizer's
 map-only tables (``localizer`` in the header and the ``filter_*`` arrays,
 :mod:`nightloc.localization.filter_tables`): what firmware without Python needs to run
-``nightloc.Localizer(ref_map)``; this module writes them and does not read them. Version 2 files
+``nightloc.Localizer(ref_map)``; this module writes them and checks their checksums on loading
+(Python computes its own). Version 2 files
 (no tables) load unchanged; firmware refuses them until they are saved again. Version 1 files
 (before the teach run: no ``pose_source``, no covariances) still load, as surveyed maps. Saving writes a temporary file
 in the same folder and renames it over the target, so an interrupted save never leaves a
@@ -88,9 +89,6 @@ def _frozen(array: np.ndarray) -> np.ndarray:
     return np.frombuffer(contiguous.tobytes(), dtype=contiguous.dtype).reshape(contiguous.shape)
 
 
-_MEMBERS = ("header", "images", "positions", "headings", "covariances")
-
-
 def _read_member(file: Path, archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> np.ndarray:
     """One ``.npy`` member, its declared size checked against the member's before reading."""
     with archive.open(info) as member:
@@ -130,8 +128,11 @@ def _read_archive(file: Path, stream: Any, size: int) -> tuple[Any, dict[str, np
             raise MapFormatError(f"{file} is an .npz archive but not a nightloc reference map (no header)")
         raw_header = _read_member(file, archive, infos["header.npy"])
         header = json.loads(raw_header.tobytes().decode("utf-8"))
+        # every array (the default localizer's tables too: a damaged byte anywhere is refused)
         arrays = {
-            name: _read_member(file, archive, infos[f"{name}.npy"]) for name in _MEMBERS[1:] if f"{name}.npy" in infos
+            name[: -len(".npy")]: _read_member(file, archive, info)
+            for name, info in infos.items()
+            if name.endswith(".npy") and name != "header.npy"
         }
     return header, arrays
 
@@ -571,7 +572,7 @@ class ReferenceMap:
             raise MapFormatError(
                 f"{file}: the header's pose_source {pose_source!r} is not one of {', '.join(POSE_SOURCES)}"
             )
-        for name in ("images", "positions", *optional):
+        for name in dict.fromkeys(("images", "positions", *optional, *checksums)):
             if name not in arrays:
                 raise MapFormatError(f"{file}: the map lacks its '{name}' array (corrupt file)")
             if name not in checksums:
