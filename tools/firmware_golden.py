@@ -26,16 +26,24 @@ import numpy as np
 import nightloc
 from nightloc.cli import main as nightloc_main
 from nightloc.localization.odometry import RobotMotion, true_robot_motions
-from nightloc.synth.dataset import SynthScene
+from nightloc.synth.dataset import SynthScene, forward_view
 from nightloc.synth.render import Camera
 
 #: The camera of the golden data: small frames keep the files small (the map's images are 48 x 24).
 CAMERA = Camera(width=96, height=48)
+#: A panorama four times as wide, whose forward quarter (:func:`forward_view`) is 96 x 48.
+FORWARD_CAMERA = Camera(width=384, height=48)
 
 
-def scene() -> SynthScene:
-    """The synthetic garden with the golden data's camera."""
-    return SynthScene("garden", seed=0, camera=CAMERA)
+def scene(forward: bool = False) -> SynthScene:
+    """The synthetic garden with the golden data's camera (``forward``: the wide panorama whose
+    forward quarter the frames keep)."""
+    return SynthScene("garden", seed=0, camera=FORWARD_CAMERA if forward else CAMERA)
+
+
+def _view(world: SynthScene, frame: np.ndarray) -> np.ndarray:
+    """The frame as the camera sees it: the panorama, or a forward camera's quarter of it."""
+    return forward_view(frame) if world.camera == FORWARD_CAMERA else frame
 
 
 def night_drive(frames: int = 12) -> tuple[np.ndarray, np.ndarray]:
@@ -48,13 +56,16 @@ def night_drive(frames: int = 12) -> tuple[np.ndarray, np.ndarray]:
 
 
 def build_map(world: SynthScene, folder: Path) -> Path:
-    """The map file of the day lattice, written to ``folder/map.npz``."""
+    """The map file of the day lattice, written to ``folder/map.npz`` (a forward camera's map for
+    the forward scene: ``PreparationParams(wrap=False)``)."""
     xs, ys = np.meshgrid(np.arange(0.5, 7.0, 1.0), np.arange(0.5, 5.0, 1.0))
     positions = np.column_stack([xs.ravel(), ys.ravel()])
     headings = np.random.default_rng(3).uniform(-math.pi, math.pi, len(positions))
-    frames = [world.frame("day", x, y, h) for (x, y), h in zip(positions, headings)]
+    frames = [_view(world, world.frame("day", x, y, h)) for (x, y), h in zip(positions, headings)]
     day = nightloc.save_traverse(folder / "day", frames, positions, headings)
-    path = nightloc.ReferenceMap.build(day).save(folder / "map.npz")
+    forward = world.camera == FORWARD_CAMERA
+    params = nightloc.PreparationParams(wrap=not forward)
+    path = nightloc.ReferenceMap.build(day, params).save(folder / "map.npz")
     shutil.rmtree(day.root)
     return path
 
@@ -66,7 +77,7 @@ def write_log(world: SynthScene, folder: Path, *, colour: bool = False, robot_od
     rng = np.random.default_rng(11)
     frames = []
     for (x, y), h in zip(positions, headings):
-        frame = world.frame("night", x, y, h, rng)
+        frame = _view(world, world.frame("night", x, y, h, rng))
         frames.append(frame if colour else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY))
     if robot_odometry:
         odometry: list[object] = [

@@ -25,7 +25,11 @@ Localizer::Localizer(const MapFile& map)
     : map_(map),
       filter_(map.localizer.map, map.localizer.settings),
       query_(map.preparation.height * map.preparation.width) {
-    (void)map_.preparation.settings(map_.preparation.height, map_.preparation.width);  // CLAHE: refused now
+    try {
+        (void)map_.preparation.settings(map_.preparation.height, map_.preparation.width);  // CLAHE: refused now
+    } catch (const MapFileError& error) {
+        throw MapFileError(map_.path + ": " + error.what());
+    }
     const auto& place_of_ref = map_.localizer.map.place_of_ref;
     std::size_t places = 0;
     for (const std::int32_t p : place_of_ref) places = std::max(places, static_cast<std::size_t>(p) + 1);

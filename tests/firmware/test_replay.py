@@ -114,6 +114,22 @@ def test_replay_equals_localize(replay, world, map_file, tmp_path, colour, robot
         assert np.isfinite(actual[:, 2]).all()
 
 
+def test_replay_equals_localize_for_a_forward_camera(replay, tmp_path):
+    """A forward camera's map (no wrap, one shift): heading bins from the column window."""
+    forward = firmware_golden.scene(forward=True)
+    map_file = firmware_golden.build_map(forward, tmp_path)
+    log = firmware_golden.write_log(forward, tmp_path / "log")
+    done = run_replay(replay, map_file, log, tmp_path / "replay.csv")
+    assert done.returncode == 0, done.stderr
+    api = np.array(
+        [(e.x, e.y, e.heading, e.confidence, e.credible_radius) for e in firmware_golden.api_trajectory(map_file, log)]
+    )
+    assert_same_trajectory(read_rows(tmp_path / "replay.csv")[1], api, 1e-8)
+    with np.load(map_file) as archive:
+        tables = json.loads(archive["header"].tobytes())["localizer"]
+    assert tables["shifts"] == [0] and tables["window"] == [12, 0] and tables["field_of_view"] > 0
+
+
 def test_replay_golden_files_match_python_today(replay, tmp_path):
     """The committed golden data (the ctest's) still is what today's Python computes: rerun
     tools/firmware_golden.py after changing the default localizer."""
@@ -176,10 +192,24 @@ def corrupt_images(header, arrays):
             lambda m, t: rewrite_map(m, t, lambda h, a: h["localizer"]["settings"].update(new_knob=1.0)),
             "unknown grid filter setting 'new_knob'",
         ),
+        (
+            lambda m, t: rewrite_map(m, t, lambda h, a: h["params"].update(equalize="clahe")),
+            "equalized with CLAHE, which the C++ core does not implement",
+        ),
         (lambda m, t: written(t, m.read_bytes()[:-200]), "truncated"),
         (lambda m, t: written(t, b"not a map"), "not an .npz zip archive"),
     ],
-    ids=["compressed", "format-2", "format-4", "checksum", "missing-table", "unknown-setting", "truncated", "text"],
+    ids=[
+        "compressed",
+        "format-2",
+        "format-4",
+        "checksum",
+        "missing-table",
+        "unknown-setting",
+        "clahe",
+        "truncated",
+        "text",
+    ],
 )
 def test_bad_maps_are_named_errors(replay, map_file, log, tmp_path, make, message):
     bad = make(map_file, tmp_path / "bad.map")
