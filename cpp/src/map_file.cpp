@@ -2,13 +2,12 @@
 // a map that nightloc's ReferenceMap.save wrote, checked as the Python loader checks them.
 #include "nightloc/map_file.hpp"
 
-#include <sys/stat.h>
-
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <map>
 #include <string>
 #include <utility>
@@ -32,15 +31,19 @@ public:
     [[noreturn]] void fail(const std::string& what) const { throw MapFileError(path_ + ": " + what); }
 
     void read_file() {
-        struct stat info{};
-        if (::stat(path_.c_str(), &info) != 0) {
-            fail(errno == ENOENT ? "no such file (a map file from nightloc build-map)" : std::strerror(errno));
-        }
-        if (S_ISDIR(info.st_mode)) fail("is a folder, not a map file (nightloc build-map writes one)");
-        if (!S_ISREG(info.st_mode)) fail("is not a regular file");
+        namespace fs = std::filesystem;
+        std::error_code failure;
+        const fs::file_status status = fs::status(path_, failure);
+        if (status.type() == fs::file_type::not_found) fail("no such file (a map file from nightloc build-map)");
+        if (failure) fail("cannot be read: " + failure.message());
+        if (status.type() == fs::file_type::directory)
+            fail("is a folder, not a map file (nightloc build-map writes one)");
+        if (status.type() != fs::file_type::regular) fail("is not a regular file");
+        const std::uintmax_t size = fs::file_size(path_, failure);
+        if (failure) fail("cannot be read: " + failure.message());
         std::FILE* f = std::fopen(path_.c_str(), "rb");
         if (f == nullptr) fail(std::string("cannot be opened: ") + std::strerror(errno));
-        bytes_.resize(static_cast<std::size_t>(info.st_size));
+        bytes_.resize(static_cast<std::size_t>(size));
         const std::size_t got = bytes_.empty() ? 0 : std::fread(bytes_.data(), 1, bytes_.size(), f);
         std::fclose(f);
         if (got != bytes_.size()) fail("could not be read whole");
