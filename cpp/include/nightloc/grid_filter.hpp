@@ -77,6 +77,7 @@
 #include <cstdint>
 #include <memory>
 #include <new>
+#include <string>
 #include <vector>
 
 #include "nightloc/heatmap.hpp"
@@ -307,5 +308,12 @@ private:
     };
     mutable std::vector<RingCell> ring_;
 };
+
+/// Sets one setting by the name Python gives it (nightloc.localization.grid_filter.GridFilter.settings:
+/// the FilterParams fields, the odometry noise and the confidence radius), as the Python module
+/// and map files (nightloc/map_file.hpp) pass them. Throws std::invalid_argument for an unknown
+/// name, a value that is not finite, or a count (heading_bins, estimate_window, settle_frames)
+/// that is not a non-negative integer.
+void set_grid_filter_setting(GridFilterSettings& settings, const std::string& name, double value);
 
 }  // namespace nightloc
