@@ -231,6 +231,35 @@ def summary(results: Path) -> None:
         )
 
 
+def table(results: Path, camera: str, metric: str) -> None:
+    """A markdown table of the rendered walks: a row per window, a column per walk, each cell the
+    median [min-max] of ``metric`` over streets and directions; then the medians pooled over the
+    lateral-only walks up to 1 m and over the walks with a vertical change."""
+    rows = [json.loads(line) for line in results.read_text().splitlines()]
+    rows = [r for r in rows if r["pair"].startswith("synthetic") and r["variant"]["camera"] == camera]
+    walks = [w for w in VARIANTS if any(r["variant"]["walk"] == w for r in rows)]
+    windows = sorted({tuple(r["window"]) for r in rows}, key=lambda w: (w[1], w[0]))
+    lateral = [w for w in walks if w not in VERTICAL and VARIANTS[w]["offset"] <= 1.0]
+    vertical = [w for w in walks if w in VERTICAL]
+    say("| window | " + " | ".join(walks) + " | lateral ≤ 1 m | vertical |")
+    say("| --- " * (len(walks) + 3) + "|")
+    for window in windows:
+        cells: list[str] = []
+        pooled: dict[str, list[float]] = {"lateral": [], "vertical": []}
+        for walk in walks:
+            values = np.array(
+                [r[metric] for r in rows if r["variant"]["walk"] == walk and tuple(r["window"]) == window]
+            )
+            cells.append(f"{np.median(values):.2f} [{values.min():.2f}\u2013{values.max():.2f}]")
+            if walk in lateral or walk in vertical:
+                pooled["lateral" if walk in lateral else "vertical"] += list(values)
+        say(
+            f"| {window[0]}, {window[1]} | "
+            + " | ".join(cells)
+            + f" | {np.median(pooled['lateral']):.2f} | {np.median(pooled['vertical']):.2f} |"
+        )
+
+
 def main(argv: list[str]) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -249,6 +278,10 @@ def main(argv: list[str]) -> None:
     s.add_argument("--cache", type=Path, help="a folder for the difference matrices (reused by later runs)")
     m = sub.add_parser("summary")
     m.add_argument("results", type=Path)
+    t = sub.add_parser("table", help="a markdown table of the rendered walks")
+    t.add_argument("results", type=Path)
+    t.add_argument("--camera", default="forward", choices=("forward", "panoramic"))
+    t.add_argument("--metric", default="f1", choices=("f1", "r100", "top1"))
     args = parser.parse_args(argv)
     if args.command == "render":
         variants = args.variants.split(",")
@@ -261,6 +294,8 @@ def main(argv: list[str]) -> None:
             WINDOWS if not args.windows else [tuple(int(v) for v in w.split(",")) for w in args.windows.split(";")]
         )
         sweep(args.routes, args.results, windows, args.real, args.only, args.cache)  # type: ignore[arg-type]
+    elif args.command == "table":
+        table(args.results, args.camera, args.metric)
     else:
         summary(args.results)
 

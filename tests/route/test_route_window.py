@@ -145,7 +145,7 @@ def test_synthetic_lateral_offset_route():
     preparer = route.RoutePreparer(RouteParams())
     day = preparer(render_drive(scene, street_drive(world, "day", 0.0, 10), "forward"))
     night = preparer(render_drive(scene, street_drive(world, "night", 1.0, 11, pitch=2.0, pitch_jitter=0.7)))
-    assert RouteParams().effective_shift_window == (8, 1)
+    assert RouteParams().effective_shift_window == (8, 2)
     for refs, queries in ((day, night), (night, day)):
         plain = _evaluate(refs, queries, RouteParams(shift_window=(0, 0)))
         windowed = _evaluate(refs, queries, RouteParams())
