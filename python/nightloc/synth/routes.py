@@ -397,11 +397,11 @@ HEIGHT_RANGE = (0.2, 3.0)
 def _slow_wobble(rng: np.random.Generator, distances: np.ndarray, std: float, length: float) -> np.ndarray:
     """A smooth random process along the route, ``(N,)``: white noise on a 0.1 m grid smoothed by a
     Gaussian of ``length`` metres (standard deviation), scaled to a standard deviation of ``std``
-    over the grid and read at ``distances`` (metres, increasing)."""
+    over the grid and read at ``distances`` (metres)."""
     step = 0.1
     sigma = length / step
     pad = int(np.ceil(4 * sigma))
-    grid = np.arange(distances[0] - pad * step, distances[-1] + (pad + 1) * step, step)
+    grid = np.arange(distances.min() - pad * step, distances.max() + (pad + 1) * step, step)
     white = rng.normal(0.0, 1.0, grid.size + 2 * pad)
     taps = np.exp(-0.5 * (np.arange(-pad, pad + 1) / sigma) ** 2)
     smooth = np.convolve(white, taps, mode="valid")[: grid.size]
