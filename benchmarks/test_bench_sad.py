@@ -125,8 +125,8 @@ def test_patch_normalize_speed(benchmark):
 WINDOW_CASES = {
     "rotational 48 shifts": (None, (0, 0)),
     "panorama, rows +-2": (None, (0, 2)),
-    "forward, columns +-8 rows +-1 (route default)": ([0], (8, 1)),
-    "forward, columns +-8 rows +-2": ([0], (8, 2)),
+    "forward, columns +-8 rows +-1": ([0], (8, 1)),
+    "forward, columns +-8 rows +-2 (route default)": ([0], (8, 2)),
 }
 
 
@@ -203,7 +203,7 @@ def test_window_core(benchmark, case, backend):
     assert result.index == 500 // 3 and result.scores[result.index] == 0.0
 
 
-@pytest.mark.parametrize("case", ["panorama, rows +-2", "forward, columns +-8 rows +-1 (route default)"])
+@pytest.mark.parametrize("case", ["panorama, rows +-2", "forward, columns +-8 rows +-2 (route default)"])
 def test_window_difference_matrix(benchmark, case):
     """The route's batch: 200 queries x 2000 references, 2 threads."""
     shifts, window = WINDOW_CASES[case]

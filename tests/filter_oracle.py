@@ -112,6 +112,12 @@ class OracleFilter:
         self.x0, self.y0, self.dx, self.dy = x0, y0, dx, dy
         self.place_of_ref = np.asarray(place_of_ref)
         self.places = self.w.shape[1]
+        # the score cap tempered by the map's look-alikes: places with references beyond lookalike_places
+        with_refs = len(np.unique(self.place_of_ref))
+        self.score_cap = settings.get("score_cap", 0.0)
+        lookalikes = settings.get("lookalike_places", 0.0)
+        if lookalikes > 0 and with_refs > lookalikes:
+            self.score_cap *= math.log(lookalikes) / math.log(with_refs)
         self.headings = None if ref_headings is None else np.asarray(ref_headings, dtype=np.float64)
         self.columns = columns
         self.shifts = np.asarray(shifts)
@@ -277,7 +283,7 @@ class OracleFilter:
         else:
             np.minimum.at(place_scores[0], self.place_of_ref, self.mins)
         gain = -lam * math.log2(math.e)
-        cap = self.s.get("score_cap", 0.0)  # scores beyond s_min + cap spread count as that
+        cap = self.score_cap  # scores beyond s_min + cap spread count as that
         lowest = LOWEST_LOG2
         if cap > 0:
             lowest = max(LOWEST_LOG2, -temper * self.s["likelihood_gain"] * cap * math.log2(math.e))

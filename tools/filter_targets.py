@@ -30,6 +30,7 @@ import numpy as np
 import nightloc
 from nightloc.localization.evaluation import EvaluationSettings, match_traverse, simulated_odometry
 from nightloc.localization.odometry import MapDisplacement, RobotMotion, wrap_angle
+from nightloc.localization.tail import tail_metrics
 from nightloc.synth import default_dataset
 
 FIRST = 10  # errors counted from the 10th query frame on (a 10-frame sequence is full there)
@@ -78,8 +79,9 @@ KIDNAPS = (
 def filter_rows(folders, draws: int = 3, overrides: dict | None = None) -> list[dict]:
     """One row per world, odometry kind ("robot" or "map") and noise model (0, 3), each over
     ``draws`` draws: the filter's and the paper's median errors from frame 10 on (m), their
-    ratio, the filter's median heading error (degrees) and, per draw, which frames had the
-    truth within the credible radius (``hits``)."""
+    ratio, the filter's median heading error (degrees), per draw which frames had the truth
+    within the credible radius (``hits``) and every frame's error (``filter_runs``,
+    ``paper_runs``: what :func:`nightloc.localization.tail.tail_metrics` takes)."""
     rows = []
     for world in ("garden", "living_room"):
         ref_map = nightloc.ReferenceMap.build(folders[world]["day_reference"])
@@ -88,12 +90,14 @@ def filter_rows(folders, draws: int = 3, overrides: dict | None = None) -> list[
             settings = EvaluationSettings(odometry=kind, repeats=draws)
             for model in (0, 3):
                 row: dict = {"world": world, "kind": kind, "model": model, "filter": [], "paper": [], "ratio": []}
-                row.update(heading=[], hits=[])
+                row.update(heading=[], hits=[], filter_runs=[], paper_runs=[])
                 for repeat in range(settings.repeats_of(model)):
                     odometry = simulated_odometry(matches, model, repeat, settings)
                     estimates = _run_filter(ref_map, matches.tables, odometry, model, overrides or {})
                     errors = _errors(estimates, matches.positions)
                     paper_errors = _errors(_run_paper(ref_map, matches.results, odometry), matches.positions)
+                    row["filter_runs"].append(errors)
+                    row["paper_runs"].append(paper_errors)
                     row["filter"].append(np.median(errors[FIRST - 1 :]))
                     row["paper"].append(np.median(paper_errors[FIRST - 1 :]))
                     row["ratio"].append(row["filter"][-1] / row["paper"][-1])
@@ -159,6 +163,12 @@ def trust_rows(folders, draws: int = 3, overrides: dict | None = None) -> dict:
     return {"runs": runs, "wrong": wrong, "inside": inside}
 
 
+def _tail(runs) -> str:
+    """p95 (m), share over 1 m and longest run over 1 m of the draws, from the 10th frame."""
+    tail = tail_metrics(runs, first_frame=FIRST)
+    return f"{tail.p95_m:.2f}, {100 * tail.share_over_1m:.0f} %, {tail.longest_run_over_1m}"
+
+
 def _label(kind: str) -> str:
     return "wheel (RobotMotion)" if kind == "robot" else "map frame"
 
@@ -175,16 +185,17 @@ def main() -> None:
     overrides = {k: int(v) if k in INT_PARAMS else float(v) for k, v in (p.split("=") for p in args.param)}
     folders = default_dataset(cache_dir=args.cache)
     emit(
-        "| world | odometry | noise | filter (m) | paper n=10 (m) | filter / paper | filter heading (deg) "
-        "| within credible radius |"
+        "| world | odometry | noise | filter (m) | paper n=10 (m) | filter / paper | filter: p95, > 1 m, longest "
+        "| paper: p95, > 1 m, longest | filter heading (deg) | within credible radius |"
     )
-    emit("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    emit("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     rows = filter_rows(folders, args.draws, overrides)
     for row in rows:
         inside = np.mean([hits.mean() for hits in row["hits"]])
         emit(
             f"| {row['world']} | {_label(row['kind'])} | {row['model']} | {_cell(row['filter'])} | "
-            f"{_cell(row['paper'])} | {_cell(row['ratio'])} | {_cell(row['heading'])} | {inside:.0%} |"
+            f"{_cell(row['paper'])} | {_cell(row['ratio'])} | {_tail(row['filter_runs'])} | "
+            f"{_tail(row['paper_runs'])} | {_cell(row['heading'])} | {inside:.0%} |"
         )
     share = np.mean(np.concatenate([hits for row in rows for hits in row["hits"]]))
     emit(f"\nAll frames of these runs: the truth within credible_radius in {share:.1%}.\n")

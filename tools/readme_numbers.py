@@ -37,6 +37,7 @@ import filter_targets  # tools/ is not a package: imported from this folder
 import nightloc
 from nightloc.cli import main as nightloc_main
 from nightloc.localization.evaluation import EvaluationSettings, evaluate, match_traverse
+from nightloc.localization.tail import tail_metrics
 from nightloc.synth import default_dataset
 
 SECTIONS = ("localization", "filter", "route", "camera")
@@ -82,14 +83,25 @@ def filter_blocks(folders) -> list[str]:
     def cell(world: str, kind: str, model: int, what: str) -> str:
         return _m(float(np.median(rows[(world, kind, model)][what])))
 
-    lines = ["| odometry | garden: filter / paper | living room: filter / paper |", "| --- | --- | --- |"]
+    def tail(world: str, kind: str, model: int, what: str) -> str:
+        t = tail_metrics(rows[(world, kind, model)][what], first_frame=filter_targets.FIRST)
+        return f"{_m(t.p95_m)}, {100 * t.share_over_1m:.0f} %"
+
+    lines = [
+        "| odometry | garden: filter / paper (p95, share > 1 m) | living room: filter / paper (p95, share > 1 m) |",
+        "| --- | --- | --- |",
+    ]
     for kind, model, label in (
         ("robot", 0, "wheel (`RobotMotion`), exact"),
         ("robot", 3, "wheel, noise model 3"),
         ("map", 0, "map frame, exact"),
         ("map", 3, "map frame, noise model 3"),
     ):
-        pairs = [f"**{cell(w, kind, model, 'filter')}** / {cell(w, kind, model, 'paper')} m" for w in rows_worlds()]
+        pairs = [
+            f"**{cell(w, kind, model, 'filter')}** ({tail(w, kind, model, 'filter_runs')}) / "
+            f"{cell(w, kind, model, 'paper')} m ({tail(w, kind, model, 'paper_runs')})"
+            for w in rows_worlds()
+        ]
         lines.append(f"| {label} | {pairs[0]} | {pairs[1]} |")
     headings = [float(np.median(r["heading"])) for key, r in rows.items() if key[1] == "robot"]
     inside = float(np.mean(np.concatenate([hits for r in rows.values() for hits in r["hits"]])))

@@ -359,37 +359,11 @@ private:
         nightloc::GridFilterSettings s;
         for (const auto& item : d) {
             const auto key = item.first.cast<std::string>();
-            const py::handle v = item.second;
-            if (key == "heading_bins")
-                s.heading_bins = v.cast<std::size_t>();
-            else if (key == "likelihood_gain")
-                s.likelihood_gain = v.cast<double>();
-            else if (key == "distance_std")
-                s.distance_std = v.cast<double>();
-            else if (key == "heading_std")
-                s.heading_std = v.cast<double>();
-            else if (key == "position_floor")
-                s.position_floor = v.cast<double>();
-            else if (key == "heading_floor")
-                s.heading_floor = v.cast<double>();
-            else if (key == "uniform_floor")
-                s.uniform_floor = v.cast<double>();
-            else if (key == "unknown_spread")
-                s.unknown_spread = v.cast<double>();
-            else if (key == "credibility")
-                s.credibility = v.cast<double>();
-            else if (key == "confidence_radius")
-                s.confidence_radius = v.cast<double>();
-            else if (key == "estimate_window")
-                s.estimate_window = v.cast<std::size_t>();
-            else if (key == "negligible")
-                s.negligible = v.cast<double>();
-            else if (key == "settle_frames")
-                s.settle_frames = v.cast<std::size_t>();
-            else if (key == "score_cap")
-                s.score_cap = v.cast<double>();
-            else
-                throw py::value_error("unknown grid filter setting '" + key + "'");
+            try {
+                nightloc::set_grid_filter_setting(s, key, item.second.cast<double>());
+            } catch (const std::invalid_argument& error) {
+                throw py::value_error(error.what());
+            }
         }
         return s;
     }
@@ -468,6 +442,7 @@ void register_localization(py::module_& m) {
         .def_property_readonly("offset", [](const GridFilterPy& f) { return f.core().offset(); })
         .def_property_readonly("lambda_", [](const GridFilterPy& f) { return f.core().lambda(); })
         .def_property_readonly("frames", [](const GridFilterPy& f) { return f.core().frames(); })
+        .def_property_readonly("score_cap", [](const GridFilterPy& f) { return f.core().score_cap(); })
         .def_property_readonly("forward", [](const GridFilterPy& f) { return f.core().forward(); })
         .def_property_readonly("sparse_blocks", [](const GridFilterPy& f) { return f.core().sparse_blocks(); })
         .def_property_readonly("memory_bytes", [](const GridFilterPy& f) { return f.core().memory_bytes(); });

@@ -1,15 +1,17 @@
 // nightloc C++ example: the per-frame path of a robot, without Python or OpenCV. A 3 x 3 lattice
 // of reference places (1 m apart) is mapped from synthetic 192 x 96 BGR panoramas; the robot
 // then drives along the middle row in 0.25 m steps, its camera frames darker and noisier than
-// the map's. Each frame is prepared (nightloc::prepare_frame), matched against the map, turned
-// into a heat map over a 21 x 21 grid and fused with the earlier frames moved by odometry
-// (nightloc::HeatSequence), and the hottest cell is the position estimate.
+// the map's. Each frame is prepared (nightloc::prepare_frame) and localized by the default
+// localizer, the grid Bayes filter over position x heading (nightloc::GridFilter with the default
+// settings and the odometry noise of Table III model 1): predict by the wheel odometry, update by
+// the frame's rotational SAD table against the map, estimate position, heading and uncertainty.
 //
 //   cmake -S cpp -B build/cpp && cmake --build build/cpp && ./build/cpp/nightloc_localize_example
 //
-// The heat-map weights here give every cell its nearest place (a valid CSR matrix, simple to
-// write down); nightloc's Python HeatMapper computes linear-interpolation weights over a
-// Delaunay triangulation (HeatMapper.weights), which a robot can load instead.
+// The interpolation weights here give every cell of a 21 x 21 grid its nearest place (a valid
+// CSR matrix, simple to write down). A robot loads nightloc's own map instead, with the weights of
+// the Delaunay triangulation that Python's Localizer uses: nightloc::load_map_file and
+// nightloc::Localizer (nightloc/localizer.hpp; the program nightloc_replay, docs/cpp_core.md).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -17,6 +19,7 @@
 #include <random>
 #include <vector>
 
+#include <nightloc/grid_filter.hpp>
 #include <nightloc/heatmap.hpp>
 #include <nightloc/nightloc.hpp>
 #include <nightloc/prepare.hpp>
@@ -25,14 +28,15 @@ namespace {
 
 constexpr std::size_t kFrameHeight = 96, kFrameWidth = 192;
 
-// A BGR panorama of the place at (x, y) metres: smooth bands whose phases depend on the place,
+// A BGR panorama of the place at (x, y) metres seen with `heading` radians (column c looks along
+// the world azimuth heading - 2 pi c / width): smooth bands whose phases depend on the place,
 // scaled by `gain` (night) with noise.
-std::vector<std::uint8_t> panorama(double x, double y, double gain, std::mt19937& rng) {
+std::vector<std::uint8_t> panorama(double x, double y, double gain, std::mt19937& rng, double heading = 0.0) {
     std::normal_distribution<double> noise(0.0, gain < 1.0 ? 2.0 : 0.0);
     std::vector<std::uint8_t> frame(kFrameHeight * kFrameWidth * 3);
     for (std::size_t r = 0; r < kFrameHeight; ++r) {
         for (std::size_t c = 0; c < kFrameWidth; ++c) {
-            const double a = 2.0 * M_PI * static_cast<double>(c) / static_cast<double>(kFrameWidth);
+            const double a = 2.0 * M_PI * static_cast<double>(c) / static_cast<double>(kFrameWidth) - heading;
             const double v = 120.0 + 50.0 * std::sin(2.0 * a + 1.3 * x + 0.4 * y) + 40.0 * std::cos(3.0 * a - 0.9 * y) +
                              25.0 * std::sin(0.15 * static_cast<double>(r) + x * y);
             for (std::size_t ch = 0; ch < 3; ++ch) {
@@ -83,57 +87,44 @@ int main() {
             indptr.push_back(static_cast<std::int32_t>(indices.size()));
         }
     }
-    auto weights = std::make_shared<nightloc::HeatWeights>(cells, cells, places.size(), indptr, indices, data);
-    nightloc::HeatSequence sequence(weights, 4);  // the last 4 frames
-    nightloc::PeakExclusion exclusion;            // the runner-up: farther than 1 m (8 cells) from the peak
-    exclusion.rows = exclusion.cols = 8;
-    exclusion.mask.resize(17 * 17);
-    for (int a = -8; a <= 8; ++a)
-        for (int b = -8; b <= 8; ++b) {
-            exclusion.mask[static_cast<std::size_t>((a + 8) * 17 + b + 8)] = a * a + b * b <= 64;
-        }
 
-    // --- the drive: along y = 1 from x = 0 to 2, night frames, odometry 0.25 m per frame
+    // --- the default localizer: the grid filter over these cells x 48 heading bins
+    nightloc::GridFilterMap map;
+    map.weights = std::make_shared<nightloc::HeatWeights>(cells, cells, places.size(), indptr, indices, data);
+    map.x0 = map.y0 = x0;
+    map.dx = map.dy = step;
+    for (std::size_t p = 0; p < places.size(); ++p) map.place_of_ref.push_back(static_cast<std::int32_t>(p));
+    map.ref_headings.assign(places.size(), 0.0);  // every reference panorama faces +x
+    map.columns = 48;
+    map.shifts = nightloc::all_shifts(48);         // a panorama: every rotation
+    nightloc::GridFilterSettings filter_settings;  // the defaults of nightloc.localization.FilterParams
+    filter_settings.distance_std = 0.1;            // odometry noise per frame: Table III model 1
+    filter_settings.heading_std = 0.02;
+    nightloc::GridFilter filter(map, filter_settings);
+
+    // --- the drive: along y = 1 from x = 0 to 2, a turn on the spot, back to 0; night frames and
+    //     the wheel odometry since the previous frame (0.25 m ahead, or the half turn)
     int wrong = 0;
-    std::vector<double> odometry_steps;  // x displacement (m) between consecutive frames
     std::vector<std::uint8_t> query(24 * 48);
-    for (int t = 0; t <= 8; ++t) {
-        const double x = 0.25 * t, y = 1.0;
-        const auto frame = panorama(x, y, 0.35, rng);
+    for (int t = 0; t <= 17; ++t) {
+        const bool back = t > 8;
+        const double x = back ? 2.0 - 0.25 * (t - 9) : 0.25 * t, y = 1.0, heading = back ? M_PI : 0.0;
+        const auto frame = panorama(x, y, 0.35, rng, heading);
         nightloc::prepare_frame({frame.data(), kFrameHeight, kFrameWidth, kFrameWidth * 3, nightloc::PixelOrder::bgr},
                                 settings, query.data(), workspace);
-        const nightloc::MatchResult match =
-            nightloc::match(Eigen::Map<const nightloc::ImageU8>(query.data(), 24, 48), refs);
-        // heat: scores inverted to (max - s) / (max - min), minus the frame's lowest heat (0)
-        const float hi = match.scores.maxCoeff(), lo = match.scores.minCoeff();
-        std::vector<float> values(places.size());
-        for (std::size_t p = 0; p < places.size(); ++p)
-            values[p] = hi > lo ? (hi - match.scores[static_cast<nightloc::Index>(p)]) / (hi - lo) : 0.f;
-        sequence.push(values.data(), 0.0);
-        if (t > 0) odometry_steps.push_back(0.25);
-        // offsets (cells) of the earlier frames in the sequence, oldest first
-        std::vector<double> offsets;
-        const std::size_t earlier = sequence.size() - 1;
-        for (std::size_t k = 0; k < earlier; ++k) {
-            double dx = 0;
-            for (std::size_t m = odometry_steps.size() - earlier + k; m < odometry_steps.size(); ++m) {
-                dx += odometry_steps[m];
-            }
-            offsets.insert(offsets.end(), {dx / step, 0.0});
-        }
-        sequence.fuse(offsets.data());
-        const nightloc::HeatPeak peak = nightloc::find_peak(sequence.fused(), cells, cells, exclusion);
-        // with nearest-place weights the estimate is the place whose region holds the hottest cell
-        const auto& place = places[static_cast<std::size_t>(indices[peak.cell])];
-        const double confidence = peak.has_second ? (peak.peak - peak.second) / (peak.peak - peak.floor) : 1.0;
-        const bool right = place.second == y && std::fabs(place.first - x) <= 0.5;  // a nearest place
-        wrong += !right;
+        if (t == 9)
+            filter.predict_robot(0.0, 0.0, M_PI);  // forward, left (m), turn (rad)
+        else if (t > 0)
+            filter.predict_robot(0.25, 0.0, 0.0);
+        filter.update_image(query.data(), refs.pixels.data(), places.size(), 24);
+        const nightloc::GridEstimate e = filter.estimate();
+        const bool right = std::hypot(e.x - x, e.y - y) <= 0.5;
+        wrong += t >= 3 && !right;  // the first frames: the belief is still spread over look-alikes
         std::printf(
-            "frame %d at (%.2f, %.2f): best match place %ld, estimate (%.0f, %.0f) from %zu frames, "
-            "confidence %.2f%s\n",
-            t, x, y, static_cast<long>(match.best), place.first, place.second, sequence.size(), confidence,
-            right ? "" : "  <- off");
+            "frame %2d at (%.2f, %.2f): estimate (%.2f, %.2f) heading %5.2f rad, confidence %.2f, credible radius "
+            "%.2f m%s\n",
+            t, x, y, e.x, e.y, e.heading, e.confidence, e.credible_radius, right ? "" : "  <- off");
     }
-    std::printf("%d of 9 estimates off the nearest place\n", wrong);
+    std::printf("%d of 15 estimates after the first three off by more than 0.5 m\n", wrong);
     return wrong <= 1 ? EXIT_SUCCESS : EXIT_FAILURE;
 }

@@ -125,6 +125,13 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
             "grid filter: negligible must be in [0, 1)");
     require(s.settle_frames <= 1000, "grid filter: settle_frames must be 0..1000");
     require(finite_nonnegative(s.score_cap), "grid filter: score_cap must be finite and >= 0");
+    require(std::isfinite(s.lookalike_places) && (s.lookalike_places == 0 || s.lookalike_places >= 2),
+            "grid filter: lookalike_places must be 0 (never tempered) or >= 2");
+    // the score cap tempered by the map's look-alikes: places with references beyond lookalike_places
+    const auto with_refs = static_cast<double>(places_ - empty_places_.size());
+    cap_ = s.score_cap;
+    if (s.lookalike_places > 0 && with_refs > s.lookalike_places)
+        cap_ = s.score_cap * std::log(s.lookalike_places) / std::log(with_refs);
 
     const ShiftWindow& window = map_.window;
     require(window.columns < map_.columns && window.rows <= 1000,
@@ -634,9 +641,7 @@ void GridFilter::update(const float* table) {
     // the outlier-robust likelihood: a score above s_min + score_cap spread counts as that one, so
     // a frame that matches a look-alike cannot erase the place the prior holds (log2 units)
     const double lowest =
-        settings_.score_cap > 0
-            ? std::max(kLowestLog2, -temper * settings_.likelihood_gain * settings_.score_cap * kLog2e)
-            : kLowestLog2;
+        cap_ > 0 ? std::max(kLowestLog2, -temper * settings_.likelihood_gain * cap_ * kLog2e) : kLowestLog2;
 
     // per place and bin the log2-likelihood y = max(-lambda log2(e) (score - s_min), -60) of the
     // place's lowest score (of its references), in groups of kGroupBins bins (a pass of the

@@ -233,7 +233,12 @@ void test_paths_identical() {
     many.map.place_of_ref[299] = 0;
     const GridFilter probe(many.map, settings);
     CHECK(probe.sparse_blocks() > 0);
-    check_paths_identical("many places, settling: negligible bins", many, settings, true);
+    // 299 places with references, more than lookalike_places: the cap is tempered by ln 64 / ln 299
+    CHECK(std::fabs(probe.score_cap() - settings.score_cap * std::log(64.0) / std::log(299.0)) < 1e-12);
+    check_paths_identical("many places, tempered cap", many, settings, false);
+    GridFilterSettings untempered = settings;  // the full cap settles the belief: negligible bins
+    untempered.lookalike_places = 0;
+    check_paths_identical("many places, settling: negligible bins", many, untempered, true);
     GridFilterSettings other_bins = settings;  // bins other than the columns: a shift per bin
     other_bins.heading_bins = 12;
     check_paths_identical("12 bins over 16 columns", many, other_bins, false);

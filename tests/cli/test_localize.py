@@ -27,6 +27,7 @@ def test_localize_writes_the_trajectory_and_prints_errors_against_poses(tmp_path
     assert main(["localize", str(folders["day_reference"]), str(folders["night_query"]), "--out", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "median" in printed and "90th percentile" in printed
+    assert "from frame 10 on (32 frames)" in printed and "p95" in printed and "longest run" in printed
     header, rows = _rows(out / "trajectory.csv")
     assert tuple(header) == TRAJECTORY_HEADER
     log = nightloc.load_traverse(folders["night_query"])

@@ -36,13 +36,29 @@ def test_estimates_truth_and_errors_land_on_their_data(tmp_path):
     np.testing.assert_array_equal(segments[1::3], truth)
     assert np.isnan(segments[2::3]).all()
     distance = np.hypot(*(estimates - truth).T)
-    [per_frame, median] = errors.lines
+    [per_frame, median, lost] = errors.lines
     np.testing.assert_allclose(per_frame.get_ydata(), distance)
     assert median.get_ydata()[0] == pytest.approx(np.median(distance))
+    assert lost.get_ydata()[0] == 1.0 and "longest run" in lost.get_label()
     assert errors.get_title() == "distance error per frame (n=30)"
     assert "garden/night_query" in fig.get_suptitle()
     assert trajectory_figure(references, estimates, path=tmp_path / "t.svg").axes[0].get_legend() is not None
     assert (tmp_path / "t.svg").read_bytes().lstrip().startswith(b"<?xml")
+
+
+def test_confidence_and_the_tail_are_drawn_beside_the_errors():
+    references, estimates, truth = _walk()
+    estimates[12:16] += 5.0  # four frames lost: frames 13-16, all from the 10th on
+    confidence = np.linspace(0.2, 0.9, 30)
+    fig = trajectory_figure(references, estimates, truth, confidence=confidence)
+    errors = fig.axes[1]
+    [trust] = fig.axes[2].lines
+    np.testing.assert_allclose(trust.get_ydata(), confidence)
+    assert fig.axes[2].get_ylim() == (0, 1.05)
+    lost = next(line for line in errors.lines if "longest run" in line.get_label())
+    assert "longest run 4" in lost.get_label() and "19.0 % over" in lost.get_label()  # 4 of the 21 from the 10th
+    with pytest.raises(ValueError, match="confidence must have one value per estimate"):
+        trajectory_figure(references, estimates, truth, confidence=confidence[:-1])
 
 
 def test_wrong_shapes_are_named():

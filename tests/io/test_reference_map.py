@@ -55,8 +55,9 @@ def test_save_load_round_trip(garden_map, tmp_path):
     # the file is a plain npz with a JSON header, readable without nightloc
     with np.load(path, allow_pickle=False) as archive:
         header = json.loads(archive["header"].tobytes())
-        assert header["format"] == "nightloc-reference-map" and header["format_version"] == 2
-        assert header["params"]["width"] == 48 and len(header["checksums"]) == 3
+        assert header["format"] == "nightloc-reference-map" and header["format_version"] == 3
+        # images, positions, headings and the default localizer's five tables
+        assert header["params"]["width"] == 48 and len(header["checksums"]) == 3 + 5
 
 
 def test_map_without_headings_and_custom_params(tmp_path):
@@ -171,7 +172,7 @@ def test_checksum_mismatch(saved):
 @pytest.mark.parametrize(
     ("change", "text"),
     [
-        (lambda h: h.update(format_version=3), "newer nightloc"),
+        (lambda h: h.update(format_version=4), "newer nightloc"),
         (lambda h: h.update(format="something-else"), "not a nightloc reference map"),
         (lambda h: h["params"].update(widht=48), "unknown key 'widht'"),
         (lambda h: h["params"].update(width="48"), "width must be int"),
@@ -337,6 +338,64 @@ def test_pose_source_and_covariances_round_trip(garden, garden_map, tmp_path):
     with np.load(tmp_path / "teach.map", allow_pickle=False) as archive:
         header = json.loads(archive["header"].tobytes())
         assert header["pose_source"] == "optimised" and "covariances" in header["checksums"]
+
+
+def as_version_2(path):
+    """Rewrites a map file in the layout of format 2 (before the localizer's tables)."""
+    with np.load(path, allow_pickle=False) as archive:
+        arrays = {name: archive[name] for name in archive.files if not name.startswith("filter_")}
+    header = json.loads(arrays["header"].tobytes())
+    header.update(format_version=2)
+    header.pop("localizer")
+    header["checksums"] = {k: v for k, v in header["checksums"].items() if not k.startswith("filter_")}
+    arrays["header"] = np.frombuffer(json.dumps(header).encode(), np.uint8)
+    with open(path, "wb") as stream:
+        np.savez(stream, **arrays)
+
+
+def test_version_2_map_loads_and_saves_as_version_3(saved, garden_map, tmp_path):
+    """A map written before the localizer's tables (format 2) loads unchanged; saving it again
+    writes format 3 with the tables (how firmware users upgrade a map)."""
+    as_version_2(saved)
+    with np.load(saved) as archive:
+        assert not any(name.startswith("filter_") for name in archive.files)
+    loaded = ReferenceMap.load(saved)
+    assert loaded == garden_map
+    upgraded = loaded.save(tmp_path / "upgraded.map")
+    with np.load(upgraded) as archive:
+        header = json.loads(archive["header"].tobytes())
+        assert header["format_version"] == 3 and "filter_closest_ref" in archive.files
+
+
+def test_the_stored_tables_are_the_default_localizers(saved, garden_map):
+    """Format 3 stores what ``nightloc.Localizer(map)`` computes once per map: its filter's settings
+    (key for key), grid, interpolation weights, places and each cell's closest reference."""
+    localizer = nightloc.Localizer(garden_map)
+    flt, mapper = localizer.grid_filter, localizer.mapper
+    with np.load(saved) as archive:
+        header = json.loads(archive["header"].tobytes())["localizer"]
+        assert header["settings"] == flt.settings and header["method"] == "filter"
+        assert header["grid"] == {
+            "x0": mapper.grid.x0,
+            "y0": mapper.grid.y0,
+            "dx": mapper.grid.dx,
+            "dy": mapper.grid.dy,
+            "width": 100,
+            "height": 100,
+        }
+        assert header["shifts"] == list(range(48)) and header["window"] == [0, 0] and header["columns"] == 48
+        assert header["odometry_noise"] == [0.1, 0.02]
+        dense = np.zeros(mapper.weights.shape, np.float32)
+        indptr, indices = archive["filter_weights_indptr"], archive["filter_weights_indices"]
+        for cell in range(dense.shape[0]):
+            span = slice(indptr[cell], indptr[cell + 1])
+            dense[cell, indices[span]] = archive["filter_weights_data"][span]
+        np.testing.assert_array_equal(dense, mapper.weights.toarray().astype(np.float32))
+        np.testing.assert_array_equal(archive["filter_place_of_ref"], mapper.place_of_ref)
+        # the closest reference of each cell: the nearest position to its centre (all distinct here)
+        centres = mapper.grid.centres()
+        nearest = np.argmin(np.hypot(*(centres[:, None, :] - garden_map.positions[None]).transpose(2, 0, 1)), axis=1)
+        np.testing.assert_array_equal(archive["filter_closest_ref"], nearest)
 
 
 def test_version_1_map_loads_as_surveyed(saved):

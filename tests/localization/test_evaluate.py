@@ -137,13 +137,28 @@ def test_cli_writes_errors_summary_and_figures(tmp_path, capsys):
     # the summary is the statistics of the rows (an independent recomputation)
     s_header, s_rows = _read_csv(out / "summary.csv")
     assert tuple(s_header) == SUMMARY_HEADER and len(s_rows) == 3 * 2 * 2
-    for seq_len, model, interp, count, median, mean, p90, method in s_rows:
+    for seq_len, model, interp, count, median, mean, p90, p95, share, longest, method in s_rows:
         assert method == "paper"
         errors = np.array([float(r[10]) for r in rows if (r[2], r[3], r[4]) == (seq_len, model, interp)])
         assert int(count) == errors.size
         assert float(median) == pytest.approx(np.median(errors), abs=2e-4)
         assert float(mean) == pytest.approx(errors.mean(), abs=2e-4)
         assert float(p90) == pytest.approx(np.percentile(errors, 90), abs=2e-4)
+        # the tail: frames from the 10th of each draw (rows of a draw are in frame order)
+        runs = [
+            [float(r[10]) for r in rows if (r[2], r[3], r[4], r[5]) == (seq_len, model, interp, repeat)][9:]
+            for repeat in sorted({r[5] for r in rows if (r[2], r[3], r[4]) == (seq_len, model, interp)})
+        ]
+        later = np.concatenate(runs)
+        assert float(p95) == pytest.approx(np.percentile(later, 95), abs=2e-4)
+        assert float(share) == pytest.approx(np.mean(later > 1.0), abs=1e-4)
+        worst = 0
+        for run in runs:
+            streak = 0
+            for error in run:
+                streak = streak + 1 if error > 1.0 else 0
+                worst = max(worst, streak)
+        assert int(longest) == worst
     # the same numbers as the API
     api = evaluate(ref_map, matches, EvaluationSettings((1, 3, 4), (0, 2), repeats=2))
     np.testing.assert_allclose([float(r[10]) for r in rows], api.columns["error_m"], atol=1e-4)
@@ -284,6 +299,13 @@ def test_filter_rows_hold_every_frame_once_per_draw_and_match_the_localizer():
     paper = ev.columns["error_m"][ev.select(method="paper", noise_model=3)][later]
     mine = ev.columns["error_m"][ev.select(method="filter", noise_model=3)][later]
     assert np.median(mine) < np.median(paper)
+    # the comparison table: median and tail of both methods, over the two draws from the 10th frame
+    [row] = [line for line in ev.compare_table().splitlines() if line.strip().startswith("3 |")]
+    paper_cell, filter_cell = (cell.split() for cell in row.split("|")[1:])
+    for cell, errors in ((paper_cell, paper), (filter_cell, mine)):
+        assert float(cell[0]) == pytest.approx(np.median(errors), abs=0.006)
+        assert float(cell[1]) == pytest.approx(np.percentile(errors, 95), abs=0.006)
+        assert float(cell[2]) == pytest.approx(100 * np.mean(errors > 1.0), abs=0.06)
 
 
 def test_log_odometry_is_the_querys_own_and_equals_exact_wheel_odometry():

@@ -619,3 +619,62 @@ def test_one_frame_weighs_against_a_place_by_at_most_the_score_cap(cap):
         assert ratio >= math.exp(-3.0 * cap) * (1 - 1e-4)
     else:  # the cells nearest the far worse place: under a twentieth of the default cap's share
         assert ratio < math.exp(-3.0 * 1.45) / 20
+
+
+@pytest.mark.parametrize(("places", "lookalikes"), [(120, 64.0), (120, 0.0), (40, 64.0)])
+def test_a_map_of_many_look_alikes_weighs_one_frame_less(places, lookalikes):
+    """Look-alike tempering: on a map of P places with references, P above ``lookalike_places``,
+    one frame weighs against a place by at most exp(-likelihood_gain score_cap ln(lookalike_places)
+    / ln(P)) (the best of many places is more often a look-alike); smaller maps, and
+    ``lookalike_places`` 0, keep ``score_cap``. The core equals the oracle."""
+    rng = np.random.default_rng(47)
+    ref_map = _random_map(rng, n=places, headings=False, area=(12.0, 8.0))
+    loc = Localizer(ref_map, grid_width=48, grid_height=32, settle_frames=0, lookalike_places=lookalikes)
+    oracle = _oracle(loc)
+    cap = 1.45 * (math.log(lookalikes) / math.log(places) if lookalikes and places > lookalikes else 1.0)
+    assert loc._filter.core.score_cap == pytest.approx(cap) and oracle.score_cap == pytest.approx(cap)
+    table = np.full((places, 16), 60.0, dtype=np.float32)
+    table[:, 3] = rng.uniform(20.0, 40.0, places)
+    table[0, 3], table[1, 3] = 5.0, 400.0  # one place far better, one far worse than the rest
+    estimate = loc.update_table(table)
+    oracle.update(table)
+    _check_against_oracle(loc, oracle, estimate)
+    marginal = loc._filter.marginal()
+    assert marginal.min() / marginal.max() >= math.exp(-3.0 * cap) * (1 - 1e-4)
+    if cap < 1.45:  # tighter than the untempered bound, which the worst cells reach
+        assert marginal.min() / marginal.max() > 1.5 * math.exp(-3.0 * 1.45)
+
+
+def test_a_single_distant_look_alike_does_not_move_the_estimate_but_consistent_frames_do():
+    """On a lawn-sized map of look-alike places, a robot tracked by its odometry: one frame whose
+    best match is a place 8 m away (its own place scoring as a median place) leaves the estimate
+    on the track; frames that keep matching that place (the robot was carried there) move it."""
+    rng = np.random.default_rng(5)
+    xs, ys = np.meshgrid(np.arange(0.5, 12.0, 0.5), np.arange(0.5, 6.0, 0.5))
+    positions = np.column_stack([xs.ravel(), ys.ravel()])
+    n = len(positions)  # 253 places
+    images = rng.integers(0, 256, (n, 8, 16), dtype=np.uint8)
+    params = nightloc.PreparationParams(width=16, height=8, wrap=False)
+    ref_map = nightloc.ReferenceMap(images, positions, None, params=params)
+    loc = Localizer(ref_map, odometry_noise=1, grid_width=48, grid_height=24)
+    here = np.argmin(np.hypot(*(positions - (2.0, 3.0)).T))
+    far = np.argmin(np.hypot(*(positions - (10.0, 3.0)).T))
+
+    def frame(best):
+        scores = rng.uniform(30.0, 40.0, n).astype(np.float32)
+        scores[best] = 10.0
+        return scores[:, None]
+
+    estimate = None
+    for _ in range(25):  # standing at (2, 3): the frames agree
+        estimate = loc.update_table(frame(here), MapDisplacement(0.0, 0.0))
+    assert math.hypot(estimate.x - 2.0, estimate.y - 3.0) < 0.5
+    estimate = loc.update_table(frame(far), MapDisplacement(0.0, 0.0))
+    assert math.hypot(estimate.x - 2.0, estimate.y - 3.0) < 0.5  # one frame: still on the track
+    moved = None
+    for k in range(1, 16):
+        estimate = loc.update_table(frame(far), MapDisplacement(0.0, 0.0))
+        if math.hypot(estimate.x - 10.0, estimate.y - 3.0) < 0.5:
+            moved = k
+            break
+    assert moved is not None and moved >= 2  # carried off: found within 15 frames, not at once

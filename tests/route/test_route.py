@@ -150,8 +150,8 @@ def test_route_difference_matrix_matches_oracle(divisor, circular):
     sums = np.stack([ro_min_sums(q, refs, shifts) for q in queries])
     scale = 23.0 if divisor == "references" else 48.0
     np.testing.assert_array_equal(got, oracle.scores_from_sums(sums, scale))
-    # The default window, (8, 1) clipped to these 6 x 8 images: (7, 1); a panorama's is (0, 0).
-    window = (0, 0) if circular else (7, 1)
+    # The default window, (8, 2) clipped to these 6 x 8 images: (7, 2); a panorama's is (0, 0).
+    window = (0, 0) if circular else (7, 2)
     assert RouteParams(circular_shifts=circular).window_for(6, 8) == window
     got = route.route_difference_matrix(queries, refs, RouteParams(divisor=divisor, circular_shifts=circular))
     expected = oracle.window_difference_matrix(queries, refs, shifts, window, scale)[0]

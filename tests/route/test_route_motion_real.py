@@ -61,9 +61,11 @@ def test_odometry_meets_the_targets_at_a_speed_of_055_to_145(shared_data, name):
     f1_target, r100_target = PAIRS[name][2:]
     assert result.best_f1 >= f1_target, result.summary()
     assert result.recall_at_100 >= r100_target, result.summary()
-    # Without odometry, the "today": far behind (GP 0.21 / 0.00, Nordland 0.71 / 0.14).
+    # Without odometry, the "today": far behind (GP 0.21 / 0.00, Nordland 0.71 / 0.14 with
+    # one alignment; GP 0.77 / 0.14 against 0.96 / 0.92 with the default window).
     window = _evaluate(enhanced, weights, index, route.RouteParams(filter_motion="window"))
-    assert window.best_f1 < result.best_f1 - 0.2
+    assert window.best_f1 < result.best_f1 - 0.15
+    assert window.recall_at_100 < result.recall_at_100 - 0.5
 
 
 def test_speed_model_on_nordland_at_a_speed_of_07_to_13(shared_data):

@@ -145,7 +145,7 @@ def test_synthetic_lateral_offset_route():
     preparer = route.RoutePreparer(RouteParams())
     day = preparer(render_drive(scene, street_drive(world, "day", 0.0, 10), "forward"))
     night = preparer(render_drive(scene, street_drive(world, "night", 1.0, 11, pitch=2.0, pitch_jitter=0.7)))
-    assert RouteParams().effective_shift_window == (8, 1)
+    assert RouteParams().effective_shift_window == (8, 2)
     for refs, queries in ((day, night), (night, day)):
         plain = _evaluate(refs, queries, RouteParams(shift_window=(0, 0)))
         windowed = _evaluate(refs, queries, RouteParams())
@@ -154,10 +154,11 @@ def test_synthetic_lateral_offset_route():
         assert windowed.recall_at_100 >= plain.recall_at_100 + 0.2, (plain.summary(), windowed.summary())
 
 
-# Issue 19's targets with the default window on the shared real pairs: (reference, query, frames
-# or None for all, best F1, recall at 100 % precision).
+# The shared real pairs with the default window: (reference, query, frames or None for all, best
+# F1, recall at 100 % precision) at least; issue 19's targets were 0.93 / 0.85 on Gardens Point,
+# and the figures held when the vertical viewpoint entered the sweep (+-1 row: 0.958 / 0.920).
 REAL_TARGETS = {
-    "gardens_point": ("gardens_point/day_right", "gardens_point/night_right", None, 0.93, 0.85),
+    "gardens_point": ("gardens_point/day_right", "gardens_point/night_right", None, 0.95, 0.91),
     "nordland": pytest.param(
         ("nordland/summer", "nordland/winter", None, 0.98, 0.90), marks=pytest.mark.slow, id="nordland"
     ),

@@ -114,6 +114,31 @@ def test_traverses_mirror_table_one():
     assert np.mean(query_gap < 0.2) > 0.15 and np.mean(query_gap > 0.4) > 0.3
 
 
+def test_the_large_garden_mowed_in_columns_runs_along_y_clear_of_the_objects():
+    from nightloc.synth.world import build_world
+
+    rows = {p.name: p for p in plan_traverses("large_garden", 0)}
+    columns = {p.name: p for p in plan_traverses("large_garden", 0, "columns")}
+    world = build_world("large_garden", 0)
+    for plan in columns.values():
+        world.check_camera_positions(plan.positions)  # raises for a position inside an object
+        x, y = plan.positions.T
+        assert np.all((x > 0.2) & (x < 24.9) & (y > 0.2) & (y < 14.8))  # on the lawn
+    day = columns["day_reference"]
+    mowing = day.positions[157:]  # after the perimeter pass (78 m at 0.5 m)
+    # the mowing drives along y: most steps move in y, and the day headings point along +-y
+    steps = np.diff(mowing, axis=0)
+    assert np.mean(np.abs(steps[:, 1]) > np.abs(steps[:, 0])) > 0.85  # the rest: 1 m between columns
+    assert np.median(np.abs(np.sin(day.headings[157:]))) > 0.95
+    assert np.median(np.abs(np.cos(rows["day_reference"].headings[157:]))) > 0.95
+    # and the night drive is another route
+    assert not np.allclose(columns["night_query"].positions[:50], rows["night_query"].positions[:50], atol=1.0)
+    with pytest.raises(ValueError, match="pattern"):
+        plan_traverses("large_garden", 0, "spiral")
+    with pytest.raises(ValueError, match="large garden only"):
+        plan_traverses("garden", 0, "columns")
+
+
 def test_same_seed_gives_byte_identical_images_whatever_the_threads(tmp_path):
     a = make_dataset("garden", tmp_path / "a", seed=5, camera=TINY, threads=1)
     b = make_dataset("garden", tmp_path / "b", seed=5, camera=TINY, threads=2)
@@ -273,7 +298,14 @@ def test_a_tilted_camera_looks_up_by_its_pitch_along_the_heading_and_by_its_roll
 
 @pytest.mark.parametrize(
     "argument",
-    [["--darkness", "4"], ["--seed", "-3"], ["--size", "big"], ["--size", "4x2"], ["--tilt", "-1"]],
+    [
+        ["--darkness", "4"],
+        ["--seed", "-3"],
+        ["--size", "big"],
+        ["--size", "4x2"],
+        ["--tilt", "-1"],
+        ["--pattern", "columns"],
+    ],
 )
 def test_cli_bad_values_are_one_line_errors(tmp_path, capsys, argument):
     assert main(["synth", "--world", "garden", "--out", str(tmp_path / "g"), *argument]) == 2

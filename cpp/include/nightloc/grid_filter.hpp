@@ -45,8 +45,11 @@
 //   m_i = min_k T[i, k], s_min = min_i m_i, spread = median_i m_i - s_min,
 //   lambda = t likelihood_gain / spread (0 when spread is 0: a frame of ties carries no position),
 //   t = min(1, (k + 1) / settle_frames) for the k-th frame since reset() (k from 0), else 1;
-//   an outlier-robust likelihood: scores above s_min + score_cap spread count as that (when
-//   score_cap > 0), so one frame weighs against a place by at most exp(-t likelihood_gain score_cap);
+//   an outlier-robust likelihood: scores above s_min + c spread count as that (when score_cap > 0),
+//   so one frame weighs against a place by at most exp(-t likelihood_gain c), where c = score_cap,
+//   tempered by the map's look-alikes: c = score_cap ln(lookalike_places) / ln(P) for a map of P
+//   places with references when P > lookalike_places (a frame's best of many places is more often a
+//   look-alike: its evidence against the place the odometry carries must weigh less);
 //   pose mode: the score of reference i in bin b is T linearly interpolated at the fractional
 //   shift k = (theta_b - heading_i) * columns / (2 pi) (circular); position mode: m_i;
 //   a forward camera: the score of reference i in bin b is T linearly interpolated at the column
@@ -74,6 +77,7 @@
 #include <cstdint>
 #include <memory>
 #include <new>
+#include <string>
 #include <vector>
 
 #include "nightloc/heatmap.hpp"
@@ -116,7 +120,7 @@ struct GridFilterSettings {
     double distance_std = 0.0;        ///< odometry noise per step, metres
     double heading_std = 0.0;         ///< odometry noise per step, radians
     double position_floor = 0.05;     ///< metres of blur per step added in quadrature (model error)
-    double heading_floor = 0.05;      ///< radians of heading blur per step added in quadrature
+    double heading_floor = 0.06;      ///< radians of heading blur per step added in quadrature
     double uniform_floor = 1.5e-2;    ///< share of the belief spread uniformly per prediction
     double unknown_spread = 2.0;      ///< metres of blur when the motion is unknown
     double credibility = 0.9;         ///< mass of the credible disk
@@ -127,6 +131,8 @@ struct GridFilterSettings {
     std::size_t settle_frames = 12;   ///< frame k after reset() (k from 0) weighs (k + 1) / settle_frames
                                       ///< of the likelihood gain until it reaches it (0 or 1: no tempering)
     double score_cap = 1.45;          ///< scores above s_min + score_cap spread count as that (0: no cap)
+    double lookalike_places = 64;     ///< a map of P places with references, more than this, caps at
+                                      ///< score_cap ln(lookalike_places) / ln(P) (0: never tempered)
 };
 
 /// What the filter knows of the map (python: built from the HeatMapper of the localizer).
@@ -214,6 +220,8 @@ public:
     const std::vector<std::int32_t>& best_shifts() const noexcept { return best_shifts_; }
     /// The likelihood sharpness lambda of the last update (1 / score units).
     double lambda() const noexcept { return lambda_; }
+    /// The score cap in use: score_cap tempered by the map's look-alikes (see the model above).
+    double score_cap() const noexcept { return cap_; }
     /// Frames measured since reset() (the tempering's count).
     std::size_t frames() const noexcept { return frames_; }
     /// The table of the last update_image (n_refs x n_shifts).
@@ -262,6 +270,7 @@ private:
     std::vector<std::size_t> pending_offsets_;
     float pending_a_ = 1, pending_f_ = 0;
     double lambda_ = 0;
+    double cap_ = 0;               // score_cap tempered by the map's look-alikes
     std::size_t frames_ = 0;       // frames measured since reset()
     std::size_t slots_ = 0;        // most weights of a cell (>= 1)
     std::vector<float> ell_data_;  // the weights, slot k of cell c at k * cells + c; a cell
@@ -299,5 +308,12 @@ private:
     };
     mutable std::vector<RingCell> ring_;
 };
+
+/// Sets one setting by the name Python gives it (nightloc.localization.grid_filter.GridFilter.settings:
+/// the FilterParams fields, the odometry noise and the confidence radius), as the Python module
+/// and map files (nightloc/map_file.hpp) pass them. Throws std::invalid_argument for an unknown
+/// name, a value that is not finite, or a count (heading_bins, estimate_window, settle_frames)
+/// that is not a non-negative integer.
+void set_grid_filter_setting(GridFilterSettings& settings, const std::string& name, double value);
 
 }  // namespace nightloc

@@ -15,8 +15,11 @@ into OUT at the same time refuses; files in OUT that nightloc did not write are 
   ``query,image,seq_len,noise_model,interpolation,repeat,x_est,y_est,x_true,y_true,error_m,ref_index,method``
   (``method`` paper or filter; the filter's ``seq_len`` is the number of frames seen so far;
   ``noise_model`` -1 with ``--odometry log``);
-* ``OUT/summary.csv``: ``seq_len,noise_model,interpolation,n,median_m,mean_m,p90_m,method`` (the
-  filter's rows summarize all its frames, seq_len 0);
+* ``OUT/summary.csv``:
+  ``seq_len,noise_model,interpolation,n,median_m,mean_m,p90_m,p95_m,share_over_1m,longest_run_over_1m,method``
+  (the filter's rows summarize all its frames, seq_len 0; n, median, mean and p90 over every frame,
+  the tail -- p95, the share of frames over 1 m, the longest run of such frames in one draw -- over
+  the frames from the 10th on);
 
 ``--method`` picks the paper's sequence matching (default: the paper's experiments), the grid
 Bayes filter, or both; ``--odometry`` simulated map-frame displacements (the paper), simulated
@@ -312,7 +315,10 @@ def run(args: argparse.Namespace) -> int:
             print(evaluation.table(interpolation=interp))
     if "filter" in settings.methods:
         first = min(10, len(matches.results))
-        print(f"the Bayes filter beside the paper's method: median distance error (m) over frames {first} on:")
+        print(
+            f"the Bayes filter beside the paper's method over frames {first} on: median and p95 distance error (m), "
+            f"share of frames over 1 m, longest run of them:"
+        )
         print(evaluation.compare_table(first_frame=first))
     print(f"wrote {args.out}/" + ", ".join(written))
     return 0

@@ -30,7 +30,9 @@ Writes, each file atomically:
   least C in both (a cold start left out of ``evo``'s statistics); ``trajectory.csv`` keeps all;
 * ``OUT/trajectory.png`` (unless ``--no-figures``; ``--figure-format pdf|svg`` for another
   format): the references, the estimated path with its credible radius, and the true path when
-  LOG has poses — then the command also prints the median and 90th-percentile distance errors.
+  LOG has poses, with the error and the confidence per frame — then the command also prints the
+  median and 90th-percentile distance errors and, from the 10th frame on, the tail: the 95th
+  percentile, the share of frames over 1 m and the longest run of such frames.
 
 A map built by a teach run lives in its day drive's odometry frame and a log's ``poses.csv`` in its
 survey frame: the true poses are moved into the map's frame by the best rigid 2D fit of the map
@@ -67,6 +69,7 @@ from ..io.traverse import Traverse, load_traverse
 from ..localization.evaluation import map_alignment
 from ..localization.localizer import LocalizationParams, Localizer
 from ..localization.odometry import traverse_odometry
+from ..localization.tail import FIRST_FRAME, tail_metrics
 from .bag_options import add_bag_options, bag_options
 from .camera_option import add_camera_option
 from .evaluate import load_reference, parse_noise
@@ -276,6 +279,7 @@ def run(args: argparse.Namespace) -> int:
                 positions,
                 truth,
                 credible_radius=np.array([e.credible_radius for e in estimates]),
+                confidence=np.array([e.confidence for e in estimates]),
                 title="nightloc localize: the Bayes filter's trajectory",
                 caption=caption,
                 path=figure,
@@ -298,5 +302,8 @@ def run(args: argparse.Namespace) -> int:
             f"distance error against {log.root.name}'s poses: median {np.median(errors):.2f} m, "
             f"90th percentile {np.percentile(errors, 90):.2f} m"
         )
+        tail = tail_metrics(errors)
+        if tail.n:
+            print(f"from frame {FIRST_FRAME} on ({tail.n} frames): {tail.line()}")
     print(f"wrote {args.out}/" + ", ".join(written))
     return 0

@@ -52,6 +52,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument("--tilt", type=float, default=0.0, help="std of each frame's pitch and roll, degrees")
     parser.add_argument("--height-jitter", type=float, default=0.0, help="std of each frame's camera height, metres")
+    parser.add_argument(
+        "--pattern",
+        choices=("rows", "columns"),
+        default="rows",
+        help="the large garden's mowing pattern: rows along x (default) or columns along y (another night drive)",
+    )
     parser.add_argument("--overwrite", action="store_true", help="replace a dataset that exists at OUT")
     parser.add_argument("--threads", type=int, default=None, help="render threads (default all cores)")
     parser.set_defaults(run=run)
@@ -89,7 +95,11 @@ def run(args: argparse.Namespace) -> int:
     for name, value in (("--tilt", args.tilt), ("--height-jitter", args.height_jitter)):
         if not (math.isfinite(value) and 0.0 <= value <= 20.0):
             raise ValueError(f"{name} must be in [0, 20], got {value}")
+    if args.pattern != "rows" and args.world != "large_garden":
+        raise ValueError(f"--pattern applies to --world large_garden only, got --world {args.world}")
     looks = {"view": args.camera, "tilt_deg": args.tilt, "height_std": args.height_jitter}
+    if args.pattern != "rows":
+        looks["pattern"] = args.pattern
     start = time.perf_counter()
     if args.world == "creek":
         if args.size != "192x96" or args.camera != "panoramic" or args.tilt or args.height_jitter:

@@ -1,5 +1,5 @@
 """The figure of a localized traverse (for ``nightloc localize``): the estimated trajectory on the
-map, beside the distance error per frame when the truth is known.
+map, beside the distance error (and the localizer's confidence) per frame when the truth is known.
 
 :func:`trajectory_figure` returns the matplotlib :class:`~matplotlib.figure.Figure` and, given
 ``path``, writes it (PNG, PDF or SVG by the suffix or ``figure_format``; atomically).
@@ -15,6 +15,7 @@ import matplotlib as mpl
 import numpy as np
 from matplotlib.figure import Figure
 
+from ..localization.tail import FIRST_FRAME, LOST_M, tail_metrics
 from ._common import new_figure, save_figure, styled
 
 __all__ = ["MAX_DRAWN_RADIUS_SHARE", "trajectory_figure"]
@@ -53,6 +54,7 @@ def trajectory_figure(
     estimates: object,
     truth: object | None = None,
     credible_radius: object | None = None,
+    confidence: object | None = None,
     title: str = "Localized trajectory",
     caption: str | None = None,
     path: PathLike | None = None,
@@ -69,6 +71,8 @@ def trajectory_figure(
         credible_radius: optional ``(N,)`` metres, the localizer's uncertainty per frame (the Bayes
             filter's ``Estimate.credible_radius``): a light disk around each estimate, and a
             dashed line beside the error per frame.
+        confidence: optional ``(N,)`` 0..1, the localizer's confidence per frame (the Bayes
+            filter's ``Estimate.confidence``): a green line on the error panel's right axis.
         title, caption: the figure's title, and a line under it (e.g. the data and parameters).
     """
     refs = _points(references, "references")
@@ -79,6 +83,11 @@ def trajectory_figure(
         radius = np.asarray(credible_radius, dtype=np.float64).reshape(-1)
         if radius.shape[0] != est.shape[0]:
             raise ValueError(f"credible_radius must have one value per estimate ({est.shape[0]}), got {radius.shape}")
+    trust = None
+    if confidence is not None:
+        trust = np.asarray(confidence, dtype=np.float64).reshape(-1)
+        if trust.shape[0] != est.shape[0]:
+            raise ValueError(f"confidence must have one value per estimate ({est.shape[0]}), got {trust.shape}")
     width = 11.0 if true is not None else 7.0
     fig, axes = new_figure(width, 5.2, 1, 2, width_ratios=[1.3, 1.0]) if true is not None else new_figure(width, 5.6)
     ax = axes[0] if true is not None else axes
@@ -119,8 +128,29 @@ def trajectory_figure(
                        label="credible radius")  # fmt: skip
         finite = errors[np.isfinite(errors)]
         if finite.size:
+            tail = tail_metrics(errors)
             median = float(np.median(finite))
             panel.axhline(median, color="black", linestyle="--", linewidth=1, label=f"median {median:.2f} m")
+            if tail.n:
+                panel.axhline(
+                    LOST_M,
+                    color="tab:red",
+                    linestyle=":",
+                    linewidth=1,
+                    label=f"{LOST_M:g} m: {100 * tail.share_over_1m:.1f} % over, longest run "
+                    f"{tail.longest_run_over_1m} (p95 {tail.p95_m:.2f} m, from frame {FIRST_FRAME})",
+                )
+        handles, labels = panel.get_legend_handles_labels()
+        if trust is not None:
+            right = panel.twinx()
+            right.plot(np.arange(len(trust)), trust, color="tab:green", linewidth=1.0, label="confidence")
+            right.set_ylim(0, 1.05)
+            right.set_ylabel("confidence", color="tab:green")
+            right.tick_params(axis="y", colors="tab:green")
+            more = right.get_legend_handles_labels()
+            # one legend for both axes, on the right axis (drawn above the errors)
+            right.legend(handles + more[0], labels + more[1], loc="upper right", fontsize="small")
+        elif handles:
             panel.legend(loc="upper right")
         panel.set_xlabel("frame")
         panel.set_ylabel("distance error (m)")

@@ -4,14 +4,19 @@ A robot builds the map once (:meth:`ReferenceMap.build`), saves it (:meth:`Refer
 and loads it at start-up (:meth:`ReferenceMap.load`), then matches camera frames against it
 (:meth:`ReferenceMap.match`), prepared with the very parameters the map was built with.
 
-File format (version 2): a numpy ``.npz`` archive (zip, no pickled objects) with the arrays
+File format (version 3): a numpy ``.npz`` archive (zip, no pickled objects) with the arrays
 ``images`` ``(N, Ry, Rx)`` uint8, ``positions`` ``(N, 2)`` float64, optionally ``headings``
 ``(N,)`` float64 and ``covariances`` ``(N, 3, 3)`` float64 (each pose's marginal covariance of
 ``x, y, heading``: m², m·rad, rad²), and ``header``: UTF-8 JSON bytes holding ``format``
 ("nightloc-reference-map"), ``format_version``, the preparation parameters, the frame names,
 the source traverse, ``pose_source`` (where the poses came from: :data:`POSE_SOURCES`), the
-nightloc version and a SHA-256 checksum of every array. Version 1 files (before the teach run:
-no ``pose_source``, no covariances) still load, as surveyed maps. Saving writes a temporary file
+nightloc version and a SHA-256 checksum of every array. Version 3 adds the default localizer's
+map-only tables (``localizer`` in the header and the ``filter_*`` arrays,
+:mod:`nightloc.localization.filter_tables`): what firmware without Python needs to run
+``nightloc.Localizer(ref_map)``; this module writes them and checks their checksums on loading
+(Python computes its own). Version 2 files
+(no tables) load unchanged; firmware refuses them until they are saved again. Version 1 files
+(before the teach run: no ``pose_source``, no covariances) still load, as surveyed maps. Saving writes a temporary file
 in the same folder and renames it over the target, so an interrupted save never leaves a
 partial map.
 """
@@ -50,7 +55,7 @@ __all__ = ["MAP_FORMAT", "MAP_FORMAT_VERSION", "MAX_MAP_EXPANSION", "POSE_SOURCE
 #: The ``format`` string in every map file's header.
 MAP_FORMAT = "nightloc-reference-map"
 #: The newest map format version this nightloc reads and the one it writes.
-MAP_FORMAT_VERSION = 2
+MAP_FORMAT_VERSION = 3
 #: Where a map's poses came from: a survey (``poses.csv``), the robot's wheel odometry alone, or
 #: the teach run's pose graph (odometry corrected by the images; :mod:`nightloc.mapping`).
 POSE_SOURCES = ("surveyed", "dead-reckoned", "optimised")
@@ -82,9 +87,6 @@ def _frozen(array: np.ndarray) -> np.ndarray:
     handed to callers) cannot be changed under them."""
     contiguous = np.ascontiguousarray(array)
     return np.frombuffer(contiguous.tobytes(), dtype=contiguous.dtype).reshape(contiguous.shape)
-
-
-_MEMBERS = ("header", "images", "positions", "headings", "covariances")
 
 
 def _read_member(file: Path, archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> np.ndarray:
@@ -126,8 +128,11 @@ def _read_archive(file: Path, stream: Any, size: int) -> tuple[Any, dict[str, np
             raise MapFormatError(f"{file} is an .npz archive but not a nightloc reference map (no header)")
         raw_header = _read_member(file, archive, infos["header.npy"])
         header = json.loads(raw_header.tobytes().decode("utf-8"))
+        # every array (the default localizer's tables too: a damaged byte anywhere is refused)
         arrays = {
-            name: _read_member(file, archive, infos[f"{name}.npy"]) for name in _MEMBERS[1:] if f"{name}.npy" in infos
+            name[: -len(".npy")]: _read_member(file, archive, info)
+            for name, info in infos.items()
+            if name.endswith(".npy") and name != "header.npy"
         }
     return header, arrays
 
@@ -416,12 +421,13 @@ class ReferenceMap:
 
     # --- files
 
-    def _header(self) -> dict[str, Any]:
+    def _header(self, localizer: dict[str, Any], tables: dict[str, np.ndarray]) -> dict[str, Any]:
         checksums = {"images": _sha256(self._images), "positions": _sha256(self._positions)}
         if self._headings is not None:
             checksums["headings"] = _sha256(self._headings)
         if self._covariances is not None:
             checksums["covariances"] = _sha256(self._covariances)
+        checksums.update((name, _sha256(array)) for name, array in tables.items())
         return {
             "format": MAP_FORMAT,
             "format_version": MAP_FORMAT_VERSION,
@@ -435,6 +441,7 @@ class ReferenceMap:
             "source": self._source,
             "pose_source": self._pose_source,
             "checksums": checksums,
+            "localizer": localizer,
         }
 
     def save(self, path: PathLike, *, overwrite: bool = False) -> Path:
@@ -444,18 +451,26 @@ class ReferenceMap:
         existing file is replaced only with ``overwrite=True`` (else FileExistsError); the parent
         folder must exist; a symbolic link at ``path`` is followed (the file it points to is
         replaced). Saves of the same path from several threads or processes take turns.
+
+        The file holds the default localizer's map-only tables too (format 3,
+        :mod:`nightloc.localization.filter_tables`), for firmware without Python.
         """
         target = Path(path)
         if target.is_dir():
             raise IsADirectoryError(f"{target} is a folder; give a file name such as {target / 'reference.map'}")
         # ASCII JSON: names and paths that are not valid UTF-8 (undecodable bytes of a file name,
         # held as lone surrogates) round-trip as \udcXX escapes instead of failing to encode.
-        header = np.frombuffer(json.dumps(self._header()).encode("ascii"), dtype=np.uint8)
+        # the localization stage (above this one) computes the tables: imported here, when it is loaded
+        from ..localization.filter_tables import filter_tables
+
+        localizer, tables = filter_tables(self)
+        header = np.frombuffer(json.dumps(self._header(localizer, tables)).encode("ascii"), dtype=np.uint8)
         arrays = {"header": header, "images": self._images, "positions": self._positions}
         if self._headings is not None:
             arrays["headings"] = self._headings
         if self._covariances is not None:
             arrays["covariances"] = self._covariances
+        arrays.update(tables)
         with atomic_file(target, "wb", overwrite=overwrite) as stream:
             np.savez(stream, **arrays)  # type: ignore[arg-type]  # numpy's stub: allow_pickle
         return target
@@ -558,7 +573,7 @@ class ReferenceMap:
             raise MapFormatError(
                 f"{file}: the header's pose_source {pose_source!r} is not one of {', '.join(POSE_SOURCES)}"
             )
-        for name in ("images", "positions", *optional):
+        for name in dict.fromkeys(("images", "positions", *optional, *checksums)):
             if name not in arrays:
                 raise MapFormatError(f"{file}: the map lacks its '{name}' array (corrupt file)")
             if name not in checksums:

@@ -60,6 +60,7 @@ from .odometry import (
     simulate_robot_odometry,
     traverse_odometry,
 )
+from .tail import FIRST_FRAME, TailMetrics, tail_metrics
 
 __all__ = [
     "ERRORS_HEADER",
@@ -100,7 +101,10 @@ ERRORS_HEADER: tuple[str, ...] = (
     "method",
 )
 #: Columns of ``summary.csv``: one row per (seq_len, noise_model, interpolation, method); the
-#: filter's rows summarize all its frames and have seq_len 0.
+#: filter's rows summarize all its frames and have seq_len 0. ``n``, ``median_m``, ``mean_m`` and
+#: ``p90_m`` count every frame; the tail (``p95_m``, ``share_over_1m``, ``longest_run_over_1m``:
+#: :func:`~nightloc.localization.tail.tail_metrics`) the frames from the 10th on, the longest run
+#: the worst of the configuration's runs (queries x draws).
 SUMMARY_HEADER: tuple[str, ...] = (
     "seq_len",
     "noise_model",
@@ -109,6 +113,9 @@ SUMMARY_HEADER: tuple[str, ...] = (
     "median_m",
     "mean_m",
     "p90_m",
+    "p95_m",
+    "share_over_1m",
+    "longest_run_over_1m",
     "method",
 )
 #: Methods :func:`evaluate` runs.
@@ -416,6 +423,9 @@ class SummaryRow:
     mean_m: float
     p90_m: float
     method: str = "paper"
+    p95_m: float = math.nan
+    share_over_1m: float = math.nan
+    longest_run_over_1m: int = 0
 
 
 class Evaluation:
@@ -437,6 +447,7 @@ class Evaluation:
         self.columns = {c: np.asarray(columns[c]) for c in ERRORS_HEADER}
         self.settings = settings
         self.matches = tuple(matches)
+        self._frames: np.ndarray | None = None  # frame_index(), computed once for the tail
 
     def __len__(self) -> int:
         return len(self.columns["error_m"])
@@ -489,8 +500,10 @@ class Evaluation:
         settings' order, then per (noise_model, interpolation) of the filter's (seq_len 0)."""
         rows = []
 
-        def add(e: np.ndarray, n: int, model: int, interp: bool, method: str) -> None:
+        def add(mask: np.ndarray, n: int, model: int, interp: bool, method: str) -> None:
+            e = self.columns["error_m"][mask]
             if e.size:
+                tail = self.tail(mask)
                 rows.append(
                     SummaryRow(
                         n,
@@ -501,24 +514,41 @@ class Evaluation:
                         float(e.mean()),
                         float(np.percentile(e, 90)),
                         method,
+                        tail.p95_m,
+                        tail.share_over_1m,
+                        tail.longest_run_over_1m,
                     )
                 )
 
         for n in self.settings.seq_lengths:
             for model in self.settings.models:
                 for interp in self.settings.interpolation:
-                    e = self.errors(seq_len=n, noise_model=model, interpolation=interp, query=query, method="paper")
-                    add(e, n, model, interp, "paper")
+                    mask = self.select(seq_len=n, noise_model=model, interpolation=interp, query=query, method="paper")
+                    add(mask, n, model, interp, "paper")
         for model in self.settings.models:
             for interp in self.settings.interpolation:
-                add(
-                    self.errors(noise_model=model, interpolation=interp, query=query, method="filter"),
-                    0,
-                    model,
-                    interp,
-                    "filter",
-                )
+                mask = self.select(noise_model=model, interpolation=interp, query=query, method="filter")
+                add(mask, 0, model, interp, "filter")
         return rows
+
+    def runs(self, mask: np.ndarray) -> list[np.ndarray]:
+        """The selected rows' errors split into runs (one per query and draw), each in frame order."""
+        if self._frames is None:
+            self._frames = self.frame_index()
+        frames = self._frames
+        out = []
+        queries, repeats = self.columns["query"][mask], self.columns["repeat"][mask]
+        errors, order = self.columns["error_m"][mask], frames[mask]
+        for name in dict.fromkeys(queries.tolist()):
+            for repeat in dict.fromkeys(repeats[queries == name].tolist()):
+                rows = (queries == name) & (repeats == repeat)
+                out.append(errors[rows][np.argsort(order[rows], kind="stable")])
+        return out
+
+    def tail(self, mask: np.ndarray, first_frame: int = FIRST_FRAME) -> TailMetrics:
+        """:func:`~nightloc.localization.tail.tail_metrics` of the selected rows (a boolean mask
+        from :meth:`select`), over each run's frames from the ``first_frame``-th on."""
+        return tail_metrics(self.runs(mask), first_frame=first_frame)
 
     def write_errors_csv(self, path: PathLike) -> Path:
         """Writes ``errors.csv`` (header :data:`ERRORS_HEADER`) atomically."""
@@ -561,6 +591,9 @@ class Evaluation:
                         _metres(row.median_m),
                         _metres(row.mean_m),
                         _metres(row.p90_m),
+                        _metres(row.p95_m),
+                        f"{row.share_over_1m:.4f}",
+                        row.longest_run_over_1m,
                         row.method,
                     ]
                 )
@@ -600,21 +633,28 @@ class Evaluation:
         return index
 
     def compare_table(self, query: str | None = None, first_frame: int = 10, seq_len: int = 10) -> str:
-        """Median error (m) per noise model: the paper's method at ``seq_len`` beside the filter,
-        both over the query frames from the ``first_frame``-th on (the filter's first frames
-        start from nothing, the paper's from short sequences)."""
-        lines = [f"noise | paper n={seq_len} | filter", "-" * 30]
-        later = self.frame_index() >= first_frame - 1
+        """Per noise model, the paper's method at ``seq_len`` beside the filter, both over the query
+        frames from the ``first_frame``-th on (the filter's first frames start from nothing, the
+        paper's from short sequences): the median and the tail (p95 in metres, the share of frames
+        over 1 m, the longest run of them; :func:`~nightloc.localization.tail.tail_metrics`)."""
+        columns = (f"paper n={seq_len}: median, p95, > 1 m, run", "filter: median, p95, > 1 m, run")
+        header = "noise | " + " | ".join(columns)
+        lines = [header, "-" * len(header)]
+
+        def cell(mask: np.ndarray) -> str:
+            tail = self.tail(mask, first_frame)
+            if tail.n == 0:
+                return f"{'-':>27}"
+            return (
+                f"{tail.median_m:6.2f} {tail.p95_m:6.2f} {100 * tail.share_over_1m:5.1f} % "
+                f"{tail.longest_run_over_1m:4d}"
+            )
+
         for model in self.settings.models:
-            paper = self.columns["error_m"][
-                self.select(seq_len=seq_len, noise_model=model, interpolation=True, query=query, method="paper") & later
-            ]
-            filt = self.columns["error_m"][
-                self.select(noise_model=model, interpolation=True, query=query, method="filter") & later
-            ]
-            cells = [f"{np.median(e):9.2f}" if e.size else "        -" for e in (paper, filt)]
+            paper = self.select(seq_len=seq_len, noise_model=model, interpolation=True, query=query, method="paper")
+            filt = self.select(noise_model=model, interpolation=True, query=query, method="filter")
             label = "log" if model == LOG_NOISE_MODEL else str(model)
-            lines.append(f"{label:>5} | {cells[0]} | {cells[1]}")
+            lines.append(f"{label:>5} | {cell(paper):>{len(columns[0])}} | {cell(filt):>{len(columns[1])}}")
         return "\n".join(lines)
 
 

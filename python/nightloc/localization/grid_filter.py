@@ -88,12 +88,17 @@ class FilterParams:
             of the frame's minimum scores above its lowest counts as that much, so one frame
             weighs against a place by at most ``exp(-likelihood_gain * score_cap)`` (a frame that
             matches a look-alike cannot erase the place the odometry points to); 0: no cap.
+        lookalike_places: a map of P places (distinct reference positions) with P above this
+            caps at ``score_cap * ln(lookalike_places) / ln(P)`` instead: the more places, the
+            more often a frame's best match is a look-alike, and the less one frame may weigh
+            against the place the odometry carries (a lawn of 900 places: 0.89 x score_cap); 0:
+            every map the same.
     """
 
     heading_bins: int = 0
     likelihood_gain: float = 3.0
     position_floor: float = 0.05
-    heading_floor: float = 0.05
+    heading_floor: float = 0.06
     uniform_floor: float = 1.5e-2
     unknown_spread: float = 2.0
     credibility: float = 0.9
@@ -104,9 +109,12 @@ class FilterParams:
     forward_window: int = 0
     row_window: int = 0
     score_cap: float = 1.45
+    lookalike_places: float = 64.0
 
     def validate(self) -> None:
         """Checks ranges (called on construction); raises ValueError naming the field."""
+        if not (math.isfinite(self.lookalike_places) and (self.lookalike_places == 0 or self.lookalike_places >= 2)):
+            raise ValueError(f"lookalike_places must be 0 (never tempered) or >= 2, got {self.lookalike_places}")
         if not 0 <= self.heading_bins <= 4096:
             raise ValueError(f"heading_bins must be 0 (one per panorama column) .. 4096, got {self.heading_bins}")
         for name in ("likelihood_gain", "position_floor", "heading_floor", "unknown_spread", "score_cap"):
@@ -237,6 +245,7 @@ class GridFilter:
             "negligible": params.negligible,
             "settle_frames": params.settle_frames,
             "score_cap": params.score_cap,
+            "lookalike_places": params.lookalike_places,
         }
         self.settings = settings  # what the core was given (tests build their oracle from it)
         self.core = _core.GridFilter(

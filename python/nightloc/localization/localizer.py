@@ -321,6 +321,12 @@ class Localizer:
         return self.mapper.grid
 
     @property
+    def grid_filter(self) -> GridFilter:
+        """The compiled :class:`~nightloc.localization.grid_filter.GridFilter` this localizer drives
+        (``method="filter"``): its ``settings`` are what the core was given."""
+        return self._require_filter("grid_filter")
+
+    @property
     def heading(self) -> float:
         """The current heading estimate (radians, NaN if unknown)."""
         return self._heading

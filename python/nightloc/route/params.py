@@ -17,7 +17,7 @@ Two presets:
 * ``"nightloc"`` (the default) prepares images the paper's way without histogram equalization
   (grey, area downsample to 48x24, patch normalization with radius 4, no wrap for a forward
   camera: :func:`default_preparation`, chosen by the sweep in ``docs/route_mode.md``), scores
-  mean absolute differences per pixel at the best alignment within +-8 columns and +-1 row of a
+  mean absolute differences per pixel at the best alignment within +-8 columns and +-2 rows of a
   forward camera (``shift_window``, viewpoint tolerance), enhances as OpenSeqSLAM and runs the
   filter.
 """
@@ -35,10 +35,11 @@ from ..preparation.params import PreparationParams
 __all__ = ["DEFAULT_SHIFT_WINDOWS", "PRESETS", "RouteParams", "default_preparation", "resolve_params", "route_preset"]
 
 #: The translation window of ``shift_window = None``, per camera: ``(columns, rows)``. On a
-#: forward camera +-8 columns and +-1 row keep a night walk a metre beside the day walk and a
-#: camera tilted by a couple of degrees; on panoramas rows cost more than they bring (the sweep in
-#: docs/route_mode.md).
-DEFAULT_SHIFT_WINDOWS = {"forward": (8, 1), "panoramic": (0, 0)}
+#: forward camera +-8 columns and +-2 rows keep a night walk a metre beside the day walk and a
+#: camera held lower or higher, tilted by a few degrees or wobbling in the hand; on a panorama
+#: (a robot's rigid mount) rows cost on lateral offsets what they bring on vertical changes (the
+#: sweep in docs/route_mode.md).
+DEFAULT_SHIFT_WINDOWS = {"forward": (8, 2), "panoramic": (0, 0)}
 
 
 @params_section("route")
@@ -63,9 +64,10 @@ class RouteParams:
             for a forward camera, ``columns`` columns (:mod:`nightloc.matching.sad`); with
             ``circular_shifts`` every column shift is searched already and ``columns`` is unused.
             Offsets beyond the image are clipped (:meth:`window_for`). ``(0, 0)`` compares one
-            alignment (OpenSeqSLAM). None (the default): :data:`DEFAULT_SHIFT_WINDOWS`, ``(8, 1)``
+            alignment (OpenSeqSLAM). None (the default): :data:`DEFAULT_SHIFT_WINDOWS`, ``(8, 2)``
             for a forward camera and ``(0, 0)`` for a panorama, chosen by the sweep in
-            ``docs/route_mode.md`` (lateral offsets, tilt, real day/night and seasonal pairs).
+            ``docs/route_mode.md`` (lateral offsets, camera height and pitch, real day/night and
+            seasonal pairs).
         enhance_radius: contrast enhancement over references i-radius .. i+radius [R/2].
         ds: sequence length in frames [matching.ds]. Centred mode rounds it up to even and uses
             ds+1 frames; causal mode uses ds frames ending at the query.

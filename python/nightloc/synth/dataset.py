@@ -245,6 +245,7 @@ def make_dataset(
     view: str = "panoramic",
     tilt_deg: float = 0.0,
     height_std: float = 0.0,
+    pattern: str = "rows",
     parents: bool = False,
 ) -> dict[str, Path]:
     """Renders every traverse of ``world`` into ``out_dir`` and returns their folders by name.
@@ -269,6 +270,8 @@ def make_dataset(
             camera's map needs references facing several ways; docs/localization.md).
         tilt_deg: std of each frame's camera pitch and roll, degrees (a robot on a lawn), 0 none.
         height_std: std of each frame's camera height about the world's, metres, 0 none.
+        pattern: the large garden's mowing pattern: ``"rows"`` (along x, the default) or
+            ``"columns"`` (along y, with another night drive: a second lawn layout to test on).
         parents: create the missing parent folders of ``out_dir`` (removed again on failure).
 
     The dataset is written as one set (:func:`nightloc.io.atomic.output_set`): the traverses and
@@ -284,7 +287,7 @@ def make_dataset(
         if not (np.isfinite(value) and 0 <= value <= 20):
             raise ValueError(f"{name} must be in [0, 20], got {value}")
     scene = SynthScene(world, seed, darkness, camera)
-    plans = plan_traverses(world, scene.seed)
+    plans = plan_traverses(world, scene.seed, pattern)
     if view == "forward":
         plans = [_four_ways(plan) if plan.name == "day_reference" else plan for plan in plans]
     with output_set(
@@ -310,6 +313,8 @@ def make_dataset(
             )
         description = scene.describe(plans)
         description.update(view=view, tilt_deg=float(tilt_deg), height_std_m=float(height_std))
+        if pattern != "rows":
+            description.update(pattern=pattern)
         _write_json_atomic(out / "dataset.json", description)
     return {plan.name: Path(out_dir) / plan.name for plan in plans}
 

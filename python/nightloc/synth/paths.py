@@ -128,6 +128,13 @@ LARGE_ROWS_X = np.array([0.5, 24.5])
 LARGE_ROWS_Y = np.arange(0.5, 15.0, 1.0)
 LARGE_STEP = 0.5
 LARGE_NIGHT_WAYPOINTS = np.array([[1.0, 7.2], [24.0, 7.8], [13.0, 14.0], [13.0, 1.0]])
+#: The large garden mowed in columns (``pattern="columns"``): columns 1 m apart along y (on the
+#: quarter-metre marks, clear of the feeder and the trees), and a night drive along the diagonals.
+LARGE_COLUMNS_X = np.arange(0.75, 24.8, 1.0)
+LARGE_COLUMNS_Y = np.array([0.5, 14.5])
+LARGE_COLUMNS_NIGHT_WAYPOINTS = np.array([[2.0, 2.0], [22.5, 12.8], [22.5, 2.5], [3.0, 11.5], [8.0, 7.5]])
+#: Mowing patterns of the large garden's day drive.
+LARGE_PATTERNS = ("rows", "columns")
 LARGE_HEADING_WOBBLE = np.radians(4.0)
 ROOM_GRID_X = np.linspace(0.0, 6.0, 13)
 ROOM_GRID_Y = np.linspace(0.0, 3.0, 4)
@@ -148,23 +155,33 @@ def _spaced_polyline(waypoints: np.ndarray, step: float) -> tuple[np.ndarray, np
     return np.concatenate(points), direction
 
 
-def _large_garden_plans(rng: np.random.Generator) -> list[TraversePlan]:
-    mowing = _lawnmower_polyline(LARGE_ROWS_X, LARGE_ROWS_Y)
+def _large_garden_plans(rng: np.random.Generator, pattern: str = "rows") -> list[TraversePlan]:
+    if pattern not in LARGE_PATTERNS:
+        raise ValueError(f"pattern must be one of {', '.join(LARGE_PATTERNS)}, got {pattern!r}")
+    if pattern == "columns":  # the boustrophedon along y: rows of the transposed lawn, swapped back
+        mowing = _lawnmower_polyline(LARGE_COLUMNS_Y, LARGE_COLUMNS_X)[:, ::-1]
+        night_waypoints = LARGE_COLUMNS_NIGHT_WAYPOINTS
+    else:
+        mowing = _lawnmower_polyline(LARGE_ROWS_X, LARGE_ROWS_Y)
+        night_waypoints = LARGE_NIGHT_WAYPOINTS
     day_path = np.concatenate([LARGE_PERIMETER, mowing[1:]])  # the mowing starts where the pass ended
     points, directions = _spaced_polyline(day_path, LARGE_STEP)
     headings = wrap_angle(directions + rng.normal(0.0, LARGE_HEADING_WOBBLE, len(directions)))
     day = TraversePlan("day_reference", "day", _sideways(rng, points, directions, 0.03), headings)
-    points, directions = _spaced_polyline(LARGE_NIGHT_WAYPOINTS, LARGE_STEP)
+    points, directions = _spaced_polyline(night_waypoints, LARGE_STEP)
     night = TraversePlan("night_query", "night", _sideways(rng, points, directions, 0.08), _wobble(rng, directions))
     return [day, night]
 
 
-def plan_traverses(world: str, seed: int = 0) -> list[TraversePlan]:
+def plan_traverses(world: str, seed: int = 0, pattern: str = "rows") -> list[TraversePlan]:
     """The traverses of ``world`` (``"garden"``, ``"living_room"`` or ``"large_garden"``), in
-    Table I order."""
+    Table I order; ``pattern`` is the large garden's mowing pattern (:data:`LARGE_PATTERNS`:
+    ``"rows"`` along x, the default, or ``"columns"`` along y with another night drive)."""
     rng = np.random.default_rng([int(seed), 4, {"garden": 0, "living_room": 1}.get(world, 2)])
     if world == "large_garden":
-        return _large_garden_plans(rng)
+        return _large_garden_plans(rng, pattern)
+    if pattern != "rows":
+        raise ValueError(f"pattern applies to the large garden only (got {pattern!r} for {world!r})")
     if world == "garden":
         stops, directions = _lawnmower_rows(GARDEN_ROW_X, GARDEN_ROW_Y)
         day = TraversePlan("day_reference", "day", stops, _wobble(rng, directions))

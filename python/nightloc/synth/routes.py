@@ -12,13 +12,17 @@ the layout, sizes, colours and textures.
 :func:`street_drive` plans one walk along it (the day one on the right of the path, the night one
 ``offset`` metres to its left, with jitter along the route, sideways and in heading), and
 :func:`render_drive` renders a walk for a panoramic camera or a forward one (a 90 x 45 degree
-crop around the heading), optionally tilted. Frame ``i`` of every drive is at the same distance along the street
-(plus the jitter), so the ground truth of a pair is frame correspondence::
+crop around the heading). A walk's vertical viewpoint is its own too: the camera's height above the
+ground (a person's hand, a robot's mast), a pitch offset (the camera tilted up or down) and a pitch
+wobble, per frame (a bumpy robot) or slow along the route (a camera carried by hand). Frame ``i``
+of every drive is at the same distance along the street (plus the jitter), so the ground truth of
+a pair is frame correspondence::
 
     from nightloc.synth.routes import RouteScene, build_street, street_drive, render_drive
     scene = RouteScene(build_street(seed=0), seed=0)
     day = render_drive(scene, street_drive(scene.world, "day", offset=0.0, seed=0), "forward")
     night = render_drive(scene, street_drive(scene.world, "night", offset=2.0, seed=1), "forward")
+    lower = street_drive(scene.world, "night", offset=1.0, seed=2, height=1.1, pitch=-3.0, pitch_wobble=1.0)
 """
 
 from __future__ import annotations
@@ -30,8 +34,8 @@ import numpy as np
 from .dataset import DAY_GAMMA, DEFAULT_DARKNESS, NIGHT_GAMMA
 from .geometry import Cylinder, Solid, box, panel
 from .lighting import Lighting, make_lighting
-from .render import Camera, render_panorama, render_radiance
-from .sensor import Exposure, metered_exposure
+from .render import Camera, render_radiance
+from .sensor import Exposure, capture, metered_exposure
 from .textures import Texture, fbm, jitter_colour, make_texture, value_noise
 from .world import GroundMap, LightSource, World
 
@@ -370,9 +374,9 @@ class RouteScene:
 @dataclass(frozen=True)
 class Drive:
     """One walk along the street: ``positions (N, 2)`` metres, ``headings (N,)`` radians,
-    ``pitches (N,)`` degrees (the camera tilted up), the ``condition`` (``"day"``/``"night"``),
-    the lateral ``offset`` from the day lane (metres, +y to the left) and the ``seed`` of its
-    jitter and sensor noise."""
+    ``pitches (N,)`` degrees (the camera tilted up), ``heights (N,)`` metres (the camera above the
+    ground), the ``condition`` (``"day"``/``"night"``), the lateral ``offset`` from the day lane
+    (metres, +y to the left) and the ``seed`` of its jitter and sensor noise."""
 
     positions: np.ndarray
     headings: np.ndarray
@@ -380,6 +384,29 @@ class Drive:
     condition: str
     offset: float
     seed: int
+    heights: np.ndarray | None = None
+
+
+#: Correlation length of :func:`street_drive`'s slow pitch wobble by default, metres along the route
+#: (a few strides of a person carrying the camera).
+WOBBLE_LENGTH = 4.0
+#: Camera heights :func:`street_drive` accepts, metres (the street's lowest fence tops are 0.6 m).
+HEIGHT_RANGE = (0.2, 3.0)
+
+
+def _slow_wobble(rng: np.random.Generator, distances: np.ndarray, std: float, length: float) -> np.ndarray:
+    """A smooth random process along the route, ``(N,)``: white noise on a 0.1 m grid smoothed by a
+    Gaussian of ``length`` metres (standard deviation), scaled to a standard deviation of ``std``
+    over the grid and read at ``distances`` (metres)."""
+    step = 0.1
+    sigma = length / step
+    pad = int(np.ceil(4 * sigma))
+    grid = np.arange(distances.min() - pad * step, distances.max() + (pad + 1) * step, step)
+    white = rng.normal(0.0, 1.0, grid.size + 2 * pad)
+    taps = np.exp(-0.5 * (np.arange(-pad, pad + 1) / sigma) ** 2)
+    smooth = np.convolve(white, taps, mode="valid")[: grid.size]
+    smooth = (smooth - smooth.mean()) / smooth.std()
+    return std * np.interp(distances, grid, smooth)
 
 
 def street_drive(
@@ -391,18 +418,43 @@ def street_drive(
     jitter: float = 0.25,
     pitch: float = 0.0,
     pitch_jitter: float = 0.0,
+    height: float | None = None,
+    pitch_wobble: float = 0.0,
+    wobble_length: float = WOBBLE_LENGTH,
 ) -> Drive:
     """A walk along the street ``offset`` metres left of the day lane, a frame every ``spacing``
     metres from x = 10 to length - 10: frame ``i`` at ``10 + i * spacing`` plus a uniform jitter of
     +-``jitter * spacing``, with a sideways wobble of 0.05 m and a heading wobble of 1.5 degrees
-    (standard deviations), the camera tilted up by ``pitch`` degrees plus a wobble of
-    ``pitch_jitter`` degrees (standard deviation; a camera carried by hand or on a bumpy robot),
-    all drawn from ``seed``."""
+    (standard deviations), all drawn from ``seed``. The vertical viewpoint:
+
+    * ``height``: the camera's height above the ground, metres (None: the street's
+      ``camera_height``, 1.4 m; 0.2 .. 3.0);
+    * ``pitch``: the camera tilted up by this many degrees (negative: down) on every frame;
+    * ``pitch_jitter``: plus an independent wobble per frame, degrees (standard deviation; a
+      bumpy robot);
+    * ``pitch_wobble``: plus a slow wobble, degrees (standard deviation), smooth along the route
+      over ``wobble_length`` metres (a Gaussian's standard deviation; a camera carried by hand).
+    """
     if condition not in ("day", "night"):
         raise ValueError(f"condition must be 'day' or 'night', got {condition!r}")
     y = DAY_LANE + float(offset)
     if not -PATH_HALF_WIDTH < y < PATH_HALF_WIDTH + 0.3:
         raise ValueError(f"an offset of {offset} m leaves the path (the day lane is at y = {DAY_LANE})")
+    camera_height = world.camera_height if height is None else float(height)
+    if not HEIGHT_RANGE[0] <= camera_height <= HEIGHT_RANGE[1]:
+        raise ValueError(
+            f"height must be {HEIGHT_RANGE[0]} .. {HEIGHT_RANGE[1]} metres above the ground, got {height!r}"
+        )
+    for name, value in (("pitch_jitter", pitch_jitter), ("pitch_wobble", pitch_wobble)):
+        if not 0.0 <= float(value) <= 10.0:
+            raise ValueError(f"{name} must be 0 .. 10 degrees (a standard deviation), got {value!r}")
+    if abs(float(pitch)) + 3 * (float(pitch_jitter) + float(pitch_wobble)) > 20.0:
+        raise ValueError(
+            f"pitch {pitch} deg with a wobble of {pitch_jitter} + {pitch_wobble} deg tilts the camera beyond 20 "
+            f"degrees: the renderer's tilt moves the image rows, a fair model of small tilts only"
+        )
+    if not float(wobble_length) > 0.0:
+        raise ValueError(f"wobble_length must be > 0 metres, got {wobble_length!r}")
     rng = np.random.default_rng([int(seed), 23])
     length = world.mapped_area[2]
     n = int((length - 20.0) / spacing) + 1
@@ -410,21 +462,27 @@ def street_drive(
     ys = y + rng.normal(0.0, 0.05, n)
     headings = rng.normal(0.0, np.radians(1.5), n)
     pitches = float(pitch) + (rng.normal(0.0, float(pitch_jitter), n) if pitch_jitter > 0 else np.zeros(n))
+    if pitch_wobble > 0:
+        pitches = pitches + _slow_wobble(
+            np.random.default_rng([int(seed), 31]), xs, float(pitch_wobble), float(wobble_length)
+        )
     positions = np.stack([xs, ys], axis=1)
     world.check_camera_positions(positions)
-    return Drive(positions, headings, pitches, condition, float(offset), int(seed))
+    heights = np.full(n, camera_height)
+    return Drive(positions, headings, pitches, condition, float(offset), int(seed), heights)
 
 
 def render_drive(scene: RouteScene, drive: Drive, camera: str = "forward", lens: Camera | None = None) -> np.ndarray:
     """The frames of a walk, ``(N, H, W, 3)`` uint8 BGR: panoramas (192 x 96, column 0 along the
     heading) or forward images (96 x 96: 90 degrees wide, from 25 degrees up to 20 down, the
-    central quarter of FORWARD_CAMERA's columns). ``lens`` renders at another size (a forward
-    image is the central quarter of its columns)."""
+    central quarter of FORWARD_CAMERA's columns), from the drive's camera heights and pitches.
+    ``lens`` renders at another size (a forward image is the central quarter of its columns)."""
     if camera not in CAMERAS:
         raise ValueError(f"camera must be one of {CAMERAS}, got {camera!r}")
     base = lens if lens is not None else FORWARD_CAMERA if camera == "forward" else PANORAMIC_CAMERA
+    heights = drive.heights if drive.heights is not None else np.full(len(drive.positions), scene.world.camera_height)
     frames = []
-    for i, ((x, y), heading, pitch) in enumerate(zip(drive.positions, drive.headings, drive.pitches)):
+    for i, ((x, y), heading, pitch, height) in enumerate(zip(drive.positions, drive.headings, drive.pitches, heights)):
         rng = np.random.default_rng([drive.seed, 29, 0 if drive.condition == "day" else 1, i])
         # A small tilt moves the image up or down: the elevation range, shifted.
         lens = replace(
@@ -432,16 +490,10 @@ def render_drive(scene: RouteScene, drive: Drive, camera: str = "forward", lens:
             elevation_top_deg=base.elevation_top_deg + float(pitch),
             elevation_bottom_deg=base.elevation_bottom_deg + float(pitch),
         )
-        image = render_panorama(
-            scene.world,
-            scene.lighting[drive.condition],
-            scene.exposure[drive.condition],
-            float(x),
-            float(y),
-            float(heading),
-            lens,
-            rng,
+        radiance = render_radiance(
+            scene.world, scene.lighting[drive.condition], float(x), float(y), float(heading), lens, float(height)
         )
+        image = capture(radiance, scene.exposure[drive.condition], rng)
         if camera == "forward":  # columns -45 .. +45 degrees around the heading, left to right
             columns = base.width // 4
             image = np.roll(image, columns // 2, axis=1)[:, :columns]
