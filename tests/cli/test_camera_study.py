@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import csv
 
-import numpy as np
 import pytest
 
 from nightloc.cli import main
@@ -15,7 +14,6 @@ from nightloc.studies.camera import (
     Sensor,
     StudyRow,
     StudySettings,
-    _longest_run,
     patch_radius,
     sensors_from_text,
     sizes_from_text,
@@ -63,15 +61,6 @@ def test_smallest_resolution_within_ten_percent():
     assert (study.smallest_within(0.0, Sensor(), "paper", tolerance=0.05).width) == 48
     with pytest.raises(KeyError):
         study.smallest_within(1.0, Sensor(), "paper")
-
-
-@pytest.mark.parametrize("seed", range(5))
-def test_longest_run_matches_a_numpy_oracle(seed):
-    over = np.random.default_rng(seed).random(200) < 0.6
-    # oracle: lengths of the runs of True from the positions where the array changes
-    padded = np.concatenate([[False], over, [False]]).astype(int)
-    starts, ends = np.flatnonzero(np.diff(padded) == 1), np.flatnonzero(np.diff(padded) == -1)
-    assert _longest_run(over) == (ends - starts).max(initial=0)
 
 
 def test_patch_window_spans_the_same_angle():

@@ -21,7 +21,8 @@ The patch-normalization window spans the same angle at every resolution: radius
 Per cell (resolution, darkness, sensor, method) the errors of every query frame from the
 ``seq_len``-th on (earlier frames have no full sequence and the filter has seen little), over
 every draw, give the median, p95, share of frames over 1 m, the longest run of consecutive
-frames over 1 m, and the spread of the per-draw medians (their standard deviation).
+frames over 1 m (:func:`~nightloc.localization.tail.tail_metrics`), and the spread of the per-draw
+medians (their standard deviation).
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ from ..io.reference_map import ReferenceMap
 from ..localization.evaluation import EvaluationSettings, QueryMatches, evaluate
 from ..localization.localizer import LocalizationParams
 from ..localization.odometry import noise_model
+from ..localization.tail import tail_metrics
 from ..matching.sad import MatchResult, difference_matrix, rotational_sad, shifts_to_headings
 from ..preparation.params import PreparationParams
 from ..preparation.preparer import Preparer
@@ -334,15 +336,6 @@ def _matches(
     )
 
 
-def _longest_run(over: np.ndarray) -> int:
-    """Longest run of True in a 1-D boolean array."""
-    best = run = 0
-    for value in over:
-        run = run + 1 if value else 0
-        best = max(best, run)
-    return best
-
-
 def run_camera_study(
     world: str,
     settings: StudySettings | None = None,
@@ -426,9 +419,8 @@ def run_camera_study(
                     "filter" in settings.methods,
                 )
                 evaluation = evaluate(maps[size], matches, odometry_settings, params)
-                later = evaluation.frame_index() >= settings.seq_len - 1
                 for method in settings.methods:
-                    e = evaluation.columns["error_m"][evaluation.select(method=method) & later].astype(np.float64)
+                    (e,) = evaluation.runs(evaluation.select(method=method))
                     per_draw = errors.setdefault((size, d_index, s_index, method), [[] for _ in range(settings.draws)])
                     per_draw[draw].append(e)
     study = CameraStudy(world, settings)
@@ -437,8 +429,8 @@ def run_camera_study(
             for s_index, sensor in enumerate(settings.sensors):
                 for method in settings.methods:
                     per_draw = errors[(size, d_index, s_index, method)]
-                    pooled = np.concatenate([e for draw in per_draw for e in draw])
-                    medians = [float(np.median(np.concatenate(draw))) for draw in per_draw]
+                    tail = tail_metrics([e for draw in per_draw for e in draw], first_frame=settings.seq_len)
+                    medians = [tail_metrics(draw, first_frame=settings.seq_len).median_m for draw in per_draw]
                     study.rows.append(
                         StudyRow(
                             width=size[0],
@@ -446,12 +438,12 @@ def run_camera_study(
                             darkness=darkness,
                             sensor=sensor,
                             method=method,
-                            median_m=float(np.median(pooled)),
-                            p95_m=float(np.percentile(pooled, 95)),
-                            share_over_1m=float(np.mean(pooled > 1.0)),
-                            longest_over_1m=max(_longest_run(e > 1.0) for draw in per_draw for e in draw),
+                            median_m=tail.median_m,
+                            p95_m=tail.p95_m,
+                            share_over_1m=tail.share_over_1m,
+                            longest_over_1m=tail.longest_run_over_1m,
                             median_spread_m=float(np.std(medians)),
-                            frames=int(pooled.size),
+                            frames=tail.n,
                             draws=settings.draws,
                         )
                     )
