@@ -11,6 +11,8 @@ Sections (all by default; each README table has its command above it):
   three draws): the table, the sentence under it and the numbers of the README's introduction;
 * ``route``: route mode on the real Gardens Point and Nordland pairs (needs the shared data:
   ``../shared/data`` or ``$NIGHTLOC_SHARED_DATA``; skipped with a note without it).
+* ``camera``: the camera study's sentence, from ``nightloc camera-study --world garden`` with its
+  defaults (minutes).
 
 Prints each block of README text; ``--check README.md`` instead compares them with the README
 (blanks and line breaks aside) and exits with status 1 naming each block it lacks. Speeds are
@@ -38,7 +40,7 @@ from nightloc.localization.evaluation import EvaluationSettings, evaluate, match
 from nightloc.localization.tail import tail_metrics
 from nightloc.synth import default_dataset
 
-SECTIONS = ("localization", "filter", "route")
+SECTIONS = ("localization", "filter", "route", "camera")
 EN_DASH = "\u2013"
 REPO = Path(__file__).resolve().parents[1]
 
@@ -178,6 +180,31 @@ def route_blocks(data: Path) -> list[str]:
     return ["\n".join(lines)]
 
 
+def camera_blocks() -> list[str]:
+    """The README's sentence on the camera study (the paper's method, the default study)."""
+    from nightloc.studies.camera import Sensor, run_camera_study
+
+    study = run_camera_study("garden")
+    small, large = Sensor(4000.0, 2.5), Sensor(64000.0, 2.0)
+    at_48 = study.row(48, 24, 0.0, small, "paper").median_m
+    best = min(r.median_m for r in study.rows if (r.darkness, r.sensor, r.method) == (0.0, small, "paper"))
+    lost = min(
+        d
+        for d in study.settings.darkness
+        if min(r.median_m for r in study.rows if (r.darkness, r.sensor, r.method) == (d, small, "paper")) > 1.0
+    )
+    dark = study.row(48, 24, 2.0, large, "paper").median_m
+    within = int(np.ceil(100 * (at_48 / best - 1)))
+    times = "\u00d7"
+    sentence = (
+        f"in enough light 48{times}24 (1 152 pixels) is within {within} % of the best resolution ({_m(at_48)} "
+        f"against {_m(best)} m), as the paper claims; in the dark the pixel decides: 2 µm pixels are lost from "
+        f"darkness {lost:g} ({10 ** (2 * (lost - 1)):g}{times} fewer photons than darkness 1), 8 µm ones localize "
+        f"to {_m(dark)} m at darkness 2."
+    )
+    return [sentence]
+
+
 def blocks(sections, cache: str | None) -> dict[str, list[str] | None]:
     """Each section's README blocks (None: the route data is missing)."""
     folders = default_dataset(cache_dir=cache) if set(sections) & {"localization", "filter"} else None
@@ -187,6 +214,8 @@ def blocks(sections, cache: str | None) -> dict[str, list[str] | None]:
             out[section] = localization_blocks(folders)
         elif section == "filter":
             out[section] = filter_blocks(folders)
+        elif section == "camera":
+            out[section] = camera_blocks()
         else:
             data = shared_data()
             out[section] = route_blocks(data) if (data / "nordland").is_dir() else None

@@ -239,6 +239,7 @@ OUT_FOLDER_COMMANDS = {
     "route": lambda r, q, out: ["route", str(r), str(q), "--out", str(out), "--ds", "4", "--no-figures"],
     "synth": lambda r, q, out: ["synth", "--world", "living_room", "--size", "16x8", "--out", str(out)],
     "demo": None,  # its parents are created the same way (output_set(..., parents=True)); a run takes minutes
+    "camera-study": lambda r, q, out: ["camera-study", "--quick", "--method", "paper", "--out", str(out)],
 }
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from .._validate import MAX_CAMERA_RAYS, MAX_CAMERA_SIDE
 from ..io.atomic import output_set
+from ..synth.creek import CREEK_DARKNESS, make_creek_dataset
 from ..synth.dataset import DEFAULT_DARKNESS, DEFAULT_SEED, make_dataset
 from ..synth.render import Camera
 from ..synth.world import ALL_WORLDS, WORLD_NAMES
@@ -26,19 +27,20 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument(
         "--world",
-        choices=(*ALL_WORLDS, "all"),
+        choices=(*ALL_WORLDS, "creek", "all"),
         default="garden",
         help="which world (default garden; all = the default dataset's, garden and living_room; large_garden is "
-        "the 25x15 m lawn of the teach run, about 1000 frames)",
+        "the 25x15 m lawn of the teach run, about 1000 frames; creek is the paper's 500 m unlit bushland path for "
+        "route mode: a forward camera, 272 day and 315 night frames, darkness 1 unless --darkness is given)",
     )
     parser.add_argument("--out", required=True, type=Path, help="output folder (created with its parents if missing)")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"random seed (default {DEFAULT_SEED})")
     parser.add_argument(
         "--darkness",
         type=float,
-        default=DEFAULT_DARKNESS,
+        default=None,
         help=f"night darkness in [0, 3]: 0 = night lights exposed like day, 1 = 100x fewer photons "
-        f"(default {DEFAULT_DARKNESS})",
+        f"(default {DEFAULT_DARKNESS}; creek {CREEK_DARKNESS})",
     )
     parser.add_argument("--size", default="192x96", help="panorama WIDTHxHEIGHT in pixels (default 192x96)")
     parser.add_argument(
@@ -81,6 +83,8 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.darkness is None:
+        args.darkness = CREEK_DARKNESS if args.world == "creek" else DEFAULT_DARKNESS
     if args.seed < 0:
         raise ValueError("--seed must be >= 0")
     if not (math.isfinite(args.darkness) and 0.0 <= args.darkness <= 3.0):
@@ -97,7 +101,16 @@ def run(args: argparse.Namespace) -> int:
     if args.pattern != "rows":
         looks["pattern"] = args.pattern
     start = time.perf_counter()
-    if args.world == "all":  # one set holding every world: all appear together, or none changes
+    if args.world == "creek":
+        if args.size != "192x96" or args.camera != "panoramic" or args.tilt or args.height_jitter:
+            raise ValueError(
+                "--world creek has its own forward camera: --size, --camera, --tilt and --height-jitter do "
+                "not apply to it"
+            )
+        written = {
+            "creek": make_creek_dataset(args.out, args.seed, args.darkness, overwrite=args.overwrite, parents=True)
+        }
+    elif args.world == "all":  # one set holding every world: all appear together, or none changes
         with output_set(args.out, command="synth", overwrite=args.overwrite, parents=True) as out:
             written = {
                 world: make_dataset(

@@ -21,7 +21,8 @@ Modules: :mod:`~nightloc.synth.geometry` (prisms, ray intersection), :mod:`~nigh
 (procedural textures), :mod:`~nightloc.synth.world` (the two worlds), :mod:`~nightloc.synth.lighting`
 (day/night light, sky, cast shadows), :mod:`~nightloc.synth.sensor` (exposure, noise, tone curve),
 :mod:`~nightloc.synth.render` (ray casting, panorama convention), :mod:`~nightloc.synth.paths`
-(Table I traverses), :mod:`~nightloc.synth.dataset` (writing traverses, the cached default).
+(Table I traverses), :mod:`~nightloc.synth.dataset` (writing traverses, the cached default),
+:mod:`~nightloc.synth.creek` (the paper's moonless 500 m creek path, for route mode).
 """
 
 from __future__ import annotations

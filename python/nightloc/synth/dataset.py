@@ -34,7 +34,7 @@ from ..progress import progress
 from .lighting import Lighting, make_lighting
 from .paths import CAMERA_RATE_HZ, DRIVE_SPEED_M_S, FIRST_FRAME_S, TRAVERSE_NAMES, TraversePlan, plan_traverses
 from .render import Camera, render_panorama, render_radiance
-from .sensor import Exposure, capture, metered_exposure
+from .sensor import FULL_WELL, READ_NOISE, Exposure, capture, metered_exposure
 from .world import ALL_WORLDS, WORLD_NAMES, World, build_world
 
 __all__ = [
@@ -79,10 +79,18 @@ class SynthScene:
         self.camera = camera or Camera()
         self.world: World = build_world(world, self.seed)
         self.lighting: dict[str, Lighting] = {c: make_lighting(self.world, c, self.seed) for c in ("day", "night")}
+        self.metered: dict[str, float] = {c: self._meter(c) for c in ("day", "night")}
         self.exposure: dict[str, Exposure] = {
-            "day": metered_exposure(self._meter("day"), 0.0, DAY_GAMMA),
-            "night": metered_exposure(self._meter("night"), self.darkness, NIGHT_GAMMA),
+            "day": metered_exposure(self.metered["day"], 0.0, DAY_GAMMA),
+            "night": metered_exposure(self.metered["night"], self.darkness, NIGHT_GAMMA),
         }
+
+    def night_exposure(self, darkness: float, full_well: float = FULL_WELL, read_noise: float = READ_NOISE) -> Exposure:
+        """The night camera's exposure at ``darkness`` with a pixel of ``full_well`` electrons and
+        ``read_noise`` electrons rms (:func:`~nightloc.synth.sensor.metered_exposure`)."""
+        return metered_exposure(
+            self.metered["night"], darkness, NIGHT_GAMMA, full_well=full_well, read_noise=read_noise
+        )
 
     def _meter(self, condition: str) -> float:
         """Highlight-clipped mean radiance seen from the middle of the mapped area (heading 0)."""

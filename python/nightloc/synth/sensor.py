@@ -54,20 +54,34 @@ class Exposure:
             raise ValueError(f"exposure read_noise must be >= 0, got {self.read_noise!r}")
 
 
-def metered_exposure(metered_radiance: float, darkness: float = 0.0, gamma: float = 2.2) -> Exposure:
+def metered_exposure(
+    metered_radiance: float,
+    darkness: float = 0.0,
+    gamma: float = 2.2,
+    *,
+    full_well: float = FULL_WELL,
+    read_noise: float = READ_NOISE,
+) -> Exposure:
     """The exposure for a scene whose metered (highlight-clipped mean) radiance is given.
 
     Args:
         metered_radiance: scene radiance that should land at 18 % of the full well at darkness 0.
         darkness: night darkness ``d >= 0``: ``10**(-2d)`` times the electrons, gain ``10**d``.
         gamma: tone-curve exponent.
+        full_well: the pixel's full well, electrons. A pixel of ``a`` times the area holds ``a``
+            times the electrons and, with the same lens and exposure time, collects ``a`` times the
+            photons: ``electrons_per_unit`` scales with ``full_well``, so every sensor meters the
+            same scene to 18 % of its own well.
+        read_noise: rms read noise of the pixel, electrons.
     """
     if not (np.isfinite(metered_radiance) and metered_radiance > 0):
         raise ValueError(f"metered radiance must be positive, got {metered_radiance!r}")
     if not (np.isfinite(darkness) and 0.0 <= darkness <= 3.0):
         raise ValueError(f"darkness must be a number in [0, 3], got {darkness!r}")
-    electrons = METER_TARGET * FULL_WELL / metered_radiance * 10.0 ** (-2.0 * darkness)
-    return Exposure(electrons_per_unit=electrons, gain=10.0**darkness, gamma=gamma)
+    electrons = METER_TARGET * full_well / metered_radiance * 10.0 ** (-2.0 * darkness)
+    return Exposure(
+        electrons_per_unit=electrons, gain=10.0**darkness, gamma=gamma, full_well=full_well, read_noise=read_noise
+    )
 
 
 def capture(radiance: np.ndarray, exposure: Exposure, rng: np.random.Generator | None = None) -> np.ndarray:
