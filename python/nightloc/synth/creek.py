@@ -32,8 +32,8 @@ from ..io.atomic import output_set, write_text
 from ..io.traverse import save_traverse
 from ..progress import progress
 from .geometry import Cylinder, Solid, box
-from .routes import CAMERA_HEIGHT, Drive, RouteScene, render_drive
-from .textures import Texture, fbm, jitter_colour, make_texture, value_noise
+from .routes import CAMERA_HEIGHT, Drive, RouteScene, path_length, render_drive
+from .textures import TextureLibrary, fbm, jitter_colour, value_noise
 from .world import GroundMap, World
 
 __all__ = [
@@ -90,17 +90,10 @@ def _creek_ground(rng: np.random.Generator, length: float) -> GroundMap:
 
 def build_creek(seed: int = 0, length: float = CREEK_LENGTH_M) -> World:
     """The creek world (see the module docstring): ``length`` metres of path along +x."""
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be an int >= 0, got {seed!r}")
-    if not 40.0 <= float(length) <= 2000.0:
-        raise ValueError(f"length must be 40 .. 2000 metres, got {length!r}")
-    length = float(length)
+    length = path_length(seed, length)
     rng = np.random.default_rng([int(seed), 31])
-    tex: dict[str, Texture] = {}
-
-    def material(name: str, kind: str, width: float, height: float, ppm: float = 60.0, **params) -> str:
-        tex[name] = make_texture(kind, rng, width, height, ppm, **params)
-        return name
+    material = TextureLibrary(rng, ppm=60.0)
+    tex = material.textures
 
     canopies = [
         material(

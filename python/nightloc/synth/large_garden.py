@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .geometry import Cylinder, Solid, box, panel
-from .textures import Texture, fbm, jitter_colour, make_texture, value_noise
+from .textures import TextureLibrary, fbm, jitter_colour, value_noise
 from .world import GroundMap, LightSource, World
 
 __all__ = ["LARGE_GARDEN_AREA", "large_garden"]
@@ -49,11 +49,8 @@ def large_garden(seed: int) -> World:
     """The large garden world with textures drawn from ``seed`` (the layout is fixed)."""
     rng = np.random.default_rng([seed, 3])
     layout = np.random.default_rng(2020)  # the layout is the same for every seed
-    tex: dict[str, Texture] = {}
-
-    def material(name: str, kind: str, width: float, height: float, ppm: float = 60.0, **params) -> str:
-        tex[name] = make_texture(kind, rng, width, height, ppm, **params)
-        return name
+    material = TextureLibrary(rng, ppm=60.0)
+    tex = material.textures
 
     fences = [
         material(f"fence_{i}", "planks", 4.0, 1.8, colour=jitter_colour(rng, c), plank=p)

@@ -36,7 +36,7 @@ from .geometry import Cylinder, Solid, box, panel
 from .lighting import Lighting, make_lighting
 from .render import Camera, render_radiance
 from .sensor import Exposure, capture, metered_exposure
-from .textures import Texture, fbm, jitter_colour, make_texture, value_noise
+from .textures import TextureLibrary, fbm, jitter_colour, value_noise
 from .world import GroundMap, LightSource, World
 
 __all__ = [
@@ -93,19 +93,22 @@ def _street_ground(rng: np.random.Generator, length: float) -> GroundMap:
     return GroundMap(np.ascontiguousarray(albedo, dtype=np.float32), x0, y0, ppm)
 
 
-def build_street(seed: int = 0, length: float = 250.0) -> World:
-    """The street world (see the module docstring): ``length`` metres of path along +x."""
+def path_length(seed: int, length: float) -> float:
+    """Checks a path world's ``seed`` (an int >= 0) and ``length`` (40 .. 2000 metres); returns the
+    length as a float. ValueError names the argument."""
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be an int >= 0, got {seed!r}")
     if not 40.0 <= float(length) <= 2000.0:
         raise ValueError(f"length must be 40 .. 2000 metres, got {length!r}")
-    length = float(length)
-    rng = np.random.default_rng([int(seed), 19])
-    tex: dict[str, Texture] = {}
+    return float(length)
 
-    def material(name: str, kind: str, width: float, height: float, ppm: float = 60.0, **params) -> str:
-        tex[name] = make_texture(kind, rng, width, height, ppm, **params)
-        return name
+
+def build_street(seed: int = 0, length: float = 250.0) -> World:
+    """The street world (see the module docstring): ``length`` metres of path along +x."""
+    length = path_length(seed, length)
+    rng = np.random.default_rng([int(seed), 19])
+    material = TextureLibrary(rng, ppm=60.0)
+    tex = material.textures
 
     walls = [
         material("brick_a", "brick", 4.0, 3.0),

@@ -354,6 +354,25 @@ def make_texture(
     return Texture(_to_uint8(albedo), float(ppm), None if emissive is None else _to_uint8(emissive))
 
 
+class TextureLibrary:
+    """A world's textures by material name, each drawn from one generator in the order they are made.
+
+    Calling it, ``library(name, kind, width, height, ppm=None, **params)``, makes the texture
+    ``kind`` of ``width`` x ``height`` metres at ``ppm`` pixels per metre (default: the library's)
+    with :func:`make_texture`, stores it under ``name`` in :attr:`textures` and returns ``name`` (the
+    material of a solid).
+    """
+
+    def __init__(self, rng: np.random.Generator, ppm: float):
+        self.rng = rng
+        self.ppm = ppm
+        self.textures: dict[str, Texture] = {}
+
+    def __call__(self, name: str, kind: str, width: float, height: float, ppm: float | None = None, **params) -> str:
+        self.textures[name] = make_texture(kind, self.rng, width, height, self.ppm if ppm is None else ppm, **params)
+        return name
+
+
 def jitter_colour(
     rng: np.random.Generator, colour: Sequence[float], amount: float = 0.15
 ) -> tuple[float, float, float]:

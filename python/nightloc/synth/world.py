@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 
 from .geometry import Cylinder, PackedGeometry, Prism, Solid, box, check_free, panel
-from .textures import Texture, fbm, jitter_colour, make_texture, value_noise
+from .textures import Texture, TextureLibrary, fbm, jitter_colour, value_noise
 
 __all__ = ["ALL_WORLDS", "WORLD_NAMES", "GroundMap", "LightSource", "World", "build_world"]
 
@@ -153,11 +153,8 @@ def _garden_ground(rng: np.random.Generator) -> GroundMap:
 
 def _garden(seed: int) -> World:
     rng = np.random.default_rng([seed, 1])
-    tex: dict[str, Texture] = {}
-
-    def material(name: str, kind: str, width: float, height: float, ppm: float = 100.0, **params) -> str:
-        tex[name] = make_texture(kind, rng, width, height, ppm, **params)
-        return name
+    material = TextureLibrary(rng, ppm=100.0)
+    tex = material.textures
 
     fence_a = material("fence_a", "planks", 4.0, 1.8, colour=jitter_colour(rng, (0.33, 0.20, 0.11)))
     fence_b = material("fence_b", "planks", 4.0, 1.8, colour=jitter_colour(rng, (0.42, 0.30, 0.18)), plank=0.15)
@@ -309,11 +306,8 @@ def _room_floor(rng: np.random.Generator) -> GroundMap:
 
 def _living_room(seed: int) -> World:
     rng = np.random.default_rng([seed, 2])
-    tex: dict[str, Texture] = {}
-
-    def material(name: str, kind: str, width: float, height: float, ppm: float = 100.0, **params) -> str:
-        tex[name] = make_texture(kind, rng, width, height, ppm, **params)
-        return name
+    material = TextureLibrary(rng, ppm=100.0)
+    tex = material.textures
 
     wall_cream = material("wall_cream", "paint", 4.0, 2.5, colour=(0.70, 0.64, 0.52), skirting=0.1)
     wall_blue = material("wall_blue", "paint", 4.0, 2.5, colour=(0.30, 0.40, 0.52), skirting=0.1)
