@@ -669,15 +669,14 @@ void GridFilter::update(const float* table) {
     if (pose_ && !forward() && bins_ == map_.columns) {  // bin b is shift c0 + b: one fraction per reference
         const auto W = static_cast<double>(map_.columns);
         for (std::size_t i = 0; i < n; ++i) {
-            ref_c0_[i] = static_cast<std::int32_t>(shift_of_bin0(i, W));
-            ref_fraction_[i] = shift_of_bin0(i, W) - static_cast<double>(ref_c0_[i]);
+            const double c = shift_of_bin0(i, W);
+            ref_c0_[i] = static_cast<std::int32_t>(c);
+            ref_fraction_[i] = c - static_cast<double>(ref_c0_[i]);
         }
         for (std::int32_t p : empty_places_) place_row(static_cast<std::size_t>(p), inf);
-        twice_.resize(4 * map_.columns);
         row_y_.resize(map_.columns);
         k.lerp_log_lik(table, n, map_.columns, row_of_ref_.data(), first_of_place_.data(), ref_c0_.data(),
-                       ref_fraction_.data(), gain, s_min, lowest, log_lik_.data(), group_rows, twice_.data(),
-                       row_y_.data());
+                       ref_fraction_.data(), gain, s_min, lowest, log_lik_.data(), group_rows, row_y_.data());
         bin_high_.assign(B, inf);  // here the bins' lowest y
         k.group_min(log_lik_.data(), places_, B, group_rows, bin_high_.data());
         set_fill(bin_high_.data());
@@ -1090,7 +1089,7 @@ std::size_t GridFilter::memory_bytes() const noexcept {
     add(slot_of_), add(free_slots_), add(slices_), add(last_use_), add(dest_of_source_), add(marginal_);
     add(row_buf_), add(zeros_), add(padded_), add(wide_a_), add(wide_b_), add(taps_x_), add(taps_y_), add(sums_);
     add(sums_table_), add(table_), add(mins_), add(sorted_), add(bin_high_), add(place_scores_), add(log_lik_);
-    add(row_of_ref_), add(ref_c0_), add(ref_fraction_), add(twice_), add(row_y_), add(first_of_place_);
+    add(row_of_ref_), add(ref_c0_), add(ref_fraction_), add(row_y_), add(first_of_place_);
     add(empty_places_), add(bin_max_), add(best_shifts_), add(xs_), add(dx2_), add(hist_), add(ring_);
     add(map_.place_of_ref), add(map_.ref_headings), add(map_.shifts);
     return bytes;

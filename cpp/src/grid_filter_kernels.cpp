@@ -735,28 +735,33 @@ NL_INLINE void lerp_rows_body(const float* __restrict table, std::size_t n, std:
     }
 }
 
+// out[b] = float(max(gain (double(v) - s_min), lowest)) with v = float(a0 x0[b] + a x1[b]) in
+// double, for b < count: every element the same operations.
+NL_INLINE void lerp_log_lik_run(const float* x0, const float* x1, std::size_t count, double a0, double a, double gain,
+                                double s_min, double lowest, float* __restrict out) {
+    for (std::size_t b = 0; b < count; ++b) {
+        const auto v = static_cast<float>(a0 * static_cast<double>(x0[b]) + a * static_cast<double>(x1[b]));
+        const double t = gain * (static_cast<double>(v) - s_min);
+        out[b] = static_cast<float>(t > lowest ? t : lowest);
+    }
+}
+
 NL_INLINE void lerp_log_lik_body(const float* __restrict table, std::size_t n, std::size_t W,
                                  const std::int32_t* __restrict rows, const std::uint8_t* __restrict first,
                                  const std::int32_t* __restrict c0s, const double* __restrict fractions, double gain,
                                  double s_min, double lowest, float* __restrict y, std::size_t group_rows,
-                                 float* __restrict twice, float* __restrict row_y) {
-    // each row twice (k + 1 needs no wrap), one reference ahead in two alternating buffers: the
-    // unaligned loads from it would otherwise wait for the stores just made
-    auto copy_twice = [&](std::size_t i) {
-        float* to = twice + (i % 2) * 2 * W;
-        const float* row = table + i * W;
-        for (std::size_t k = 0; k < W; ++k) to[k] = to[W + k] = row[k];
-    };
-    if (n > 0) copy_twice(0);
+                                 float* __restrict row_y) {
     for (std::size_t i = 0; i < n; ++i) {
-        if (i + 1 < n) copy_twice(i + 1);
-        const float* x = twice + (i % 2) * 2 * W + c0s[i];
+        // bin b reads columns k = c0 + b and k + 1 (mod W), straight from the row: the bins before
+        // the wrap, the one across it, the ones after
+        const float* row = table + i * W;
         const double a = fractions[i], a0 = 1.0 - a;
-        for (std::size_t b = 0; b < W; ++b) {
-            const auto v = static_cast<float>(a0 * static_cast<double>(x[b]) + a * static_cast<double>(x[b + 1]));
-            const double t = gain * (static_cast<double>(v) - s_min);
-            row_y[b] = static_cast<float>(t > lowest ? t : lowest);
-        }
+        const auto c0 = static_cast<std::size_t>(c0s[i]);
+        if (i + 1 < n) __builtin_prefetch(row + W + W - 1);
+        const std::size_t before = W - 1 - c0;
+        lerp_log_lik_run(row + c0, row + c0 + 1, before, a0, a, gain, s_min, lowest, row_y);
+        lerp_log_lik_run(row + W - 1, row, 1, a0, a, gain, s_min, lowest, row_y + before);
+        lerp_log_lik_run(row, row + 1, c0, a0, a, gain, s_min, lowest, row_y + before + 1);
         const auto r = static_cast<std::size_t>(rows[i]);
         std::size_t b0 = 0;
         using F4 = Vec<kGroupBins>::F;
@@ -898,8 +903,8 @@ NL_INLINE void sum_body(const float* values, std::size_t n, double* lanes) {
     attributes void lerp_log_lik_##suffix(const float* table, std::size_t n, std::size_t W, const std::int32_t* rows, \
                                           const std::uint8_t* first, const std::int32_t* c0, const double* fraction,  \
                                           double gain, double s_min, double lowest, float* y, std::size_t group_rows, \
-                                          float* twice, float* row_y) {                                               \
-        lerp_log_lik_body(table, n, W, rows, first, c0, fraction, gain, s_min, lowest, y, group_rows, twice, row_y);  \
+                                          float* row_y) {                                                             \
+        lerp_log_lik_body(table, n, W, rows, first, c0, fraction, gain, s_min, lowest, y, group_rows, row_y);         \
     }                                                                                                                 \
     attributes void group_min_##suffix(const float* y, std::size_t rows, std::size_t B, std::size_t group_rows,       \
                                        float* low) {                                                                  \

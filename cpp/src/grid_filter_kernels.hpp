@@ -129,10 +129,10 @@ struct FilterKernels {
     /// W scores v[b] as lerp_rows computes them, y[b] = float(max(gain (double(v[b]) - s_min),
     /// lowest)), written to row rows[i] of the grouped layout of log_lik (see log_lik) where the
     /// reference is the first of its place (first[i] != 0), else the larger of the two kept (the
-    /// place's lowest score: y falls with the score). `twice`: 4 W floats of scratch, `row_y` W.
+    /// place's lowest score: y falls with the score). `row_y`: W floats of scratch.
     void (*lerp_log_lik)(const float* table, std::size_t n, std::size_t W, const std::int32_t* rows,
                          const std::uint8_t* first, const std::int32_t* c0, const double* fraction, double gain,
-                         double s_min, double lowest, float* y, std::size_t group_rows, float* twice, float* row_y);
+                         double s_min, double lowest, float* y, std::size_t group_rows, float* row_y);
     /// low[b] = min(low[b], min over rows r < rows of the grouped log_lik y (see log_lik) in bin b).
     void (*group_min)(const float* y, std::size_t rows, std::size_t B, std::size_t group_rows, float* low);
     /// high[b] = max(high[b], max over the rows of values[r * B + b]) (rows x B values).

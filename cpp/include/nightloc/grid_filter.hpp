@@ -296,7 +296,7 @@ private:
     std::vector<std::int32_t> row_of_ref_;      // each reference's row of the per-place arrays (see the constructor)
     std::vector<std::int32_t> ref_c0_;          // per reference: the whole column shift of bin 0 in this frame
     std::vector<double> ref_fraction_;          // and its fraction (bin b: columns c0 + b, c0 + b + 1)
-    std::vector<float> twice_, row_y_;          // a table row twice, a row of log2-likelihoods (scratch)
+    std::vector<float> row_y_;                  // a row of log2-likelihoods (scratch)
     std::vector<std::uint8_t> first_of_place_;  // per reference: the first of its place
     std::vector<std::int32_t> empty_places_;    // places no reference stands at (take the bin's highest score)
     std::vector<float> bin_max_;                // each bin's largest value after the last measurement (pose mode)
