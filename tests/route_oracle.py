@@ -508,3 +508,13 @@ def noisy_matrix(seed: int, n_query: int = 90, n_ref: int = 70) -> tuple[np.ndar
     weights = rng.uniform(0, 1, n_query)
     weights[20] = 0.0
     return matrix, weights
+
+
+def evaluate_route(refs: np.ndarray, queries: np.ndarray, params, tolerance: int = 2):
+    """Route mode's matches of ``queries`` along ``refs`` (prepared stacks, the same place at the same
+    index) with ``params``, evaluated against that diagonal within ``tolerance`` frames."""
+    from nightloc import route
+
+    result = route.match_prepared(refs, queries, params, threads=2)
+    truth = route.GroundTruth.from_frames(result.n_queries, result.n_refs, tolerance)
+    return route.evaluate_matches(result.refs, result.scores, truth)

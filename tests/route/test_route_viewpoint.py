@@ -13,6 +13,8 @@ from nightloc.route import RouteParams
 from nightloc.route.params import DEFAULT_SHIFT_WINDOWS
 from nightloc.synth.routes import FORWARD_CAMERA, Drive, RouteScene, build_street, render_drive, street_drive
 
+import route_oracle as ro
+
 
 @pytest.fixture(scope="module")
 def street():
@@ -80,12 +82,6 @@ def test_default_window():
     assert RouteParams(circular_shifts=True).effective_shift_window == (0, 0)
 
 
-def _evaluate(refs, queries, params):
-    result = route.match_prepared(refs, queries, params, threads=2)
-    truth = route.GroundTruth.from_frames(result.n_queries, result.n_refs, 2)
-    return route.evaluate_matches(result.refs, result.scores, truth)
-
-
 @pytest.mark.slow
 def test_rendered_walk_from_another_height_and_pitch():
     """A street walked by day at 1.4 m, then at night 1 m to the side with the camera 0.3 m higher,
@@ -99,8 +95,8 @@ def test_rendered_walk_from_another_height_and_pitch():
     night_walk = street_drive(world, "night", 1.0, 210, height=1.7, pitch=3.0, pitch_wobble=1.0)
     night = preparer(render_drive(scene, night_walk, "forward"))
     for refs, queries in ((day, night), (night, day)):
-        former = _evaluate(refs, queries, RouteParams(shift_window=(8, 1)))
-        default = _evaluate(refs, queries, RouteParams())
+        former = ro.evaluate_route(refs, queries, RouteParams(shift_window=(8, 1)))
+        default = ro.evaluate_route(refs, queries, RouteParams())
         assert default.best_f1 >= 0.7 and default.recall_at_100 >= 0.45, default.summary()
         assert default.best_f1 >= former.best_f1 + 0.2, (former.summary(), default.summary())
         assert default.recall_at_100 >= former.recall_at_100 + 0.3, (former.summary(), default.summary())

@@ -127,12 +127,6 @@ def find_key(tree, key):
     return None
 
 
-def _evaluate(refs, queries, params):
-    result = route.match_prepared(refs, queries, params, threads=2)
-    truth = route.GroundTruth.from_frames(result.n_queries, result.n_refs, 2)
-    return route.evaluate_matches(result.refs, result.scores, truth)
-
-
 @pytest.mark.slow
 def test_synthetic_lateral_offset_route():
     """A street walked by day, then at night 1 m to the side with the camera tilted 2 degrees
@@ -147,8 +141,8 @@ def test_synthetic_lateral_offset_route():
     night = preparer(render_drive(scene, street_drive(world, "night", 1.0, 11, pitch=2.0, pitch_jitter=0.7)))
     assert RouteParams().effective_shift_window == (8, 2)
     for refs, queries in ((day, night), (night, day)):
-        plain = _evaluate(refs, queries, RouteParams(shift_window=(0, 0)))
-        windowed = _evaluate(refs, queries, RouteParams())
+        plain = ro.evaluate_route(refs, queries, RouteParams(shift_window=(0, 0)))
+        windowed = ro.evaluate_route(refs, queries, RouteParams())
         assert windowed.best_f1 >= 0.85 and windowed.recall_at_100 >= 0.6, windowed.summary()
         assert windowed.best_f1 >= plain.best_f1 + 0.08, (plain.summary(), windowed.summary())
         assert windowed.recall_at_100 >= plain.recall_at_100 + 0.2, (plain.summary(), windowed.summary())
@@ -171,6 +165,6 @@ def test_real_pairs_meet_the_targets_with_the_window(shared_data, case):
     preparer = route.RoutePreparer(RouteParams())
     refs = preparer(nightloc.load_traverse(shared_data / reference))
     queries = preparer(nightloc.load_traverse(shared_data / query))
-    evaluation = _evaluate(refs, queries, RouteParams())
+    evaluation = ro.evaluate_route(refs, queries, RouteParams())
     assert evaluation.best_f1 >= f1_target, evaluation.summary()
     assert evaluation.recall_at_100 >= r100_target, evaluation.summary()
