@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 
 from nightloc.cli import main
+from nightloc.io.traverse import load_traverse
+from nightloc.route.odometry import route_odometry
 from nightloc.synth.creek import (
     CREEK_FRAMES,
     CREEK_LENGTH_M,
@@ -65,6 +67,13 @@ def test_dataset_writes_positions_for_ground_truth(tmp_path):
         with open(out / name / "poses.csv", newline="") as stream:
             rows = list(csv.DictReader(stream))
         assert len(rows) == count and {"x", "y", "heading", "timestamp"} <= set(rows[0])
+        # the walk's noisy odometry, what route mode predicts by (not the ground truth in poses.csv)
+        traverse = load_traverse(out / name)
+        odometry = route_odometry(traverse)
+        assert odometry is not None and odometry.source == "odometry.csv"
+        true_steps = np.hypot(*np.diff(traverse.positions, axis=0).T)
+        assert not np.allclose(odometry.steps[1:], true_steps, rtol=1e-3)
+        np.testing.assert_allclose(odometry.steps[1:], true_steps, rtol=0.25)
     description = json.loads((out / "dataset.json").read_text())
     assert description["traverses"]["night_query"] == {"condition": "night", "frames": 4, "lane_m": NIGHT_LANE}
     with pytest.raises(ValueError, match="frames must give"):

@@ -12,7 +12,7 @@ robot): ``frames`` frames evenly spaced from x = 5 m to ``length - 5`` m, with j
 path, sideways and in heading. The day walk (272 frames, one every 1.8 m) and the night walk
 (315 frames, one every 1.6 m: another walking speed at the same frame rate, a little to the side)
 do not correspond frame by frame; their ``poses.csv`` give the ground truth (``nightloc route
-DAY NIGHT --ground-truth positions --tolerance 3``).
+DAY NIGHT --ground-truth positions --tolerance 3``) and their ``odometry.csv`` a noisy odometry.
 
 :func:`make_creek_dataset` renders both into traverse folders as one output set. The scene, its
 lighting and sensor are those of :mod:`nightloc.synth.routes` (:class:`RouteScene`,
@@ -31,6 +31,7 @@ import numpy as np
 from ..io.atomic import output_set, write_text
 from ..io.traverse import save_traverse
 from ..progress import progress
+from .dataset import SYNTH_WHEEL_NOISE
 from .geometry import Cylinder, Solid, box
 from .routes import CAMERA_HEIGHT, Drive, RouteScene, path_length, render_drive
 from .textures import TextureLibrary, fbm, jitter_colour, value_noise
@@ -269,9 +270,12 @@ def make_creek_dataset(
     returns their folders by name.
 
     Each is ``out_dir/<traverse>/images/`` (forward camera, 96 x 96) + ``poses.csv`` (``x, y,
-    heading`` and the frame times, one frame every :data:`FRAME_PERIOD_S`); ``out_dir/dataset.json`` describes the
-    world, the walks and the darkness. ``frames`` sets other frame counts per traverse (default
-    :data:`CREEK_FRAMES`), spread over the same 490 m.
+    heading`` and the frame times, one frame every :data:`FRAME_PERIOD_S`: the ground truth) +
+    ``odometry.csv`` (the walk's odometry with the synthetic drives' noise,
+    :data:`~nightloc.synth.dataset.SYNTH_WHEEL_NOISE`: 3 % scale and 3 % per step, what route mode
+    predicts by); ``out_dir/dataset.json`` describes the world, the walks and the darkness.
+    ``frames`` sets other frame counts per traverse (default :data:`CREEK_FRAMES`), spread over the
+    same 490 m.
     """
     if not (np.isfinite(darkness) and 0.0 <= darkness <= 3.0):
         raise ValueError(f"darkness must be a number in [0, 3], got {darkness!r}")
@@ -295,7 +299,7 @@ def make_creek_dataset(
     with output_set(
         out_dir, command="synth", overwrite=overwrite, overwrite_hint="overwrite=True", parents=parents
     ) as out:
-        for name, walk in walks.items():
+        for index, (name, walk) in enumerate(walks.items()):
             images = progress(
                 (render_drive(scene, _one(walk, i), "forward")[0] for i in range(len(walk.positions))),
                 total=len(walk.positions),
@@ -307,6 +311,9 @@ def make_creek_dataset(
                 images,
                 positions=walk.positions,
                 headings=walk.headings,
+                odometry=SYNTH_WHEEL_NOISE.simulate(
+                    walk.positions, walk.headings, np.random.default_rng([int(seed), 41, index])
+                ),
                 timestamps=1.0 + np.arange(len(walk.positions)) * FRAME_PERIOD_S,
             )
         description = {
@@ -315,6 +322,11 @@ def make_creek_dataset(
             "seed": int(seed),
             "darkness": float(darkness),
             "night_sensor": {"full_well_e": CREEK_FULL_WELL, "read_noise_e": CREEK_READ_NOISE},
+            "odometry": {
+                "scale_std": SYNTH_WHEEL_NOISE.scale_std,
+                "distance_std": SYNTH_WHEEL_NOISE.distance_std,
+                "turn_std_rad": SYNTH_WHEEL_NOISE.turn_std,
+            },
             "length_m": CREEK_LENGTH_M,
             "camera": {"view": "forward", "width": 96, "height": 96, "height_above_ground_m": CAMERA_HEIGHT},
             "traverses": {
