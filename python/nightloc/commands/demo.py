@@ -17,7 +17,7 @@ odometry (rows ``method=filter`` of ``errors.csv``) and with wheel odometry
 errors over the query frames from the 10th on per noise model, and draws
 ``filter_vs_paper.png``.
 
-Then the **teach run** (issue 20): the day map built again from the day drive's own wheel
+Then the **teach run**: the day map built again from the day drive's own wheel
 odometry (``odometry.csv``, no survey; :func:`nightloc.mapping.teach_run`), its ATE beside the
 dead reckoning's, and the filter's night error on it (the query's truth moved into the map's
 frame by the rigid fit) beside the surveyed map's; ``teach_run.png`` draws the paths. It needs
