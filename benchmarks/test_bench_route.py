@@ -2,7 +2,7 @@
 
 The Nordland subset (summer reference, winter query, 64x32, OpenSeqSLAM preset, shift 0), from
 ``../shared/data/nordland`` when present (else synthetic frames of the same size), prepared once
-outside the timing (image decoding excluded, as in the issue's target). Groups by size N x N:
+outside the timing (image decoding excluded, as in the target). Groups by size N x N:
 
 * ``numpy`` (N = 500): the numpy oracle of ``tests/route_oracle.py`` (chunked integer SAD,
   float32 enhancement, per-query vectorized search), bit-identical to the core;
@@ -115,7 +115,7 @@ def test_core(benchmark, n, threads):
 
 # --------------------------------------------------------------------------------------------
 # The search alone over one enhanced 3576 x 3576 matrix: SeqSLAM's trajectory search against the
-# route filter (issue 14: the filter's whole search must cost less than SeqSLAM's). Nordland with
+# route filter (the target: the filter's whole search costs less than SeqSLAM's). Nordland with
 # the default ("nightloc") preparation when present, else synthetic frames of the same size.
 
 _search_cache: dict = {}
@@ -182,7 +182,7 @@ def test_search_filter(benchmark, threads, motion):
     evaluation = route.evaluate_matches(refs, 1.0 - confidence, truth)
     benchmark.extra_info["recall_at_100"] = round(evaluation.recall_at_100, 4)
     if real:
-        assert evaluation.best_f1 >= 0.92 and evaluation.recall_at_100 >= 0.65  # issue-14 targets
+        assert evaluation.best_f1 >= 0.92 and evaluation.recall_at_100 >= 0.65  # route mode's targets
 
 
 def _small_route(n=150):
