@@ -1,6 +1,6 @@
 """Per-frame cost of the grid Bayes filter against the paper's update and against matching.
 
-The paper-sized case: a 50-image map, the 100 x 100 grid, 48 heading bins (480 000 cells), one
+The small-map case: a 50-image map, the 100 x 100 grid, 48 heading bins (480 000 cells), one
 thread, wheel odometry (``RobotMotion``) with the default noise (Table III model 1) and with
 model 3 (wider blurs: up to 55 taps per axis), per update from a prepared image and from a
 640 x 320 camera frame (preparation included). In the same group: the paper's update (10-frame
