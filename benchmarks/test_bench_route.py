@@ -8,8 +8,8 @@ outside the timing (image decoding excluded, as in the target). Groups by size N
   float32 enhancement, per-query vectorized search), bit-identical to the core;
 * ``core`` (1 and 2 threads): :func:`nightloc.route.match_prepared`.
 
-Target: N = 3576 in <= 3 s on 2 cores. OpenSeqSLAM under Octave (golden/README): 4.4 s for
-N = 500 (difference matrix 1.18 s, enhancement 0.13 s, matching 3.08 s).
+Target: N = 3576 in <= 3 s on 2 cores. OpenSeqSLAM under Octave's time for N = 500, by stage, is
+in ../shared/data/golden/README.md and docs/route_mode.md ("Speed").
 
     python -m pytest benchmarks/test_bench_route.py --benchmark-only --benchmark-columns=min,median
 """

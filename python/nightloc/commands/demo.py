@@ -4,7 +4,7 @@
                   [--figure-format png|pdf|svg]
 
 The embedded default is the synthetic world of :mod:`nightloc.synth` (generated once into the
-user cache, about ten seconds): a garden and a living room, each with a day-time reference
+user cache): a garden and a living room, each with a day-time reference
 traverse and a night-time query traverse along another path (the paper's Table I). For each
 world the demo builds the reference map from the day traverse, localizes every night query
 frame for sequence lengths 1-10, odometry noise models 0-3 and interpolation on/off
