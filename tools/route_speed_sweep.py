@@ -212,7 +212,9 @@ def cell(values: list) -> str:
 
 
 def real_cases(enhanced, weights, draws: int) -> dict:
-    """The speed and odometry cases on one frame-aligned pair: name -> list of (rows, weights, truth, advances, distances)."""
+    """The speed and odometry cases on one frame-aligned pair.
+
+    name -> list of (rows, weights, truth, advances, distances)."""
     n = enhanced.shape[1]
     cases: dict[str, list] = {"constant": [(enhanced, weights, np.arange(len(enhanced)), None, None)]}
     cases["speed 0.7-1.3"] = []

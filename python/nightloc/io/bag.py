@@ -7,8 +7,9 @@ MCAP storage) and lone ``.mcap`` / ``.db3`` files.
 
 * **Frames**: ``sensor_msgs/Image`` in an encoding of ``_ENCODINGS`` below (the one list: mono,
   BGR, RGB, BGRA and RGBA at 8 and 16 bits, and ``8UC1``, ``8UC3``, ``8UC4``, ``16UC1``,
-  ``16UC3``; any row stride, either byte order) or ``sensor_msgs/CompressedImage`` (anything OpenCV decodes), as BGR or grey, 8 or 16
-  bit. A frame's time is its header stamp (the bag's record time when the stamps are unset).
+  ``16UC3``; any row stride, either byte order) or ``sensor_msgs/CompressedImage`` (anything
+  OpenCV decodes), as BGR or grey, 8 or 16 bit. A frame's time is its header stamp (the bag's
+  record time when the stamps are unset).
 * **Odometry**: ``nav_msgs/Odometry`` (its pose in its own odom frame) or the TF transform
   ``odom -> base_link`` (or ``base_footprint``) on ``/tf``; interpolated to each frame's time
   and turned into the motion since the previous frame in the robot's frame
