@@ -1,6 +1,6 @@
 """Per-frame cost of the grid Bayes filter against the paper's update and against matching.
 
-Issue 11's case: a 50-image map, the 100 x 100 grid, 48 heading bins (480 000 cells), one
+The small-map case: a 50-image map, the 100 x 100 grid, 48 heading bins (480 000 cells), one
 thread, wheel odometry (``RobotMotion``) with the default noise (Table III model 1) and with
 model 3 (wider blurs: up to 55 taps per axis), per update from a prepared image and from a
 640 x 320 camera frame (preparation included). In the same group: the paper's update (10-frame
@@ -8,7 +8,7 @@ sequence, prepared image), ``match`` of one prepared frame against 5 000 referen
 target: a filter update costs no more), and the filter's numpy oracle (``tests/filter_oracle.py``,
 float64), whose belief is asserted equal to the core's.
 
-Issue 22's large maps: 5 000 and 20 000 places about 0.4 m apart (a house, a large lawn), the
+Large maps: 5 000 and 20 000 places about 0.4 m apart (a house, a large lawn), the
 default 100 x 100 grid, a robot driving from place to place (each frame the reference image of
 the place it reaches, turned to its heading; exact wheel odometry, the filter told noise model
 3); one group per size with ``match`` against the map's references (the target: a noise-3 update
@@ -124,7 +124,7 @@ def test_numpy_oracle_step(benchmark, setup):
 
 
 # ----------------------------------------------------------------------------------------------
-# large maps (issue 22)
+# large maps
 
 SPACING = 0.4  # metres between places
 

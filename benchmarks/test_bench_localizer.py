@@ -1,6 +1,6 @@
 """Per-frame cost of the streaming 2D localizer (target: <= 1 ms on one core).
 
-The issue's case: a 50-image map, the 100 x 100 grid, 10-frame sequences, one 640 x 320 BGR
+The small-map case: a 50-image map, the 100 x 100 grid, 10-frame sequences, one 640 x 320 BGR
 camera frame per update (preparation included), map-frame odometry. The group also times the
 update from a prepared image and from a match result, and a plain scipy formulation of the
 same heat-map work (``griddata`` per frame, ``map_coordinates`` per earlier frame) that

@@ -2,14 +2,14 @@
 
 The Nordland subset (summer reference, winter query, 64x32, OpenSeqSLAM preset, shift 0), from
 ``../shared/data/nordland`` when present (else synthetic frames of the same size), prepared once
-outside the timing (image decoding excluded, as in the issue's target). Groups by size N x N:
+outside the timing (image decoding excluded, as in the target). Groups by size N x N:
 
 * ``numpy`` (N = 500): the numpy oracle of ``tests/route_oracle.py`` (chunked integer SAD,
   float32 enhancement, per-query vectorized search), bit-identical to the core;
 * ``core`` (1 and 2 threads): :func:`nightloc.route.match_prepared`.
 
-Target: N = 3576 in <= 3 s on 2 cores. OpenSeqSLAM under Octave (golden/README): 4.4 s for
-N = 500 (difference matrix 1.18 s, enhancement 0.13 s, matching 3.08 s).
+Target: N = 3576 in <= 3 s on 2 cores. OpenSeqSLAM under Octave's time for N = 500, by stage, is
+in ../shared/data/golden/README.md and docs/route_mode.md ("Speed").
 
     python -m pytest benchmarks/test_bench_route.py --benchmark-only --benchmark-columns=min,median
 """
@@ -115,7 +115,7 @@ def test_core(benchmark, n, threads):
 
 # --------------------------------------------------------------------------------------------
 # The search alone over one enhanced 3576 x 3576 matrix: SeqSLAM's trajectory search against the
-# route filter (issue 14: the filter's whole search must cost less than SeqSLAM's). Nordland with
+# route filter (the target: the filter's whole search costs less than SeqSLAM's). Nordland with
 # the default ("nightloc") preparation when present, else synthetic frames of the same size.
 
 _search_cache: dict = {}
@@ -182,7 +182,7 @@ def test_search_filter(benchmark, threads, motion):
     evaluation = route.evaluate_matches(refs, 1.0 - confidence, truth)
     benchmark.extra_info["recall_at_100"] = round(evaluation.recall_at_100, 4)
     if real:
-        assert evaluation.best_f1 >= 0.92 and evaluation.recall_at_100 >= 0.65  # issue-14 targets
+        assert evaluation.best_f1 >= 0.92 and evaluation.recall_at_100 >= 0.65  # route mode's targets
 
 
 def _small_route(n=150):

@@ -114,9 +114,9 @@ def test_patch_normalize_speed(benchmark):
     assert out.shape == images.shape
 
 
-# ---- the translation window (issue 19) -----------------------------------------------------
+# ---- the translation window ----------------------------------------------------------------
 #
-# One 48x24 query against N = 500 references: today's rotational kernel (48 circular shifts),
+# One 48x24 query against N = 500 references: the rotational kernel (48 circular shifts),
 # a panorama with a row window (48 shifts x +-2 rows) and a forward camera with a column and row
 # window (+-8 columns x +-2 rows), each on every SIMD path, beside a vectorized numpy version of
 # the window. G/s counts the byte comparisons of the overlaps (what a candidate compares), so the

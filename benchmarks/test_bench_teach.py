@@ -1,4 +1,4 @@
-"""Build time of a teach run (issue 20's target: 2 000 images on 2 cores in at most 30 s), and
+"""Build time of a teach run (the target: 2 000 images on 2 cores in at most 30 s), and
 the speed of its min-warping kernel against the numpy oracle.
 
 The drive: the large garden's perimeter pass and mowing rows, then back along the same path (a

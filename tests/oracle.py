@@ -109,7 +109,7 @@ def octave_rgb2gray(rgb: np.ndarray) -> np.ndarray:
 
 
 def best_numpy_rotational_sums(query: np.ndarray, refs: np.ndarray, block: int = 64) -> np.ndarray:
-    """The fastest vectorized numpy formulation we found (benchmarks/README): all shifts at once,
+    """The fastest vectorized numpy formulation measured (docs/performance.md): all shifts at once,
     |a-b| = a + b - 2 min(a, b) with np.minimum on uint8 and uint32 sums, references in blocks.
     (N, W) int64 sums for shifts 0..W-1."""
     n, _h, w = refs.shape

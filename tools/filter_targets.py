@@ -1,4 +1,4 @@
-"""The Bayes filter's target figures beside the paper's method (docs/localization.md, issues 11, 22).
+"""The Bayes filter's target figures beside the paper's method (docs/localization.md).
 
     python tools/filter_targets.py [--draws 3] [--cache DIR] [--param likelihood_gain=3.5 ...]
                                    [--figure docs/figures/filter_confidence.png]
@@ -10,7 +10,7 @@ query frames from the 10th on of the filter and of the paper's 10-frame sequence
 draws, with the range), the filter's median heading error, the share of all frames whose truth
 lies within the filter's ``credible_radius``, and the frames a kidnapped robot (carried metres
 away while its odometry says it did not move) takes until its error is below 1 m again.
-Then trust over the worlds' full grid (issue 22, :func:`trust_rows`): every night traverse (the
+Then trust over the worlds' full grid (:func:`trust_rows`): every night traverse (the
 garden's query and night reference, the living room's query) x map-frame and wheel odometry x
 noise models 0-3 x the draws, every frame from the first: the share of frames more than 1 m off
 with confidence above 0.9 (confidently wrong), which they are, and the coverage of
@@ -35,7 +35,7 @@ from nightloc.synth import default_dataset
 
 FIRST = 10  # errors counted from the 10th query frame on (a 10-frame sequence is full there)
 INT_PARAMS = ("heading_bins", "estimate_window", "settle_frames")
-#: The night traverses of the full grid of trust (issue 22), per world.
+#: The night traverses of the full grid of trust, per world.
 TRUST_QUERIES = {"garden": ("night_query", "night_reference"), "living_room": ("night_query",)}
 
 

@@ -1,11 +1,11 @@
-"""Route mode when the query's speed changes, with and without odometry (docs/route_mode.md,
-issue 19 items 4-5): the sweep that chose the filter's motion defaults, and the target figures.
+"""Route mode when the query's speed changes, with and without odometry (docs/route_mode.md):
+the sweep that chose the filter's motion defaults, and the target figures.
 
     python tools/route_speed_sweep.py [--data ../shared/data] [--cache DIR] [--draws 3]
         [--cases gp,nordland,synthetic] [--set filter_speed_change=0.08 ...]
         [--grid filter_speed_tau=4,8,inf --grid filter_speed_change=0.04,0.08]
 
-Query speed cases, built as issue 19 says: query frame k is the query traverse's frame at
+Query speed cases: query frame k is the query traverse's frame at
 ``round(p_k)`` of a frame-aligned pair, ``p_{k+1} = p_k + 1 + a sin(2 pi k / 50 + phi)``, ``a =
 0.3`` without odometry and ``0.45`` with, ``phi`` in {0, 2.1, 4.2}; with odometry the query's
 ``forward`` is the true advance in reference frames times ``1 + N(0, 0.05)`` (``--draws`` noise
@@ -78,7 +78,7 @@ def real_pair(data: Path, reference: str, query: str, params: route.RouteParams,
     return enhanced, weights
 
 
-def issue_positions(n_refs: int, amplitude: float, phase: float) -> np.ndarray:
+def sinusoidal_speed_positions(n_refs: int, amplitude: float, phase: float) -> np.ndarray:
     """p_0 = 0, p_{k+1} = p_k + 1 + a sin(2 pi k / 50 + phase), while round(p) is a reference."""
     positions = [0.0]
     k = 0
@@ -212,18 +212,20 @@ def cell(values: list) -> str:
 
 
 def real_cases(enhanced, weights, draws: int) -> dict:
-    """The issue's cases on one frame-aligned pair: name -> list of (rows, weights, truth, advances, distances)."""
+    """The speed and odometry cases on one frame-aligned pair.
+
+    name -> list of (rows, weights, truth, advances, distances)."""
     n = enhanced.shape[1]
     cases: dict[str, list] = {"constant": [(enhanced, weights, np.arange(len(enhanced)), None, None)]}
     cases["speed 0.7-1.3"] = []
     for phase in PHASES:
-        positions = issue_positions(n, 0.3, phase)
+        positions = sinusoidal_speed_positions(n, 0.3, phase)
         index = np.rint(positions).astype(np.int64)
         cases["speed 0.7-1.3"].append((enhanced[index], weights[index], index, None, None))
     cases["odometry 0.55-1.45"] = []
     cases["query odometry only 0.55-1.45"] = []
     for phase in PHASES:
-        positions = issue_positions(n, 0.45, phase)
+        positions = sinusoidal_speed_positions(n, 0.45, phase)
         index = np.rint(positions).astype(np.int64)
         true_advance = np.diff(positions, prepend=positions[0])
         cases["query odometry only 0.55-1.45"].append((enhanced[index], weights[index], index, None, None))

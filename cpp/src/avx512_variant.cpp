@@ -1,8 +1,7 @@
 // The choice between the two accumulations of the AVX-512 all-shift SAD kernel (see
-// nightloc/simd.hpp). vpdpwssd (VNNI) runs on port 0 beside vdbpsadbw on port 5 on Intel cores
-// and was ~15 % faster on a Sapphire Rapids host once, within +-3 % of vpaddw on another (the
-// same CPU model under a different hypervisor and load); on AMD Zen 4 it is the slower one (189
-// vs 234-239 G/s, one thread, 48x24, 48 shifts). So one CPU family, where the gap is large and
+// nightloc/simd.hpp). vpdpwssd (VNNI) runs on port 0 beside vdbpsadbw on port 5 on Intel cores,
+// where the faster of the two changes with the host and its load; on AMD Zen 4 vpaddw is faster by
+// a wide margin (the figures: docs/cpp_core.md). So one CPU family, where the gap is large and
 // known, comes from a table; every other CPU with VNNI is measured once, at first use.
 #include <algorithm>
 #include <atomic>
@@ -70,9 +69,9 @@ CpuIdentity cpu_identity() {
 }
 
 // Both variants on a small paper-sized problem (48x24, all 48 shifts, 64 references: 3.5 M byte
-// comparisons, ~15 us per call), alternating, best of 15 rounds of 4 calls: about 2 ms. VNNI must
-// win by 2 %: where the two are this close (Intel), vpaddw was the faster in the engine at N = 500
-// (by 4 %) and equal at N = 5000, and noise would otherwise flip the choice from run to run.
+// comparisons per call), alternating, best of 15 rounds of 4 calls. VNNI must win by 2 %: where
+// the two are this close (Intel), the faster one in the engine depends on the number of references
+// (docs/cpp_core.md), and noise would otherwise flip the choice from run to run.
 Choice measure(const CpuIdentity& cpu) {
     constexpr std::size_t kHeight = 24, kWidth = 48, kPixels = kHeight * kWidth, kRefs = 64;
     const std::size_t stride = detail::round_up(kPixels, detail::kChunk);

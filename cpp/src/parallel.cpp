@@ -20,8 +20,8 @@ namespace {
 constexpr auto kSpin = std::chrono::microseconds(200);
 
 /// How long the caller, its own part done, spins on the helpers' completion before it sleeps:
-/// with shrinking chunks they finish within one chunk (~15 us) of each other, and a sleep costs a
-/// wake-up (tens of microseconds on a virtual machine) on top.
+/// with shrinking chunks they finish within one chunk of each other, and a sleep costs a wake-up
+/// on top (docs/cpp_core.md, "Threads", has the times).
 constexpr auto kFinishSpin = std::chrono::microseconds(100);
 
 /// A hint to the CPU that this thread is spinning.

@@ -4,7 +4,7 @@
 // it into a 16-bit band of column sums; at the few rows where output cells have an edge, the
 // band is folded into exact 64-bit sums per column segment, which give the integral image at
 // every cell corner. The means, their rounding and the float32 paths reproduce the Python
-// pipeline (python/nightloc/preparation.py) bit for bit.
+// pipeline (python/nightloc/preparation/downsample.py) bit for bit.
 #include "nightloc/prepare.hpp"
 
 #include <algorithm>

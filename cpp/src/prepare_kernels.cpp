@@ -65,8 +65,8 @@ NL_INLINE void accumulate_body(const std::uint8_t* src, std::size_t n, std::uint
 }
 
 // band[x] += lut[src[x]]: the table lookups eight pixels at a time into a row buffer (one 64-bit
-// store per eight), then the vectorizable add. (A fused scalar loop is 3x slower: every 16-bit
-// store may alias the byte tables, so the compiler reloads them.)
+// store per eight), then the vectorizable add. (A fused scalar loop is slower: every 16-bit
+// store may alias the byte tables, so the compiler reloads them; docs/performance.md.)
 NL_INLINE void accumulate_lut_body(const std::uint8_t* src, std::size_t n, const std::uint8_t* lut,
                                    std::uint16_t* band) {
     std::uint8_t mapped[256];
@@ -98,7 +98,7 @@ NL_INLINE void prefix_body(const std::uint16_t* band, std::size_t n, std::uint32
 
 // Eight sub-histograms, one per byte of a 64-bit load: equal neighbouring pixels (smooth
 // images) land in different counters, so the increments do not wait on each other through
-// memory (4 sub-histograms are ~25 % slower on camera-like frames, as fast on noise).
+// memory (docs/performance.md: 4 against 8 sub-histograms).
 void histogram_row(const std::uint8_t* src, std::size_t n, std::uint32_t* counts) {
     static_assert(kHistogramCopies == 8, "one sub-histogram per byte of a 64-bit word");
     std::size_t x = 0;

@@ -31,9 +31,9 @@ constexpr std::size_t kQueryBlockBytes = std::size_t{512} * 1024;
 constexpr std::size_t kMaxQueryBlock = 64;
 // References per task at most (bounds the per-task tile of results).
 constexpr std::size_t kMaxRefsPerTask = 1 << 15;
-// Smallest chunk of references of guided scheduling (~15 us of work at 48x24, all shifts).
+// Smallest chunk of references of guided scheduling (its time at 48x24, all shifts: docs/cpp_core.md).
 constexpr std::size_t kMinGuidedChunk = 64;
-// Below this many byte comparisons a second thread costs more than it saves (~50 us of work).
+// Below this many byte comparisons a second thread costs more than it saves (docs/cpp_core.md).
 constexpr double kMinComparisonsPerThread = 1e7;
 
 std::size_t ref_block_size(std::size_t pixels) {
@@ -267,7 +267,7 @@ void compute_tile(Tile tile, PlanSet& plans, bool prepared, bool stage, const st
 // chunks of references, handed out dynamically. A single query block (the per-frame match) is
 // prepared once, before the threads start, and shared (evaluation is const); its references are
 // cut into shrinking chunks (guided scheduling: each a quarter of what is left for two threads,
-// down to 64 references, ~15 us), so that threads that start late (thread creation, another
+// down to 64 references), so that threads that start late (thread creation, another
 // process on the core) or run slower still finish together: with equal chunks one thread could
 // idle for up to a chunk at the end. Several query blocks: 4 equal chunks per thread and block.
 template <class Sink>

@@ -159,8 +159,8 @@ NL_TARGET_AVX512 NL_INLINE __m512i fold(__m512i acc) {
 
 // acc += d: 16-bit adds, or with VNNI (vpdpwssd against the word pair (1, -32768)) one 32-bit
 // lane per word pair: W0 - 32768 * W1, exact while every word total stays below 32768. vpdpwssd
-// runs on port 0 only, so it never competes with vdbpsadbw (port 5) as vpaddw does: up to 1.5x
-// the pairs per cycle in a register-only loop, ~15 % in this kernel. Inline assembly: the instruction needs no compiler
+// runs on port 0 only, so it never competes with vdbpsadbw (port 5) as vpaddw does
+// (docs/performance.md: the pairs per cycle). Inline assembly: the instruction needs no compiler
 // target flag, so the kernel is compiled once for AVX-512BW and the VNNI variant is chosen at run time.
 template <bool Vnni>
 NL_TARGET_AVX512 NL_INLINE __m512i accumulate(__m512i acc, __m512i d, __m512i pair_weights) {

@@ -2,7 +2,7 @@
 // against an oracle written here from its documented formula (plain loops over the full frame,
 // exact integer or rational arithmetic), and every SIMD path the CPU supports must give the same
 // bytes as the scalar path. Bit-identity with the Python/OpenCV pipeline is tested in
-// tests/test_prepare_core.py.
+// tests/preparation/test_prepare_core.py.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>

@@ -170,8 +170,7 @@ def odometry_spread(advance: float, spacing: float, params: RouteFilterParams) -
 def motion_kernel(vmin: float, vmax: float, backward: float) -> tuple[int, npt.NDArray[np.float64]]: ...
 def texture_weights(images: npt.NDArray[np.uint8], min_texture: float) -> npt.NDArray[np.float64]: ...
 
-# Frame preparation and heat maps (cpp/bindings/register_localization.cpp; use
-# nightloc.prepare, nightloc.localization.sequence and nightloc.Localizer)
+# Frame preparation (cpp/bindings/register_preparation.cpp; use nightloc.prepare)
 def prepare_frame(
     frame: npt.NDArray[np.uint8],
     order: str,
@@ -185,6 +184,9 @@ def prepare_frame(
     scale: float,
 ) -> npt.NDArray[np.uint8]: ...
 def downsample_method(in_height: int, in_width: int, out_height: int, out_width: int) -> str: ...
+
+# Heat maps and the grid filter (cpp/bindings/register_localization.cpp; use
+# nightloc.localization.sequence, nightloc.Localizer and nightloc.localization.grid_filter)
 def add_translated(
     out: npt.NDArray[np.floating],
     source: npt.NDArray[np.floating],

@@ -84,7 +84,7 @@ def garden(tmp_path_factory):
 
 
 def test_a_ros2_mcap_bag_localizes_to_tum_without_naming_topics(garden, capsys):
-    """The issue's target: ``nightloc localize MAP BAG --out OUT --format tum``."""
+    """A bag localized to TUM in one command: ``nightloc localize MAP BAG --out OUT --format tum``."""
     bag_out, folder_out = garden["root"] / "bag_run", garden["root"] / "folder_run"
     argv = ["localize", str(garden["map"]), str(garden["bag"]), "--out", str(bag_out), "--format", "tum"]
     assert main(argv) == 0
@@ -143,7 +143,7 @@ def test_a_day_bag_with_a_pose_topic_builds_the_same_map_as_its_folder(garden, t
     np.testing.assert_array_equal(from_bag.images, from_folder.images)
     np.testing.assert_allclose(from_bag.positions, from_folder.positions, atol=1e-12)
     np.testing.assert_allclose(from_bag.headings, from_folder.headings, atol=1e-12)
-    # without poses but with odometry: a teach run (issue 20), as a folder with odometry.csv
+    # without poses but with odometry: a teach run, as a folder with odometry.csv
     without = write_bag(tmp_path / "day_odometry", [day.read(i) for i in range(len(day))], frame_ns, odometry=odom)
     assert main(["build-map", str(without), str(tmp_path / "x.map")]) == 0
     printed = capsys.readouterr().out
@@ -212,7 +212,7 @@ def test_bag_errors_on_the_command_line(garden, tmp_path, capsys):
     assert "--format tum needs each frame's time" in err and "timestamp column" in err
     assert main([*argv, "--format", "kml"]) == 2
     assert "--format" in capsys.readouterr().err
-    # a bag as the map: it has no poses, but odometry: built by a teach run (issue 20)
+    # a bag as the map: it has no poses, but odometry: built by a teach run
     assert main(["localize", str(garden["bag"]), str(garden["bag"]), "--out", str(tmp_path / "o")]) == 0
     assert (tmp_path / "o" / "trajectory.csv").is_file()
 

@@ -1,5 +1,5 @@
 """What a new user meets first: paths given in the wrong place, cameras, and errors that say what
-to do next (issue 21's findings), each through the command line as a user types it."""
+to do next, each through the command line as a user types it."""
 
 from __future__ import annotations
 

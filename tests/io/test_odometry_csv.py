@@ -99,8 +99,8 @@ def test_save_traverse_rejects_bad_odometry_before_writing(tmp_path):
 
 
 def test_synth_writes_realistic_wheel_odometry():
-    """Every synthetic drive's odometry.csv is the wheel-noise model applied to the true motions
-    (issue 20): the same draw again from the traverse's own generator, and not the exact motions."""
+    """Every synthetic drive's odometry.csv is the wheel-noise model applied to the true motions:
+    the same draw again from the traverse's own generator, and not the exact motions."""
     from nightloc.localization.wheel_noise import WheelNoise
     from nightloc.synth import SynthScene
 

@@ -310,7 +310,7 @@ def test_pickled_maps_and_traverses_stay_read_only(garden, garden_map):
     np.testing.assert_array_equal(twin.read(3), traverse.read(3))
 
 
-# --- format version 2: the poses' source and their covariances (issue 20)
+# --- format version 2: the poses' source and their covariances
 
 
 def _covariances(n, seed=0):

@@ -279,7 +279,7 @@ def test_the_first_frames_are_tempered_and_reset_restarts_the_count():
 
 
 def test_four_frames_agreeing_on_a_look_alike_do_not_make_the_start_confident():
-    """The start of a run (issue 22): a look-alike place that matches best in the first frames
+    """The start of a run: a look-alike place that matches best in the first frames
     made the belief certain of it after four; tempered, the belief stays unsure (and says so)."""
     rng = np.random.default_rng(27)
     ref_map = _random_map(rng, n=14)
@@ -499,9 +499,9 @@ def test_forward_camera_with_headings_equals_the_oracle(seed):
 
 def _forward_world(rng, step=1.0, nx=7, ny=5, columns=48, height=24):
     """Places on a lattice, each seen by four references facing east, north, west and south: the
-    forward quarter of a random panorama turned to each heading (the recipe of issue 22: each
-    panorama cut to its forward 90 degrees, left to right); `view(p, heading)` the forward view of
-    the nearest place's panorama at any heading, with noise."""
+    forward quarter of a random panorama turned to each heading (each panorama cut to its forward
+    90 degrees, left to right); `view(p, heading)` the forward view of the nearest place's panorama
+    at any heading, with noise."""
     xs, ys = np.meshgrid(np.arange(nx) * step, np.arange(ny) * step)
     places = np.column_stack([xs.ravel(), ys.ravel()])
     panoramas = nightloc.patch_normalize(rng.integers(0, 256, (len(places), height, 4 * columns), dtype=np.uint8))
@@ -599,7 +599,7 @@ def test_filter_params_round_trip_through_toml(tmp_path):
 
 @pytest.mark.parametrize("cap", [0.0, 0.8, 1.45])
 def test_one_frame_weighs_against_a_place_by_at_most_the_score_cap(cap):
-    """The outlier-robust likelihood (issue 22 item 3): a frame that matches a look-alike cannot
+    """The outlier-robust likelihood: a frame that matches a look-alike cannot
     erase a place: scores beyond s_min + score_cap (median - min) count as that one, so from a
     uniform start no cell holds less than exp(-likelihood_gain score_cap) of the most likely
     (without the cap, a place scoring far worse than the median is all but erased); the core

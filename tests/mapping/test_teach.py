@@ -177,7 +177,7 @@ def test_large_garden_plans():
 
 @pytest.mark.slow
 def test_large_garden_renders(tmp_path):
-    """A few frames of the large garden at a small size (its whole render takes ~20 s)."""
+    """A few frames of the large garden at a small size (its whole render is slow)."""
     from nightloc.synth import Camera
 
     folders = make_dataset("large_garden", tmp_path / "lg", camera=Camera(48, 24))

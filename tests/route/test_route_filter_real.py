@@ -1,5 +1,5 @@
-"""The issue-14 targets on the real day/night and summer/winter pairs in ../shared/data (skipped
-where absent): default parameters, +-2 frames, causal filter against today's SeqSLAM. About 2 s."""
+"""Route mode's targets on the real day/night and summer/winter pairs in ../shared/data (skipped
+where absent): default parameters, +-2 frames, causal filter against SeqSLAM."""
 
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ def test_filter_meets_the_targets_and_beats_seqslam(shared_data, name):
     evaluation = _evaluate(result)
     assert evaluation.best_f1 >= f1_target, evaluation.summary()
     assert evaluation.recall_at_100 >= r100_target, evaluation.summary()
-    # SeqSLAM on the same prepared frames (the issue's "today": centred, ds 10) is far behind.
+    # SeqSLAM on the same prepared frames (centred, ds 10, as before the filter) is far behind.
     seqslam = _evaluate(route.match_prepared(refs, queries, route.RouteParams(method="seqslam")))
     assert evaluation.best_f1 > seqslam.best_f1 + 0.1
     assert evaluation.recall_at_100 > seqslam.recall_at_100 + 0.2

@@ -1,4 +1,4 @@
-"""The route filter's speed and odometry models (issue 19 items 4-5): the core against the numpy
+"""The route filter's speed and odometry models: the core against the numpy
 oracle written from their definitions (tests/route_oracle.py) on every SIMD path, batch =
 streaming bit for bit, and the behaviours they promise: a query whose speed swings 0.5-1.5x the
 reference's stays locked, a stop or a reverse does not derail it, odometry in both traverses

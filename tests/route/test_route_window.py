@@ -1,4 +1,4 @@
-"""Route mode with the translation window (issue 19): the difference matrix against the oracle, the
+"""Route mode with the translation window: the difference matrix against the oracle, the
 same matrix in the batch pipeline, the Dask backend and the online localizer, the CLI and TOML
 parameter, and the lateral-offset routes: a rendered street walked at night beside the day walk,
 and the shared real pairs (skipped without data)."""
@@ -149,8 +149,8 @@ def test_synthetic_lateral_offset_route():
 
 
 # The shared real pairs with the default window: (reference, query, frames or None for all, best
-# F1, recall at 100 % precision) at least; issue 19's targets were 0.93 / 0.85 on Gardens Point,
-# and the figures held when the vertical viewpoint entered the sweep (+-1 row: 0.958 / 0.920).
+# F1, recall at 100 % precision) at least (the window's target on Gardens Point is 0.93 / 0.85;
+# with the vertical viewpoint, +-1 row, it reaches 0.958 / 0.920).
 REAL_TARGETS = {
     "gardens_point": ("gardens_point/day_right", "gardens_point/night_right", None, 0.95, 0.91),
     "nordland": pytest.param(

@@ -10,7 +10,7 @@
 //     sequence.fuse(offsets);                                 // earlier frames moved by odometry, summed
 //     nightloc::HeatPeak peak = nightloc::find_peak(sequence.fused(), 100, 100, disk);
 //
-// Conventions (python/nightloc/heatmap.py, sequence.py): a heat map is row-major (height rows of
+// Conventions (python/nightloc/localization/heatmap.py, sequence.py): a heat map is row-major (height rows of
 // width cells, row 0 = lowest y); a frame's map is stored as its excess over its fill value (zero
 // where there is no data and beyond the grid), in float32; translation is bilinear with no
 // wrap-around and zero from beyond the grid. The float arithmetic follows the Python reference
@@ -75,8 +75,8 @@ void add_translated(const double* src, std::size_t src_stride, double* out, std:
                     std::size_t width, double shift_x, double shift_y);
 
 /// The cells around a peak that do not count as "another place": a (2 rows + 1) x (2 cols + 1)
-/// mask centred on the peak, 1 = excluded (python/nightloc/heatmap.py: a disk of the confidence
-/// radius in metres).
+/// mask centred on the peak, 1 = excluded (python/nightloc/localization/heatmap.py: a disk of
+/// the confidence radius in metres).
 struct PeakExclusion {
     std::size_t rows = 0, cols = 0;
     std::vector<std::uint8_t> mask{1};

@@ -8,7 +8,7 @@
 //   std::uint8_t prepared[24 * 48];
 //   nightloc::prepare_frame({bgr, 480, 640, 640 * 3, nightloc::PixelOrder::bgr}, settings, prepared, workspace);
 //
-// The result is bit-identical to nightloc's Python pipeline (python/nightloc/preparation.py:
+// The result is bit-identical to nightloc's Python pipeline (python/nightloc/preparation/preparer.py:
 // cv2.cvtColor, cv2.equalizeHist, its area downsample and nightloc.patch_normalize) for 8-bit
 // frames; the arithmetic of each step is documented below. CLAHE, 16-bit frames and upsampling
 // (a frame smaller than the output) are not implemented here.

@@ -7,12 +7,11 @@
 //
 // Within the avx512bw path, the all-shift SAD kernel accumulates either with vpaddw or, on CPUs
 // with AVX-512 VNNI, with vpdpwssd (same results). Which one is faster depends on the CPU (and on
-// the host): on AMD Zen 4 vpaddw by 20 % (234-239 vs 189 G/s); on Intel Sapphire Rapids the two
-// were within a few per cent, either way round. The variant is chosen once per process
+// the host; the figures are in docs/cpp_core.md). The variant is chosen once per process
 // (avx512_sad_variant_reason() says how): NIGHTLOC_AVX512_VNNI=0 or 1 forces it; AMD family 19h
 // (Zen 4) takes vpaddw from a table; on every other CPU with VNNI (or with
-// NIGHTLOC_AVX512_VNNI=measure) both are timed at first use (about 2 ms: 3.5 M byte comparisons
-// each, best of 15 alternating rounds) and vnni is kept only if it is at least 2 % faster.
+// NIGHTLOC_AVX512_VNNI=measure) both are timed once at first use (3.5 M byte comparisons each,
+// best of 15 alternating rounds) and vnni is kept only if it is at least 2 % faster.
 #pragma once
 
 #include <string>

@@ -4,7 +4,7 @@
                   [--figure-format png|pdf|svg]
 
 The embedded default is the synthetic world of :mod:`nightloc.synth` (generated once into the
-user cache, about ten seconds): a garden and a living room, each with a day-time reference
+user cache): a garden and a living room, each with a day-time reference
 traverse and a night-time query traverse along another path (the paper's Table I). For each
 world the demo builds the reference map from the day traverse, localizes every night query
 frame for sequence lengths 1-10, odometry noise models 0-3 and interpolation on/off
@@ -17,7 +17,7 @@ odometry (rows ``method=filter`` of ``errors.csv``) and with wheel odometry
 errors over the query frames from the 10th on per noise model, and draws
 ``filter_vs_paper.png``.
 
-Then the **teach run** (issue 20): the day map built again from the day drive's own wheel
+Then the **teach run**: the day map built again from the day drive's own wheel
 odometry (``odometry.csv``, no survey; :func:`nightloc.mapping.teach_run`), its ATE beside the
 dead reckoning's, and the filter's night error on it (the query's truth moved into the map's
 frame by the rigid fit) beside the surveyed map's; ``teach_run.png`` draws the paths. It needs

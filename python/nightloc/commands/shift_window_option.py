@@ -1,4 +1,4 @@
-"""``--shift-window COLUMNS,ROWS``: the translation window of the comparison (issue 19), on route
+"""``--shift-window COLUMNS,ROWS``: the translation window of the comparison, on route
 mode's commands (route) and the 2D filter's (localize, evaluate)."""
 
 from __future__ import annotations

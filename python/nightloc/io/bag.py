@@ -5,10 +5,11 @@ Read with `rosbags <https://gitlab.com/ternaris/rosbags>`_ (pure Python; importe
 bag is opened): ROS 1 bags (``.bag``), ROS 2 bags (a folder with ``metadata.yaml``, sqlite3 or
 MCAP storage) and lone ``.mcap`` / ``.db3`` files.
 
-* **Frames**: ``sensor_msgs/Image`` (``mono8``, ``mono16``, ``bgr8``, ``rgb8``, ``bgra8``,
-  ``rgba8``, ``bgr16``, ``rgb16``, ``8UC1``, ``8UC3``, ``16UC1``; any row stride, either byte
-  order) or ``sensor_msgs/CompressedImage`` (anything OpenCV decodes), as BGR or grey, 8 or 16
-  bit. A frame's time is its header stamp (the bag's record time when the stamps are unset).
+* **Frames**: ``sensor_msgs/Image`` in an encoding of ``_ENCODINGS`` below (the one list: mono,
+  BGR, RGB, BGRA and RGBA at 8 and 16 bits, and ``8UC1``, ``8UC3``, ``8UC4``, ``16UC1``,
+  ``16UC3``; any row stride, either byte order) or ``sensor_msgs/CompressedImage`` (anything
+  OpenCV decodes), as BGR or grey, 8 or 16 bit. A frame's time is its header stamp (the bag's
+  record time when the stamps are unset).
 * **Odometry**: ``nav_msgs/Odometry`` (its pose in its own odom frame) or the TF transform
   ``odom -> base_link`` (or ``base_footprint``) on ``/tf``; interpolated to each frame's time
   and turned into the motion since the previous frame in the robot's frame

@@ -24,7 +24,7 @@ localization; docs/localization.md) keeps a belief over the heat-map grid **x he
    ``confidence_radius`` metres of the estimate: low means lost).
 
 The arithmetic runs in the compiled core (``nightloc/grid_filter.hpp``), one call per frame with
-the GIL released; ``tests/localization/filter_oracle.py`` is the same filter in numpy.
+the GIL released; ``tests/filter_oracle.py`` is the same filter in numpy.
 """
 
 from __future__ import annotations

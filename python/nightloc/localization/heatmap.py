@@ -548,8 +548,7 @@ def _locate_cells(
     are a regular grid); a cell on an edge shared by two triangles takes the one it lies deepest in.
 
     (What ``Delaunay.find_simplex`` and ``.transform`` give, in numpy: those compute the per-triangle
-    transforms with one LAPACK call each, which a threaded BLAS on a busy machine turned into
-    seconds per 10 000 triangles.)"""
+    transforms with one LAPACK call each, which a threaded BLAS makes slow on a busy machine.)"""
     n_cells = cells.shape[0]
     v = places[simplices]  # (T, 3, 2)
     # the affine map to barycentric coordinates: b01 = inv([v0 - v2, v1 - v2]) (p - v2)

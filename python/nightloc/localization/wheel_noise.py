@@ -8,9 +8,9 @@ wheel odometry from ground-truth poses (:meth:`WheelNoise.simulate`, used by :mo
 for every drive's ``odometry.csv``) and gives the per-step covariance that the teach run's
 odometry factors use (:meth:`WheelNoise.step_sigmas`, :mod:`nightloc.mapping`).
 
-Defaults (issue 20's measured wheel base): per-run scale error ``N(0, 3 %)``, per-step distance
-noise 3 % of the step, per-step turn noise ``N(0, 0.05 rad)``, per-run turn bias ``N(0, 0.01
-rad/step)``.
+Defaults (a measured wheel base, docs/teach_run.md): per-run scale error ``N(0, 3 %)``, per-step
+distance noise 3 % of the step, per-step turn noise ``N(0, 0.05 rad)``, per-run turn bias
+``N(0, 0.01 rad/step)``.
 
 For a step with true robot-frame motion ``(forward, left, turn)`` and length ``d``::
 

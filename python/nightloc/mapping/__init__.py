@@ -1,4 +1,4 @@
-"""The teach run (issue 20): a reference map from the robot's own day drive, without a survey.
+"""The teach run: a reference map from the robot's own day drive, without a survey.
 
 * :mod:`~nightloc.mapping.dead_reckoning` — wheel odometry chained into poses, with covariance;
 * :mod:`~nightloc.mapping.params` — :class:`TeachParams` (TOML ``[teach]``);

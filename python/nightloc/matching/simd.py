@@ -2,13 +2,13 @@
 
 The paths give bit-identical results; only their speed differs. The default is the fastest the
 CPU supports, or the one named by the environment variable ``NIGHTLOC_SIMD`` (one of
-``ALL_BACKENDS``: ``scalar``, ``sse2``, ``avx2``, ``avx512bw``) when it is set to a supported path.
+``ALL_BACKENDS``: ``scalar``, ``sse2``, ``avx2``, ``avx512bw`` on x86-64, ``neon``, ``neon-dotprod``
+on AArch64) when it is set to a supported path.
 
 On CPUs with AVX-512 VNNI, the ``avx512bw`` path's all-shift kernel can accumulate with
 ``vpdpwssd`` (``"vnni"``) or ``vpaddw`` (same results); which is faster depends on the CPU
-(``vpaddw`` by 20 % on AMD Zen 4, within a few per cent either way on Intel Sapphire Rapids).
-The choice is made once per process — a table for AMD Zen 4, otherwise both are timed at first
-use (about 2 ms; vnni must win by 2 %) — and ``avx512_sad_variant()`` says which and why;
+(docs/cpp_core.md has the figures). The choice is made once per process — a table for AMD Zen 4,
+otherwise both are timed once at first use (vnni must win by 2 %) — and ``avx512_sad_variant()`` says which and why;
 ``NIGHTLOC_AVX512_VNNI=0`` or ``1`` forces it.
 """
 
@@ -73,7 +73,7 @@ def avx512_sad_variant() -> tuple[str, str] | None:
     """``(variant, reason)`` of the ``avx512bw`` path's all-shift SAD kernel, e.g.
     ``("vpaddw", "CPU table: AuthenticAMD family 19h ...")``; None on CPUs without AVX-512BW.
 
-    The first call may time both variants (about 2 ms, once per process).
+    The first call may time both variants (once per process).
     """
     found = _core.avx512_sad_variant()
     return None if found is None else (str(found[0]), str(found[1]))

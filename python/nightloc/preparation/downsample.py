@@ -76,7 +76,7 @@ def area_downsample(image: np.ndarray, width: int, height: int) -> np.ndarray:
     Each output pixel is the mean of the input area it covers (fractional pixels weighted by
     their covered fraction), rounded to nearest. Integer factors, upsampling and small inputs
     use ``cv2.resize(..., INTER_AREA)``'s arithmetic; other factors an integral image (exact
-    sums), several times faster than ``cv2.resize`` for camera-size frames. uint8 images that
+    sums), faster than ``cv2.resize`` for camera-size frames (docs/preparation.md). uint8 images that
     are not upsampled are computed by the compiled core (the same bytes as
     :func:`area_downsample_opencv`).
     """

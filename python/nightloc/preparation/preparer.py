@@ -8,7 +8,7 @@ The steps (``docs/design.md``, paper section III-A), each set by :class:`~nightl
    (``"global"``), CLAHE (``"clahe"``) or none;
 4. **area downsample** to ``width x height`` (48x24): every output pixel is the exact mean of the
    input area it covers, rounded to the nearest grey level (``cv2.INTER_AREA`` semantics;
-   non-integer factors go through an integral image, ~5x faster than ``cv2.resize`` there);
+   non-integer factors go through an integral image, faster than ``cv2.resize`` there);
 5. **patch normalization**, eq. (1), by the compiled core (:func:`nightloc.patch_normalize`).
 
 16-bit frames: ``"global"`` equalization maps the 65 536 grey levels straight to 8 bits (the

@@ -32,7 +32,7 @@ off-route probability, is carried from frame to frame:
 
 The parameters were chosen on Nordland (summer/winter) and Gardens Point (day/night) together,
 including queries with a varying speed and kidnaps (``docs/route_mode.md``). The per-frame cost is
-a few passes over ``n_ref`` doubles (3576 x 3576 in about 0.1 s, one thread); the arithmetic is
+a few passes over ``n_ref`` doubles (docs/route_mode.md, "Speed", has the figures); the arithmetic is
 sequential double precision, so :class:`RouteFilter` frame by frame and :func:`route_filter` over a
 matrix give identical results, and ``tests/route_oracle.py`` holds a numpy oracle.
 """

@@ -55,7 +55,7 @@ DEFAULT_SEED = 0
 DEFAULT_DARKNESS = 1.0
 NIGHT_GAMMA = 1.8  # the night camera's tone curve lifts the shadows a little more than day's 2.2
 DAY_GAMMA = 2.2
-#: The wheel odometry every drive's ``odometry.csv`` holds (issue 20's measured wheel base).
+#: The wheel odometry every drive's ``odometry.csv`` holds (the defaults: a measured wheel base).
 SYNTH_WHEEL_NOISE = WheelNoise()
 
 

@@ -1,4 +1,4 @@
-"""The large garden: a 25 x 15 m lawn where odometry drift matters (issue 20).
+"""The large garden: a 25 x 15 m lawn where odometry drift matters.
 
 Fences round the lawn with posts, a house with windows and a porch lamp on the north side, a
 shed, hedges, shrubs along the fences, a few trees and a birdbath on the lawn (placed between

@@ -23,7 +23,7 @@ __all__ = ["ALL_WORLDS", "WORLD_NAMES", "GroundMap", "LightSource", "World", "bu
 
 #: The worlds of the default dataset.
 WORLD_NAMES: tuple[str, ...] = ("garden", "living_room")
-#: Every world, with those rendered on demand only (the 25 x 15 m large garden, issue 20).
+#: Every world, with those rendered on demand only (the 25 x 15 m large garden).
 ALL_WORLDS: tuple[str, ...] = (*WORLD_NAMES, "large_garden")
 
 RGB = tuple[float, float, float]
