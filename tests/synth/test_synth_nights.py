@@ -284,6 +284,15 @@ def test_night_names_parse_and_unknown_ones_name_the_choices(tmp_path):
         SynthScene("garden", 0, camera=TINY).night("noon")
 
 
+def test_a_night_of_a_night_starts_from_the_usual_one():
+    scene = SynthScene("garden", 0, camera=TINY)
+    twice = scene.night("darker").night("lamps_moved")
+    once = scene.night("lamps_moved")
+    assert twice.darkness == once.darkness == 1.0
+    assert twice.describe_night() == once.describe_night()
+    assert np.array_equal(twice.frame("night", 3.0, 2.0, 0.5), once.frame("night", 3.0, 2.0, 0.5))
+
+
 @pytest.mark.parametrize(
     ("arguments", "message"),
     [

@@ -112,6 +112,7 @@ class SynthScene:
         #: The night condition of the ``"night"`` lighting (:mod:`nightloc.synth.nights`).
         self.night_name = USUAL_NIGHT
         self.moon_direction: np.ndarray | None = None
+        self._usual_night = (self.world, self.darkness)  # what every night() starts from
 
     def night(self, name: str) -> SynthScene:
         """This scene on the night ``name`` (:data:`~nightloc.synth.nights.NIGHTS`): the same world,
@@ -121,14 +122,15 @@ class SynthScene:
         if name not in NIGHTS:
             raise ValueError(f"unknown night {name!r}; choose from {', '.join(NIGHT_NAMES)}")
         condition = NIGHTS[name]
-        darkness = self.darkness + condition.extra_darkness
+        usual_world, usual_darkness = self._usual_night
+        darkness = usual_darkness + condition.extra_darkness
         if darkness > 3.0:
             raise ValueError(
-                f"night {name!r} adds {condition.extra_darkness} to the darkness {self.darkness}: at most 3 in all"
+                f"night {name!r} adds {condition.extra_darkness} to the darkness {usual_darkness}: at most 3 in all"
             )
-        world = lamp_layout(self.world, self.seed, condition.lamps)
+        world = lamp_layout(usual_world, self.seed, condition.lamps)
         direction = moon_direction(world, self.seed) if condition.moon > 0 else None
-        usual_power = sum(sum(light.power) for light in self.world.lights.values() if "night" in light.conditions)
+        usual_power = sum(sum(light.power) for light in usual_world.lights.values() if "night" in light.conditions)
         power = sum(sum(light.power) for light in world.lights.values() if "night" in light.conditions)
         night = copy.copy(self)
         night.world = world
