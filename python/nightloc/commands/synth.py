@@ -65,9 +65,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         metavar="NAMES",
         help="render these nights (comma-separated, or all) instead of the paper's Table I night traverses, each as "
         "OUT/night_reference_NAME (the day path driven again) and OUT/night_query_NAME (the other path); the usual "
-        "night keeps the names night_reference and night_query. "
-        + "; ".join(f"{night.name}: {night.description}" for night in NIGHTS.values())
-        + " (not for the creek)",
+        "night keeps the names night_reference and night_query. Nights: "
+        + "; ".join(f"{night.name} ({night.description})" for night in NIGHTS.values())
+        + ". Not for --world creek",
     )
     parser.add_argument("--overwrite", action="store_true", help="replace a dataset that exists at OUT")
     parser.add_argument("--threads", type=int, default=None, help="render threads (default all cores)")

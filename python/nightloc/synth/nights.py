@@ -81,7 +81,7 @@ NIGHTS: dict[str, NightCondition] = {
         NightCondition(
             "moon_only", "every lamp off: only the full moon and the sky light the scene", lamps="off", moon=1.0
         ),
-        NightCondition("darker", "the usual lamps, darkness + 0.3 (a quarter of the photons)", extra_darkness=0.3),
+        NightCondition("darker", "the usual lamps at darkness + 0.3: a quarter of the photons", extra_darkness=0.3),
     )
 }
 NIGHT_NAMES: tuple[str, ...] = tuple(NIGHTS)
