@@ -8,7 +8,7 @@ usual night (``lamps``):
 name          the night
 ============  ===============================================================================
 lamps         the usual night: the world's night lamps, the dataset's darkness
-lamps_moved   another lamp layout: the owner's lamps off, others placed elsewhere (from a seed)
+lamps_moved   another lamp layout: the porch or room lamps off, others placed elsewhere (from a seed)
 moonlit       the usual lamps under a full moon (moon shadows, a brighter sky)
 moon_only     every lamp of the house off: only the full moon and the sky light the scene
 darker        the usual lamps at a darker exposure (darkness + 0.3: a quarter of the photons)
@@ -20,7 +20,7 @@ collects fewer photo-electrons and its frames are darker and noisier (:mod:`nigh
 only ``darker`` changes the exposure itself.
 
 :func:`lamp_layout` places the ``lamps_moved`` lamps: outdoors the porch lamp is off (the street
-lamp and the lit window are not the robot owner's) and garden lanterns stand on posts in a band
+lamp and the house's lit window stay on) and garden lanterns stand on posts in a band
 just outside the mapped area; indoors every lamp is off and floor lamps stand where the floor is
 free between the mapped area and the walls. :func:`moon_direction` draws the moon's place in the
 sky (indoors in the south, so it shines through the windows).
@@ -76,7 +76,9 @@ NIGHTS: dict[str, NightCondition] = {
     night.name: night
     for night in (
         NightCondition(USUAL_NIGHT, "the world's usual night lamps"),
-        NightCondition("lamps_moved", "another lamp layout: the owner's lamps off, others elsewhere", lamps="moved"),
+        NightCondition(
+            "lamps_moved", "another lamp layout: the porch or room lamps off, others elsewhere", lamps="moved"
+        ),
         NightCondition("moonlit", "the usual lamps under a full moon", moon=1.0),
         NightCondition(
             "moon_only", "every lamp off: only the full moon and the sky light the scene", lamps="off", moon=1.0
@@ -107,8 +109,8 @@ def night_traverse_name(traverse: str, night: str) -> str:
     return traverse if night == USUAL_NIGHT else f"{traverse}_{night}"
 
 
-#: The lamps of the robot owner's house: off on the ``lamps_moved`` night (the street lamp and the
-#: neighbours' lit window stay on; every lamp is off on ``moon_only``).
+#: The lamps switched where the robot lives: off on the ``lamps_moved`` night (the street lamp and the
+#: house's lit window stay on; every lamp is off on ``moon_only``).
 _HOUSE_LAMPS = {"porch_lamp", "floor_lamp", "table_lamp", "oven"}
 
 
@@ -134,7 +136,7 @@ def lamp_layout(world: World, layout_seed: int, lamps: str = "moved") -> World:
     """``world`` with the lamps of another night: ``lamps`` ``"usual"`` (``world`` itself),
     ``"off"`` (every night lamp off) or ``"moved"``.
 
-    ``"moved"``: the house's own lamps off and new ones, drawn from ``layout_seed``: outdoors one
+    ``"moved"``: the porch lamp or the room's lamps off and new ones, drawn from ``layout_seed``: outdoors one
     garden lantern (a 0.8 m post with a glowing head, light at 0.9 m, about 250 lumen) per 8 m of
     the mapped area's perimeter, in a band 0.6-1.1 m outside it; indoors two floor lamps (light at 1.55 m)
     0.25-0.75 m outside it, towards the walls. A place is used only where no object of the world
