@@ -6,6 +6,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -17,7 +18,7 @@ from nightloc.cli import main
 from nightloc.synth import Camera, SynthScene, make_dataset, plan_traverses
 from nightloc.synth.geometry import box
 from nightloc.synth.lighting import MOON_IRRADIANCE, make_lighting, make_night_lighting
-from nightloc.synth.nights import NIGHT_NAMES, lamp_layout, parse_nights
+from nightloc.synth.nights import NIGHT_NAMES, lamp_layout, night_traverse_name, parse_nights
 from nightloc.synth.paths import plan_night_drives
 from nightloc.synth.render import render_radiance
 from nightloc.synth.world import build_world
@@ -328,15 +329,18 @@ def test_cli_renders_the_nights_asked_for(tmp_path, capsys):
 @pytest.mark.slow
 def test_every_garden_night_is_informative():
     """Single-frame best-reference matching of each garden night's re-drive against the day map
-    (192 x 96 frames): clearly better than a random reference."""
+    (192 x 96 frames, the dataset's own noise draws): the best reference lies within 1 m far more
+    often than a random one does."""
     scene = SynthScene("garden", seed=0)
     day = plan_traverses("garden", 0)[0]
     refs = nightloc.prepare(np.stack(list(scene.render_plan(day))))
     for k, night in enumerate(NIGHT_NAMES):
         redrive = plan_night_drives("garden", 0, k)[0]
+        redrive = replace(redrive, name=night_traverse_name(redrive.name, night))  # its frames' noise
         queries = nightloc.prepare(np.stack(list(scene.night(night).render_plan(redrive))))
         scores, _ = nightloc.difference_matrix(queries, refs)
         distances = np.linalg.norm(redrive.positions[:, None] - day.positions[None], axis=2)
-        best = float(np.median(distances[np.arange(len(scores)), scores.argmin(axis=1)]))
-        print(f"garden {night}: median error {best:.2f} m, random {np.median(distances):.2f} m")
-        assert best < 0.65 * float(np.median(distances)), night
+        best = distances[np.arange(len(scores)), scores.argmin(axis=1)]
+        found, chance = float(np.mean(best < 1.0)), float(np.mean(distances < 1.0))
+        print(f"garden {night}: median error {np.median(best):.2f} m, within 1 m {found:.0%} (random {chance:.0%})")
+        assert found > 3 * chance, night
