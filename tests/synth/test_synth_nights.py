@@ -218,6 +218,37 @@ def test_a_moonless_night_lighting_is_the_usual_night():
         assert same is usual
 
 
+def test_indoors_the_lamps_bounced_light_goes_with_the_lamps():
+    room = build_world("living_room", 0)
+    usual = make_lighting(room, "night", 0)
+    dark = make_night_lighting(lamp_layout(room, 0, "off"), 0, lamp_bounce=0.0)
+    np.testing.assert_allclose(dark.ambient, usual.ambient * 0.2, rtol=1e-6)  # what comes in from outside
+    assert dark.lamps == () and dark.glow == {}
+    half = make_night_lighting(room, 0, lamp_bounce=0.5)
+    np.testing.assert_allclose(half.ambient, usual.ambient * 0.6, rtol=1e-6)
+    garden = build_world("garden", 0)  # outdoors the sky's light does not depend on the lamps
+    np.testing.assert_array_equal(
+        make_night_lighting(lamp_layout(garden, 0, "off"), 0, lamp_bounce=0.0).ambient,
+        make_lighting(garden, "night", 0).ambient,
+    )
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"moon": 1.0}, "needs moon_direction"),
+        ({"moon": -1.0}, "moon must be in"),
+        ({"moon": float("nan")}, "moon must be in"),
+        ({"moon": 1.0, "moon_direction": (1.0, 0.0, -0.2)}, "z > 0"),
+        ({"moon": 1.0, "moon_direction": (1.0, 0.0)}, "moon_direction"),
+        ({"lamp_bounce": -0.1}, "lamp_bounce"),
+    ],
+)
+def test_night_lighting_bad_arguments_are_clear_errors(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        make_night_lighting(bare_world([]), 0, **kwargs)
+
+
 def test_moon_shadow_of_a_box_falls_where_the_projection_says():
     world = bare_world([box(0.0, 0.0, 1.0, 1.0, 0.0, 2.0, "grey")])
     elevation = math.radians(45.0)
