@@ -8,8 +8,8 @@ garden/night_reference night       53      the same path, sampled evenly along i
 garden/night_query     night       41      an alternative path, partly overlapping
 living_room/day_reference  day     52      grid points 0.5 m x 1 m (13 x 4), row by row
 living_room/night_query    night   32      random positions and headings
-large_garden/day_reference day     875     a perimeter pass, then a lawn-mower drive, 0.5 m apart
-large_garden/night_query   night   103     across the lawn, along it, back down the middle
+large_garden/day_reference day     901     a perimeter pass, then a lawn-mower drive, 0.5 m apart
+large_garden/night_query   night   98      across the lawn, along it, back down the middle
 =====================  ==========  ======  ==============================================
 
 Another night (:func:`plan_night_drives`) drives both ways in every world: ``night_reference``
