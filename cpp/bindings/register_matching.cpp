@@ -1,11 +1,13 @@
 // pybind11 glue for matching (nightloc.matching): rotation-invariant SAD tables, the per-frame
-// match, difference matrices (nightloc/sad.hpp) and the choice of SIMD path (nightloc/simd.hpp).
+// match, difference matrices (nightloc/sad.hpp), the choice of SIMD path (nightloc/simd.hpp) and of
+// the AVX-512 SAD variant (the core's internal avx512_variant.hpp).
 #include <cstdint>
 #include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "avx512_variant.hpp"
 #include "glue.hpp"
 #include "nightloc/sad.hpp"
 #include "nightloc/simd.hpp"

@@ -36,10 +36,6 @@ int main() {
     const double heading = 2.0 * M_PI * result.shifts[result.best] / static_cast<double>(width);
     const nightloc::SimdBackend path = nightloc::active_simd_backend();  // NIGHTLOC_SIMD=<name> forces one
     std::printf("SIMD path: %s\n", nightloc::simd_backend_name(path));
-    if (path == nightloc::SimdBackend::avx512bw) {
-        std::printf("all-shift kernel: %s (%s)\n", nightloc::avx512_sad_variant_name(nightloc::avx512_sad_variant()),
-                    nightloc::avx512_sad_variant_reason().c_str());
-    }
     std::printf("best reference: %ld (score %.3f), shift %d columns = relative heading %.3f rad\n",
                 static_cast<long>(result.best), static_cast<double>(result.scores[result.best]),
                 result.shifts[result.best], heading);

@@ -1,8 +1,8 @@
-// The choice between the two accumulations of the AVX-512 all-shift SAD kernel (see
-// nightloc/simd.hpp). vpdpwssd (VNNI) runs on port 0 beside vdbpsadbw on port 5 on Intel cores,
-// where the faster of the two changes with the host and its load; on AMD Zen 4 vpaddw is faster by
-// a wide margin (the figures: docs/cpp_core.md). So one CPU family, where the gap is large and
-// known, comes from a table; every other CPU with VNNI is measured once, at first use.
+// The choice between the two accumulations of the AVX-512 all-shift and offsets SAD kernels
+// (avx512_variant.hpp). vpdpwssd (VNNI) runs on another execution port than vdbpsadbw on Intel
+// cores, where the faster of the two changes with the host and its load; on AMD Zen 4 vpaddw is
+// faster by a wide margin (docs/performance.md). So a CPU family whose faster variant is known
+// comes from a table; every other CPU with VNNI is measured once, at first use.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -15,6 +15,9 @@
 #include <string>
 #include <vector>
 
+#include "avx512_variant.hpp"
+
+#include "arch.hpp"
 #include "nightloc/simd.hpp"
 #include "query_plan.hpp"
 #include "sad_kernels.hpp"
@@ -71,7 +74,7 @@ CpuIdentity cpu_identity() {
 // Both variants on a small paper-sized problem (48x24, all 48 shifts, 64 references: 3.5 M byte
 // comparisons per call), alternating, best of 15 rounds of 4 calls. VNNI must win by 2 %: where
 // the two are this close (Intel), the faster one in the engine depends on the number of references
-// (docs/cpp_core.md), and noise would otherwise flip the choice from run to run.
+// (docs/performance.md), and noise would otherwise flip the choice from run to run.
 Choice measure(const CpuIdentity& cpu) {
     constexpr std::size_t kHeight = 24, kWidth = 48, kPixels = kHeight * kWidth, kRefs = 64;
     const std::size_t stride = detail::round_up(kPixels, detail::kChunk);
@@ -109,12 +112,10 @@ Choice measure(const CpuIdentity& cpu) {
             vpaddw = std::min(vpaddw, seconds(detail::sad_all_shifts_avx512bw));
         }
     }
-    const double comparisons = 4.0 * kRefs * kPixels * kWidth;
-    char text[160];
-    std::snprintf(text, sizeof text,
-                  "measured at first use on %s: vnni %.0f G/s, vpaddw %.0f G/s (one thread; vnni needs +2 %%)",
-                  cpu.text().c_str(), comparisons / vnni / 1e9, comparisons / vpaddw / 1e9);
-    return {vnni * 1.02 < vpaddw ? Avx512SadVariant::vnni : Avx512SadVariant::vpaddw, text};
+    const bool vnni_wins = vnni * 1.02 < vpaddw;
+    return {vnni_wins ? Avx512SadVariant::vnni : Avx512SadVariant::vpaddw,
+            "measured at first use on " + cpu.text() +
+                (vnni_wins ? ": vnni at least 2 % faster than vpaddw" : ": vnni not 2 % faster than vpaddw")};
 }
 
 Choice choose() {
@@ -180,18 +181,18 @@ void reset_avx512_sad_variant() noexcept { g_forced.store(kNotForced, std::memor
 int detail::avx512_sad_variant_of_family(const char* vendor, unsigned family, const char** why) noexcept {
     // Families whose faster variant is known by a wide margin (one thread, 48x24, 48 shifts).
     if (std::strcmp(vendor, "AuthenticAMD") == 0 && family == 0x19) {  // Zen 3 has no AVX-512: Zen 4
-        *why = "AMD Zen 4: vpaddw 234-239 G/s, vnni 189 G/s";
+        *why = "AMD Zen 4: vpaddw faster by a wide margin";
         return static_cast<int>(Avx512SadVariant::vpaddw);
     }
     *why = "not in the table";  // Intel (the two within a few per cent, host-dependent), AMD Zen 5, others
     return -1;
 }
 
-detail::AllShiftKernel detail::all_shift_kernel() {
+detail::AllShiftKernel detail::avx512_all_shift_kernel() {
     return avx512_sad_variant() == Avx512SadVariant::vnni ? sad_all_shifts_avx512vnni : sad_all_shifts_avx512bw;
 }
 
-detail::OffsetsKernel detail::offsets_kernel() {
+detail::OffsetsKernel detail::avx512_offsets_kernel() {
     return avx512_sad_variant() == Avx512SadVariant::vnni ? sad_offsets_avx512vnni : sad_offsets_avx512bw;
 }
 #endif

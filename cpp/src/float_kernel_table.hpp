@@ -1,15 +1,16 @@
-// Internal: which table of float-vector kernels (heat maps, grid filter) serves a SIMD path.
+// Internal: which table of float-vector kernels (heat maps, grid filter, route likelihood) serves
+// a SIMD path: the one its registry entry names (SimdPath::float_kernels, simd_paths.cpp).
 #pragma once
 
+#include "arch.hpp"
 #include "nightloc/simd.hpp"
-#include "sad_kernels.hpp"  // NIGHTLOC_X86_KERNELS
+#include "simd_paths.hpp"
 
 namespace nightloc::detail {
 
-/// The float kernels compiled per path: `scalar` (the reference; vectorization off where it
+/// The float kernels compiled per width: `scalar` (the reference; vectorization off where it
 /// matters), `baseline` (4-lane vectors: SSE2 on x86, NEON on AArch64), and on x86 `avx2` (8
-/// lanes) and `avx512` (16 lanes; both given on x86, nullptr elsewhere). On AArch64 every path but scalar runs the NEON
-/// table (the dot product adds nothing to float work); a path of another architecture gets the scalar table.
+/// lanes) and `avx512` (16 lanes; both given on x86, nullptr elsewhere, where no path names them).
 template <class Kernels>
 struct FloatKernelTables {
     const Kernels& scalar;
@@ -18,23 +19,17 @@ struct FloatKernelTables {
     const Kernels* avx512;
 
     const Kernels& of(SimdBackend backend) const noexcept {
-        switch (backend) {
-            case SimdBackend::scalar:
+        switch (simd_path(backend).float_kernels) {
+            case FloatKernelWidth::scalar:
                 return scalar;
-#if NIGHTLOC_X86_KERNELS
-            case SimdBackend::sse2:
+            case FloatKernelWidth::baseline:
                 return baseline;
-            case SimdBackend::avx2:
-                return *avx2;
-            case SimdBackend::avx512bw:
-                return *avx512;
-            default:
-                return scalar;  // another architecture's path: never active here
-#else
-            default:
-                return baseline;
-#endif
+            case FloatKernelWidth::avx2:
+                return avx2 != nullptr ? *avx2 : baseline;
+            case FloatKernelWidth::avx512:
+                return avx512 != nullptr ? *avx512 : baseline;
         }
+        return scalar;
     }
 };
 

@@ -13,8 +13,8 @@
 #include <cstring>
 #include <utility>
 
+#include "arch.hpp"
 #include "float_kernel_table.hpp"
-#include "sad_kernels.hpp"  // NIGHTLOC_X86_KERNELS
 
 #define NL_INLINE inline __attribute__((always_inline))
 // Loops over a template's few vectors or bins, unrolled: their accumulators stay in registers.

@@ -8,8 +8,8 @@
 #include <cstdint>
 #include <cstring>
 
+#include "arch.hpp"
 #include "float_kernel_table.hpp"
-#include "sad_kernels.hpp"  // NIGHTLOC_X86_KERNELS
 
 #define NL_INLINE inline __attribute__((always_inline))
 

@@ -7,6 +7,8 @@
 #include <thread>
 #include <vector>
 
+#include "arch.hpp"
+
 #if defined(__unix__) || defined(__APPLE__)
 #include <pthread.h>
 #define NIGHTLOC_HAVE_ATFORK 1
@@ -26,9 +28,9 @@ constexpr auto kFinishSpin = std::chrono::microseconds(100);
 
 /// A hint to the CPU that this thread is spinning.
 inline void cpu_relax() noexcept {
-#if defined(__x86_64__) || defined(__i386__)
+#if NIGHTLOC_X86_KERNELS
     __builtin_ia32_pause();
-#elif defined(__aarch64__)
+#elif NIGHTLOC_ARM_KERNELS
     asm volatile("yield" ::: "memory");
 #endif
 }

@@ -9,7 +9,8 @@
 
 #include <cstring>
 
-#include "sad_kernels.hpp"  // NIGHTLOC_X86_KERNELS
+#include "arch.hpp"
+#include "simd_paths.hpp"
 
 #if NIGHTLOC_X86_KERNELS
 #if defined(__GNUC__) && !defined(__clang__) && __GNUC__ == 12
@@ -559,40 +560,43 @@ void prefix_row_neon(const std::uint16_t* band, std::size_t n, std::uint32_t* pr
 
 }  // namespace
 
-const PrepareKernels& prepare_kernels(SimdBackend backend) noexcept {
-    static const PrepareKernels scalar{grey_row_scalar,           histogram_row,     accumulate_row_scalar,
-                                       accumulate_lut_row_scalar, prefix_row_scalar, "scalar"};
+const PrepareKernels& prepare_kernels_scalar() noexcept {
+    static const PrepareKernels kernels{grey_row_scalar,           histogram_row,     accumulate_row_scalar,
+                                        accumulate_lut_row_scalar, prefix_row_scalar, "scalar"};
+    return kernels;
+}
+
 #if NIGHTLOC_X86_KERNELS
-    static const PrepareKernels sse2{grey_row_baseline,           histogram_row,       accumulate_row_baseline,
-                                     accumulate_lut_row_baseline, prefix_row_baseline, "sse2"};
-    static const PrepareKernels avx2{grey_row_avx2_intrinsics,  histogram_row,   accumulate_row_avx2,
-                                     accumulate_lut_row_gather, prefix_row_avx2, "avx2"};
+const PrepareKernels& prepare_kernels_sse2() noexcept {
+    static const PrepareKernels kernels{grey_row_baseline,           histogram_row,       accumulate_row_baseline,
+                                        accumulate_lut_row_baseline, prefix_row_baseline, "sse2"};
+    return kernels;
+}
+
+const PrepareKernels& prepare_kernels_avx2() noexcept {
+    static const PrepareKernels kernels{grey_row_avx2_intrinsics,  histogram_row,   accumulate_row_avx2,
+                                        accumulate_lut_row_gather, prefix_row_avx2, "avx2"};
+    return kernels;
+}
+
+const PrepareKernels& prepare_kernels_avx512bw() noexcept {
     static const PrepareKernels avx512{grey_row_avx512_intrinsics, histogram_row,     accumulate_row_avx512,
                                        accumulate_lut_row_gather,  prefix_row_avx512, "avx512bw"};
     static const PrepareKernels avx512_vbmi{grey_row_vbmi,           histogram_row,     accumulate_row_avx512,
                                             accumulate_lut_row_vbmi, prefix_row_avx512, "avx512bw+vbmi"};
-    switch (backend) {
-        case SimdBackend::scalar:
-            return scalar;
-        case SimdBackend::sse2:
-            return sse2;
-        case SimdBackend::avx2:
-            return avx2;
-        case SimdBackend::avx512bw:
-            return cpu_has_vbmi() ? avx512_vbmi : avx512;
-        default:
-            return scalar;  // another architecture's path: never active here
-    }
-#elif NIGHTLOC_ARM_KERNELS
-    // (the plain band add is auto-vectorized; the dot product does not help these passes)
-    static const PrepareKernels neon{grey_row_neon,           histogram_row,   accumulate_row_baseline,
-                                     accumulate_lut_row_neon, prefix_row_neon, "neon"};
-    return backend == SimdBackend::scalar ? scalar : neon;
-#else
-    static const PrepareKernels baseline{grey_row_baseline,           histogram_row,       accumulate_row_baseline,
-                                         accumulate_lut_row_baseline, prefix_row_baseline, "baseline"};
-    return backend == SimdBackend::scalar ? scalar : baseline;
-#endif
+    return cpu_has_vbmi() ? avx512_vbmi : avx512;
 }
+#endif
+
+#if NIGHTLOC_ARM_KERNELS
+const PrepareKernels& prepare_kernels_neon() noexcept {
+    // (the plain band add is auto-vectorized; the dot product does not help these passes)
+    static const PrepareKernels kernels{grey_row_neon,           histogram_row,   accumulate_row_baseline,
+                                        accumulate_lut_row_neon, prefix_row_neon, "neon"};
+    return kernels;
+}
+#endif
+
+const PrepareKernels& prepare_kernels(SimdBackend backend) noexcept { return simd_path(backend).prepare_kernels(); }
 
 }  // namespace nightloc::detail

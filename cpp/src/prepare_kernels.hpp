@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "arch.hpp"
 #include "nightloc/prepare.hpp"
 #include "nightloc/simd.hpp"
 
@@ -29,7 +30,19 @@ struct PrepareKernels {
     const char* name;
 };
 
-/// The kernels of a path (a supported one: the caller checks).
+/// The kernels of a path (its SimdPath entry's table; a supported path: the caller checks).
 const PrepareKernels& prepare_kernels(SimdBackend backend) noexcept;
+
+/// Each path's table, named by the SIMD path registry (simd_paths.cpp). avx512bw takes the
+/// AVX-512 VBMI table lookup when the CPU has VBMI; both AArch64 paths share the NEON table.
+const PrepareKernels& prepare_kernels_scalar() noexcept;
+#if NIGHTLOC_X86_KERNELS
+const PrepareKernels& prepare_kernels_sse2() noexcept;
+const PrepareKernels& prepare_kernels_avx2() noexcept;
+const PrepareKernels& prepare_kernels_avx512bw() noexcept;
+#endif
+#if NIGHTLOC_ARM_KERNELS
+const PrepareKernels& prepare_kernels_neon() noexcept;
+#endif
 
 }  // namespace nightloc::detail

@@ -81,27 +81,6 @@ void write_copy(const SearchShape& shape, const std::uint8_t* query, const std::
     }
 }
 
-CopiesKernel copies_kernel_for(SimdBackend backend) {
-    switch (backend) {
-#if NIGHTLOC_X86_KERNELS
-        case SimdBackend::sse2:
-            return sad_copies_sse2;
-        case SimdBackend::avx2:
-            return sad_copies_avx2;
-        case SimdBackend::avx512bw:
-            return sad_copies_avx512bw;
-#endif
-#if NIGHTLOC_ARM_KERNELS
-        case SimdBackend::neon:
-            return sad_copies_neon;
-        case SimdBackend::neon_dotprod:
-            return sad_copies_neon_dotprod;
-#endif
-        default:
-            return sad_copies_scalar;
-    }
-}
-
 }  // namespace
 
 void AlignedBytes::reserve(std::size_t size) {
@@ -143,18 +122,13 @@ SearchShape make_search_shape(std::size_t height, std::size_t width, const std::
 
 namespace {
 
-bool use_all_shift_layout(SimdBackend backend, const SearchShape& shape) {
-#if NIGHTLOC_X86_KERNELS
+bool use_all_shift_layout(const SimdPath& path, const SearchShape& shape) {
     const std::size_t interleaved_bytes = round_up(shape.pixels, kChunk) * (shape.width / 2);
-    return backend == SimdBackend::avx512bw && shape.wrap && shape.width % 8 == 0 && shape.width <= kAllShiftMaxWidth &&
+    return path.sad_all_shifts != nullptr && shape.wrap && shape.width % 8 == 0 && shape.width <= kAllShiftMaxWidth &&
            2 * shape.n_shifts > shape.width && interleaved_bytes <= kPlanBudget;
-#else
-    (void)backend, (void)shape;
-    return false;
-#endif
 }
 
-// The offsets layout of sad_offsets_avx512bw: copies at even offsets e0, e0 + 2, ... covering the
+// The offsets layout (OffsetsKernel, sad_kernels.hpp): copies at even offsets e0, e0 + 2, ... covering the
 // consecutive ascending offsets of a non-wrapping search.
 struct OffsetCopies {
     std::int32_t e0 = 0;
@@ -170,18 +144,13 @@ OffsetCopies offset_copies(const SearchShape& shape) {
     return c;
 }
 
-bool use_offset_layout(SimdBackend backend, const SearchShape& shape) {
-#if NIGHTLOC_X86_KERNELS
-    if (backend != SimdBackend::avx512bw || shape.wrap || shape.width % 8 != 0 || shape.n_shifts < 3) return false;
+bool use_offset_layout(const SimdPath& path, const SearchShape& shape) {
+    if (path.sad_offsets == nullptr || shape.wrap || shape.width % 8 != 0 || shape.n_shifts < 3) return false;
     for (std::size_t j = 1; j < shape.n_shifts; ++j) {
         if (shape.shifts[j] != shape.shifts[j - 1] + 1) return false;
     }
     const OffsetCopies c = offset_copies(shape);
     return c.n_copies <= kMaxOffsetCopies && c.n_copies * round_up(shape.pixels, kChunk) <= kPlanBudget;
-#else
-    (void)backend, (void)shape;
-    return false;
-#endif
 }
 
 std::size_t copies_per_block(const SearchShape& shape) {
@@ -203,20 +172,18 @@ void interleave_query(const std::uint8_t* query, std::size_t height, std::size_t
     }
 }
 
-std::size_t plan_bytes(SimdBackend backend, const SearchShape& shape) {
+std::size_t plan_bytes(const SimdPath& path, const SearchShape& shape) {
     const std::size_t stride = round_up(shape.pixels, kChunk);
-    if (use_all_shift_layout(backend, shape)) return stride * (shape.width / 2);
-    if (use_offset_layout(backend, shape)) return stride * offset_copies(shape).n_copies;
+    if (use_all_shift_layout(path, shape)) return stride * (shape.width / 2);
+    if (use_offset_layout(path, shape)) return stride * offset_copies(shape).n_copies;
     return stride * copies_per_block(shape);
 }
 
-QueryPlan::QueryPlan(SimdBackend backend, const SearchShape& shape) : shape_(shape) {
+QueryPlan::QueryPlan(const SimdPath& path, const SearchShape& shape) : shape_(shape) {
     stride_ = round_up(shape.pixels, kChunk);
-    all_shifts_ = use_all_shift_layout(backend, shape);
+    all_shifts_ = use_all_shift_layout(path, shape);
     if (all_shifts_) {
-#if NIGHTLOC_X86_KERNELS
-        all_shift_kernel_ = all_shift_kernel();
-#endif
+        all_shift_kernel_ = path.sad_all_shifts();
         slots_per_block_ = shape.n_shifts;
         interleaved_bytes_ = stride_ * (shape.width / 2);
         rolled_temp_.reset(new std::uint8_t[stride_]);
@@ -227,10 +194,8 @@ QueryPlan::QueryPlan(SimdBackend backend, const SearchShape& shape) : shape_(sha
             const std::size_t lane = (k % 8) / 2, dword = k % 2;
             selected_[k / 8] = static_cast<std::uint16_t>(selected_[k / 8] | (1u << (4 * lane + dword)));
         }
-    } else if (use_offset_layout(backend, shape)) {
-#if NIGHTLOC_X86_KERNELS
-        offsets_kernel_ = offsets_kernel();
-#endif
+    } else if (use_offset_layout(path, shape)) {
+        offsets_kernel_ = path.sad_offsets();
         const OffsetCopies c = offset_copies(shape);
         offset_layout_ = true;
         offset_e0_ = c.e0;
@@ -239,7 +204,7 @@ QueryPlan::QueryPlan(SimdBackend backend, const SearchShape& shape) : shape_(sha
         slots_per_block_ = shape.n_shifts;
         rolled_temp_.reset(new std::uint8_t[stride_]);
     } else {
-        copies_kernel_ = copies_kernel_for(backend);
+        copies_kernel_ = path.sad_copies;
         slots_per_block_ = copies_per_block(shape);
     }
 }
@@ -289,7 +254,6 @@ void QueryPlan::prepare(const std::uint8_t* queries, std::size_t count, std::siz
 void QueryPlan::evaluate(const std::uint8_t* refs, std::size_t n_refs, std::uint32_t* out, std::size_t out_stride,
                          std::uint32_t* scratch) const {
     if (n_refs == 0) return;
-#if NIGHTLOC_X86_KERNELS
     if (offset_layout_) {
         const std::size_t bytes = offset_copies_ * stride_;
         for (std::size_t k = 0; k < query_count_; ++k) {
@@ -313,7 +277,6 @@ void QueryPlan::evaluate(const std::uint8_t* refs, std::size_t n_refs, std::uint
         }
         return;
     }
-#endif
     (void)scratch;
     copies_kernel_(buffer_.data(), stride_, query_count_ * slot_count_, refs, shape_.ref_stride, n_refs, shape_.pixels,
                    out, out_stride);
@@ -325,12 +288,8 @@ void QueryPlan::evaluate_min(std::size_t query, const std::uint8_t* refs, std::s
         throw std::logic_error(
             "QueryPlan::evaluate_min needs the all-shift layout, sorted shifts and a prepared query");
     }
-#if NIGHTLOC_X86_KERNELS
     all_shift_kernel_(buffer_.data() + query * interleaved_bytes_, shape_.width, refs, shape_.ref_stride, n_refs,
                       shape_.pixels, nullptr, 0, selected_.data(), best_sums, best_shifts);
-#else
-    (void)refs, (void)n_refs, (void)best_sums, (void)best_shifts;
-#endif
 }
 
 }  // namespace nightloc::detail

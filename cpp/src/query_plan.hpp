@@ -6,8 +6,8 @@
 #include <memory>
 #include <vector>
 
-#include "nightloc/simd.hpp"
 #include "sad_kernels.hpp"
+#include "simd_paths.hpp"
 
 namespace nightloc::detail {
 
@@ -50,26 +50,27 @@ struct SearchShape {
 /// Checks sizes and shifts; throws std::invalid_argument naming the problem.
 SearchShape make_search_shape(std::size_t height, std::size_t width, const std::int32_t* shifts, std::size_t n_shifts);
 
-/// Writes one query in the all-shift layout of sad_all_shifts_avx512bw into `out`
+/// Writes one query in the all-shift layout (AllShiftKernel, sad_kernels.hpp) into `out`
 /// (round_up(pixels, kChunk) * width / 2 bytes, 64-byte aligned, already zero); `rolled` is a
 /// scratch buffer of round_up(pixels, kChunk) bytes.
 void interleave_query(const std::uint8_t* query, std::size_t height, std::size_t width, std::uint8_t* rolled,
                       std::uint8_t* out);
 
 /// Bytes one prepared query occupies (for sizing query blocks).
-std::size_t plan_bytes(SimdBackend backend, const SearchShape& shape);
+std::size_t plan_bytes(const SimdPath& path, const SearchShape& shape);
 
 /// A block of queries, prepared for one block of the shift list [slot_begin, slot_end):
-///  - all-shift layout (AVX-512BW, width % 8 == 0, many shifts): per query, its even-shift copies,
-///    interleaved;
-///  - offsets layout (AVX-512BW, width % 8 == 0, non-wrapping consecutive offsets): per query, its
-///    zero-filled copies at even offsets, interleaved the same way;
+///  - all-shift layout (paths with an all-shift kernel, width % 8 == 0, many shifts): per query,
+///    its even-shift copies, interleaved;
+///  - offsets layout (paths with an offsets kernel, width % 8 == 0, non-wrapping consecutive
+///    offsets): per query, its zero-filled copies at even offsets, interleaved the same way;
 ///  - otherwise one rolled copy per query and shift of the block, all handed to one kernel call
 ///    so that each reference chunk loaded serves every query of the block.
 /// evaluate() and evaluate_min() are const and may run concurrently on one plan.
 class QueryPlan {
 public:
-    QueryPlan(SimdBackend backend, const SearchShape& shape);
+    /// The layout and kernels of `path` (a SIMD path registry entry) for `shape`.
+    QueryPlan(const SimdPath& path, const SearchShape& shape);
 
     /// Shift-list slots per block (the whole list for the all-shift layout).
     std::size_t slots_per_block() const { return slots_per_block_; }
@@ -100,11 +101,9 @@ private:
     SearchShape shape_;
     bool all_shifts_ = false;
     CopiesKernel copies_kernel_ = nullptr;
-#if NIGHTLOC_X86_KERNELS
     AllShiftKernel all_shift_kernel_ = nullptr;
     OffsetsKernel offsets_kernel_ = nullptr;
-#endif
-    bool offset_layout_ = false;  // non-wrapping offsets on AVX-512 (sad_offsets_avx512bw)
+    bool offset_layout_ = false;  // non-wrapping consecutive offsets (the path's offsets kernel)
     std::int32_t offset_e0_ = 0;
     std::size_t offset_first_ = 0, offset_copies_ = 0;
     std::size_t stride_ = 0;             // bytes per rolled copy

@@ -8,16 +8,17 @@
 #include <vector>
 
 #include "nightloc/sad.hpp"
-#include "nightloc/simd.hpp"
 #include "parallel.hpp"
 #include "query_plan.hpp"
 #include "shift_window.hpp"
+#include "simd_paths.hpp"
 
 namespace nightloc {
 namespace {
 
 using detail::QueryPlan;
 using detail::SearchShape;
+using detail::SimdPath;
 using detail::Window;
 
 // A block of references should stay in L2 while every query of a query block scans it.
@@ -42,21 +43,6 @@ std::size_t ref_block_size(std::size_t pixels) {
     return n < 8 ? 8 : n;
 }
 
-// Vector width of the backend's kernels: non-wrapping bands start at a multiple of it in each
-// reference (Window::align_bands), so that no band reads references across cache lines.
-std::size_t band_alignment(SimdBackend backend) {
-    switch (backend) {
-        case SimdBackend::avx512bw:
-            return 64;
-        case SimdBackend::avx2:
-            return 32;
-        case SimdBackend::scalar:
-            return 1;
-        default:  // SSE2, NEON
-            return 16;
-    }
-}
-
 int useful_threads(int threads, double comparisons) {
     if (threads <= 1) return 1;
     const double by_work = comparisons / kMinComparisonsPerThread;
@@ -75,9 +61,9 @@ struct Tile {
 // The query plans of one block of queries, one per band (row offset) of the window.
 class PlanSet {
 public:
-    PlanSet(SimdBackend backend, const Window& window) {
+    PlanSet(const SimdPath& path, const Window& window) {
         plans_.reserve(window.n_bands());
-        for (std::size_t t = 0; t < window.n_bands(); ++t) plans_.emplace_back(backend, window.band(t));
+        for (std::size_t t = 0; t < window.n_bands(); ++t) plans_.emplace_back(path, window.band(t));
     }
     QueryPlan& operator[](std::size_t band) { return plans_[band]; }
     /// True when every band's plan covers all slots in one block (prepared once per query block).
@@ -113,9 +99,9 @@ private:
     std::vector<QueryPlan> plans_;
 };
 
-std::size_t plan_set_bytes(SimdBackend backend, const Window& window) {
+std::size_t plan_set_bytes(const SimdPath& path, const Window& window) {
     std::size_t total = 0;
-    for (std::size_t t = 0; t < window.n_bands(); ++t) total += detail::plan_bytes(backend, window.band(t));
+    for (std::size_t t = 0; t < window.n_bands(); ++t) total += detail::plan_bytes(path, window.band(t));
     return total;
 }
 
@@ -274,24 +260,24 @@ template <class Sink>
 void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries, const std::uint8_t* refs,
                               std::size_t n_refs, const Window& search, int threads, Sink&& sink) {
     if (n_queries == 0 || n_refs == 0) return;
-    const SimdBackend backend = active_simd_backend();
-    // The same candidates and ranks, the bands aligned for this backend (Window::align_bands).
+    const SimdPath& path = detail::active_simd_path();
+    // The same candidates and ranks, the bands aligned to the path's vector width
+    // (Window::align_bands), so that no band reads references across cache lines.
     // The bands of a forward window read each reference several times. For few queries, when the
     // references are not aligned to the vector width, the copies kernels would stage (align)
     // them in every band: each tile copies its block once, aligned, and the kernels read it in
-    // place. (Aligned references are read in place: faster than a copy. The AVX-512 offsets
-    // kernel reads references unstaged: faster without the copy. Many queries share each staging
-    // of the copies kernels.)
+    // place, on the paths whose registry entry stages references (SimdPath::stage_references).
+    // Aligned references are read in place, and many queries share each staging of the copies
+    // kernels.
     Window window = search;
-    const std::size_t align = band_alignment(backend), pixels = window.full().pixels;
+    const std::size_t align = path.alignment, pixels = window.full().pixels;
     const std::size_t base = reinterpret_cast<std::uintptr_t>(refs) % align;
-    const bool stage = !window.wrap() && window.n_bands() > 1 && pixels % align == 0 && base != 0 &&
-                       n_queries <= kMaxStagingQueries && backend != SimdBackend::avx512bw &&
-                       backend != SimdBackend::scalar;
+    const bool stage = path.stage_references && !window.wrap() && window.n_bands() > 1 && pixels % align == 0 &&
+                       base != 0 && n_queries <= kMaxStagingQueries;
     if (pixels % align == 0) window.align_bands(align, stage ? 0 : base);
 
     const std::size_t q_block =
-        std::clamp<std::size_t>(kQueryBlockBytes / plan_set_bytes(backend, window), 1, kMaxQueryBlock);
+        std::clamp<std::size_t>(kQueryBlockBytes / plan_set_bytes(path, window), 1, kMaxQueryBlock);
     const std::size_t n_q_blocks = (n_queries + q_block - 1) / q_block;
     const int n_threads =
         useful_threads(threads, static_cast<double>(n_queries) * static_cast<double>(n_refs) * window.comparisons());
@@ -326,7 +312,7 @@ void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries
     };
 
     if (n_q_blocks == 1) {
-        PlanSet shared(backend, window);
+        PlanSet shared(path, window);
         if (shared.single_block(window.n_columns())) {
             shared.prepare_all(queries, n_queries, window);
             detail::parallel_for(n_r_chunks, n_threads, [&](std::size_t task) {
@@ -339,7 +325,7 @@ void for_each_difference_tile(const std::uint8_t* queries, std::size_t n_queries
     detail::parallel_for(n_q_blocks * n_r_chunks, n_threads, [&](std::size_t task) {
         const Tile tile = tile_of(task);
         if (tile.r_count == 0) return;
-        PlanSet plans(backend, window);
+        PlanSet plans(path, window);
         compute_tile(tile, plans, false, stage, queries, refs, window, sink);
     });
 }
@@ -357,7 +343,7 @@ void rotational_sad_sums(const std::uint8_t* query, const std::uint8_t* refs, st
                          int threads) {
     const SearchShape shape = detail::make_search_shape(height, width, shifts, n_shifts);
     if (n_refs == 0) return;
-    QueryPlan plan(active_simd_backend(), shape);
+    QueryPlan plan(detail::active_simd_path(), shape);
     const std::size_t block = ref_block_size(shape.pixels);
     const std::size_t n_blocks = (n_refs + block - 1) / block;
     const int n_threads = useful_threads(
@@ -379,8 +365,8 @@ void rotational_sad(const std::uint8_t* query, const std::uint8_t* refs, std::si
     Window win(height, width, shifts, n_shifts, window);
     if (divisor != 0.0) check_divisor(divisor);
     if (n_refs == 0) return;
-    const SimdBackend backend = active_simd_backend();
-    const std::size_t align = band_alignment(backend);
+    const SimdPath& path = detail::active_simd_path();
+    const std::size_t align = path.alignment;
     if (win.full().pixels % align == 0) win.align_bands(align, reinterpret_cast<std::uintptr_t>(refs) % align);
     const std::size_t pixels = win.full().pixels, n_cols = win.n_columns();
     std::vector<std::uint32_t> best(n_refs * n_cols, std::numeric_limits<std::uint32_t>::max());
@@ -389,7 +375,7 @@ void rotational_sad(const std::uint8_t* query, const std::uint8_t* refs, std::si
     const std::size_t n_blocks = (n_refs + block - 1) / block;
     const int n_threads = useful_threads(threads, static_cast<double>(n_refs) * win.comparisons());
     for (std::size_t t = 0; t < win.n_bands(); ++t) {
-        QueryPlan plan(backend, win.band(t));
+        QueryPlan plan(path, win.band(t));
         for (std::size_t slot = 0; slot < n_cols; slot += plan.slots_per_block()) {
             plan.prepare(query + win.query_offset(t), 1, pixels, slot);
             const std::size_t n_slots = plan.slot_count();

@@ -4,19 +4,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
-#define NIGHTLOC_X86_KERNELS 1
-#else
-#define NIGHTLOC_X86_KERNELS 0
-#endif
-
-// AArch64: NEON is part of the baseline; the dot-product kernel's file compiles it for
-// armv8.2-a+dotprod with a target pragma (sad_neon_dotprod.cpp).
-#if defined(__aarch64__) && (defined(__GNUC__) || defined(__clang__))
-#define NIGHTLOC_ARM_KERNELS 1
-#else
-#define NIGHTLOC_ARM_KERNELS 0
-#endif
+#include "arch.hpp"
 
 namespace nightloc::detail {
 
@@ -35,6 +23,35 @@ inline std::size_t round_up(std::size_t value, std::size_t granule) {
 using CopiesKernel = void (*)(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies,
                               const std::uint8_t* refs, std::size_t ref_stride, std::size_t n_refs, std::size_t pixels,
                               std::uint32_t* out, std::size_t out_stride);
+
+/// Widest panorama the all-shift kernels take (their per-reference state lives on the stack).
+inline constexpr std::size_t kAllShiftMaxWidth = 384;
+
+/// "All-shift" kernels, for width % 8 == 0, width <= kAllShiftMaxWidth. `interleaved` holds the
+/// query rolled by the even shifts 0, 2, ..., width-2 (width/2 copies), chunk-major: bytes
+/// [(c * width/2 + m) * 64, +64) are chunk c of the copy rolled by 2m, zero beyond `pixels`. Sums
+/// for shift k of reference i are
+///  - table mode (out != nullptr): written to out[i * out_stride + k] for all k in [0, width);
+///  - min mode (out == nullptr): minimised over the shifts whose bit is set in `selected`
+///    (width/8 16-bit masks: bit 4l + d of mask g selects shift 8g + 2l + d, d < 2), lowest
+///    shift winning ties; written to best_sums[i] and best_shifts[i].
+using AllShiftKernel = void (*)(const std::uint8_t* interleaved, std::size_t width, const std::uint8_t* refs,
+                                std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
+                                std::size_t out_stride, const std::uint16_t* selected, std::uint32_t* best_sums,
+                                std::int32_t* best_shifts);
+
+/// Most copies an offsets kernel takes (its partial sums live on the stack).
+inline constexpr std::size_t kMaxOffsetCopies = 256;
+
+/// "Offsets" kernels, for non-wrapping column offsets, width % 8 == 0. `layout` holds n_copies
+/// (<= kMaxOffsetCopies) zero-filled copies of one query band, copy m offset by e0 + 2m columns
+/// (dst(r, c) = Q(r, c + e0 + 2m), 0 outside the image), chunk-major: chunk c of copy m at
+/// (c * n_copies + m) * 64, zero beyond `pixels`. For every reference i (refs + i * ref_stride)
+/// and slot j < n_slots, the offset e0 + first + j (first + n_slots <= 2 * n_copies - 2):
+///     out[i * out_stride + j] = sum_{p < pixels} |copy_offset[p] - ref_i[p]|.
+using OffsetsKernel = void (*)(const std::uint8_t* layout, std::size_t n_copies, std::size_t first, std::size_t n_slots,
+                               const std::uint8_t* refs, std::size_t ref_stride, std::size_t n_refs, std::size_t pixels,
+                               std::uint32_t* out, std::size_t out_stride);
 
 void sad_copies_scalar(const std::uint8_t* copies, std::size_t stride, std::size_t n_copies, const std::uint8_t* refs,
                        std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
@@ -62,17 +79,7 @@ void sad_copies_avx512bw(const std::uint8_t* copies, std::size_t stride, std::si
                          std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
                          std::size_t out_stride);
 
-/// Widest panorama the all-shift kernel takes (its per-reference state lives on the stack).
-inline constexpr std::size_t kAllShiftMaxWidth = 384;
-
-/// All-shift kernel (AVX-512BW vdbpsadbw) for width % 8 == 0, width <= kAllShiftMaxWidth.
-/// `interleaved` holds the query rolled by the even shifts 0, 2, ..., width-2 (width/2 copies),
-/// chunk-major: bytes [(c * width/2 + m) * 64, +64) are chunk c of the copy rolled by 2m, zero
-/// beyond `pixels`. Sums for shift k of reference i are
-///  - table mode (out != nullptr): written to out[i * out_stride + k] for all k in [0, width);
-///  - min mode (out == nullptr): minimised over the shifts whose bit is set in `selected`
-///    (width/8 16-bit masks: bit 4l + d of mask g selects shift 8g + 2l + d, d < 2), lowest
-///    shift winning ties; written to best_sums[i] and best_shifts[i].
+/// AVX-512BW all-shift kernel (vdbpsadbw, 16-bit sums accumulated with vpaddw).
 void sad_all_shifts_avx512bw(const std::uint8_t* interleaved, std::size_t width, const std::uint8_t* refs,
                              std::size_t ref_stride, std::size_t n_refs, std::size_t pixels, std::uint32_t* out,
                              std::size_t out_stride, const std::uint16_t* selected, std::uint32_t* best_sums,
@@ -84,24 +91,8 @@ void sad_all_shifts_avx512vnni(const std::uint8_t* interleaved, std::size_t widt
                                std::size_t out_stride, const std::uint16_t* selected, std::uint32_t* best_sums,
                                std::int32_t* best_shifts);
 
-/// Signature of the two all-shift kernels above.
-using AllShiftKernel = void (*)(const std::uint8_t*, std::size_t, const std::uint8_t*, std::size_t, std::size_t,
-                                std::size_t, std::uint32_t*, std::size_t, const std::uint16_t*, std::uint32_t*,
-                                std::int32_t*);
-
-/// The all-shift kernel of the variant in use (nightloc::avx512_sad_variant(), avx512_variant.cpp).
-AllShiftKernel all_shift_kernel();
-
-/// Most copies the offsets kernel takes (its partial sums live on the stack).
-inline constexpr std::size_t kMaxOffsetCopies = 256;
-
-/// Offsets kernel (AVX-512BW vdbpsadbw) for non-wrapping column offsets, width % 8 == 0.
-/// `layout` holds n_copies (<= kMaxOffsetCopies) zero-filled copies of one query band, copy m
-/// offset by e0 + 2m columns (dst(r, c) = Q(r, c + e0 + 2m), 0 outside the image), chunk-major:
-/// chunk c of copy m at (c * n_copies + m) * 64, zero beyond `pixels`. For every reference i
-/// (refs + i * ref_stride) and slot j < n_slots, the offset e0 + first + j (first + n_slots <=
-/// 2 * n_copies - 2):  out[i * out_stride + j] = sum_{p < pixels} |copy_offset[p] - ref_i[p]|.
-/// Each vdbpsadbw on copy m gives offsets e0 + 2m, +1 on the low half of an 8-pixel group and
+/// AVX-512BW offsets kernels (vdbpsadbw; vpaddw or VNNI vpdpwssd accumulation, same results). Each
+/// vdbpsadbw on copy m gives offsets e0 + 2m, +1 on the low half of an 8-pixel group and
 /// e0 + 2m - 2, -1 on the high half, as in the all-shift kernel, without wrapping.
 void sad_offsets_avx512bw(const std::uint8_t* layout, std::size_t n_copies, std::size_t first, std::size_t n_slots,
                           const std::uint8_t* refs, std::size_t ref_stride, std::size_t n_refs, std::size_t pixels,
@@ -109,14 +100,10 @@ void sad_offsets_avx512bw(const std::uint8_t* layout, std::size_t n_copies, std:
 void sad_offsets_avx512vnni(const std::uint8_t* layout, std::size_t n_copies, std::size_t first, std::size_t n_slots,
                             const std::uint8_t* refs, std::size_t ref_stride, std::size_t n_refs, std::size_t pixels,
                             std::uint32_t* out, std::size_t out_stride);
-using OffsetsKernel = void (*)(const std::uint8_t*, std::size_t, std::size_t, std::size_t, const std::uint8_t*,
-                               std::size_t, std::size_t, std::size_t, std::uint32_t*, std::size_t);
-/// The offsets kernel of the AVX-512 variant in use.
-OffsetsKernel offsets_kernel();
-
-/// The CPU family table of the variant choice: the Avx512SadVariant value for a CPUID vendor
-/// string and family, or -1 (not listed: measure); `why` receives the table's reason.
-int avx512_sad_variant_of_family(const char* vendor, unsigned family, const char** why) noexcept;
+/// The all-shift and offsets kernels of the AVX-512 variant in use (nightloc::avx512_sad_variant(),
+/// avx512_variant.cpp).
+AllShiftKernel avx512_all_shift_kernel();
+OffsetsKernel avx512_offsets_kernel();
 #endif
 
 }  // namespace nightloc::detail

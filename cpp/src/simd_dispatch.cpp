@@ -6,55 +6,18 @@
 #include <stdexcept>
 #include <string>
 
-#include "sad_kernels.hpp"
-
-#if NIGHTLOC_ARM_KERNELS && defined(__linux__)
-#include <sys/auxv.h>
-#endif
+#include "simd_paths.hpp"
 
 namespace nightloc {
 namespace {
 
-#if NIGHTLOC_ARM_KERNELS && defined(__linux__)
-constexpr unsigned long kHwcapAsimdDotProduct = 1ul << 20;  // HWCAP_ASIMDDP (asm/hwcap.h)
-#endif
-
 constexpr int kUnset = -1;
 std::atomic<int> g_active{kUnset};
 
-#if NIGHTLOC_ARM_KERNELS
-// The dot-product extension (udot), from the kernel's hardware capabilities: never from compile
-// flags, so one binary serves Cortex-A53/A72 (without) and A55/A76 and later (with).
-bool arm_has_dotprod() noexcept {
-#if defined(__linux__)
-    return (getauxval(AT_HWCAP) & kHwcapAsimdDotProduct) != 0;
-#else
-    return false;
-#endif
-}
-#endif
-
+// Whether the path is in the registry (compiled into this build) and the CPU runs it.
 bool cpu_supports(SimdBackend backend) noexcept {
-    switch (backend) {
-        case SimdBackend::scalar:
-            return true;
-#if NIGHTLOC_X86_KERNELS
-        case SimdBackend::sse2:
-            return __builtin_cpu_supports("sse2");
-        case SimdBackend::avx2:
-            return __builtin_cpu_supports("avx2");
-        case SimdBackend::avx512bw:
-            return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw");
-#endif
-#if NIGHTLOC_ARM_KERNELS
-        case SimdBackend::neon:
-            return true;  // part of the AArch64 baseline
-        case SimdBackend::neon_dotprod:
-            return arm_has_dotprod();
-#endif
-        default:
-            return false;
-    }
+    const detail::SimdPath* path = detail::find_simd_path(backend);
+    return path != nullptr && path->cpu_supports();
 }
 
 SimdBackend default_backend() noexcept {
@@ -94,17 +57,17 @@ bool simd_backend_supported(SimdBackend backend) noexcept { return cpu_supports(
 
 std::vector<SimdBackend> supported_simd_backends() {
     std::vector<SimdBackend> out;
-    for (const SimdBackendName& entry : kSimdBackendNames) {
-        if (cpu_supports(entry.backend)) out.push_back(entry.backend);
+    for (const detail::SimdPath& path : detail::simd_paths()) {
+        if (path.cpu_supports()) out.push_back(path.backend);
     }
     return out;
 }
 
 SimdBackend best_simd_backend() noexcept {
-    // the last supported entry: the table lists each architecture's paths slowest first
+    // the last supported entry: the registry lists the paths slowest first
     SimdBackend best = SimdBackend::scalar;
-    for (const SimdBackendName& entry : kSimdBackendNames) {
-        if (cpu_supports(entry.backend)) best = entry.backend;
+    for (const detail::SimdPath& path : detail::simd_paths()) {
+        if (path.cpu_supports()) best = path.backend;
     }
     return best;
 }

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "avx512_variant.hpp"
 #include "check.hpp"
 #include "nightloc/sad.hpp"
 #include "nightloc/simd.hpp"

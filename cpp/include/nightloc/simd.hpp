@@ -4,14 +4,6 @@
 // best one the CPU supports, unless the environment variable NIGHTLOC_SIMD (a name of
 // kSimdBackendNames) names another supported one when the path is first queried, or
 // set_simd_backend() forces one (tests use this to check every path on one machine).
-//
-// Within the avx512bw path, the all-shift SAD kernel accumulates either with vpaddw or, on CPUs
-// with AVX-512 VNNI, with vpdpwssd (same results). Which one is faster depends on the CPU (and on
-// the host; the figures are in docs/cpp_core.md). The variant is chosen once per process
-// (avx512_sad_variant_reason() says how): NIGHTLOC_AVX512_VNNI=0 or 1 forces it; AMD family 19h
-// (Zen 4) takes vpaddw from a table; on every other CPU with VNNI (or with
-// NIGHTLOC_AVX512_VNNI=measure) both are timed once at first use (3.5 M byte comparisons each,
-// best of 15 alternating rounds) and vnni is kept only if it is at least 2 % faster.
 #pragma once
 
 #include <string>
@@ -61,28 +53,5 @@ void set_simd_backend(SimdBackend backend);
 
 /// Returns to the default choice (NIGHTLOC_SIMD if valid, else the best path).
 void reset_simd_backend() noexcept;
-
-/// How the avx512bw path's all-shift SAD kernel accumulates (bit-identical results).
-enum class Avx512SadVariant : int { vpaddw = 0, vnni = 1 };
-
-/// "vpaddw" or "vnni".
-const char* avx512_sad_variant_name(Avx512SadVariant variant) noexcept;
-
-/// Whether the variant can run here (vpaddw: AVX-512BW; vnni: also AVX-512 VNNI).
-bool avx512_sad_variant_supported(Avx512SadVariant variant) noexcept;
-
-/// The variant the avx512bw path uses (decided at the first call; see above). Only meaningful
-/// where avx512bw is supported.
-Avx512SadVariant avx512_sad_variant();
-
-/// Why that variant: the override, the CPU family table entry, or the measured times.
-std::string avx512_sad_variant_reason();
-
-/// Forces a variant for the whole process (tests, benchmarks). Throws std::invalid_argument
-/// when the CPU cannot run it.
-void set_avx512_sad_variant(Avx512SadVariant variant);
-
-/// Returns to the per-CPU choice.
-void reset_avx512_sad_variant() noexcept;
 
 }  // namespace nightloc
