@@ -410,6 +410,7 @@ RouteFilterStep RouteFilter::update(const double* likelihood, double likelihood_
         double* b = belief_.data() + s * m;
         for (std::size_t c = 0; c < m; ++c) b[c] *= inverse;
     });
+    if (planes == 1 && cells == 1) return answer(belief_.data(), model_->speed(plane_mass_, moved.speed));
     double* cell_sum = cells > 1 ? cell_likelihood_.data() : marginal_.data();  // the cells' likelihood is spent
     std::copy(belief_.data(), belief_.data() + m, cell_sum);
     for (std::size_t s = 1; s < planes; ++s) {
@@ -441,6 +442,8 @@ RouteFilterStep RouteFilter::answer(const double* marginal, double speed) {
     out.speed = speed;
     return out;
 }
+
+bool RouteFilter::single_cell() const noexcept { return model_->planes() == 1 && model_->cells() == 1; }
 
 int RouteFilter::plane_threads() const noexcept {
     // A plane is worth a thread from about 64k cells on (below, waking the threads costs more).

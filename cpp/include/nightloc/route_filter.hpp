@@ -204,7 +204,7 @@ public:
     void set_state(const double* belief, double off_route);
 
     /// The belief over the references (sums to 1 - off_route).
-    const std::vector<double>& belief() const noexcept { return marginal_; }
+    const std::vector<double>& belief() const noexcept { return single_cell() ? belief_ : marginal_; }
     double off_route() const noexcept { return off_; }
     std::size_t n_refs() const noexcept { return n_refs_; }
     const RouteFilterParams& params() const noexcept { return params_; }
@@ -225,6 +225,7 @@ public:
 
 private:
     RouteFilterStep answer(const double* marginal, double speed);
+    bool single_cell() const noexcept;  // one plane of one cell per reference: the belief is the marginal
     double novelty(double advance) const noexcept;
     int plane_threads() const noexcept;
 
@@ -235,7 +236,7 @@ private:
     bool fresh_ = true;               // no frame since the last reset
     std::vector<double> belief_;      // planes x n_refs x cells, plane-major
     std::vector<double> scratch_;     // the prediction
-    std::vector<double> marginal_;    // the belief over the references
+    std::vector<double> marginal_;    // the belief over the references (unused with single_cell())
     std::vector<double> plane_mass_;  // per plane
     std::vector<double> cell_likelihood_;
     std::vector<double> likelihood_;
