@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -109,3 +110,16 @@ def test_filter_copies_carry_their_model():
     assert second.motion == "odometry"
     for x, y in zip(a, b):
         np.testing.assert_array_equal(x, y)
+
+
+def test_every_filter_parameter_has_its_doc_line():
+    """Each ``filter_*`` field of RouteParams has its row in route mode's table, and each field
+    the core takes is copied by name (no list of fields to keep in step)."""
+    docs = (Path(__file__).parents[2] / "docs" / "route_mode.md").read_text(encoding="utf-8")
+    rows = [line for line in docs.splitlines() if line.startswith("| `")]
+    fields = [f.name for f in dataclasses.fields(route.RouteParams) if f.name.startswith("filter_")]
+    for name in fields:
+        assert any(f"`{name}`" in row for row in rows), name
+    core = route.RouteParams().core_filter_params()
+    bound = {name for name in dir(core) if not name.startswith("_") and not callable(getattr(core, name))}
+    assert bound == {name.removeprefix("filter_") for name in ("vmin", "vmax", *fields)} - {"min_texture"}
