@@ -1,6 +1,11 @@
 """Independent numpy references for route mode (SeqSLAM), written from OpenSeqSLAM's Matlab code
 (doContrastEnhancement.m, doFindMatches.m) and its documented Octave semantics, not from the C++.
 
+The route filter's oracle has the C++'s shape: one function per motion model
+(:func:`window_motion`, :func:`speed_motion`, :func:`odometry_motion`, named in :data:`MOTIONS`)
+and the floor and off-route step they share (:func:`floor_and_exchange`), written from the
+definitions in ``cpp/include/nightloc/route_filter.hpp``.
+
 Orientation here is nightloc's: difference matrices are (n_query, n_ref), rows = queries. Every
 floating-point step is done in the same order and precision as Octave: float32 sequential sums,
 float32 mean, deviations, sum of squares, division and sqrt; double only for the final ratio.
@@ -9,6 +14,8 @@ float32 mean, deviations, sum of squares, division and sqrt; double only for the
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -194,26 +201,6 @@ def motion_kernel(vmin: float, vmax: float, backward: float) -> dict:
     return kernel
 
 
-def filter_predict(belief: np.ndarray, off: float, p) -> tuple[np.ndarray, float]:
-    """The prediction of (belief over n references, off-route probability) by one frame, with a
-    RouteParams-like ``p`` (vmin, vmax, filter_backward, filter_floor, filter_leave,
-    filter_rejoin)."""
-    n = belief.size
-    on = belief.sum()
-    predicted = np.zeros(n)
-    for k, weight in sorted(motion_kernel(p.vmin, p.vmax, p.filter_backward).items()):
-        if k >= 0:
-            predicted[k:] += weight * belief[: n - k] if k < n else 0.0
-        else:
-            predicted[: n + k] += weight * belief[-k:]
-    moved = predicted.sum()
-    predicted = predicted * (on / moved) if moved > 0 else np.full(n, on / n)
-    predicted = (1 - p.filter_floor) * predicted + p.filter_floor * on / n
-    predicted = (1 - p.filter_leave) * predicted + off * p.filter_rejoin / n
-    off = off * (1 - p.filter_rejoin) + on * p.filter_leave
-    return predicted, off
-
-
 def filter_likelihood(row: np.ndarray, sharpness: float, clip: float) -> np.ndarray:
     """exp(-sharpness * min(z, clip)) scaled to a maximum of 1, z the row standardized by the
     mean and population standard deviation of its finite values (non-finite: z = 0); ones when
@@ -230,30 +217,6 @@ def filter_likelihood(row: np.ndarray, sharpness: float, clip: float) -> np.ndar
         z = np.where(finite, (x - mean) / sd, 0.0)
     log_l = -sharpness * np.minimum(z, clip)
     return np.exp(log_l - log_l.max())
-
-
-def route_filter(matrix: np.ndarray, p, weights=None):
-    """The filter over the rows of ``matrix`` from the uniform belief.
-
-    Returns (refs int64, confidence, off_route, final belief)."""
-    n_query, n = matrix.shape
-    belief, off = np.full(n, 1.0 / n), 0.0
-    refs = np.empty(n_query, np.int64)
-    confidence = np.empty(n_query)
-    off_route = np.empty(n_query)
-    for q in range(n_query):
-        predicted, off = filter_predict(belief, off, p)
-        weight = 1.0 if weights is None else float(weights[q])
-        likelihood = filter_likelihood(matrix[q], p.filter_sharpness * weight, p.filter_clip)
-        off *= likelihood.mean()
-        belief = predicted * likelihood
-        total = belief.sum() + off
-        belief, off = belief / total, off / total
-        best = int(np.argmax(belief))
-        refs[q] = best
-        confidence[q] = belief[max(0, best - p.filter_window) : best + p.filter_window + 1].sum()
-        off_route[q] = off
-    return refs, confidence, off_route, belief
 
 
 def texture_weights(images: np.ndarray, min_texture: float) -> np.ndarray:
@@ -395,54 +358,126 @@ def _odometry_move(
     return spread, (travelled / total if total > 0 else 0.0)
 
 
-def route_filter_planes(matrix: np.ndarray, p, weights=None, advances=None, distances=None):
-    """The speed model (``distances`` None) or the odometry model over the rows of ``matrix``
-    from the prior belief (the first frame: no motion; the odometry model weighs a frame's
-    evidence by ``min(1, |advance| / (novelty * mean spacing))`` from the second frame on).
-    Returns (refs, confidence, off_route, speed, final belief over references)."""
-    n_query, n = matrix.shape
-    odometry = distances is not None
-    if odometry:
-        cells, prior = p.filter_odometry_cells, np.ones(1)
-        distances = np.asarray(distances, dtype=np.float64)
-        spacing = (distances[-1] - distances[0]) / (n - 1)
-    else:
-        cells = p.filter_speed_cells
-        kernels, planes = plane_kernels(p)
-        _speeds, up, down, prior, passes = speed_chain(p)
+# --------------------------------------------------------------------------------------------
+# the route filter's loop, the same for every motion model: a model moves the belief (planes x
+# cells per reference), then floor_and_exchange() and the update
+
+
+@dataclass(frozen=True)
+class OracleMotion:
+    """One motion model of the oracle: ``cells`` per reference, ``prior`` over its planes,
+    ``move(belief, advance) -> (prediction, speed)`` (mass past either end dropped; speed NaN
+    when the model has none), ``speed(plane_mass, moved_speed)`` the answer's speed and
+    ``novelty(advance)`` the factor on a frame's evidence weight (from the second frame on)."""
+
+    cells: int
+    prior: np.ndarray
+    move: Callable[[np.ndarray, float], tuple[np.ndarray, float]]
+    speed: Callable[[np.ndarray, float], float] = lambda plane_mass, moved: moved
+    novelty: Callable[[float], float] = lambda advance: 1.0
+
+
+def window_motion(p, n: int, distances=None) -> OracleMotion:
+    """The window model: one plane of one cell per reference moved by :func:`motion_kernel`."""
+    kernel = sorted(motion_kernel(p.vmin, p.vmax, p.filter_backward).items())
+
+    def move(belief: np.ndarray, advance: float) -> tuple[np.ndarray, float]:
+        predicted = np.zeros_like(belief)
+        for k, weight in kernel:
+            if 0 <= k < n:
+                predicted[0, k:] += weight * belief[0, : n - k]
+            elif -n < k < 0:
+                predicted[0, : n + k] += weight * belief[0, -k:]
+        return predicted, math.nan
+
+    return OracleMotion(1, np.ones(1), move)
+
+
+def speed_motion(p, n: int, distances=None) -> OracleMotion:
+    """The speed model: :func:`plane_kernels` per plane, then ``passes`` passes of the speed's
+    random walk (:func:`speed_chain`); the answer's speed is the posterior's mean plane speed."""
+    cells = p.filter_speed_cells
+    kernels, planes = plane_kernels(p)
+    _speeds, up, down, prior, passes = speed_chain(p)
     m = n * cells
-    belief = np.outer(prior, np.full(m, 1.0 / m))
+
+    def move(belief: np.ndarray, advance: float) -> tuple[np.ndarray, float]:
+        predicted = np.zeros_like(belief)
+        for s, kernel in enumerate(kernels):
+            for k, w in kernel.items():
+                if 0 <= k < m:
+                    predicted[s, k:] += w * belief[s, : m - k]
+                elif -m < k < 0:
+                    predicted[s, : m + k] += w * belief[s, -k:]
+        for _ in range(passes):
+            walk = (1 - up - down)[:, None] * predicted
+            walk[1:] += up[:-1, None] * predicted[:-1]
+            walk[:-1] += down[1:, None] * predicted[1:]
+            predicted = walk
+        return predicted, math.nan
+
+    def speed(plane_mass: np.ndarray, moved: float) -> float:
+        return float(np.dot(plane_mass, planes) / plane_mass.sum())
+
+    return OracleMotion(cells, prior, move, speed)
+
+
+def odometry_motion(p, n: int, distances=None) -> OracleMotion:
+    """The odometry model: :func:`_odometry_move` on one plane of ``filter_odometry_cells``
+    cells per reference; a frame's evidence weighs ``min(1, |advance| / (novelty * spacing))``."""
+    distances = np.asarray(distances, dtype=np.float64)
+    cells = p.filter_odometry_cells
+    spacing = (distances[-1] - distances[0]) / (n - 1)
+
+    def move(belief: np.ndarray, advance: float) -> tuple[np.ndarray, float]:
+        moved, travelled = _odometry_move(belief[0], advance, distances, cells, p)
+        return moved[np.newaxis], travelled
+
+    def novelty(advance: float) -> float:
+        if p.filter_odometry_novelty <= 0:
+            return 1.0
+        return min(1.0, abs(advance) / (p.filter_odometry_novelty * spacing))
+
+    return OracleMotion(cells, np.ones(1), move, novelty=novelty)
+
+
+#: Motion model name -> the oracle's model.
+MOTIONS = {"window": window_motion, "speed": speed_motion, "odometry": odometry_motion}
+
+
+def floor_and_exchange(predicted: np.ndarray, on: float, off: float, prior: np.ndarray, p) -> tuple[np.ndarray, float]:
+    """What follows every model's motion: the prediction (planes x cells) rescaled to the
+    on-route mass ``on`` (nothing left: the prior spread evenly), ``filter_floor`` of it mixed
+    uniformly, then ``filter_leave`` of the on-route mass leaves and ``filter_rejoin`` of the
+    off-route mass comes back uniformly. Returns (prediction, off-route probability)."""
+    m = predicted.shape[1]
+    uniform = np.outer(prior, np.full(m, 1.0 / m))
+    moved = predicted.sum()
+    predicted = predicted * (on / moved) if moved > 0 else on * uniform
+    predicted = (1 - p.filter_floor) * predicted + p.filter_floor * on * uniform
+    predicted = (1 - p.filter_leave) * predicted + off * p.filter_rejoin * uniform
+    return predicted, off * (1 - p.filter_rejoin) + on * p.filter_leave
+
+
+def route_filter_model(matrix: np.ndarray, p, motion: str, weights=None, advances=None, distances=None):
+    """The filter with the motion model ``motion`` (:data:`MOTIONS`) over the rows of ``matrix``
+    from the prior belief (the first frame: no motion, full weight). Returns (refs, confidence,
+    off_route, speed, final belief over references)."""
+    n_query, n = matrix.shape
+    model = MOTIONS[motion](p, n, distances)
+    cells = model.cells
+    m = n * cells
+    belief = np.outer(model.prior, np.full(m, 1.0 / m))
     off = 0.0
     refs = np.empty(n_query, np.int64)
     confidence, off_route, speed = np.empty(n_query), np.empty(n_query), np.empty(n_query)
     for q in range(n_query):
-        on = belief.sum()
-        advance = 0.0 if advances is None or q == 0 else float(advances[q])  # the first frame: no motion
-        if odometry:
-            moved, travelled = _odometry_move(belief[0], advance, distances, cells, p)
-            predicted = moved[np.newaxis]
-        else:
-            predicted = np.zeros_like(belief)
-            for s, kernel in enumerate(kernels):
-                for k, w in kernel.items():
-                    if 0 <= k < m:
-                        predicted[s, k:] += w * belief[s, : m - k]
-                    elif -m < k < 0:
-                        predicted[s, : m + k] += w * belief[s, -k:]
-        total_moved = predicted.sum()
-        if not odometry:
-            for _ in range(passes):
-                walk = (1 - up - down)[:, None] * predicted
-                walk[1:] += up[:-1, None] * predicted[:-1]
-                walk[:-1] += down[1:, None] * predicted[1:]
-                predicted = walk
-        predicted = predicted * (on / total_moved) if total_moved > 0 else np.outer(prior, np.full(m, on / m))
-        predicted = (1 - p.filter_floor) * predicted + p.filter_floor * on * np.outer(prior, np.full(m, 1.0 / m))
-        predicted = (1 - p.filter_leave) * predicted + off * p.filter_rejoin * np.outer(prior, np.full(m, 1.0 / m))
-        off = off * (1 - p.filter_rejoin) + on * p.filter_leave
+        advance = 0.0 if advances is None or q == 0 else float(advances[q])
+        moved, moved_speed = model.move(belief, advance)
+        predicted, off = floor_and_exchange(moved, belief.sum(), off, model.prior, p)
         weight = 1.0 if weights is None else float(weights[q])
-        if odometry and q > 0 and p.filter_odometry_novelty > 0:  # the same view again is no new evidence
-            weight *= min(1.0, abs(advance) / (p.filter_odometry_novelty * spacing))
+        if q > 0:  # the same view again is no new evidence
+            weight *= model.novelty(advance)
         likelihood = filter_likelihood(matrix[q], p.filter_sharpness * weight, p.filter_clip)
         off *= likelihood.mean()
         belief = predicted * np.repeat(likelihood, cells)[np.newaxis]
@@ -453,12 +488,30 @@ def route_filter_planes(matrix: np.ndarray, p, weights=None, advances=None, dist
         refs[q] = best
         confidence[q] = marginal[max(0, best - p.filter_window) : best + p.filter_window + 1].sum()
         off_route[q] = off
-        if odometry:
-            speed[q] = travelled
-        else:
-            plane_mass = belief.sum(axis=1)
-            speed[q] = float(np.dot(plane_mass, planes) / plane_mass.sum())
+        speed[q] = model.speed(belief.sum(axis=1), moved_speed)
     return refs, confidence, off_route, speed, belief.sum(axis=0).reshape(n, cells).sum(axis=1)
+
+
+def filter_predict(belief: np.ndarray, off: float, p) -> tuple[np.ndarray, float]:
+    """The window model's prediction of (belief over n references, off-route probability) by
+    one frame, with a RouteParams-like ``p``."""
+    model = window_motion(p, belief.size)
+    moved, _ = model.move(belief[np.newaxis], 0.0)
+    predicted, off = floor_and_exchange(moved, belief.sum(), off, model.prior, p)
+    return predicted[0], off
+
+
+def route_filter(matrix: np.ndarray, p, weights=None):
+    """The window model over the rows of ``matrix``: (refs, confidence, off_route, final belief)."""
+    refs, confidence, off_route, _speed, belief = route_filter_model(matrix, p, "window", weights)
+    return refs, confidence, off_route, belief
+
+
+def route_filter_planes(matrix: np.ndarray, p, weights=None, advances=None, distances=None):
+    """The speed model (``distances`` None) or the odometry model over the rows of ``matrix``:
+    (refs, confidence, off_route, speed, final belief over references)."""
+    motion = "speed" if distances is None else "odometry"
+    return route_filter_model(matrix, p, motion, weights, advances, distances)
 
 
 def synthetic_route_at(

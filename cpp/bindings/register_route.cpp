@@ -346,19 +346,11 @@ void register_route_filter(py::module_& m) {
         .def_readwrite("window", &nightloc::RouteFilterParams::window)
         .def_property(
             "motion",
-            [](const nightloc::RouteFilterParams& p) {
-                return std::string(p.motion == nightloc::RouteMotion::kSpeed ? "speed" : "window");
-            },
+            [](const nightloc::RouteFilterParams& p) { return std::string(nightloc::route_motion_name(p.motion)); },
             [](nightloc::RouteFilterParams& p, const std::string& name) {
-                if (name == "window") {
-                    p.motion = nightloc::RouteMotion::kWindow;
-                } else if (name == "speed") {
-                    p.motion = nightloc::RouteMotion::kSpeed;
-                } else {
-                    throw py::value_error("motion must be 'window' or 'speed', got '" + name + "'");
-                }
+                p.motion = nightloc::route_motion_from_name(name);  // std::invalid_argument -> ValueError
             },
-            "Motion model without odometry: 'window' or 'speed'.")
+            "The motion model by name (route_motion_names()).")
         .def_readwrite("speed_min", &nightloc::RouteFilterParams::speed_min)
         .def_readwrite("speed_max", &nightloc::RouteFilterParams::speed_max)
         .def_readwrite("speed_step", &nightloc::RouteFilterParams::speed_step)
@@ -459,6 +451,8 @@ void register_route_filter(py::module_& m) {
                                   py::array_t<double>(static_cast<py::ssize_t>(k.weights.size()), k.weights.data()));
         },
         py::arg("vmin"), py::arg("vmax"), py::arg("backward"), "The prediction kernel: (first advance, weights).");
+    m.def("route_motion_names", &nightloc::route_motion_names,
+          "The route filter's motion models by name, in the order of the C++ RouteMotion enum.");
     m.def("texture_weights", &texture_weights, py::arg("images"), py::arg("min_texture"),
           "Evidence weight min(1, mean absolute deviation / min_texture) of each prepared image.");
 }

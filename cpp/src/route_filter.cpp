@@ -1,58 +1,33 @@
-// Route mode's Bayes filter (see route_filter.hpp for the model). Plain sequential loops in
-// double precision: the order of operations is fixed, so batch and streaming results agree
-// exactly and a numpy oracle agrees to rounding.
+// Route mode's Bayes filter (see route_filter.hpp for the model): the likelihood of a frame's
+// row, and the step every motion model shares (the rescaling to the on-route mass, the uniform
+// floor, the off-route exchange, the update and the answer). The motion models are units of
+// their own (route_motion.hpp). Plain sequential loops in double precision: the order of
+// operations is fixed, so batch and streaming results agree exactly and a numpy oracle agrees
+// to rounding.
 #include "nightloc/route_filter.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "float_kernel_table.hpp"
 #include "nightloc/simd.hpp"
 #include "parallel.hpp"
+#include "route_motion.hpp"
 
 namespace nightloc {
 
 namespace {
 
-// Integral of clip(u, 0, 1) du from -inf to t.
-double ramp_integral(double t) noexcept {
-    if (t <= 0.0) return 0.0;
-    if (t < 1.0) return 0.5 * t * t;
-    return t - 0.5;
-}
-
-// P(floor(x + v) >= k) for x ~ U[0, 1), v ~ U[vmin, vmax]: the mean of clip(v - k + 1, 0, 1).
-double advance_at_least(std::int64_t k, double vmin, double vmax) noexcept {
-    const double shift = 1.0 - static_cast<double>(k);
-    if (vmax <= vmin) return std::clamp(vmin + shift, 0.0, 1.0);
-    return (ramp_integral(vmax + shift) - ramp_integral(vmin + shift)) / (vmax - vmin);
-}
-
-void require(bool ok, const std::string& message) {
-    if (!ok) throw std::invalid_argument(message);
-}
+using route_detail::require;
+using route_detail::sum_of;
 
 bool probability(double p) noexcept { return p >= 0.0 && p <= 1.0; }
-
-// Sum of n doubles in a fixed order: four interleaved partial sums (so the additions pipeline
-// and vectorize), combined as (s0 + s1) + (s2 + s3), then the remainder in order.
-double sum_of(const double* x, std::size_t n) noexcept {
-    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-    std::size_t i = 0;
-    for (; i + 4 <= n; i += 4) {
-        s0 += x[i];
-        s1 += x[i + 1];
-        s2 += x[i + 2];
-        s3 += x[i + 3];
-    }
-    double total = (s0 + s1) + (s2 + s3);
-    for (; i < n; ++i) total += x[i];
-    return total;
-}
 
 #if defined(__GNUC__) || defined(__clang__)
 #define NIGHTLOC_ALWAYS_INLINE __attribute__((always_inline))
@@ -63,7 +38,6 @@ double sum_of(const double* x, std::size_t n) noexcept {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::size_t kMaxSpeedPlanes = 1000;
 constexpr std::size_t kMaxCells = 64;
-constexpr std::size_t kMaxSpreadPasses = 256;
 constexpr double kMaxBeliefValues = 4294967296.0;  // 2^32 doubles per buffer
 
 // Sum of the squares of n doubles, in sum_of's order.
@@ -152,8 +126,7 @@ void validate(const RouteFilterParams& p) {
             "clip must be a number or +inf, got " + std::to_string(p.clip));
     require(probability(p.leave), "leave must be a probability in [0, 1], got " + std::to_string(p.leave));
     require(probability(p.rejoin), "rejoin must be a probability in [0, 1], got " + std::to_string(p.rejoin));
-    require(p.motion == RouteMotion::kWindow || p.motion == RouteMotion::kSpeed,
-            "motion must be window (0) or speed (1), got " + std::to_string(static_cast<int>(p.motion)));
+    if (!route_motion_known(p.motion)) (void)route_motion_name(p.motion);  // throws, naming the models
     require(std::isfinite(p.speed_min) && p.speed_min >= -1000.0 && p.speed_min <= 1000.0,
             "speed_min must be a speed in [-1000, 1000] references per frame, got " + std::to_string(p.speed_min));
     require(std::isfinite(p.speed_max) && p.speed_max >= p.speed_min && p.speed_max <= 1000.0,
@@ -184,227 +157,55 @@ void validate(const RouteFilterParams& p) {
             "odometry_novelty must be in [0, 1000] references, got " + std::to_string(p.odometry_novelty));
 }
 
-namespace {
-
-// The advances floor(x + v) of a speed window vmin..vmax (0 <= vmin <= vmax): weights of
-// lo .. lo + size - 1, impossible ones at either end trimmed, normalized to sum 1.
-MotionKernel forward_kernel(double vmin, double vmax) {
-    const auto lo = static_cast<std::int64_t>(std::floor(vmin));
-    const auto hi = static_cast<std::int64_t>(std::floor(vmax)) + 1;
-    std::vector<double> forward;
-    forward.reserve(static_cast<std::size_t>(hi - lo + 1));
-    for (std::int64_t k = lo; k <= hi; ++k) {
-        const double w = advance_at_least(k, vmin, vmax) - advance_at_least(k + 1, vmin, vmax);
-        forward.push_back(std::max(0.0, w));
-    }
-    // Trim advances that cannot happen (e.g. an integer speed window).
-    std::size_t begin = 0;
-    std::size_t end = forward.size();
-    while (begin < end && forward[begin] == 0.0) ++begin;
-    while (end > begin && forward[end - 1] == 0.0) --end;
-    double total = 0.0;
-    for (std::size_t i = begin; i < end; ++i) total += forward[i];
-    MotionKernel kernel;
-    kernel.first = lo + static_cast<std::int64_t>(begin);
-    for (std::size_t i = begin; i < end; ++i) kernel.weights.push_back(forward[i] / total);
-    return kernel;
-}
-
-// `kernel` taken with probability 1 - backward, a step of `back` (< kernel.first) otherwise.
-MotionKernel with_backward(const MotionKernel& kernel, double backward, std::int64_t back) {
-    if (!(backward > 0.0)) return kernel;
-    MotionKernel out;
-    out.first = back;
-    out.weights.push_back(backward);
-    for (std::int64_t k = back + 1; k < kernel.first; ++k) out.weights.push_back(0.0);
-    for (double w : kernel.weights) out.weights.push_back(w * (1.0 - backward));
-    return out;
-}
-
-// A speed plane's kernel in cells: floor(x + u) for u uniform in lo .. hi cells (any signs),
-// computed on the window shifted by a whole number of cells to lie at or above 0.
-MotionKernel cell_kernel(double lo, double hi, double backward, std::int64_t back) {
-    const double shift = lo < 0.0 ? std::ceil(-lo) : 0.0;
-    MotionKernel kernel = forward_kernel(lo + shift, hi + shift);
-    kernel.first -= static_cast<std::int64_t>(shift);
-    if (kernel.first <= back) {
-        // A plane that may already move back by a reference or more: the backward step mixes in.
-        MotionKernel mixed;
-        mixed.first = std::min(kernel.first, back);
-        const auto last = std::max(kernel.first + static_cast<std::int64_t>(kernel.weights.size()) - 1, back);
-        mixed.weights.assign(static_cast<std::size_t>(last - mixed.first + 1), 0.0);
-        for (std::size_t i = 0; i < kernel.weights.size(); ++i)
-            mixed.weights[static_cast<std::size_t>(kernel.first + static_cast<std::int64_t>(i) - mixed.first)] +=
-                kernel.weights[i] * (1.0 - backward);
-        mixed.weights[static_cast<std::size_t>(back - mixed.first)] += backward;
-        return mixed;
-    }
-    return with_backward(kernel, backward, back);
-}
-
-std::size_t plane_count(const RouteFilterParams& p) {
-    return static_cast<std::size_t>(std::floor((p.speed_max - p.speed_min) / p.speed_step + 1e-9)) + 1;
-}
-
-// out[r] += w * in[r - k] for r and r - k in 0 .. n-1 (a shift by k, mass past either end lost).
-void shift_add(const double* in, double* out, std::size_t n, std::int64_t k, double w) noexcept {
-    const std::size_t shift = static_cast<std::size_t>(k >= 0 ? k : -k);
-    if (shift >= n) return;
-    const std::size_t inside = n - shift;
-    if (k >= 0) {
-        for (std::size_t r = 0; r < inside; ++r) out[r + shift] += w * in[r];
-    } else {
-        for (std::size_t r = 0; r < inside; ++r) out[r] += w * in[r + shift];
-    }
-}
-
-}  // namespace
-
-MotionKernel motion_kernel(double vmin, double vmax, double backward) {
-    RouteFilterParams p;
-    p.vmin = vmin;
-    p.vmax = vmax;
-    p.backward = backward;
-    validate(p);
-    return with_backward(forward_kernel(vmin, vmax), backward, -1);
-}
-
-SpeedChain speed_chain(const RouteFilterParams& p) {
-    validate(p);
-    SpeedChain chain;
-    const std::size_t n = plane_count(p);
-    chain.speeds.resize(n);
-    for (std::size_t s = 0; s < n; ++s) chain.speeds[s] = p.speed_min + static_cast<double>(s) * p.speed_step;
-    chain.up.assign(n, 0.0);
-    chain.down.assign(n, 0.0);
-    chain.prior.assign(n, 1.0 / static_cast<double>(n));
-    const double change = p.speed_change / p.speed_step;  // planes per frame
-    const double variance = change * change;
-    if (!(variance > 0.0) || n == 1) return chain;
-    chain.passes = static_cast<std::size_t>(std::max(1.0, std::ceil(variance / 0.5)));
-    const double per_pass = variance / static_cast<double>(chain.passes);
-    for (std::size_t s = 0; s < n; ++s) {
-        const double pull =
-            std::isinf(p.speed_tau)
-                ? 0.0
-                : -(chain.speeds[s] - 1.0) / (p.speed_tau * p.speed_step * static_cast<double>(chain.passes));
-        const double drift = std::clamp(pull, -per_pass, per_pass);
-        chain.up[s] = s + 1 < n ? 0.5 * (per_pass + drift) : 0.0;
-        chain.down[s] = s > 0 ? 0.5 * (per_pass - drift) : 0.0;
-    }
-    // Stationary distribution by detailed balance, outwards from the plane nearest to 1 (the
-    // flows there point towards it, so every ratio is defined).
-    std::size_t centre = 0;
-    for (std::size_t s = 1; s < n; ++s)
-        if (std::fabs(chain.speeds[s] - 1.0) < std::fabs(chain.speeds[centre] - 1.0)) centre = s;
-    std::vector<double> weight(n, 0.0);
-    weight[centre] = 1.0;
-    for (std::size_t s = centre; s + 1 < n; ++s)
-        weight[s + 1] = chain.down[s + 1] > 0.0 ? weight[s] * chain.up[s] / chain.down[s + 1] : 0.0;
-    for (std::size_t s = centre; s > 0; --s)
-        weight[s - 1] = chain.up[s - 1] > 0.0 ? weight[s] * chain.down[s] / chain.up[s - 1] : 0.0;
-    const double total = sum_of(weight.data(), n);
-    for (std::size_t s = 0; s < n; ++s) chain.prior[s] = weight[s] / total;
-    return chain;
-}
-
-std::vector<double> odometry_spread(double advance, double spacing, const RouteFilterParams& p) {
-    const double cells = static_cast<double>(p.odometry_cells);
-    const double travel = p.odometry_noise * std::fabs(advance) / spacing;  // references
-    const double variance = cells * cells * (travel * travel + p.odometry_jitter * p.odometry_jitter);
-    std::vector<double> taps{1.0};
-    if (!(variance > 0.0)) return taps;
-    const double wanted = std::ceil(variance / 0.5);
-    const std::size_t passes =
-        wanted < static_cast<double>(kMaxSpreadPasses) ? static_cast<std::size_t>(wanted) : kMaxSpreadPasses;
-    const double q = std::min(0.25, variance / (2.0 * static_cast<double>(passes)));
-    for (std::size_t pass = 0; pass < passes; ++pass) {
-        std::vector<double> next(taps.size() + 2, 0.0);
-        for (std::size_t i = 0; i < taps.size(); ++i) {
-            next[i] += q * taps[i];
-            next[i + 1] += (1.0 - 2.0 * q) * taps[i];
-            next[i + 2] += q * taps[i];
-        }
-        taps.swap(next);
-    }
-    return taps;
-}
-
 RouteFilter::RouteFilter(std::size_t n_refs, const RouteFilterParams& params, const double* reference_distances)
     : params_(params), kernel_(motion_kernel(params.vmin, params.vmax, params.backward)), n_refs_(n_refs) {
     validate(params);
     require(n_refs >= 1, "the route filter needs at least one reference");
-    if (reference_distances != nullptr) {
-        require(n_refs >= 2, "the odometry model needs at least two references");
-        for (std::size_t r = 0; r < n_refs; ++r) {
-            require(std::isfinite(reference_distances[r]),
-                    "reference distances must be finite (reference " + std::to_string(r) + ")");
-            require(r == 0 || reference_distances[r] >= reference_distances[r - 1],
-                    "reference distances must not decrease along the route (reference " + std::to_string(r) + ")");
-        }
-        const double length = reference_distances[n_refs - 1] - reference_distances[0];
-        require(length > 0.0 && std::isfinite(length), "the reference distances must cover a positive, finite length");
-        odometry_ = true;
-        planes_ = 1;
-        cells_ = params.odometry_cells;
-        reference_distance_.assign(reference_distances, reference_distances + n_refs);
-        spacing_ = length / static_cast<double>(n_refs - 1);
-        // 1 / the gap after each reference (a gap of 0 is never divided by: the target interval
-        // always ends above the target distance).
-        inverse_gap_.assign(n_refs, 0.0);
-        for (std::size_t r = 0; r + 1 < n_refs; ++r) {
-            const double gap = reference_distance_[r + 1] - reference_distance_[r];
-            if (gap > 0.0) inverse_gap_[r] = 1.0 / gap;
-        }
-        plane_prior_.assign(1, 1.0);
-    } else if (params.motion == RouteMotion::kSpeed) {
-        chain_ = speed_chain(params);
-        cells_ = params.speed_cells;
-        planes_ = chain_.speeds.size();
-        const double k = static_cast<double>(cells_);
-        const auto back = -static_cast<std::int64_t>(cells_);
-        for (double v : chain_.speeds)
-            plane_kernels_.push_back(
-                cell_kernel(k * (v - params.speed_jitter), k * (v + params.speed_jitter), params.backward, back));
-        plane_prior_ = chain_.prior;
-    }
-    if (planes_ == 0) {
-        belief_.assign(n_refs, 0.0);
-        scratch_.assign(n_refs, 0.0);
-    } else {
-        const double values = static_cast<double>(n_refs) * static_cast<double>(cells_) * static_cast<double>(planes_);
-        require(values <= kMaxBeliefValues, "the " + std::string(motion_name()) + " model's belief would hold " +
-                                                std::to_string(values) + " values; use fewer speed planes or cells");
-        const std::size_t size = n_refs * cells_ * planes_;
-        belief_.assign(size, 0.0);
-        scratch_.assign(size, 0.0);
-        if (chain_.passes > 0 || odometry_) chain_scratch_.assign(size, 0.0);
-        marginal_.assign(n_refs, 0.0);
-        if (odometry_) {
-            // Cell c shows reference c / cells at fractional position (c + 0.5) / cells - 0.5.
-            const std::size_t m = n_refs * cells_;
-            cell_distance_.resize(m);
-            const double* d = reference_distance_.data();
-            for (std::size_t c = 0; c < m; ++c) {
-                const double u = (static_cast<double>(c) + 0.5) / static_cast<double>(cells_) - 0.5;
-                if (u <= 0.0) {
-                    cell_distance_[c] = d[0] + u * spacing_;
-                } else if (u >= static_cast<double>(n_refs - 1)) {
-                    cell_distance_[c] = d[n_refs - 1] + (u - static_cast<double>(n_refs - 1)) * spacing_;
-                } else {
-                    const auto r = static_cast<std::size_t>(std::floor(u));
-                    const double f = u - static_cast<double>(r);
-                    cell_distance_[c] = d[r] + f * (d[r + 1] - d[r]);
-                }
-            }
-        }
-    }
+    model_ = route_detail::make_route_motion(n_refs, params, reference_distances);
+    const std::size_t cells = model_->cells();
+    const std::size_t planes = model_->planes();
+    const double values = static_cast<double>(n_refs) * static_cast<double>(cells) * static_cast<double>(planes);
+    require(values <= kMaxBeliefValues, "the " + std::string(motion_name()) + " model's belief would hold " +
+                                            std::to_string(values) + " values; use fewer speed planes or cells");
+    const std::size_t size = n_refs * cells * planes;
+    belief_.assign(size, 0.0);
+    scratch_.assign(size, 0.0);
+    marginal_.assign(n_refs, 0.0);
     reset();
 }
 
-const char* RouteFilter::motion_name() const noexcept {
-    if (odometry_) return "odometry";
-    return planes_ > 0 ? "speed" : "window";
+RouteFilter::RouteFilter(const RouteFilter& other)
+    : params_(other.params_),
+      kernel_(other.kernel_),
+      n_refs_(other.n_refs_),
+      model_(other.model_->clone()),
+      fresh_(other.fresh_),
+      belief_(other.belief_),
+      scratch_(other.scratch_),
+      marginal_(other.marginal_),
+      plane_mass_(other.plane_mass_),
+      cell_likelihood_(other.cell_likelihood_),
+      likelihood_(other.likelihood_),
+      off_(other.off_),
+      threads_(other.threads_) {}
+
+RouteFilter& RouteFilter::operator=(const RouteFilter& other) {
+    if (this != &other) *this = RouteFilter(other);
+    return *this;
+}
+
+RouteFilter::RouteFilter(RouteFilter&& other) noexcept = default;
+RouteFilter& RouteFilter::operator=(RouteFilter&& other) noexcept = default;
+RouteFilter::~RouteFilter() = default;
+
+RouteMotion RouteFilter::motion() const noexcept { return model_->motion(); }
+
+const char* RouteFilter::motion_name() const noexcept { return route_motion_name(model_->motion()); }
+
+const SpeedChain& RouteFilter::chain() const noexcept {
+    static const SpeedChain none;
+    const SpeedChain* chain = model_->chain();
+    return chain != nullptr ? *chain : none;
 }
 
 namespace {
@@ -428,15 +229,12 @@ void marginalize(const double* belief, std::size_t planes, std::size_t n_refs, s
 void RouteFilter::reset() {
     off_ = 0.0;
     fresh_ = true;
-    if (planes_ == 0) {
-        std::fill(belief_.begin(), belief_.end(), 1.0 / static_cast<double>(belief_.size()));
-        return;
-    }
-    const std::size_t m = n_refs_ * cells_;
-    for (std::size_t s = 0; s < planes_; ++s)
+    const std::size_t m = n_refs_ * model_->cells();
+    const std::vector<double>& prior = model_->prior();
+    for (std::size_t s = 0; s < prior.size(); ++s)
         std::fill(belief_.begin() + static_cast<std::ptrdiff_t>(s * m),
-                  belief_.begin() + static_cast<std::ptrdiff_t>((s + 1) * m), plane_prior_[s] / static_cast<double>(m));
-    marginalize(belief_.data(), planes_, n_refs_, cells_, marginal_.data());
+                  belief_.begin() + static_cast<std::ptrdiff_t>((s + 1) * m), prior[s] / static_cast<double>(m));
+    marginalize(belief_.data(), prior.size(), n_refs_, model_->cells(), marginal_.data());
 }
 
 void RouteFilter::set_state(const double* belief, double off_route) {
@@ -449,15 +247,8 @@ void RouteFilter::set_state(const double* belief, double off_route) {
     total += off_route;
     require(total > 0.0, "belief and off_route must not all be 0");
     off_ = off_route / total;
-    if (planes_ == 0) {
-        for (std::size_t r = 0; r < n_refs_; ++r) belief_[r] = belief[r] / total;
-        return;
-    }
-    const std::size_t m = n_refs_ * cells_;
-    const double per_cell = 1.0 / (total * static_cast<double>(cells_));
-    for (std::size_t s = 0; s < planes_; ++s)
-        for (std::size_t c = 0; c < m; ++c) belief_[s * m + c] = belief[c / cells_] * per_cell * plane_prior_[s];
-    marginalize(belief_.data(), planes_, n_refs_, cells_, marginal_.data());
+    model_->spread(belief, total, belief_.data());
+    marginalize(belief_.data(), model_->planes(), n_refs_, model_->cells(), marginal_.data());
 }
 
 namespace {
@@ -563,10 +354,77 @@ RouteFilterStep RouteFilter::step(const float* row, double weight, double advanc
 }
 
 RouteFilterStep RouteFilter::update(const double* likelihood, double likelihood_sum, double advance) {
-    const RouteFilterStep out =
-        planes_ == 0 ? update_window(likelihood, likelihood_sum) : update_planes(likelihood, likelihood_sum, advance);
+    const std::size_t cells = model_->cells();
+    const std::size_t planes = model_->planes();
+    const std::size_t m = n_refs_ * cells;
+    const double md = static_cast<double>(m);
+    const double on = 1.0 - off_;  // the belief sums to 1 - off_ (normalized every step)
+    const int threads = plane_threads();
+    // 1. Predict: the model's motion into scratch_; then the rescaling to the on-route mass, the
+    // floor and the off-route exchange as one affine map per plane, p' = scale * p + offset_s,
+    // applied with the update.
+    const route_detail::MotionStep moved = model_->predict(belief_, scratch_, on, fresh_ ? 0.0 : advance, threads);
     fresh_ = false;
-    return out;
+    const double stay = 1.0 - params_.leave;
+    const double back = off_ * params_.rejoin / md;
+    double scale = 0.0;
+    double spread = stay * on / md + back;  // nothing left on the route: uniform
+    if (moved.moved > 0.0) {
+        scale = stay * (1.0 - params_.floor) * (on / moved.moved);
+        spread = stay * (params_.floor * on / md) + back;
+    }
+    const double off =
+        (off_ * (1.0 - params_.rejoin) + on * params_.leave) * (likelihood_sum / static_cast<double>(n_refs_));
+
+    // 2. Update: posterior = prediction x likelihood (the same for every cell and plane of a
+    // reference), plane by plane (on the threads when the planes are large), each plane's sum in
+    // a fixed order.
+    plane_mass_.resize(planes);
+    const double* cell_likelihood = likelihood;
+    if (cells > 1) {
+        cell_likelihood_.resize(m);
+        for (std::size_t r = 0; r < n_refs_; ++r)
+            for (std::size_t k = 0; k < cells; ++k) cell_likelihood_[r * cells + k] = likelihood[r];
+        cell_likelihood = cell_likelihood_.data();
+    }
+    const std::vector<double>& prior = model_->prior();
+    detail::parallel_for(planes, threads, [&](std::size_t s) {
+        const double offset = spread * prior[s];
+        const double* p = scratch_.data() + s * m;
+        double* b = belief_.data() + s * m;
+        for (std::size_t c = 0; c < m; ++c) b[c] = (scale * p[c] + offset) * cell_likelihood[c];
+        plane_mass_[s] = sum_of(b, m);
+    });
+    double total = off;
+    for (std::size_t s = 0; s < planes; ++s) total += plane_mass_[s];
+    if (!(total > 0.0) || !std::isfinite(total)) {
+        reset();  // cannot happen with floor > 0; with floor = 0 every place may be ruled out
+        fresh_ = false;
+        return answer(marginal_.data(), std::numeric_limits<double>::quiet_NaN());
+    }
+    // 3. Normalize, then sum over the planes (in plane order) per cell and over each reference's
+    // cells (in cell order).
+    const double inverse = 1.0 / total;
+    off_ = off * inverse;
+    detail::parallel_for(planes, threads, [&](std::size_t s) {
+        double* b = belief_.data() + s * m;
+        for (std::size_t c = 0; c < m; ++c) b[c] *= inverse;
+    });
+    if (planes == 1 && cells == 1) return answer(belief_.data(), model_->speed(plane_mass_, moved.speed));
+    double* cell_sum = cells > 1 ? cell_likelihood_.data() : marginal_.data();  // the cells' likelihood is spent
+    std::copy(belief_.data(), belief_.data() + m, cell_sum);
+    for (std::size_t s = 1; s < planes; ++s) {
+        const double* b = belief_.data() + s * m;
+        for (std::size_t c = 0; c < m; ++c) cell_sum[c] += b[c];
+    }
+    if (cells > 1) {
+        for (std::size_t r = 0; r < n_refs_; ++r) {
+            double sum = cell_sum[r * cells];
+            for (std::size_t k = 1; k < cells; ++k) sum += cell_sum[r * cells + k];
+            marginal_[r] = sum;
+        }
+    }
+    return answer(marginal_.data(), model_->speed(plane_mass_, moved.speed));
 }
 
 RouteFilterStep RouteFilter::answer(const double* marginal, double speed) {
@@ -585,245 +443,17 @@ RouteFilterStep RouteFilter::answer(const double* marginal, double speed) {
     return out;
 }
 
-RouteFilterStep RouteFilter::update_window(const double* likelihood, double likelihood_sum) {
-    const std::size_t n = belief_.size();
-    const double nd = static_cast<double>(n);
-    double* b = belief_.data();
-    double* p = scratch_.data();
-    const double on = 1.0 - off_;  // the belief sums to 1 - off_ (normalized every step)
-
-    // 1. Predict. The shifted sum of every advance of the kernel goes to p; the mass that moved
-    // past either end is known from the belief's first and last entries, so the rescaling to the
-    // on-route mass, the uniform floor and the off-route exchange fold into one affine map
-    // p' = scale * p + offset, applied with the update.
-    std::fill(p, p + n, 0.0);
-    double lost = 0.0;
-    for (std::size_t i = 0; i < kernel_.weights.size(); ++i) {
-        const double w = kernel_.weights[i];
-        const std::int64_t k = kernel_.first + static_cast<std::int64_t>(i);
-        if (w == 0.0) continue;
-        const std::size_t shift = static_cast<std::size_t>(k >= 0 ? k : -k);
-        const std::size_t inside = shift < n ? n - shift : 0;
-        if (k >= 0) {
-            for (std::size_t r = 0; r < inside; ++r) p[r + shift] += w * b[r];
-            lost += w * sum_of(b + inside, n - inside);
-        } else {
-            for (std::size_t r = 0; r < inside; ++r) p[r] += w * b[r + shift];
-            lost += w * sum_of(b, n - inside);
-        }
-    }
-    const double moved = on - lost;
-    const double stay = 1.0 - params_.leave;
-    const double back = off_ * params_.rejoin / nd;
-    double scale = 0.0;
-    double offset = stay * on / nd + back;  // nothing left on the route: uniform
-    if (moved > 0.0) {
-        scale = stay * (1.0 - params_.floor) * (on / moved);
-        offset = stay * (params_.floor * on / nd) + back;
-    }
-    const double off = (off_ * (1.0 - params_.rejoin) + on * params_.leave) * (likelihood_sum / nd);
-
-    // 2. Update: posterior = prediction x likelihood, normalized with the off-route state.
-    for (std::size_t r = 0; r < n; ++r) b[r] = (scale * p[r] + offset) * likelihood[r];
-    const double total = sum_of(b, n) + off;
-    if (!(total > 0.0) || !std::isfinite(total)) {
-        reset();  // cannot happen with floor > 0; with floor = 0 every place may be ruled out
-    } else {
-        const double inverse = 1.0 / total;
-        for (std::size_t r = 0; r < n; ++r) b[r] *= inverse;
-        off_ = off * inverse;
-    }
-    return answer(b, std::numeric_limits<double>::quiet_NaN());
-}
-
-double RouteFilter::move_planes() {
-    // Every plane's mass advances by its kernel (in cells), each advance a shifted add; plane by
-    // plane on the threads (each plane's sum in a fixed order, the planes' in plane order).
-    const std::size_t m = n_refs_ * cells_;
-    plane_mass_.resize(planes_);
-    detail::parallel_for(planes_, plane_threads(), [&](std::size_t s) {
-        const double* b = belief_.data() + s * m;
-        double* p = scratch_.data() + s * m;
-        std::fill(p, p + m, 0.0);
-        const MotionKernel& kernel = plane_kernels_[s];
-        for (std::size_t i = 0; i < kernel.weights.size(); ++i) {
-            if (kernel.weights[i] == 0.0) continue;
-            shift_add(b, p, m, kernel.first + static_cast<std::int64_t>(i), kernel.weights[i]);
-        }
-        plane_mass_[s] = sum_of(p, m);
-    });
-    double moved = 0.0;
-    for (std::size_t s = 0; s < planes_; ++s) moved += plane_mass_[s];
-    return moved;
-}
-
-double RouteFilter::move_odometry(double advance, double* speed) {
-    // Each cell's mass goes to the cell at its distance + advance, split linearly between the
-    // two nearest cells (past either end: lost); then the position noise spreads it.
-    const std::size_t m = n_refs_ * cells_;
-    const double* b = belief_.data();
-    double* target = scratch_.data();
-    std::fill(target, target + m, 0.0);
-    const double k = static_cast<double>(cells_);
-    const double* d = reference_distance_.data();
-    const std::size_t n = n_refs_;
-    double travelled = 0.0;  // belief-weighted advance, references
-    double mass = 0.0;
-    if (advance == 0.0) {
-        std::copy(b, b + m, target);
-        travelled = 0.0;
-        mass = 1.0;
-    } else {
-        std::size_t r = 0;  // the last reference with d[r] <= the target distance (moves forward with c)
-        for (std::size_t c = 0; c < m; ++c) {
-            const double goal = cell_distance_[c] + advance;
-            double u = 0.0;
-            if (goal < d[0]) {
-                u = (goal - d[0]) / spacing_;
-            } else {
-                while (r + 1 < n && d[r + 1] <= goal) ++r;
-                u = r + 1 < n ? static_cast<double>(r) + (goal - d[r]) * inverse_gap_[r]
-                              : static_cast<double>(n - 1) + (goal - d[n - 1]) / spacing_;
-            }
-            const double from = (static_cast<double>(c) + 0.5) / k - 0.5;
-            travelled += b[c] * (u - from);
-            mass += b[c];
-            const double t = std::clamp((u + 0.5) * k - 0.5, -2.0, static_cast<double>(m) + 1.0);
-            const double lower = std::floor(t);
-            const double upper_share = t - lower;
-            const auto i = static_cast<std::int64_t>(lower);
-            if (i >= 0 && i < static_cast<std::int64_t>(m)) target[i] += (1.0 - upper_share) * b[c];
-            if (i + 1 >= 0 && i + 1 < static_cast<std::int64_t>(m)) target[i + 1] += upper_share * b[c];
-        }
-    }
-    *speed = mass > 0.0 ? travelled / mass : 0.0;
-    const std::vector<double> taps = odometry_spread(advance, spacing_, params_);
-    if (taps.size() == 1) return sum_of(target, m);
-    // Spread: out[c] = sum_i taps[i] * target[c - (i - h)], into the chain scratch, which then
-    // becomes the prediction.
-    double* p = chain_scratch_.data();
-    std::fill(p, p + m, 0.0);
-    const auto half = static_cast<std::int64_t>(taps.size() / 2);
-    for (std::size_t i = 0; i < taps.size(); ++i) shift_add(target, p, m, static_cast<std::int64_t>(i) - half, taps[i]);
-    scratch_.swap(chain_scratch_);
-    return sum_of(scratch_.data(), m);
-}
-
-void RouteFilter::mix_planes() {
-    // The speed's random walk between neighbouring planes, `passes` passes; plane by plane on
-    // the threads: out_s = keep_s p_s + up_{s-1} p_{s-1} + down_{s+1} p_{s+1}, in that order.
-    const std::size_t m = n_refs_ * cells_;
-    const std::size_t planes = chain_.speeds.size();
-    for (std::size_t pass = 0; pass < chain_.passes; ++pass) {
-        const double* p = scratch_.data();
-        double* q = chain_scratch_.data();
-        detail::parallel_for(planes, plane_threads(), [&](std::size_t s) {
-            const double keep = 1.0 - chain_.up[s] - chain_.down[s];
-            const double* here = p + s * m;
-            double* out = q + s * m;
-            const double from_below = s > 0 ? chain_.up[s - 1] : 0.0;
-            const double from_above = s + 1 < planes ? chain_.down[s + 1] : 0.0;
-            const double* below = s > 0 ? p + (s - 1) * m : here;
-            const double* above = s + 1 < planes ? p + (s + 1) * m : here;
-            for (std::size_t c = 0; c < m; ++c)
-                out[c] = (keep * here[c] + from_below * below[c]) + from_above * above[c];
-        });
-        scratch_.swap(chain_scratch_);
-    }
-}
+bool RouteFilter::single_cell() const noexcept { return model_->planes() == 1 && model_->cells() == 1; }
 
 int RouteFilter::plane_threads() const noexcept {
     // A plane is worth a thread from about 64k cells on (below, waking the threads costs more).
-    return n_refs_ * cells_ >= 65536 ? threads_ : 1;
+    return n_refs_ * model_->cells() >= 65536 ? threads_ : 1;
 }
 
-double RouteFilter::novelty(double advance) const noexcept {
-    if (!odometry_ || !(params_.odometry_novelty > 0.0)) return 1.0;
-    return std::min(1.0, std::fabs(advance) / (params_.odometry_novelty * spacing_));
-}
+double RouteFilter::novelty(double advance) const noexcept { return model_->novelty(advance); }
 
 double RouteFilter::frame_weight(double weight, double advance) const noexcept {
     return fresh_ ? weight : weight * novelty(advance);
-}
-
-RouteFilterStep RouteFilter::update_planes(const double* likelihood, double likelihood_sum, double advance) {
-    const std::size_t m = n_refs_ * cells_;
-    const double md = static_cast<double>(m);
-    const double on = 1.0 - off_;
-    double speed = 0.0;
-    // 1. Predict: the motion into scratch_, the speed chain, then the rescaling to the on-route
-    // mass, the floor and the off-route exchange as one affine map per plane.
-    const double moved = odometry_ ? move_odometry(fresh_ ? 0.0 : advance, &speed) : move_planes();
-    if (!odometry_) mix_planes();
-    const double stay = 1.0 - params_.leave;
-    const double back = off_ * params_.rejoin / md;
-    double scale = 0.0;
-    double spread = stay * on / md + back;  // nothing left on the route: uniform
-    if (moved > 0.0) {
-        scale = stay * (1.0 - params_.floor) * (on / moved);
-        spread = stay * (params_.floor * on / md) + back;
-    }
-    const double off =
-        (off_ * (1.0 - params_.rejoin) + on * params_.leave) * (likelihood_sum / static_cast<double>(n_refs_));
-
-    // 2. Update: posterior = prediction x likelihood (the same for every cell and plane of a
-    // reference), plane by plane (on the threads when the planes are large), each plane's sum in
-    // a fixed order.
-    plane_mass_.resize(planes_);
-    const std::size_t cells = cells_;
-    const double* cell_likelihood = likelihood;
-    if (cells > 1) {
-        cell_likelihood_.resize(m);
-        for (std::size_t r = 0; r < n_refs_; ++r)
-            for (std::size_t k = 0; k < cells; ++k) cell_likelihood_[r * cells + k] = likelihood[r];
-        cell_likelihood = cell_likelihood_.data();
-    }
-    const int threads = plane_threads();
-    detail::parallel_for(planes_, threads, [&](std::size_t s) {
-        const double offset = spread * plane_prior_[s];
-        const double* p = scratch_.data() + s * m;
-        double* b = belief_.data() + s * m;
-        for (std::size_t c = 0; c < m; ++c) b[c] = (scale * p[c] + offset) * cell_likelihood[c];
-        plane_mass_[s] = sum_of(b, m);
-    });
-    double total = off;
-    for (std::size_t s = 0; s < planes_; ++s) total += plane_mass_[s];
-    if (!(total > 0.0) || !std::isfinite(total)) {
-        reset();  // cannot happen with floor > 0; with floor = 0 every place may be ruled out
-        return answer(marginal_.data(), std::numeric_limits<double>::quiet_NaN());
-    }
-    // 3. Normalize, then sum over the planes (in plane order) per cell and over each reference's
-    // cells (in cell order).
-    const double inverse = 1.0 / total;
-    off_ = off * inverse;
-    detail::parallel_for(planes_, threads, [&](std::size_t s) {
-        double* b = belief_.data() + s * m;
-        for (std::size_t c = 0; c < m; ++c) b[c] *= inverse;
-    });
-    double* cell_sum = cells > 1 ? cell_likelihood_.data() : marginal_.data();  // the cells' likelihood is spent
-    std::copy(belief_.data(), belief_.data() + m, cell_sum);
-    for (std::size_t s = 1; s < planes_; ++s) {
-        const double* b = belief_.data() + s * m;
-        for (std::size_t c = 0; c < m; ++c) cell_sum[c] += b[c];
-    }
-    if (cells > 1) {
-        for (std::size_t r = 0; r < n_refs_; ++r) {
-            double sum = cell_sum[r * cells];
-            for (std::size_t k = 1; k < cells; ++k) sum += cell_sum[r * cells + k];
-            marginal_[r] = sum;
-        }
-    }
-    if (!odometry_) {
-        // The posterior's mean speed.
-        double weighted = 0.0;
-        double mass = 0.0;
-        for (std::size_t s = 0; s < planes_; ++s) {
-            weighted += chain_.speeds[s] * plane_mass_[s];
-            mass += plane_mass_[s];
-        }
-        speed = mass > 0.0 ? weighted / mass : std::numeric_limits<double>::quiet_NaN();
-    }
-    return answer(marginal_.data(), speed);
 }
 
 void RouteFilter::run(const float* rows, std::size_t n_rows, const double* weights, const double* advances,

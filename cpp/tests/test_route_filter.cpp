@@ -331,6 +331,7 @@ void test_speed_and_odometry_models() {
     std::vector<double> metres(advances);
     for (double& a : metres) a *= 0.5;
     nightloc::RouteFilterParams odometry;
+    odometry.motion = nightloc::RouteMotion::kOdometry;
     const Run by_speed = run_filter(matrix, n, speed, nullptr, {}, 1);
     nightloc::RouteFilterParams window;
     window.motion = nightloc::RouteMotion::kWindow;
@@ -420,15 +421,44 @@ void test_motion_errors() {
     p.odometry_cells = 0;
     CHECK_THROWS(nightloc::validate(p), std::invalid_argument);
     p = {};
+    p.motion = static_cast<nightloc::RouteMotion>(7);
+    CHECK_THROWS(nightloc::validate(p), std::invalid_argument);
+    p = {};
+    const std::vector<double> distances{0.0, 1.0, 2.0};
+    // Reference distances are the odometry model's input, and only its.
+    CHECK_THROWS(nightloc::RouteFilter(3, p, distances.data()), std::invalid_argument);
+    p.motion = nightloc::RouteMotion::kOdometry;
+    CHECK_THROWS(nightloc::RouteFilter(3, p), std::invalid_argument);
     const std::vector<double> falling{0.0, 2.0, 1.0};
     CHECK_THROWS(nightloc::RouteFilter(3, p, falling.data()), std::invalid_argument);
     const std::vector<double> flat{1.0, 1.0, 1.0};
     CHECK_THROWS(nightloc::RouteFilter(3, p, flat.data()), std::invalid_argument);
-    const std::vector<double> distances{0.0, 1.0, 2.0};
     nightloc::RouteFilter f(3, p, distances.data());
     const std::vector<float> row{1.0f, 2.0f, 3.0f};
     CHECK_THROWS(f.step(row.data(), 1.0, std::nan("")), std::invalid_argument);
-    CHECK(std::string(f.motion_name()) == "odometry");
+    CHECK(std::string(f.motion_name()) == "odometry" && f.motion() == nightloc::RouteMotion::kOdometry);
+    nightloc::RouteFilter copy(f);  // a copy carries its own model and state
+    CHECK(copy.motion() == nightloc::RouteMotion::kOdometry && copy.belief() == f.belief());
+}
+
+void test_motion_names() {
+    // The one name table: every name round-trips through its enum value, in enum order.
+    const std::vector<std::string> names = nightloc::route_motion_names();
+    CHECK(names == (std::vector<std::string>{"window", "speed", "odometry"}));
+    for (std::size_t i = 0; i < names.size(); ++i) {
+        const nightloc::RouteMotion motion = nightloc::route_motion_from_name(names[i]);
+        CHECK(static_cast<std::size_t>(motion) == i && names[i] == nightloc::route_motion_name(motion));
+        CHECK(nightloc::route_motion_known(motion));
+    }
+    CHECK(!nightloc::route_motion_known(static_cast<nightloc::RouteMotion>(3)));
+    bool named_choices = false;
+    try {
+        nightloc::route_motion_from_name("teleport");
+    } catch (const std::invalid_argument& error) {
+        named_choices = std::string(error.what()).find("window, speed, odometry") != std::string::npos;
+    }
+    CHECK(named_choices);
+    CHECK_THROWS(nightloc::route_motion_name(static_cast<nightloc::RouteMotion>(-1)), std::invalid_argument);
 }
 
 }  // namespace
@@ -437,6 +467,7 @@ int main() {
     test_speed_and_odometry_models();
     test_speed_chain_and_spread();
     test_motion_errors();
+    test_motion_names();
     test_kernel();
     test_step_matches_reference();
     test_flat_row_only_predicts();

@@ -21,7 +21,7 @@ import pytest
 
 import nightloc
 from nightloc.cli import main
-from nightloc.commands.route import names_are_positional
+from nightloc.route.ground_truth import names_are_positional
 
 import route_oracle as ro
 

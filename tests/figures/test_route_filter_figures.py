@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from nightloc import route
-from nightloc.commands.route import route_metrics
 from nightloc.figures.route import filter_confidence_figure, pr_comparison_figure, save_route_figures
+from nightloc.route.report import route_metrics
 
 import route_oracle as ro
 

@@ -2,8 +2,8 @@
 // a motion model and updated by each query frame's difference row. Pointer-level API.
 //
 // State: a belief over where the query frame is on the route, plus off_route = P(the query frame
-// shows no reference); they sum to 1. Three motion models (RouteFilterParams::motion, and the
-// reference distances given to the constructor):
+// shows no reference); they sum to 1. Three motion models (RouteFilterParams::motion; the names
+// route_motion_names() lists), each a unit of its own (cpp/src/route_motion_*.cpp):
 //
 //   * window: belief[r] over the references; the reference advances by floor(x + v) for a speed
 //     v uniform in vmin..vmax and a phase x uniform in [0, 1), drawn afresh every frame
@@ -16,7 +16,7 @@
 //     probability `backward`; then the speed moves between neighbouring planes (speed_chain():
 //     a random walk of standard deviation speed_change per frame pulled back towards 1 with
 //     time constant speed_tau frames; its stationary distribution is the speed prior).
-//   * odometry (the constructor got reference distances: the cumulative distance travelled at
+//   * odometry (the constructor's reference distances: the cumulative distance travelled at
 //     each reference frame, e.g. metres): a belief over `odometry_cells` cells per reference;
 //     each frame the step's `advance` (distance travelled since the previous query frame) moves
 //     a cell from its distance along the route to that distance + advance (distances between
@@ -54,15 +54,32 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <memory>
+#include <string>
 #include <vector>
 
 namespace nightloc {
 
-/// The motion model of the route filter without odometry (see the file comment).
+/// The motion model of the route filter (see the file comment).
 enum class RouteMotion : std::int32_t {
-    kWindow = 0,  ///< a speed window drawn afresh every frame
-    kSpeed = 1,   ///< a belief over position x speed
+    kWindow = 0,    ///< a speed window drawn afresh every frame
+    kSpeed = 1,     ///< a belief over position x speed
+    kOdometry = 2,  ///< moved by the distance travelled (needs the references' distances)
 };
+
+/// The motion models' names ("window", "speed", "odometry"), in RouteMotion order: the one
+/// name table, read by the bindings, the Python parameters and the command line.
+std::vector<std::string> route_motion_names();
+/// The name of `motion`; throws std::invalid_argument for a value that names no model.
+const char* route_motion_name(RouteMotion motion);
+/// The model called `name`; throws std::invalid_argument naming the choices.
+RouteMotion route_motion_from_name(const std::string& name);
+/// Whether `motion` names a model.
+bool route_motion_known(RouteMotion motion) noexcept;
+
+namespace route_detail {
+class RouteMotionModel;
+}
 
 /// Parameters of the route filter (see the file comment for where each enters).
 struct RouteFilterParams {
@@ -75,7 +92,7 @@ struct RouteFilterParams {
     double leave = 1e-2;     ///< probability per frame of leaving the route, [0, 1]
     double rejoin = 1e-2;    ///< probability per frame of rejoining it (uniformly), [0, 1]
     std::size_t window = 2;  ///< confidence = belief mass within +-window references of the best
-    RouteMotion motion = RouteMotion::kSpeed;  ///< without reference distances
+    RouteMotion motion = RouteMotion::kSpeed;  ///< the motion model
     double speed_min = 0.5;                    ///< slowest speed plane, references per frame, [-1000, 1000]
     double speed_max = 1.5;                    ///< fastest speed plane, [speed_min, 1000]
     double speed_step = 0.1;                   ///< spacing of the speed planes (> 0; at most 1000 planes)
@@ -143,10 +160,15 @@ struct RouteFilterOutputs {
 class RouteFilter {
 public:
     /// Uniform belief over n_refs >= 1 references (speed model: planes by the speed prior),
-    /// off_route 0. `reference_distances`: nullptr, or n_refs cumulative distances along the
-    /// route (finite, non-decreasing, the last above the first), which selects the odometry
-    /// model. Throws std::invalid_argument.
+    /// off_route 0, moved by the model params.motion names. `reference_distances`: the odometry
+    /// model's n_refs cumulative distances along the route (finite, non-decreasing, the last
+    /// above the first); nullptr for the other models. Throws std::invalid_argument.
     RouteFilter(std::size_t n_refs, const RouteFilterParams& params, const double* reference_distances = nullptr);
+    RouteFilter(const RouteFilter& other);
+    RouteFilter& operator=(const RouteFilter& other);
+    RouteFilter(RouteFilter&& other) noexcept;
+    RouteFilter& operator=(RouteFilter&& other) noexcept;
+    ~RouteFilter();
 
     /// One query frame: `row` holds n_refs differences (lower = more similar; e.g. one row of the
     /// contrast-enhanced difference matrix); `weight` in [0, 1] scales the evidence (0: the frame
@@ -182,7 +204,7 @@ public:
     void set_state(const double* belief, double off_route);
 
     /// The belief over the references (sums to 1 - off_route).
-    const std::vector<double>& belief() const noexcept { return planes_ == 0 ? belief_ : marginal_; }
+    const std::vector<double>& belief() const noexcept { return single_cell() ? belief_ : marginal_; }
     double off_route() const noexcept { return off_; }
     std::size_t n_refs() const noexcept { return n_refs_; }
     const RouteFilterParams& params() const noexcept { return params_; }
@@ -191,42 +213,31 @@ public:
     /// references) in step(); run() uses its own argument. The results do not depend on it.
     void set_threads(int threads) noexcept { threads_ = threads > 1 ? threads : 1; }
 
+    /// The motion model that runs.
+    RouteMotion motion() const noexcept;
     /// "window", "speed" or "odometry".
     const char* motion_name() const noexcept;
     /// The speed model's planes (empty for the other models).
-    const SpeedChain& chain() const noexcept { return chain_; }
-    /// The belief over (plane, cell), plane-major (empty for the window model).
+    const SpeedChain& chain() const noexcept;
+    /// The belief over (plane, cell), plane-major (the window model: one plane of one cell per
+    /// reference).
     const std::vector<double>& plane_belief() const noexcept { return belief_; }
 
 private:
     RouteFilterStep answer(const double* marginal, double speed);
-    RouteFilterStep update_window(const double* likelihood, double likelihood_sum);
-    RouteFilterStep update_planes(const double* likelihood, double likelihood_sum, double advance);
+    bool single_cell() const noexcept;  // one plane of one cell per reference: the belief is the marginal
     double novelty(double advance) const noexcept;
     int plane_threads() const noexcept;
-    double move_planes();
-    double move_odometry(double advance, double* speed);
-    void mix_planes();
 
     RouteFilterParams params_;
     MotionKernel kernel_;
     std::size_t n_refs_ = 0;
-    std::size_t cells_ = 1;   // per reference (speed, odometry)
-    std::size_t planes_ = 0;  // 0: window model
-    bool odometry_ = false;
-    bool fresh_ = true;  // no frame since the last reset
-    SpeedChain chain_;
-    std::vector<MotionKernel> plane_kernels_;  // in cells
-    std::vector<double> plane_prior_;          // the speed prior (odometry: one plane)
-    std::vector<double> cell_distance_;        // odometry: distance along the route of each cell
-    std::vector<double> reference_distance_;   // odometry
-    std::vector<double> inverse_gap_;          // odometry: 1 / (distance to the next reference)
-    double spacing_ = 1.0;                     // odometry: mean distance per reference
-    std::vector<double> belief_;
-    std::vector<double> scratch_;
-    std::vector<double> chain_scratch_;
-    std::vector<double> marginal_;
-    std::vector<double> plane_mass_;
+    std::unique_ptr<route_detail::RouteMotionModel> model_;
+    bool fresh_ = true;               // no frame since the last reset
+    std::vector<double> belief_;      // planes x n_refs x cells, plane-major
+    std::vector<double> scratch_;     // the prediction
+    std::vector<double> marginal_;    // the belief over the references (unused with single_cell())
+    std::vector<double> plane_mass_;  // per plane
     std::vector<double> cell_likelihood_;
     std::vector<double> likelihood_;
     double off_ = 0.0;

@@ -3,6 +3,7 @@ route, with the route filter (default) or SeqSLAM.
 
     nightloc route REFERENCE QUERY --out OUT [--method filter|seqslam|seqslam,filter]
                    [--preset openseqslam] [--ds 10] [--vmin 0.8 --vmax 1.2] [--mode centred|causal]
+                   [--motion window|speed|odometry]
                    [--tolerance 2] [--ground-truth auto|names|frames|positions|none]
 
 REFERENCE and QUERY are traverse folders (``images/`` with an optional ``poses.csv``, or a
@@ -24,11 +25,13 @@ at the same time refuses; files in OUT that nightloc did not write are kept):
   ``correspondence.png`` (the paper's Figure 23), and for the filter ``filter_confidence.png``,
   unless ``--no-figures``; ``--figure-format pdf|svg`` writes them as PDF or SVG instead.
 
-The filter's motion model (``--odometry auto``): when both traverses carry odometry
-(``odometry.csv``, a bag's odometry, or poses) it predicts by the distance travelled
+The filter's motion model: ``--motion window|speed|odometry`` names the one that runs (the
+names of :data:`nightloc.route.params.MOTION_MODELS`; odometry needs odometry in both
+traverses). Without it (``--odometry auto``): when both traverses carry odometry
+(``odometry.csv``, a bag's odometry, or poses) the filter predicts by the distance travelled
 (:mod:`nightloc.route.odometry`); otherwise, or with ``--odometry none``, it runs the
-parameters' ``filter_motion`` (the speed window or the speed model), and the printed line and
-``summary.json`` say which ran and why (e.g. odometry in one traverse only).
+parameters' ``filter_motion`` (TOML ``[route] filter_motion``, default the speed model). The
+printed line and ``summary.json`` say which ran and why (e.g. odometry in one traverse only).
 
 Several methods (``--method seqslam,filter``) share the prepared images and the difference
 matrix; each writes its set into ``OUT/<method>/``, and ``OUT/summary.json`` holds the
@@ -49,40 +52,35 @@ logs) say nothing about the place: then there is no ground truth, and the run sa
 from __future__ import annotations
 
 import argparse
-import csv
-import io
-import json
 import math
-import re
 import time
-from collections.abc import Sequence
 from pathlib import Path
-
-import numpy as np
 
 from .._validate import thread_count
 from ..config import load_params_file
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set, write_text
-from ..io.traverse import Traverse, load_traverse
+from ..io.route_csv import matches_csv, pr_csv
+from ..io.traverse import load_traverse
 from ..preparation.camera import check_frames_fit
 from ..preparation.params import PreparationParams
-from ..route.evaluation import GroundTruth, RouteEvaluation, evaluate_matches
+from ..route.evaluation import evaluate_matches
 from ..route.filter import texture_weights
+from ..route.ground_truth import (
+    DEFAULT_FRAME_TOLERANCE,
+    DEFAULT_METRE_TOLERANCE,
+    GROUND_TRUTH_KINDS,
+    ground_truth_for,
+)
 from ..route.odometry import motion_plan
-from ..route.params import PRESETS, RouteParams, resolve_params
+from ..route.params import MOTION_MODELS, PRESETS, RouteParams, resolve_params
 from ..route.pipeline import RouteResult, match_difference, route_difference_matrix
 from ..route.preparation import RoutePreparer
+from ..route.report import COMPARED, comparison_summary, method_summary, motion_line, summary_json
 from .bag_options import add_bag_options, bag_options
 from .camera_option import add_camera_option, preparation_for_camera
 from .shift_window_option import add_shift_window_option, parse_shift_window
 from .wording import duration, in_option_words, refuse_map_as_traverse
-
-#: Default tolerances: frames for frame correspondence, metres for positions.
-DEFAULT_FRAME_TOLERANCE = 2
-DEFAULT_METRE_TOLERANCE = 3.0
-#: Largest frame tolerance (a tolerance as long as any traverse makes every match correct).
-MAX_FRAME_TOLERANCE = 1_000_000
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -129,17 +127,23 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument(
         "--ground-truth",
-        choices=["auto", "names", "frames", "positions", "none"],
+        choices=GROUND_TRUTH_KINDS,
         default="auto",
         help="how correct matches are known (default auto)",
     )
     parser.add_argument("--frame-step", type=int, default=1, help="keep every k-th frame of a video (default 1)")
     parser.add_argument(
+        "--motion",
+        type=motion_model,
+        metavar="{" + ",".join(MOTION_MODELS) + "}",
+        help="the filter's motion model: " + ", ".join(MOTION_MODELS) + " (odometry needs it in both traverses); "
+        "default: odometry when both traverses carry it, else the parameters' filter_motion (speed)",
+    )
+    parser.add_argument(
         "--odometry",
         choices=["auto", "none"],
-        default="auto",
         help="auto (default): when both traverses carry odometry (odometry.csv, a bag's odometry, or poses) the "
-        "filter predicts by the distance travelled; none: never (the speed model runs)",
+        "filter predicts by the distance travelled; none: never (the parameters' filter_motion runs)",
     )
     parser.add_argument("--threads", type=int, help="worker threads (default all cores)")
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
@@ -150,6 +154,27 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 # --------------------------------------------------------------------------------------------
 # parameters
+
+
+def motion_model(name: str) -> str:
+    """``--motion``'s value: one of :data:`MOTION_MODELS`, else an error naming them."""
+    if name not in MOTION_MODELS:
+        raise argparse.ArgumentTypeError(f"unknown motion model {name!r}; choose one of {', '.join(MOTION_MODELS)}")
+    return name
+
+
+def uses_odometry(args: argparse.Namespace) -> bool:
+    """Whether the filter may run its odometry model: ``--motion`` names the model that runs
+    (odometry or not); without it, ``--odometry`` (auto: when both traverses carry odometry)."""
+    if args.motion is None:
+        return args.odometry != "none"
+    wanted = args.motion == "odometry"
+    if args.odometry is not None and (args.odometry == "auto") != wanted:
+        raise ValueError(
+            f"--motion {args.motion} contradicts --odometry {args.odometry}; give --motion alone (it names the model "
+            "that runs)"
+        )
+    return wanted
 
 
 def methods_from_args(args: argparse.Namespace, params: RouteParams) -> list:
@@ -190,145 +215,9 @@ def route_params_from_args(args: argparse.Namespace) -> tuple:
         mode=args.mode,
         circular_shifts=args.circular_shifts,
         shift_window=parse_shift_window(args.shift_window),
+        filter_motion=args.motion,
     )
     return params, preparation
-
-
-# --------------------------------------------------------------------------------------------
-# ground truth
-
-
-def ground_truth_for(kind: str, reference: Traverse, query: Traverse, tolerance: float | None) -> tuple:
-    """(GroundTruth or None, the kind used, why there is none or "") for the two traverses.
-
-    ``auto``: positions when both traverses have poses; names when the two traverses share file
-    names that are *distinctive* (:func:`names_are_positional`: not merely each frame's position
-    number in both); otherwise none, with the reason.
-    """
-    same_names = _name_correspondence(reference, query)
-    if kind == "auto":
-        if reference.has_poses and query.has_poses:
-            kind = "positions"
-        elif same_names is None or not (same_names >= 0).any():
-            return None, "none", "the traverses share no file names and have no poses"
-        elif names_are_positional(reference.names) and names_are_positional(query.names):
-            return (
-                None,
-                "none",
-                (
-                    f"both traverses name their frames by position ({query.names[0]}, {query.names[-1]}, ...), "
-                    f"which says nothing about where they were taken; pass --ground-truth names or frames if "
-                    f"frame i of one is frame i of the other, or add poses.csv"
-                ),
-            )
-        else:
-            kind = "names"
-    if kind == "none":
-        return None, "none", "--ground-truth none"
-    if kind == "positions":
-        if reference.positions is None or query.positions is None:
-            raise ValueError("--ground-truth positions needs poses in both traverses (poses.csv or a video's CSV)")
-        metres = DEFAULT_METRE_TOLERANCE if tolerance is None else tolerance
-        return GroundTruth.from_positions(query.positions, reference.positions, metres), "positions", ""
-    frames = DEFAULT_FRAME_TOLERANCE if tolerance is None else tolerance
-    if not math.isfinite(frames) or float(frames) != int(frames) or not 0 <= frames <= MAX_FRAME_TOLERANCE:
-        raise ValueError(
-            f"--tolerance must be a whole number of frames in 0..{MAX_FRAME_TOLERANCE} for frame ground truth, "
-            f"got {frames}"
-        )
-    if kind == "names":
-        if same_names is None or not (same_names >= 0).any():
-            raise ValueError("--ground-truth names: no query frame has the file name of a reference frame")
-        return GroundTruth.from_frames(len(query), len(reference), int(frames), same_names), "names", ""
-    return GroundTruth.from_frames(len(query), len(reference), int(frames)), "frames", ""
-
-
-_LAST_NUMBER = re.compile(r"(\d+)(?!.*\d)")
-
-
-def names_are_positional(names: Sequence[str]) -> bool:
-    """True when every name's last number is its frame's position in the list, counted from 0
-    or from 1 (``000000.png``, ``frame0001.jpg``, ``Image000.jpg`` ...): such names number the
-    frames of any log alike and say nothing about the place. Nordland's ``images-00010.png``
-    (every 10th frame of one video) is not positional."""
-    for start in (0, 1):
-        ok = True
-        for index, name in enumerate(names):
-            found = _LAST_NUMBER.search(Path(name).stem)
-            if found is None or int(found.group(1)) != index + start:
-                ok = False
-                break
-        if ok:
-            return True
-    return False
-
-
-def _name_correspondence(reference: Traverse, query: Traverse) -> np.ndarray | None:
-    if reference.is_video or query.is_video:
-        return None
-    index = {Path(name).name: i for i, name in enumerate(reference.names)}
-    return np.array([index.get(Path(name).name, -1) for name in query.names], dtype=np.int64)
-
-
-# --------------------------------------------------------------------------------------------
-# output files
-
-
-def _number(value: float) -> str:
-    return "nan" if math.isnan(value) else repr(float(value))
-
-
-def matches_csv(
-    result: RouteResult,
-    query_names: Sequence[str],
-    ref_names: Sequence[str],
-    query_times: Sequence[float] | np.ndarray | None = None,
-) -> str:
-    """``query,ref,score,query_image,ref_image`` rows (and ``confidence,off_route`` for the
-    filter), then ``timestamp``, the query frame's time in seconds (``nan`` when the traverse
-    carries none): ``ref`` -1, ``score`` nan and ``ref_image`` empty where a query has no match
-    (so ``numpy.loadtxt(..., usecols=(0, 1, 2))`` reads the numbers)."""
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    confidence, off_route = result.confidence, result.off_route
-    filtered = confidence is not None and off_route is not None
-    writer.writerow(
-        [
-            "query",
-            "ref",
-            "score",
-            "query_image",
-            "ref_image",
-            *(["confidence", "off_route"] if filtered else []),
-            "timestamp",
-        ]
-    )
-    for q in range(result.n_queries):
-        ref = int(result.refs[q])
-        matched = ref >= 0
-        row: list = [
-            q,
-            ref if matched else -1,
-            _number(result.scores[q]) if matched else "nan",
-            query_names[q],
-            ref_names[ref] if matched else "",
-        ]
-        if confidence is not None and off_route is not None:
-            row += [_number(confidence[q]), _number(off_route[q])]
-        row.append("nan" if query_times is None else _number(query_times[q]))
-        writer.writerow(row)
-    return buffer.getvalue()
-
-
-def pr_csv(evaluation: RouteEvaluation) -> str:
-    """``threshold,precision,recall`` rows, thresholds ascending."""
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["threshold", "precision", "recall"])
-    curve = evaluation.curve
-    for t, p, r in zip(curve.thresholds, curve.precision, curve.recall):
-        writer.writerow([repr(float(t)), repr(float(p)), repr(float(r))])
-    return buffer.getvalue()
 
 
 # --------------------------------------------------------------------------------------------
@@ -395,7 +284,7 @@ def run(args: argparse.Namespace) -> int:
     truth, truth_kind, no_truth = ground_truth_for(args.ground_truth, reference, query, args.tolerance)
     for p in per_method:
         _check_can_match(p, len(reference), len(query))
-    plan = motion_plan(reference, query, params.filter_motion, args.odometry == "auto") if "filter" in methods else None
+    plan = motion_plan(reference, query, params.filter_motion, uses_odometry(args)) if "filter" in methods else None
 
     # Checked and locked before the work; the files appear together at the end, or not at all.
     with output_set(args.out, command="route", inputs=inputs, parents=True) as out:
@@ -454,9 +343,19 @@ def _write_method(
 ) -> dict:
     """Writes one method's files into ``folder`` (inside the output set); returns its summary."""
     folder.mkdir(exist_ok=True)
-    write_text(folder / "matches.csv", matches_csv(result, query.names, reference.names, query.timestamps), newline="")
+    matches = matches_csv(
+        result.refs,
+        result.scores,
+        query.names,
+        reference.names,
+        result.confidence,
+        result.off_route,
+        query.timestamps,
+    )
+    write_text(folder / "matches.csv", matches, newline="")
     if evaluation is not None:
-        write_text(folder / "pr.csv", pr_csv(evaluation), newline="")
+        curve = evaluation.curve
+        write_text(folder / "pr.csv", pr_csv(curve.thresholds, curve.precision, curve.recall), newline="")
     figures = []
     if not args.no_figures:
         from ..figures.route import save_route_figures
@@ -475,56 +374,18 @@ def _write_method(
             ground_truth=truth_text,
         )
         figures = [p.name for p in saved]
-    p = result.params
-    summary = {
-        "method": p.method,
-        "reference": str(reference.root),
-        "query": str(query.root),
-        "n_refs": result.n_refs,
-        "n_queries": result.n_queries,
-        "n_matched": int(result.defined.sum()),
-        "method_params": p.method_params(),  # the settings this method uses (no other method's)
-        "motion_model": result.motion,
-        "motion_model_because": result.motion_note or None,
-        "preparation": None
-        if preparer.preparation is None
-        else {field: getattr(preparer.preparation, field) for field in preparer.preparation.__dataclass_fields__},
-        "timings_s": {key: round(value, 4) for key, value in result.timings.items()},
-        "ground_truth": truth_kind,
-        "no_ground_truth_because": no_truth or None,
-        "tolerance": None if truth is None else truth.tolerance,
-        "figures": figures,
-    }
-    if evaluation is not None:
-        summary.update(route_metrics(result, evaluation))
-    write_text(folder / "summary.json", json.dumps(summary, indent=1, default=_json_default) + "\n")
+    summary = method_summary(
+        result, evaluation, reference.root, query.root, preparer.preparation, truth, truth_kind, no_truth, figures
+    )
+    write_text(folder / "summary.json", summary_json(summary))
     return summary
-
-
-def route_metrics(result: RouteResult, evaluation: RouteEvaluation) -> dict:
-    """summary.json's precision-recall figures. Thresholds are on the score scale (a match is
-    accepted when its score is at most the threshold; the filter's score is ``1 - confidence``);
-    ``confidence_at_100_precision`` is the same threshold on the filter's confidence scale
-    (:meth:`RouteResult.confidence_at`, as the confidence figure draws it; None for SeqSLAM)."""
-    positives = int(evaluation.positives.sum())
-    return {
-        "recall_at_100_precision": evaluation.recall_at_100,
-        "score_scale": "1 - confidence" if result.method == "filter" else "uniqueness ratio",
-        "threshold_at_100_precision": _finite_or_none(evaluation.threshold_at_100),
-        "confidence_at_100_precision": result.confidence_at(evaluation.threshold_at_100),
-        "best_f1": evaluation.best_f1,
-        "best_f1_precision": evaluation.best_f1_precision,
-        "best_f1_recall": evaluation.best_f1_recall,
-        "best_f1_threshold": _finite_or_none(evaluation.best_f1_threshold),
-        "correct_any_score": int(evaluation.correct.sum()) / positives if positives else None,
-    }
 
 
 def _print_method(result: RouteResult, evaluation, truth, truth_kind, no_truth, folder: Path, figures: list) -> None:
     p = result.params
     compute = sum(result.timings[k] for k in ("difference", "enhancement", "search"))
     how = (
-        f"filter, {_motion_words(result)}, sharpness {p.filter_sharpness:g}"
+        f"filter, {motion_line(result)}, sharpness {p.filter_sharpness:g}"
         if p.method == "filter"
         else f"seqslam {p.mode}, ds {p.effective_ds}"
     )
@@ -546,16 +407,6 @@ def _print_method(result: RouteResult, evaluation, truth, truth_kind, no_truth, 
     )
 
 
-def _motion_words(result: RouteResult) -> str:
-    """The filter's motion model for the printed line, with the reason when odometry was not used."""
-    words = result.motion_words()
-    if result.motion == "odometry":
-        return f"{words} ({result.motion_note})"
-    if result.motion_note and "neither" not in result.motion_note:
-        return f"{words}: {result.motion_note}"
-    return words
-
-
 def _write_comparison(out: Path, summaries: dict, evaluations: dict, args, truth) -> list:
     """``out/summary.json`` with every method's results and ``out/pr_comparison.<format>``;
     returns the figure names."""
@@ -570,41 +421,15 @@ def _write_comparison(out: Path, summaries: dict, evaluations: dict, args, truth
             figure_format=args.figure_format,
         )
         figures.append(name)
-    comparison = {
-        "methods": list(summaries),
-        "figures": figures,
-        "results": {
-            method: {
-                "folder": method,
-                **{key: summary.get(key) for key in _COMPARED},
-                "search_s": summary["timings_s"].get("search"),
-                "method_params": summary["method_params"],
-            }
-            for method, summary in summaries.items()
-        },
-    }
-    write_text(out / "summary.json", json.dumps(comparison, indent=1, default=_json_default) + "\n")
+    write_text(out / "summary.json", summary_json(comparison_summary(summaries, figures)))
     return figures
-
-
-_COMPARED = ("best_f1", "recall_at_100_precision", "correct_any_score")
 
 
 def _print_comparison(out: Path, summaries: dict, figures: list) -> None:
     print()
     print(f"{'method':<10} {'best F1':>8} {'R@100P':>8} {'correct':>8} {'search s':>9}")
     for method, summary in summaries.items():
-        cells = [summary.get(key) for key in _COMPARED]
+        cells = [summary.get(key) for key in COMPARED]
         text = " ".join(f"{'-' if v is None else format(v, '.3f'):>8}" for v in cells)
         print(f"{method:<10} {text} {summary['timings_s'].get('search', float('nan')):>9.3f}")
     print(f"wrote {out}/summary.json" + "".join(f", {name}" for name in figures))
-
-
-def _finite_or_none(value: float) -> float | None:
-    return float(value) if math.isfinite(value) else None
-
-
-def _json_default(value: object) -> object:
-    if isinstance(value, (np.integer, np.floating)):
-        return value.item()
-    return str(value)

@@ -28,7 +28,7 @@ from .evaluation import GroundTruth, PRCurve, RouteEvaluation, evaluate_matches,
 from .filter import FilterStep, RouteFilter, motion_kernel, route_filter, route_filter_run, texture_weights
 from .localizer import RouteLocalizer, RouteUpdate
 from .odometry import MotionPlan, RouteOdometry, motion_plan, route_odometry
-from .params import PRESETS, RouteParams, default_preparation, resolve_params, route_preset
+from .params import MOTION_MODELS, PRESETS, RouteParams, default_preparation, resolve_params, route_preset
 from .pipeline import (
     RouteResult,
     enhance_contrast,
@@ -41,6 +41,7 @@ from .pipeline import (
 from .preparation import RoutePreparer, octave_rgb2gray
 
 __all__ = [
+    "MOTION_MODELS",
     "PRESETS",
     "FilterStep",
     "GroundTruth",

@@ -39,7 +39,7 @@ import numpy as np
 
 from .. import _core
 from .._validate import same_image_size, shift_list, uint8_array
-from .filter import texture_weights
+from .filter import core_params, motion_name, texture_weights
 from .params import RouteParams, resolve_params
 from .pipeline import RouteResult, _divisor
 
@@ -262,7 +262,7 @@ def _dask_filter(refs, queries, p, rows_per_block, keep_difference, threads_per_
         refs, queries, p, rows_per_block, keep_difference, threads_per_task
     )
     weights = texture_weights(queries, p.filter_min_texture)
-    state = _core.RouteFilter(enhanced.shape[1], p.core_filter_params())
+    state = _core.RouteFilter(enhanced.shape[1], core_params(p, motion_name(p, odometry=False)))
     pieces = []
     for node, (start, stop) in zip(enhanced.to_delayed().ravel().tolist(), blocks):
         block = client.compute(node, sync=True) if client is not None else dask.compute(node)[0]

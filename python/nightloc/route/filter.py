@@ -4,10 +4,11 @@ The probabilistic successor of SeqSLAM's trajectory search (``RouteParams.method
 the default). The belief ``b[r]`` = P(the current query frame shows reference r), plus an
 off-route probability, is carried from frame to frame:
 
-1. **predict** by a motion model (``docs/route_mode.md``): *odometry* when given the
-   references' distances along the route and each query's advance (the belief on cells of a
-   reference, each moved by the distance travelled, with relative noise
-   ``filter_odometry_noise``); else ``filter_motion``: the *window* (the reference advances by
+1. **predict** by a motion model (``docs/route_mode.md``; the names in
+   :data:`~nightloc.route.params.MOTION_MODELS`): *odometry* when given the references'
+   distances along the route and each query's advance (the belief on cells of a reference, each
+   moved by the distance travelled, with relative noise ``filter_odometry_noise``); else
+   ``filter_motion``: the *window* (the reference advances by
    ``floor(x + v)`` for a speed v uniform in ``vmin .. vmax`` references per frame and a
    sub-frame phase x uniform in [0, 1), :func:`motion_kernel`; default 0.8 .. 1.2: P(0) =
    P(2) = 0.05, P(1) = 0.9) or the *speed* model (a belief over position x speed planes, the
@@ -128,16 +129,31 @@ def route_filter_run(
         raise ValueError(
             "the odometry model needs both advances (one per query) and reference_distances (one per reference)"
         )
+    motion = motion_name(p, reference_distances is not None)
     refs, confidence, off_route, speed = _core.route_filter(
-        matrix, p.core_filter_params(), weights, thread_count(threads), advances, reference_distances
+        matrix, core_params(p, motion), weights, thread_count(threads), advances, reference_distances
     )
-    return refs, confidence, off_route, speed, motion_name(p, reference_distances is not None)
+    return refs, confidence, off_route, speed, motion
 
 
 def motion_name(params: RouteParams, odometry: bool) -> str:
-    """The motion model the filter runs: ``"odometry"`` when given odometry, else
-    ``params.filter_motion``."""
-    return "odometry" if odometry else params.filter_motion
+    """The motion model the filter runs: ``"odometry"`` when given odometry (the references'
+    distances), else ``params.filter_motion``, which must then not be ``"odometry"``."""
+    if odometry:
+        return "odometry"
+    if params.filter_motion == "odometry":
+        raise ValueError(
+            "filter_motion 'odometry' needs odometry: the references' distances along the route and each query's "
+            "advance (reference_distances= and advances=, or traverses that carry odometry.csv or poses)"
+        )
+    return params.filter_motion
+
+
+def core_params(params: RouteParams, motion: str) -> _core.RouteFilterParams:
+    """``params`` as the compiled core takes them, running the motion model ``motion``."""
+    core = params.core_filter_params()
+    core.motion = motion
+    return core
 
 
 @dataclass(frozen=True)
@@ -182,7 +198,8 @@ class RouteFilter:
         if isinstance(n_refs, bool) or not isinstance(n_refs, (int, np.integer)) or n_refs < 1:
             raise ValueError(f"n_refs must be a positive int, got {n_refs!r}")
         self._params = resolve_params(params)
-        self._core = _core.RouteFilter(int(n_refs), self._params.core_filter_params(), reference_distances)
+        motion = motion_name(self._params, reference_distances is not None)
+        self._core = _core.RouteFilter(int(n_refs), core_params(self._params, motion), reference_distances)
 
     @property
     def motion(self) -> str:

@@ -34,6 +34,7 @@ from .. import _core
 from .._validate import StreamGuard, shift_list, thread_count, uint8_array
 from ..io.traverse import Traverse
 from ..preparation.params import PreparationParams
+from .filter import core_params, motion_name
 from .odometry import route_odometry
 from .params import RouteParams, resolve_params
 from .pipeline import TraverseInput, _as_frames, _divisor
@@ -155,7 +156,8 @@ class RouteLocalizer:
         self._row = np.empty((1, n_refs), dtype=np.float32)
         if self._params.method == "filter":
             distances = _reference_distances(source, odometry, reference_distances)
-            self._filter = _core.RouteFilter(n_refs, self._params.core_filter_params(), distances)
+            motion = motion_name(self._params, distances is not None)
+            self._filter = _core.RouteFilter(n_refs, core_params(self._params, motion), distances)
             return
         if odometry or reference_distances is not None:
             raise ValueError("odometry is used by the route filter only (method='filter')")

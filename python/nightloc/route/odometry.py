@@ -99,7 +99,19 @@ class MotionPlan:
 
 def motion_plan(reference: Traverse, query: Traverse, fallback: str, use_odometry: bool = True) -> MotionPlan:
     """The odometry model when both traverses carry odometry (and ``use_odometry``), else
-    ``fallback`` (the parameters' ``filter_motion``) with the reason."""
+    ``fallback`` (the parameters' ``filter_motion``) with the reason. A ``fallback`` of
+    ``"odometry"`` asks for the odometry model: without odometry in both traverses (or with
+    ``use_odometry`` False) that is a ValueError naming what is missing."""
+    plan = _plan(reference, query, fallback, use_odometry)
+    if fallback == "odometry" and plan.advances is None:
+        raise ValueError(
+            f"the odometry motion model needs odometry in both traverses (odometry.csv, a bag's odometry, or "
+            f"poses), but {plan.note}; choose another motion model (--motion, filter_motion)"
+        )
+    return plan
+
+
+def _plan(reference: Traverse, query: Traverse, fallback: str, use_odometry: bool) -> MotionPlan:
     if not use_odometry:
         return MotionPlan(fallback, None, None, "odometry not used", {"reference": None, "query": None})
     ref_odometry, query_odometry = route_odometry(reference), route_odometry(query)

@@ -32,7 +32,19 @@ from .. import _core
 from ..config import params_section
 from ..preparation.params import PreparationParams
 
-__all__ = ["DEFAULT_SHIFT_WINDOWS", "PRESETS", "RouteParams", "default_preparation", "resolve_params", "route_preset"]
+__all__ = [
+    "DEFAULT_SHIFT_WINDOWS",
+    "MOTION_MODELS",
+    "PRESETS",
+    "RouteParams",
+    "default_preparation",
+    "resolve_params",
+    "route_preset",
+]
+
+#: The route filter's motion models by name (``filter_motion``, ``nightloc route --motion``): the
+#: compiled core's one name table (``route_motion_names()`` in ``nightloc/route_filter.hpp``).
+MOTION_MODELS: tuple[str, ...] = tuple(_core.route_motion_names())
 
 #: The translation window of ``shift_window = None``, per camera: ``(columns, rows)``. On a
 #: forward camera +-8 columns and +-2 rows keep a night walk a metre beside the day walk and a
@@ -96,10 +108,12 @@ class RouteParams:
         filter_min_texture: a prepared query frame whose mean absolute deviation from its own
             mean is below this many grey levels carries proportionally less evidence (a flat
             frame: none, the belief is only predicted); 0 disables the weight.
-        filter_motion: the filter's motion model when the traverses carry no odometry:
-            ``"speed"`` (a belief over position x speed that follows a speed that changes) or
-            ``"window"`` (a speed drawn afresh from ``vmin .. vmax`` every frame). With odometry
-            in both traverses the odometry model runs instead.
+        filter_motion: the filter's motion model (:data:`MOTION_MODELS`): ``"speed"`` (a belief
+            over position x speed that follows a speed that changes), ``"window"`` (a speed drawn
+            afresh from ``vmin .. vmax`` every frame) or ``"odometry"`` (moved by the distance
+            travelled; needs odometry in both traverses). Route mode runs the odometry model
+            whenever both traverses carry odometry unless told not to
+            (:func:`nightloc.route.odometry.motion_plan`).
         filter_speed_min, filter_speed_max, filter_speed_step: the speed model's planes,
             references per query frame (a negative speed: reversing).
         filter_speed_jitter: each plane advances by a speed uniform within +- this of its own,
@@ -138,7 +152,7 @@ class RouteParams:
     filter_rejoin: float = 1e-2
     filter_window: int = 2
     filter_min_texture: float = 1.0
-    filter_motion: Literal["speed", "window"] = "speed"
+    filter_motion: str = "speed"
     filter_speed_min: float = 0.5
     filter_speed_max: float = 1.5
     filter_speed_step: float = 0.1
@@ -185,48 +199,23 @@ class RouteParams:
             raise ValueError(f"uniqueness_radius must be >= 0, got {self.uniqueness_radius}")
 
     def _validate_filter(self) -> None:
-        if not (math.isfinite(self.filter_sharpness) and self.filter_sharpness >= 0):
-            raise ValueError(f"filter_sharpness must be a finite number >= 0, got {self.filter_sharpness}")
-        if math.isnan(self.filter_clip) or self.filter_clip == -math.inf:
-            raise ValueError(f"filter_clip must be a number or inf, got {self.filter_clip}")
-        for name in ("filter_floor", "filter_leave", "filter_rejoin"):
-            value = getattr(self, name)
-            if not 0 <= value <= 1:
-                raise ValueError(f"{name} must be a probability in [0, 1] per frame, got {value}")
-        if not 0 <= self.filter_backward < 1:
-            raise ValueError(f"filter_backward must be a probability in [0, 1) per frame, got {self.filter_backward}")
+        # The core's validate() is the range check of every field it takes (core_filter_params).
         if self.filter_window < 0:
             raise ValueError(f"filter_window must be >= 0 references, got {self.filter_window}")
         if not (math.isfinite(self.filter_min_texture) and self.filter_min_texture >= 0):
             raise ValueError(f"filter_min_texture must be >= 0 grey levels, got {self.filter_min_texture}")
-        if self.filter_motion not in ("speed", "window"):
-            raise ValueError(f"filter_motion must be 'speed' or 'window', got {self.filter_motion!r}")
         try:
             self.core_filter_params().validate()
-        except ValueError as error:  # the core names the field without its filter_ prefix
-            raise ValueError(f"filter_{error}") from None
+        except ValueError as error:  # the core names its field, without the filter_ prefix
+            field = str(error).split(" ", 1)[0]
+            raise ValueError(f"filter_{error}" if f"filter_{field}" in _FILTER_FIELDS else str(error)) from None
 
     def core_filter_params(self) -> _core.RouteFilterParams:
-        """The filter's parameters as the compiled core takes them."""
+        """The filter's parameters as the compiled core takes them: ``vmin``, ``vmax`` and each
+        ``filter_*`` field the core has (its name without the prefix)."""
         core = _core.RouteFilterParams()
-        core.vmin, core.vmax = self.vmin, self.vmax
-        core.backward, core.floor = self.filter_backward, self.filter_floor
-        core.sharpness, core.clip = self.filter_sharpness, self.filter_clip
-        core.leave, core.rejoin, core.window = self.filter_leave, self.filter_rejoin, self.filter_window
-        core.motion = self.filter_motion
-        core.speed_min, core.speed_max, core.speed_step = (
-            self.filter_speed_min,
-            self.filter_speed_max,
-            self.filter_speed_step,
-        )
-        core.speed_jitter, core.speed_change, core.speed_tau = (
-            self.filter_speed_jitter,
-            self.filter_speed_change,
-            self.filter_speed_tau,
-        )
-        core.speed_cells = self.filter_speed_cells
-        core.odometry_noise, core.odometry_jitter = self.filter_odometry_noise, self.filter_odometry_jitter
-        core.odometry_cells, core.odometry_novelty = self.filter_odometry_cells, self.filter_odometry_novelty
+        for name, core_name in _CORE_FIELDS.items():
+            setattr(core, core_name, getattr(self, name))
         return core
 
     def method_params(self) -> dict:
@@ -293,6 +282,16 @@ class RouteParams:
         :attr:`enhance_offset` for SeqSLAM."""
         return "bound" if self.method == "filter" else self.enhance_offset
 
+
+#: RouteParams' filter fields and the shared speeds -> the core's RouteFilterParams field of
+#: the same meaning (the name without ``filter_``); fields the core lacks (``filter_min_texture``)
+#: are Python's own.
+_FILTER_FIELDS = tuple(f.name for f in dataclasses.fields(RouteParams) if f.name.startswith("filter_"))
+_CORE_FIELDS = {
+    name: name.removeprefix("filter_")
+    for name in ("vmin", "vmax", *_FILTER_FIELDS)
+    if hasattr(_core.RouteFilterParams, name.removeprefix("filter_"))
+}
 
 #: Preset name -> parameters.
 PRESETS = {

@@ -123,11 +123,12 @@ class RouteResult:
         if self.method != "filter":
             return ""
         p = self.params
-        return {
-            "odometry": "odometry motion model",
+        motion = self.motion or p.filter_motion
+        speeds = {  # the models that run at set speeds
             "speed": f"speed motion model {p.filter_speed_min:g}..{p.filter_speed_max:g}",
             "window": f"speed window {p.vmin:g}..{p.vmax:g}",
-        }[self.motion or p.filter_motion]
+        }
+        return speeds.get(motion, f"{motion} motion model")
 
     def confidence_at(self, score: float) -> float | None:
         """The filter's confidence at a score threshold: its scores are ``1 - confidence``, so the
