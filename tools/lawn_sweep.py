@@ -30,6 +30,7 @@ sweep of filter parameters (``--grid likelihood_gain=2,3,4``: every combination)
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import itertools
 import pickle
 import sys
@@ -47,11 +48,13 @@ from nightloc.localization.evaluation import (
     match_traverse,
     simulated_odometry,
 )
-from nightloc.localization.odometry import MapDisplacement, RobotMotion
+from nightloc.localization.odometry import MapDisplacement, RobotMotion, log_noise_model, noise_model
 from nightloc.localization.tail import TailMetrics, tail_metrics
 from nightloc.synth import default_dataset, make_dataset
 
 INT_PARAMS = ("heading_bins", "estimate_window", "settle_frames", "hold_frames")
+#: Sweep keys that set the noise model the filter is told for a lawn's own log (not filter parameters).
+LOG_NOISE_KEYS = ("log_distance_std", "log_heading_std", "log_distance_per_metre", "log_heading_per_radian")
 #: The night frames a kidnapped robot is carried between (0-based): it sees frame a, then b.
 KIDNAPS = ((40, 85), (25, 50))
 
@@ -138,7 +141,10 @@ def room_cases(cache: Path) -> list[Case]:
     for world in ("garden", "living_room"):
         day, night = folders[world]["day_reference"], folders[world]["night_query"]
         ref_map = _cached(cache / f"{world}.map.pkl", lambda d=day: nightloc.ReferenceMap.build(d))
-        matches = _cached(cache / f"{world}.matches.pkl", lambda m=ref_map, q=night: match_traverse(m, q, tables=True))
+        matches = _cached(
+            cache / f"{world}.log.matches.pkl",
+            lambda m=ref_map, q=night: match_traverse(m, q, tables=True, odometry=True),
+        )
         cases.append(Case(world.replace("_", " "), ref_map, matches, "sim"))
     return cases
 
@@ -150,11 +156,23 @@ def _errors(estimates, positions: np.ndarray) -> np.ndarray:
 
 def run_filter(case: Case, odometry: list, noise, overrides: dict, order: list[int] | None = None):
     """The filter's errors and confidences over the case's frames (in ``order``)."""
-    loc = nightloc.Localizer(case.ref_map, odometry_noise=noise, **overrides)
+    if noise == "log":
+        noise = log_noise(overrides, odometry)
+    params = {k: v for k, v in overrides.items() if k not in LOG_NOISE_KEYS}
+    loc = nightloc.Localizer(case.ref_map, odometry_noise=noise, **params)
     frames = order if order is not None else range(len(odometry))
     estimates = [loc.update_table(case.matches.tables[i], odometry[k]) for k, i in enumerate(frames)]
     positions = case.matches.positions[list(frames)]
     return _errors(estimates, positions), np.array([e.confidence for e in estimates])
+
+
+def log_noise(overrides: dict, odometry: list):
+    """The noise the filter is told for a log's own odometry: what ``nightloc localize`` assumes
+    (:func:`~nightloc.localization.odometry.log_noise_model`), its terms replaced by the sweep's
+    ``log_distance_std``, ``log_heading_std``, ``log_distance_per_metre``, ``log_heading_per_radian``."""
+    base = noise_model(log_noise_model(odometry))
+    changes = {k.removeprefix("log_"): float(v) for k, v in overrides.items() if k in LOG_NOISE_KEYS}
+    return dataclasses.replace(base, **changes) if changes else base
 
 
 def run_paper(case: Case, odometry: list) -> np.ndarray:
@@ -168,15 +186,17 @@ def _tail_cells(tail: TailMetrics) -> str:
 
 
 def runs_of(case: Case, draws: int, lawn_noise: tuple[int, ...] = ()):
-    """``(label, odometry, noise)`` of every run of the case: a lawn's own log (and with
-    ``lawn_noise`` simulated map-frame odometry of those Table III models, one draw each), a
-    room's simulated map-frame and wheel odometry of every model over ``draws`` draws."""
+    """``(label, odometry, noise)`` of every run of the case: its own log (the noise ``"log"``:
+    what :func:`log_noise` says), a lawn's simulated map-frame odometry of the ``lawn_noise``
+    Table III models (one draw each), a room's simulated map-frame and wheel odometry of every
+    model over ``draws`` draws (the filter told the run's model)."""
     if case.kind == "log":
-        yield "log", [None, *case.matches.odometry[1:]], 1
+        yield "log", [None, *case.matches.odometry[1:]], "log"
         settings = EvaluationSettings(odometry="map")
         for model in lawn_noise:
             yield f"map {model}", simulated_odometry(case.matches, model, 0, settings), model
         return
+    yield "log", [None, *case.matches.odometry[1:]], "log"
     for kind in ("map", "robot"):
         settings = EvaluationSettings(odometry=kind, repeats=draws)
         for model in (0, 1, 2, 3):
@@ -227,7 +247,7 @@ def kidnaps(cases: list[Case], overrides: dict) -> list[tuple[str, int]]:
         log = [None, *case.matches.odometry[1:]]
         odometry = [log[i] for i in order]
         odometry[jump_from] = RobotMotion(0.0) if isinstance(log[1], RobotMotion) else MapDisplacement(0.0, 0.0)
-        errors, _ = run_filter(case, odometry, 1, overrides, order)
+        errors, _ = run_filter(case, odometry, "log", overrides, order)
         after = errors[jump_from:] < 1.0
         out.append((case.name, int(np.argmax(after)) if after.any() else -1))
     return out
