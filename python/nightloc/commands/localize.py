@@ -112,7 +112,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--odometry-noise",
         default=None,
         help="the odometry's noise per frame: a Table III model (0-3), DIST,HEADING standard deviations in "
-        "metres and radians, or 'wheel' (6 %% of each step, 0.05 rad per step and 5 %% of each turn; default: "
+        "metres and radians, or 'wheel' (4 %% of each step's length, 0.02 rad per step; default: "
         "'wheel' for wheel odometry (forward,left,turn), 1 (0.1 m, 0.02 rad) for map-frame steps)",
     )
     parser.add_argument("--params", type=Path, help="TOML file with [localization], [filter] and/or [preparation]")

@@ -178,9 +178,9 @@ NOISE_MODELS: dict[int, NoiseModel] = {
 }
 
 #: The noise the filter assumes for a robot's own wheel odometry (``nightloc localize`` and
-#: ``evaluate --odometry log`` when the log's steps are robot-frame): 6 % of each step's length,
-#: 0.05 rad per step and 5 % of each turn (docs/localization.md, lawn scale).
-WHEEL_ODOMETRY_NOISE = NoiseModel(0.0, 0.05, 0.06, 0.05)
+#: ``evaluate --odometry log`` when the log's steps are robot-frame): 4 % of each step's length
+#: and Table III model 1's 0.02 rad per step (docs/localization.md, lawn scale).
+WHEEL_ODOMETRY_NOISE = NoiseModel(0.0, 0.02, 0.04, 0.0)
 
 
 def noise_model(model: int | NoiseModel) -> NoiseModel:
