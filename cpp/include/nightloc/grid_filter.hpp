@@ -25,12 +25,12 @@
 //   2. position blur (not for a negligible bin: one whose largest value after the last measurement
 //      is below `negligible` of the belief's largest: it moves by the shift alone, each of its
 //      cells off by at most that share of the peak): a Gaussian along the motion of std sqrt(distance_std^2 +
-//      (distance_per_metre |(f, l)|)^2) (on the axes by its shares), plus position_floor per axis, as three extended-box passes per axis (Gwosdek et al. 2011: the exact
-//      variance). Shift and blur act on the plane (the belief is zero beyond the grid) and the result is cut to the
-//      grid: mass that leaves the grid is dropped. Per axis one linear operator, y first: short kernels (<= 13 taps:
-//      box radius <= 1 cell) composed with the shift and applied as one explicit pass; wider ones as the shift's two
-//      taps then running float sums (O(1) per cell) over a tile that holds everything the passes spread beyond the
-//      grid;
+//      (distance_per_metre |(f, l)|)^2) (on the axes by its shares), plus position_floor per axis, as three
+//      extended-box passes per axis (Gwosdek et al. 2011: the exact variance). Shift and blur act on the plane (the
+//      belief is zero beyond the grid) and the result is cut to the grid: mass that leaves the grid is dropped. Per
+//      axis one linear operator, y first: short kernels (<= 13 taps: box radius <= 1 cell) composed with the shift and
+//      applied as one explicit pass; wider ones as the shift's two taps then running float sums (O(1) per cell) over a
+//      tile that holds everything the passes spread beyond the grid;
 //   3. heading blur: a circular Gaussian of std sqrt(heading_std^2 + (heading_per_radian t)^2 +
 //      heading_floor^2) radians
 //      over the bins (taps within 3 std, those below 1e-4 of the peak left out);
