@@ -86,8 +86,8 @@ class OracleFilter:
         ref_headings: ``(N,)`` radians or None.
         columns: panorama columns; shifts: the table's shift list.
         settings: the core's settings (heading_bins, likelihood_gain, distance_std, heading_std,
-            distance_per_metre, heading_per_radian (wheel odometry), position_floor, heading_floor, uniform_floor, unknown_spread, credibility,
-            confidence_radius, estimate_window).
+            distance_per_metre, heading_per_radian (wheel odometry), position_floor, heading_floor,
+            uniform_floor, unknown_spread, credibility, confidence_radius, estimate_window).
     """
 
     def __init__(

@@ -10,9 +10,12 @@ texture seed) and ``pattern`` (the same lawn mowed in columns along y instead of
 night drive another route: ``nightloc synth --world large_garden --pattern columns``). Each is
 mapped from its day drive's poses (surveyed; ``--teach`` adds a teach-run map from the day drive's
 wheel odometry, the truth moved into its frame) and its night drive is localized with its own
-``odometry.csv`` (the filter told noise model 1, as ``nightloc localize`` is by default). Rooms
-(``--rooms``): the default dataset's garden and living room night queries against their day maps,
-map-frame and wheel odometry simulated with noise models 0-3 over ``--draws`` draws.
+``odometry.csv`` (the filter told what ``nightloc localize`` assumes: the step-scaled wheel noise
+for wheel odometry; ``--grid log_distance_per_metre=..`` and ``log_distance_std``,
+``log_heading_std``, ``log_heading_per_radian`` replace its terms). Rooms (``--rooms``): the
+default dataset's garden and living room night queries against their day maps, with their own
+``odometry.csv`` (as the lawns) and map-frame and wheel odometry simulated with noise models 0-3
+over ``--draws`` draws.
 ``--lawn-noise 0,1,3`` adds the lawns' night drives with simulated map-frame odometry of those
 Table III models (``nightloc evaluate --odometry map``; one draw each).
 

@@ -100,8 +100,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--odometry-noise",
         default=None,
         help="with --odometry log: the odometry noise the filter assumes, a Table III model (0-3), DIST,HEADING "
-        "standard deviations per frame in metres and radians, or 'wheel' (4 %% of each step's length, 0.02 rad per step; "
-        "default: 'wheel' for wheel odometry (forward,left,turn), 1 for map-frame steps)",
+        "standard deviations per frame in metres and radians, or 'wheel' (4 %% of each step's length, 0.02 rad per "
+        "step; default: 'wheel' for wheel odometry (forward,left,turn), 1 for map-frame steps)",
     )
     parser.add_argument("--params", type=Path, help="TOML file with [localization] and/or [preparation] tables")
     add_camera_option(
