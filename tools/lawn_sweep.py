@@ -17,7 +17,8 @@ default dataset's garden and living room night queries against their day maps, w
 ``odometry.csv`` (as the lawns) and map-frame and wheel odometry simulated with noise models 0-3
 over ``--draws`` draws.
 ``--lawn-noise 0,1,3`` adds the lawns' night drives with simulated map-frame odometry of those
-Table III models (``nightloc evaluate --odometry map``; one draw each).
+Table III models (``nightloc evaluate --odometry map``; one draw each); ``--map-as-wheel`` adds
+those steps as wheel odometry of a robot driving along them (heading = the step's direction).
 
 Every row prints, over the frames from the 10th on (``nightloc.localization.tail``): median, p95,
 share over 1 m and longest run over 1 m for the filter, the same for the paper's 10-frame
@@ -51,7 +52,13 @@ from nightloc.localization.evaluation import (
     match_traverse,
     simulated_odometry,
 )
-from nightloc.localization.odometry import MapDisplacement, RobotMotion, log_noise_model, noise_model
+from nightloc.localization.odometry import (
+    NOISE_MODELS,
+    MapDisplacement,
+    RobotMotion,
+    log_noise_model,
+    noise_model,
+)
 from nightloc.localization.tail import TailMetrics, tail_metrics
 from nightloc.synth import default_dataset, make_dataset
 
@@ -188,7 +195,26 @@ def _tail_cells(tail: TailMetrics) -> str:
     return f"{tail.median_m:.2f} | {tail.p95_m:.2f} | {100 * tail.share_over_1m:.1f} % | {tail.longest_run_over_1m}"
 
 
-def runs_of(case: Case, draws: int, lawn_noise: tuple[int, ...] = ()):
+def as_wheel(steps: list) -> list:
+    """Map-frame steps as wheel odometry of a robot that drives along its steps: forward the step's
+    length, turn the change of the step's direction (none across a standing step)."""
+    out: list = [None]
+    previous = None
+    for step in steps[1:]:
+        dx, dy = (step.dx, step.dy) if isinstance(step, MapDisplacement) else (float(step[0]), float(step[1]))
+        length = float(np.hypot(dx, dy))
+        direction = float(np.arctan2(dy, dx)) if length > 1e-9 else previous
+        turn = (
+            0.0
+            if previous is None or direction is None
+            else float(np.remainder(direction - previous + np.pi, 2 * np.pi) - np.pi)
+        )
+        out.append(RobotMotion(length, 0.0, turn))
+        previous = direction
+    return out
+
+
+def runs_of(case: Case, draws: int, lawn_noise: tuple[int, ...] = (), map_as_wheel: bool = False):
     """``(label, odometry, noise)`` of every run of the case: its own log (the noise ``"log"``:
     what :func:`log_noise` says), a lawn's simulated map-frame odometry of the ``lawn_noise``
     Table III models (one draw each), a room's simulated map-frame and wheel odometry of every
@@ -197,7 +223,12 @@ def runs_of(case: Case, draws: int, lawn_noise: tuple[int, ...] = ()):
         yield "log", [None, *case.matches.odometry[1:]], "log"
         settings = EvaluationSettings(odometry="map")
         for model in lawn_noise:
-            yield f"map {model}", simulated_odometry(case.matches, model, 0, settings), model
+            steps = simulated_odometry(case.matches, model, 0, settings)
+            yield f"map {model}", steps, model
+            if map_as_wheel:  # a step's direction noise becomes turn noise on both of its turns
+                table = NOISE_MODELS[model]
+                noise = dataclasses.replace(table, heading_std=float(np.sqrt(2)) * table.heading_std)
+                yield f"map {model} as wheel", as_wheel(steps), noise
         return
     yield "log", [None, *case.matches.odometry[1:]], "log"
     for kind in ("map", "robot"):
@@ -208,13 +239,19 @@ def runs_of(case: Case, draws: int, lawn_noise: tuple[int, ...] = ()):
 
 
 def sweep(
-    cases: list[Case], draws: int, overrides: dict, quiet: bool, paper: dict, lawn_noise: tuple[int, ...] = ()
+    cases: list[Case],
+    draws: int,
+    overrides: dict,
+    quiet: bool,
+    paper: dict,
+    lawn_noise: tuple[int, ...] = (),
+    map_as_wheel: bool = False,
 ) -> dict:
     """Runs every case; returns per group (lawn / room label) the filter's runs and counts."""
     groups: dict[str, dict] = {}
     for case in cases:
         per_label: dict[str, dict] = {}
-        for label, odometry, noise in runs_of(case, draws, lawn_noise):
+        for label, odometry, noise in runs_of(case, draws, lawn_noise, map_as_wheel):
             errors, confidence = run_filter(case, odometry, noise, overrides)
             key = (case.name, label, len(per_label.get(label, {}).get("filter", [])))
             if key not in paper:
@@ -268,6 +305,11 @@ def main() -> None:
     parser.add_argument(
         "--lawn-noise", default="", help="also simulated map-frame odometry on the lawns, Table III models (e.g. 0,1,3)"
     )
+    parser.add_argument(
+        "--map-as-wheel",
+        action="store_true",
+        help="with --lawn-noise: also the map-frame steps as wheel odometry (heading = the step's direction)",
+    )
     parser.add_argument("--param", action="append", default=[], help="filter parameter, e.g. likelihood_gain=3.5")
     parser.add_argument("--grid", action="append", default=[], help="sweep a parameter, e.g. likelihood_gain=2,3,4")
     parser.add_argument("--quiet", action="store_true", help="only the groups' summary lines")
@@ -292,7 +334,7 @@ def main() -> None:
             )
             emit("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
         lawn_noise = tuple(_parse_ints(args.lawn_noise)) if args.lawn_noise else ()
-        groups = sweep(cases, args.draws, overrides, args.quiet, paper, lawn_noise)
+        groups = sweep(cases, args.draws, overrides, args.quiet, paper, lawn_noise, args.map_as_wheel)
         emit("\n| group | median | p95 | > 1 m | longest | paper: median | p95 | > 1 m | longest | conf. wrong |")
         emit("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
         for name, g in groups.items():
