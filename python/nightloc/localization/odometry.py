@@ -33,11 +33,13 @@ if TYPE_CHECKING:
 
 __all__ = [
     "NOISE_MODELS",
+    "WHEEL_ODOMETRY_NOISE",
     "MapDisplacement",
     "NoiseModel",
     "RobotMotion",
     "as_motion",
     "compose_motions",
+    "log_noise_model",
     "noise_model",
     "read_odometry",
     "robot_steps_to_map",
