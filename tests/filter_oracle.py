@@ -86,8 +86,8 @@ class OracleFilter:
         ref_headings: ``(N,)`` radians or None.
         columns: panorama columns; shifts: the table's shift list.
         settings: the core's settings (heading_bins, likelihood_gain, distance_std, heading_std,
-            position_floor, heading_floor, uniform_floor, unknown_spread, credibility,
-            confidence_radius, estimate_window).
+            distance_per_metre, heading_per_radian (wheel odometry), position_floor, heading_floor,
+            uniform_floor, unknown_spread, credibility, confidence_radius, estimate_window).
     """
 
     def __init__(
@@ -182,6 +182,9 @@ class OracleFilter:
         roll = whole % self.bins
         before = self.p.sum()
         along = math.atan2(left, forward) if math.hypot(forward, left) > 0 else 0.0
+        # the step-scaled noise of wheel odometry, in quadrature with the per-step terms
+        distance2 = s["distance_std"] ** 2 + (s.get("distance_per_metre", 0.0) * math.hypot(forward, left)) ** 2
+        heading_std = math.hypot(s["heading_std"], s.get("heading_per_radian", 0.0) * turn)
         # negligible bins (their largest value after the last update below `negligible` of the
         # belief's largest): shifted without the position blur
         negligible = np.zeros(self.bins, dtype=bool)
@@ -194,15 +197,15 @@ class OracleFilter:
             c, sn = math.cos(theta), math.sin(theta)
             mx, my = c * forward - sn * left, sn * forward + c * left
             wx, wy = axis_shares(theta + along)
-            sigx = math.sqrt(s["distance_std"] ** 2 * wx + s["position_floor"] ** 2)
-            sigy = math.sqrt(s["distance_std"] ** 2 * wy + s["position_floor"] ** 2)
+            sigx = math.sqrt(distance2 * wx + s["position_floor"] ** 2)
+            sigy = math.sqrt(distance2 * wy + s["position_floor"] ** 2)
             if negligible[b]:
                 sigx = sigy = 0.0
             q[(b + roll) % self.bins] = self._shift_blur(
                 self.p[b], mx / self.dx, my / self.dy, sigx / self.dx, sigy / self.dy
             )
         self.offset = new_offset
-        sigma_bins = math.hypot(s["heading_std"], s["heading_floor"]) / step
+        sigma_bins = math.hypot(heading_std, s["heading_floor"]) / step
         taps = np.zeros(self.bins)
         if sigma_bins < 1e-6:
             taps[0] = 1.0

@@ -25,7 +25,7 @@ import numpy as np
 
 import nightloc
 from nightloc.cli import main as nightloc_main
-from nightloc.localization.odometry import RobotMotion, true_robot_motions
+from nightloc.localization.odometry import RobotMotion, log_noise_model, true_robot_motions
 from nightloc.synth.dataset import SynthScene, forward_view
 from nightloc.synth.render import Camera
 
@@ -102,10 +102,12 @@ def localize(map_file: Path, log: Path, out: Path) -> Path:
 
 
 def api_trajectory(map_file: Path, log: Path) -> list[nightloc.Estimate]:
-    """The default localizer's estimates for every frame of ``log`` with its odometry."""
+    """The default localizer's estimates for every frame of ``log`` with its odometry (the noise
+    ``nightloc localize`` assumes for it: the step-scaled wheel model for wheel odometry)."""
     traverse = nightloc.load_traverse(log)
     odometry = nightloc.traverse_odometry(traverse)
-    localizer = nightloc.Localizer(nightloc.ReferenceMap.load(map_file))
+    noise = log_noise_model(odometry)
+    localizer = nightloc.Localizer(nightloc.ReferenceMap.load(map_file), odometry_noise=noise)
     return [localizer.update(frame, odometry[i]) for i, frame in traverse.frames()]
 
 

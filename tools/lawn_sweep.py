@@ -10,11 +10,15 @@ texture seed) and ``pattern`` (the same lawn mowed in columns along y instead of
 night drive another route: ``nightloc synth --world large_garden --pattern columns``). Each is
 mapped from its day drive's poses (surveyed; ``--teach`` adds a teach-run map from the day drive's
 wheel odometry, the truth moved into its frame) and its night drive is localized with its own
-``odometry.csv`` (the filter told noise model 1, as ``nightloc localize`` is by default). Rooms
-(``--rooms``): the default dataset's garden and living room night queries against their day maps,
-map-frame and wheel odometry simulated with noise models 0-3 over ``--draws`` draws.
+``odometry.csv`` (the filter told what ``nightloc localize`` assumes: the step-scaled wheel noise
+for wheel odometry; ``--grid log_distance_per_metre=..`` and ``log_distance_std``,
+``log_heading_std``, ``log_heading_per_radian`` replace its terms). Rooms (``--rooms``): the
+default dataset's garden and living room night queries against their day maps, with their own
+``odometry.csv`` (as the lawns) and map-frame and wheel odometry simulated with noise models 0-3
+over ``--draws`` draws.
 ``--lawn-noise 0,1,3`` adds the lawns' night drives with simulated map-frame odometry of those
-Table III models (``nightloc evaluate --odometry map``; one draw each).
+Table III models (``nightloc evaluate --odometry map``; one draw each); ``--map-as-wheel`` adds
+those steps as wheel odometry of a robot driving along them (heading = the step's direction).
 
 Every row prints, over the frames from the 10th on (``nightloc.localization.tail``): median, p95,
 share over 1 m and longest run over 1 m for the filter, the same for the paper's 10-frame
@@ -30,6 +34,7 @@ sweep of filter parameters (``--grid likelihood_gain=2,3,4``: every combination)
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import itertools
 import pickle
 import sys
@@ -47,11 +52,19 @@ from nightloc.localization.evaluation import (
     match_traverse,
     simulated_odometry,
 )
-from nightloc.localization.odometry import MapDisplacement, RobotMotion
+from nightloc.localization.odometry import (
+    NOISE_MODELS,
+    MapDisplacement,
+    RobotMotion,
+    log_noise_model,
+    noise_model,
+)
 from nightloc.localization.tail import TailMetrics, tail_metrics
 from nightloc.synth import default_dataset, make_dataset
 
 INT_PARAMS = ("heading_bins", "estimate_window", "settle_frames", "hold_frames")
+#: Sweep keys that set the noise model the filter is told for a lawn's own log (not filter parameters).
+LOG_NOISE_KEYS = ("log_distance_std", "log_heading_std", "log_distance_per_metre", "log_heading_per_radian")
 #: The night frames a kidnapped robot is carried between (0-based): it sees frame a, then b.
 KIDNAPS = ((40, 85), (25, 50))
 
@@ -138,7 +151,10 @@ def room_cases(cache: Path) -> list[Case]:
     for world in ("garden", "living_room"):
         day, night = folders[world]["day_reference"], folders[world]["night_query"]
         ref_map = _cached(cache / f"{world}.map.pkl", lambda d=day: nightloc.ReferenceMap.build(d))
-        matches = _cached(cache / f"{world}.matches.pkl", lambda m=ref_map, q=night: match_traverse(m, q, tables=True))
+        matches = _cached(
+            cache / f"{world}.log.matches.pkl",
+            lambda m=ref_map, q=night: match_traverse(m, q, tables=True, odometry=True),
+        )
         cases.append(Case(world.replace("_", " "), ref_map, matches, "sim"))
     return cases
 
@@ -150,11 +166,23 @@ def _errors(estimates, positions: np.ndarray) -> np.ndarray:
 
 def run_filter(case: Case, odometry: list, noise, overrides: dict, order: list[int] | None = None):
     """The filter's errors and confidences over the case's frames (in ``order``)."""
-    loc = nightloc.Localizer(case.ref_map, odometry_noise=noise, **overrides)
+    if noise == "log":
+        noise = log_noise(overrides, odometry)
+    params = {k: v for k, v in overrides.items() if k not in LOG_NOISE_KEYS}
+    loc = nightloc.Localizer(case.ref_map, odometry_noise=noise, **params)
     frames = order if order is not None else range(len(odometry))
     estimates = [loc.update_table(case.matches.tables[i], odometry[k]) for k, i in enumerate(frames)]
     positions = case.matches.positions[list(frames)]
     return _errors(estimates, positions), np.array([e.confidence for e in estimates])
+
+
+def log_noise(overrides: dict, odometry: list):
+    """The noise the filter is told for a log's own odometry: what ``nightloc localize`` assumes
+    (:func:`~nightloc.localization.odometry.log_noise_model`), its terms replaced by the sweep's
+    ``log_distance_std``, ``log_heading_std``, ``log_distance_per_metre``, ``log_heading_per_radian``."""
+    base = noise_model(log_noise_model(odometry))
+    changes = {k.removeprefix("log_"): float(v) for k, v in overrides.items() if k in LOG_NOISE_KEYS}
+    return dataclasses.replace(base, **changes) if changes else base
 
 
 def run_paper(case: Case, odometry: list) -> np.ndarray:
@@ -167,16 +195,42 @@ def _tail_cells(tail: TailMetrics) -> str:
     return f"{tail.median_m:.2f} | {tail.p95_m:.2f} | {100 * tail.share_over_1m:.1f} % | {tail.longest_run_over_1m}"
 
 
-def runs_of(case: Case, draws: int, lawn_noise: tuple[int, ...] = ()):
-    """``(label, odometry, noise)`` of every run of the case: a lawn's own log (and with
-    ``lawn_noise`` simulated map-frame odometry of those Table III models, one draw each), a
-    room's simulated map-frame and wheel odometry of every model over ``draws`` draws."""
+def as_wheel(steps: list) -> list:
+    """Map-frame steps as wheel odometry of a robot that drives along its steps: forward the step's
+    length, turn the change of the step's direction (none across a standing step)."""
+    out: list = [None]
+    previous = None
+    for step in steps[1:]:
+        dx, dy = (step.dx, step.dy) if isinstance(step, MapDisplacement) else (float(step[0]), float(step[1]))
+        length = float(np.hypot(dx, dy))
+        direction = float(np.arctan2(dy, dx)) if length > 1e-9 else previous
+        turn = (
+            0.0
+            if previous is None or direction is None
+            else float(np.remainder(direction - previous + np.pi, 2 * np.pi) - np.pi)
+        )
+        out.append(RobotMotion(length, 0.0, turn))
+        previous = direction
+    return out
+
+
+def runs_of(case: Case, draws: int, lawn_noise: tuple[int, ...] = (), map_as_wheel: bool = False):
+    """``(label, odometry, noise)`` of every run of the case: its own log (the noise ``"log"``:
+    what :func:`log_noise` says), a lawn's simulated map-frame odometry of the ``lawn_noise``
+    Table III models (one draw each), a room's simulated map-frame and wheel odometry of every
+    model over ``draws`` draws (the filter told the run's model)."""
     if case.kind == "log":
-        yield "log", [None, *case.matches.odometry[1:]], 1
+        yield "log", [None, *case.matches.odometry[1:]], "log"
         settings = EvaluationSettings(odometry="map")
         for model in lawn_noise:
-            yield f"map {model}", simulated_odometry(case.matches, model, 0, settings), model
+            steps = simulated_odometry(case.matches, model, 0, settings)
+            yield f"map {model}", steps, model
+            if map_as_wheel:  # a step's direction noise becomes turn noise on both of its turns
+                table = NOISE_MODELS[model]
+                noise = dataclasses.replace(table, heading_std=float(np.sqrt(2)) * table.heading_std)
+                yield f"map {model} as wheel", as_wheel(steps), noise
         return
+    yield "log", [None, *case.matches.odometry[1:]], "log"
     for kind in ("map", "robot"):
         settings = EvaluationSettings(odometry=kind, repeats=draws)
         for model in (0, 1, 2, 3):
@@ -185,13 +239,19 @@ def runs_of(case: Case, draws: int, lawn_noise: tuple[int, ...] = ()):
 
 
 def sweep(
-    cases: list[Case], draws: int, overrides: dict, quiet: bool, paper: dict, lawn_noise: tuple[int, ...] = ()
+    cases: list[Case],
+    draws: int,
+    overrides: dict,
+    quiet: bool,
+    paper: dict,
+    lawn_noise: tuple[int, ...] = (),
+    map_as_wheel: bool = False,
 ) -> dict:
     """Runs every case; returns per group (lawn / room label) the filter's runs and counts."""
     groups: dict[str, dict] = {}
     for case in cases:
         per_label: dict[str, dict] = {}
-        for label, odometry, noise in runs_of(case, draws, lawn_noise):
+        for label, odometry, noise in runs_of(case, draws, lawn_noise, map_as_wheel):
             errors, confidence = run_filter(case, odometry, noise, overrides)
             key = (case.name, label, len(per_label.get(label, {}).get("filter", [])))
             if key not in paper:
@@ -227,7 +287,7 @@ def kidnaps(cases: list[Case], overrides: dict) -> list[tuple[str, int]]:
         log = [None, *case.matches.odometry[1:]]
         odometry = [log[i] for i in order]
         odometry[jump_from] = RobotMotion(0.0) if isinstance(log[1], RobotMotion) else MapDisplacement(0.0, 0.0)
-        errors, _ = run_filter(case, odometry, 1, overrides, order)
+        errors, _ = run_filter(case, odometry, "log", overrides, order)
         after = errors[jump_from:] < 1.0
         out.append((case.name, int(np.argmax(after)) if after.any() else -1))
     return out
@@ -244,6 +304,11 @@ def main() -> None:
     parser.add_argument("--kidnap", action="store_true", help="kidnap the robot on each lawn")
     parser.add_argument(
         "--lawn-noise", default="", help="also simulated map-frame odometry on the lawns, Table III models (e.g. 0,1,3)"
+    )
+    parser.add_argument(
+        "--map-as-wheel",
+        action="store_true",
+        help="with --lawn-noise: also the map-frame steps as wheel odometry (heading = the step's direction)",
     )
     parser.add_argument("--param", action="append", default=[], help="filter parameter, e.g. likelihood_gain=3.5")
     parser.add_argument("--grid", action="append", default=[], help="sweep a parameter, e.g. likelihood_gain=2,3,4")
@@ -269,7 +334,7 @@ def main() -> None:
             )
             emit("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
         lawn_noise = tuple(_parse_ints(args.lawn_noise)) if args.lawn_noise else ()
-        groups = sweep(cases, args.draws, overrides, args.quiet, paper, lawn_noise)
+        groups = sweep(cases, args.draws, overrides, args.quiet, paper, lawn_noise, args.map_as_wheel)
         emit("\n| group | median | p95 | > 1 m | longest | paper: median | p95 | > 1 m | longest | conf. wrong |")
         emit("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
         for name, g in groups.items():

@@ -6,7 +6,8 @@
 // LOG is a folder holding images/ (binary PGM or PPM frames, 8-bit, in natural name order:
 // frame2 before frame10) and odometry.csv with the columns image,forward,left,turn (wheel
 // odometry since the previous frame: metres, metres, radians counter-clockwise) or image,dx,dy
-// (map frame), one row per frame in the frames' order; other columns are ignored. OUT.csv gets
+// (map frame), one row per frame in the frames' order; other columns are ignored. The filter
+// assumes the map's odometry noise, or for wheel odometry kWheelOdometryNoise (as `nightloc localize`). OUT.csv gets
 // image,x,y,heading,confidence,credible_radius per frame (metres, radians; heading nan without map
 // headings), written to a temporary file beside it and renamed (an existing file is replaced only
 // with --overwrite). The time per frame (preparation and filter) is printed on stderr. Errors name
@@ -274,6 +275,11 @@ int run(int argc, char** argv) {
     const std::string odometry_path = log + "/odometry.csv";
     const auto rows = read_odometry(odometry_path, order);
     const auto frames = list_frames(log + "/images");
+    // a log of wheel odometry: the step-scaled noise `nightloc localize` assumes for it
+    if (std::any_of(rows.begin(), rows.end(),
+                    [](const auto& row) { return row.second.motion.kind == nightloc::Motion::Kind::robot; })) {
+        localizer.set_noise(nightloc::kWheelOdometryNoise);
+    }
     // every frame has a row, and the rows list exactly the frames, in their order
     for (const auto& name : frames) {
         if (!rows.count(name)) throw Failure(odometry_path + " has no row for image '" + name + "'");

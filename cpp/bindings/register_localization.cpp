@@ -215,7 +215,9 @@ public:
                   make_settings(settings)) {}
 
     void reset() { filter_.reset(); }
-    void set_noise(double distance_std, double heading_std) { filter_.set_noise(distance_std, heading_std); }
+    void set_noise(double distance_std, double heading_std, double distance_per_metre, double heading_per_radian) {
+        filter_.set_noise(distance_std, heading_std, distance_per_metre, heading_per_radian);
+    }
 
     void predict(int kind, double a, double b, double c) {
         check_motion(kind, a, b, c);
@@ -425,7 +427,8 @@ void register_localization(py::module_& m) {
         .def(
             "__copy__", [](const GridFilterPy& f) { return GridFilterPy(f); },
             "An independent filter in the same state, bit for bit (the map's weights are shared: immutable).")
-        .def("set_noise", &GridFilterPy::set_noise, py::arg("distance_std"), py::arg("heading_std"))
+        .def("set_noise", &GridFilterPy::set_noise, py::arg("distance_std"), py::arg("heading_std"),
+             py::arg("distance_per_metre") = 0.0, py::arg("heading_per_radian") = 0.0)
         .def("predict", &GridFilterPy::predict, py::arg("kind"), py::arg("a"), py::arg("b"), py::arg("c"))
         .def("step_image", &GridFilterPy::step_image, py::arg("query"), py::arg("refs"), py::arg("kind"), py::arg("a"),
              py::arg("b"), py::arg("c"), py::arg("threads"))

@@ -110,7 +110,8 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
     const GridFilterSettings& s = settings_;
     require(s.heading_bins >= 1 && s.heading_bins <= 4096, "grid filter: heading_bins must be 1..4096");
     require(finite_nonnegative(s.likelihood_gain), "grid filter: likelihood_gain must be finite and >= 0");
-    require(finite_nonnegative(s.distance_std) && finite_nonnegative(s.heading_std),
+    require(finite_nonnegative(s.distance_std) && finite_nonnegative(s.heading_std) &&
+                finite_nonnegative(s.distance_per_metre) && finite_nonnegative(s.heading_per_radian),
             "grid filter: odometry noise must be finite and >= 0");
     require(finite_nonnegative(s.position_floor) && finite_nonnegative(s.heading_floor),
             "grid filter: position_floor and heading_floor must be finite and >= 0");
@@ -262,11 +263,15 @@ void GridFilter::reset() {
     marginal_valid_ = false;
 }
 
-void GridFilter::set_noise(double distance_std, double heading_std) {
-    require(finite_nonnegative(distance_std) && finite_nonnegative(heading_std),
+void GridFilter::set_noise(double distance_std, double heading_std, double distance_per_metre,
+                           double heading_per_radian) {
+    require(finite_nonnegative(distance_std) && finite_nonnegative(heading_std) &&
+                finite_nonnegative(distance_per_metre) && finite_nonnegative(heading_per_radian),
             "grid filter: odometry noise must be finite and >= 0");
     settings_.distance_std = distance_std;
     settings_.heading_std = heading_std;
+    settings_.distance_per_metre = distance_per_metre;
+    settings_.heading_per_radian = heading_per_radian;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -486,7 +491,9 @@ void GridFilter::predict_robot(double forward, double left, double turn) {
     const double step = kTwoPi / static_cast<double>(bins_);
     // the odometry's distance noise lies along the motion: its direction in the robot frame
     const double along = std::hypot(forward, left) > 0 ? std::atan2(left, forward) : 0.0;
-    const double pf2 = s.position_floor * s.position_floor, sd2 = s.distance_std * s.distance_std;
+    const double scaled_distance = s.distance_per_metre * std::hypot(forward, left);
+    const double pf2 = s.position_floor * s.position_floor,
+                 sd2 = s.distance_std * s.distance_std + scaled_distance * scaled_distance;
     const double turned = (offset_ + turn) / step;
     const double whole = std::floor(turned);
     double new_offset = (turned - whole) * step;
@@ -516,7 +523,8 @@ void GridFilter::predict_robot(double forward, double left, double turn) {
     }
     offset_ = new_offset;
     // the heading blur: a circular Gaussian over the bins, taps within 3 std, folded and normalized
-    const double sigma_bins = std::hypot(s.heading_std, s.heading_floor) / step;
+    const double sigma_bins =
+        std::hypot(std::hypot(s.heading_std, s.heading_per_radian * turn), s.heading_floor) / step;
     std::vector<double> taps(bins_, 0.0);
     if (sigma_bins < 1e-6) {
         taps[0] = 1.0;

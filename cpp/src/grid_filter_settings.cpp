@@ -30,6 +30,10 @@ void set_grid_filter_setting(GridFilterSettings& s, const std::string& name, dou
         s.distance_std = value;
     else if (name == "heading_std")
         s.heading_std = value;
+    else if (name == "distance_per_metre")
+        s.distance_per_metre = value;
+    else if (name == "heading_per_radian")
+        s.heading_per_radian = value;
     else if (name == "position_floor")
         s.position_floor = value;
     else if (name == "heading_floor")

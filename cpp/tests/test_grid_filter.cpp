@@ -351,6 +351,12 @@ void test_errors_leave_the_belief() {
     GridFilterSettings bad_settings;
     bad_settings.uniform_floor = 1.0;
     CHECK_THROWS(GridFilter(m.map, bad_settings), std::invalid_argument);
+    GridFilterSettings bad_noise;
+    bad_noise.distance_per_metre = -0.1;
+    CHECK_THROWS(GridFilter(m.map, bad_noise), std::invalid_argument);
+    CHECK_THROWS(filter.set_noise(0.1, 0.02, 0.0, std::numeric_limits<double>::quiet_NaN()), std::invalid_argument);
+    set_grid_filter_setting(bad_noise, "heading_per_radian", 0.25);
+    CHECK(bad_noise.heading_per_radian == 0.25);
     GridFilterMap no_weights = m.map;
     no_weights.weights = nullptr;
     CHECK_THROWS(GridFilter(no_weights, GridFilterSettings{}), std::invalid_argument);

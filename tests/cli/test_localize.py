@@ -11,6 +11,7 @@ import pytest
 import nightloc
 from nightloc.cli import main
 from nightloc.commands.localize import TRAJECTORY_HEADER
+from nightloc.localization.odometry import WHEEL_ODOMETRY_NOISE
 
 from synth_support import default_synth_data
 
@@ -37,13 +38,34 @@ def test_localize_writes_the_trajectory_and_prints_errors_against_poses(tmp_path
     # the same numbers as the API on the same frames and odometry
     ref_map = nightloc.ReferenceMap.build(folders["day_reference"])
     odometry = nightloc.localization.odometry.traverse_odometry(log)
-    loc = nightloc.Localizer(ref_map, odometry_noise=1)
+    # a log of wheel odometry: the filter assumes the step-scaled wheel model by default
+    assert isinstance(odometry[1], nightloc.RobotMotion)
+    loc = nightloc.Localizer(ref_map, odometry_noise=WHEEL_ODOMETRY_NOISE)
     expected = [loc.update(log.read(i), odometry[i]) for i in range(len(log))]
     np.testing.assert_allclose(values[:, 0], [e.x for e in expected], atol=1e-4)
     errors = np.hypot(values[:, 0] - log.positions[:, 0], values[:, 1] - log.positions[:, 1])
     assert np.median(errors[9:]) < 0.5
     image = cv2.imread(str(out / "trajectory.png"))
     assert image is not None and image.shape[2] == 3
+
+
+def test_localize_odometry_noise_option_names_the_model(tmp_path):
+    folders = default_synth_data()["garden"]
+    log = nightloc.load_traverse(folders["night_query"])
+    odometry = nightloc.localization.odometry.traverse_odometry(log)
+    ref_map = nightloc.ReferenceMap.build(folders["day_reference"])
+    for option, noise in (("1", 1), ("wheel", WHEEL_ODOMETRY_NOISE)):
+        out = tmp_path / option
+        argv = ["localize", str(folders["day_reference"]), str(folders["night_query"]), "--out", str(out)]
+        assert main([*argv, "--no-figures", "--odometry-noise", option]) == 0
+        _, rows = _rows(out / "trajectory.csv")
+        loc = nightloc.Localizer(ref_map, odometry_noise=noise)
+        expected = [loc.update(log.read(i), odometry[i]) for i in range(len(log))]
+        np.testing.assert_allclose([float(r[1]) for r in rows], [e.x for e in expected], atol=1e-4)
+    # the two models differ on this log: the option is not ignored
+    _, model1 = _rows(tmp_path / "1" / "trajectory.csv")
+    _, wheel = _rows(tmp_path / "wheel" / "trajectory.csv")
+    assert [r[1:3] for r in model1] != [r[1:3] for r in wheel]
 
 
 def test_localize_a_log_without_poses_from_a_map_file_and_map_frame_odometry(tmp_path, capsys):

@@ -13,7 +13,7 @@ import nightloc
 from nightloc.cli import main
 from nightloc.localization.evaluation import EvaluationSettings, evaluate, match_traverse
 from nightloc.localization.grid_filter import FilterParams
-from nightloc.localization.odometry import traverse_odometry
+from nightloc.localization.odometry import log_noise_model, traverse_odometry
 
 from synth_support import default_synth_data
 
@@ -50,7 +50,7 @@ def test_localize_takes_the_filters_window_as_the_api_does(forward, tmp_path):
     log = nightloc.load_traverse(folders["night_query"])
     odometry = traverse_odometry(log)
     localizer = nightloc.Localizer(
-        ref_map, odometry_noise=1, filter_params=FilterParams(forward_window=6, row_window=1)
+        ref_map, odometry_noise=log_noise_model(odometry), filter_params=FilterParams(forward_window=6, row_window=1)
     )
     expected = np.array([[e.x, e.y, e.heading] for e in (localizer.update(f, odometry[i]) for i, f in log.frames())])
     np.testing.assert_allclose(windowed, expected, atol=1e-4)  # the CSV keeps 4 decimals
@@ -110,6 +110,7 @@ def test_a_panoramic_map_takes_rows_only(tmp_path, capsys):
     ref_map = nightloc.ReferenceMap.build(folders["day_reference"])
     log = nightloc.load_traverse(folders["night_query"])
     odometry = traverse_odometry(log)
-    localizer = nightloc.Localizer(ref_map, odometry_noise=1, filter_params=FilterParams(row_window=1))
+    noise = log_noise_model(odometry)  # what localize assumes for the log's odometry
+    localizer = nightloc.Localizer(ref_map, odometry_noise=noise, filter_params=FilterParams(row_window=1))
     expected = np.array([[e.x, e.y, e.heading] for e in (localizer.update(f, odometry[i]) for i, f in log.frames())])
     np.testing.assert_allclose(rows, expected, atol=1e-4)  # the CSV keeps 4 decimals

@@ -102,7 +102,7 @@ def _drive_beside_oracle(loc: Localizer, rng, columns: int = 16) -> list:
 
 @pytest.mark.sanitize  # drives the core (CI runs it again under ASan + UBSan)
 @pytest.mark.parametrize("seed", [0, 1, 2])
-@pytest.mark.parametrize("noise", [0, 3, NoiseModel(0.05, 0.3)])
+@pytest.mark.parametrize("noise", [0, 3, NoiseModel(0.05, 0.3), NoiseModel(0.02, 0.05, 0.3, 0.4)])
 def test_core_equals_the_numpy_oracle_on_random_maps_and_motions(seed, noise):
     rng = np.random.default_rng(seed)
     ref_map = _random_map(rng, n=int(rng.integers(3, 16)))
@@ -110,6 +110,35 @@ def test_core_equals_the_numpy_oracle_on_random_maps_and_motions(seed, noise):
     estimates = _drive_beside_oracle(loc, rng)
     assert [e.frames for e in estimates] == list(range(1, len(MOTIONS) + 1))
     assert all(e.method == "filter" for e in estimates)
+
+
+def test_step_scaled_noise_is_the_constant_noise_of_each_step():
+    # wheel odometry's step-scaled model blurs a step as the constant model of that step's size:
+    # distance_per_metre |(forward, left)| and heading_per_radian |turn| in quadrature
+    rng = np.random.default_rng(5)
+    ref_map = _random_map(rng, n=10)
+    scaled = NoiseModel(0.01, 0.03, 0.2, 0.3)
+    a = Localizer(ref_map, odometry_noise=scaled, grid_width=30, grid_height=24)
+    b = Localizer(ref_map, odometry_noise=0, grid_width=30, grid_height=24)
+    motions = [None, RobotMotion(0.4, 0.1, 0.3), RobotMotion(1.2, 0.0, -1.1), RobotMotion(0.0, 0.0, 0.0)]
+    for k, motion in enumerate(motions):
+        table = rng.uniform(15, 25, (len(ref_map), 16)).astype(np.float32)
+        if motion is not None:
+            b.noise = NoiseModel(
+                math.hypot(scaled.distance_std, scaled.distance_per_metre * math.hypot(motion.forward, motion.left)),
+                math.hypot(scaled.heading_std, scaled.heading_per_radian * motion.turn),
+            )
+        a.update_table(table, motion if k else None)
+        b.update_table(table, motion if k else None)
+        np.testing.assert_allclose(a.pose_belief, b.pose_belief, rtol=1e-6, atol=1e-6 * b.pose_belief.max())
+    # and a long step is blurred more than the constant model alone would: the beliefs differ
+    c = Localizer(ref_map, odometry_noise=NoiseModel(0.01, 0.03), grid_width=30, grid_height=24)
+    a.reset()
+    for k, motion in enumerate(motions[:3]):
+        table = rng.uniform(15, 25, (len(ref_map), 16)).astype(np.float32)
+        a.update_table(table, motion if k else None)
+        c.update_table(table, motion if k else None)
+    assert np.abs(a.pose_belief - c.pose_belief).max() > 1e-3 * c.pose_belief.max()
 
 
 def test_position_only_maps_equal_the_oracle():

@@ -9,10 +9,12 @@ import pytest
 
 from nightloc.localization.odometry import (
     NOISE_MODELS,
+    WHEEL_ODOMETRY_NOISE,
     MapDisplacement,
     NoiseModel,
     RobotMotion,
     as_motion,
+    log_noise_model,
     noise_model,
     robot_steps_to_map,
     simulate_map_odometry,
@@ -141,3 +143,23 @@ def test_custom_noise_model():
     assert np.hypot(*steps.T) == pytest.approx(np.ones(999))
     with pytest.raises(ValueError, match="distance_std"):
         simulate_map_odometry(positions, NoiseModel(-1.0, 0.0))
+
+
+def test_step_scaled_noise_is_checked_and_not_simulated():
+    positions = np.column_stack([np.arange(10.0), np.zeros(10)])
+    with pytest.raises(ValueError, match="heading_per_radian"):
+        noise_model(NoiseModel(0.1, 0.02, 0.05, -0.1))
+    with pytest.raises(ValueError, match="distance_per_metre"):
+        noise_model(NoiseModel(0.1, 0.02, math.nan))
+    # the simulators draw Table III terms only: a step-scaled model is refused, not half-drawn
+    with pytest.raises(ValueError, match="Table III"):
+        simulate_map_odometry(positions, NoiseModel(0.1, 0.02, 0.05))
+    with pytest.raises(ValueError, match="Table III"):
+        simulate_robot_odometry(positions, np.zeros(10), WHEEL_ODOMETRY_NOISE)
+
+
+def test_a_log_of_wheel_odometry_gets_the_step_scaled_model():
+    assert log_noise_model([None, RobotMotion(0.5, 0.0, 0.1)]) == WHEEL_ODOMETRY_NOISE
+    assert log_noise_model([None, MapDisplacement(0.5, 0.0)]) == 1
+    assert log_noise_model([None, None]) == 1
+    assert WHEEL_ODOMETRY_NOISE.step_scaled and not NoiseModel(0.1, 0.02).step_scaled

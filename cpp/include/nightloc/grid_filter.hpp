@@ -24,14 +24,15 @@
 //      where k whole bins of the turn (offset + t = offset' + 2*pi*k/B);
 //   2. position blur (not for a negligible bin: one whose largest value after the last measurement
 //      is below `negligible` of the belief's largest: it moves by the shift alone, each of its
-//      cells off by at most that share of the peak): an isotropic Gaussian of std sqrt(distance_std^2 +
-//      position_floor^2) metres per axis, as three extended-box passes per axis (Gwosdek et al. 2011: the exact
-//      variance). Shift and blur act on the plane (the belief is zero beyond the grid) and the result is cut to the
-//      grid: mass that leaves the grid is dropped. Per axis one linear operator, y first: short kernels (<= 13 taps:
-//      box radius <= 1 cell) composed with the shift and applied as one explicit pass; wider ones as the shift's two
-//      taps then running float sums (O(1) per cell) over a tile that holds everything the passes spread beyond the
-//      grid;
-//   3. heading blur: a circular Gaussian of std sqrt(heading_std^2 + heading_floor^2) radians
+//      cells off by at most that share of the peak): a Gaussian along the motion of std sqrt(distance_std^2 +
+//      (distance_per_metre |(f, l)|)^2) (on the axes by its shares), plus position_floor per axis, as three
+//      extended-box passes per axis (Gwosdek et al. 2011: the exact variance). Shift and blur act on the plane (the
+//      belief is zero beyond the grid) and the result is cut to the grid: mass that leaves the grid is dropped. Per
+//      axis one linear operator, y first: short kernels (<= 13 taps: box radius <= 1 cell) composed with the shift and
+//      applied as one explicit pass; wider ones as the shift's two taps then running float sums (O(1) per cell) over a
+//      tile that holds everything the passes spread beyond the grid;
+//   3. heading blur: a circular Gaussian of std sqrt(heading_std^2 + (heading_per_radian t)^2 +
+//      heading_floor^2) radians
 //      over the bins (taps within 3 std, those below 1e-4 of the peak left out);
 //   4. a uniform floor: p = (1 - uniform_floor) p / total + uniform_floor / cells, where total is
 //      the belief's mass before the prediction (mass that left the grid is gone, not given back
@@ -119,6 +120,8 @@ struct GridFilterSettings {
     double likelihood_gain = 3.0;     ///< kappa: lambda = kappa / (median - min of the frame's scores)
     double distance_std = 0.0;        ///< odometry noise per step, metres
     double heading_std = 0.0;         ///< odometry noise per step, radians
+    double distance_per_metre = 0.0;  ///< robot-frame odometry: distance noise per metre of the step (in quadrature)
+    double heading_per_radian = 0.0;  ///< robot-frame odometry: heading noise per radian turned (in quadrature)
     double position_floor = 0.05;     ///< metres of blur per step added in quadrature (model error)
     double heading_floor = 0.06;      ///< radians of heading blur per step added in quadrature
     double uniform_floor = 1.5e-2;    ///< share of the belief spread uniformly per prediction
@@ -173,8 +176,10 @@ public:
     /// Uniform belief (pose mode where possible), heading offset 0.
     void reset();
 
-    /// Replaces the odometry noise (metres, radians per step; finite, >= 0).
-    void set_noise(double distance_std, double heading_std);
+    /// Replaces the odometry noise (metres, radians per step; per metre of a robot-frame step and
+    /// per radian of its turn; finite, >= 0).
+    void set_noise(double distance_std, double heading_std, double distance_per_metre = 0.0,
+                   double heading_per_radian = 0.0);
 
     /// Motion in the robot's frame at the previous frame: metres ahead, metres left, radians
     /// turned counter-clockwise. Position mode cannot use it without headings: throws

@@ -39,6 +39,16 @@ struct Motion {
     static Motion unknown() { return {}; }
 };
 
+/// An odometry noise model (python: nightloc.NoiseModel): per step, and per metre of a
+/// robot-frame step and per radian of its turn (in quadrature).
+struct OdometryNoise {
+    double distance_std = 0, heading_std = 0, distance_per_metre = 0, heading_per_radian = 0;
+};
+
+/// The noise assumed for a log of wheel odometry (python:
+/// nightloc.localization.odometry.WHEEL_ODOMETRY_NOISE): 4 % of each step's length, 0.02 rad per step.
+constexpr OdometryNoise kWheelOdometryNoise{0.0, 0.02, 0.04, 0.0};
+
 /// One update's answer (python: nightloc.Estimate of the filter).
 struct LocalizerEstimate {
     double x = 0, y = 0;                        ///< metres in the map frame
@@ -68,6 +78,12 @@ public:
 
     /// Forgets everything seen: a uniform belief, the next motion ignored.
     void reset();
+
+    /// Replaces the filter's odometry noise (GridFilter::set_noise; the map file carries Table III
+    /// model 1, a log of wheel odometry takes kWheelOdometryNoise as `nightloc localize` does).
+    void set_noise(const OdometryNoise& noise) {
+        filter_.set_noise(noise.distance_std, noise.heading_std, noise.distance_per_metre, noise.heading_per_radian);
+    }
 
     const GridFilter& filter() const noexcept { return filter_; }
 

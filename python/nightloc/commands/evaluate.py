@@ -2,7 +2,7 @@
 
     nightloc evaluate REFERENCE QUERY --out OUT [--method paper,filter] [--seq-lengths 1-10]
                       [--noise-models 0,1,2,3] [--interpolation on,off] [--repeats 1] [--seed 0]
-                      [--odometry map|robot|log] [--odometry-noise 1|DIST,HEADING]
+                      [--odometry map|robot|log] [--odometry-noise wheel|1|DIST,HEADING]
                       [--params FILE.toml] [--shift-window COLUMNS,ROWS] [--heatmap-frames 12,30] [--no-figures]
                       [--figure-format png|pdf|svg]
 
@@ -24,7 +24,8 @@ into OUT at the same time refuses; files in OUT that nightloc did not write are 
 ``--method`` picks the paper's sequence matching (default: the paper's experiments), the grid
 Bayes filter, or both; ``--odometry`` simulated map-frame displacements (the paper), simulated
 wheel odometry, or ``log``: the query's own ``odometry.csv`` (a robot's real odometry evaluated
-against its poses; ``--odometry-noise`` is then the noise the filter assumes).
+against its poses; ``--odometry-noise`` is then the noise the filter assumes: by default ``wheel``,
+the step-scaled model, for wheel odometry and Table III model 1 for map-frame steps).
 
 A map built by a teach run (``build-map`` from wheel odometry) lives in its day drive's odometry
 frame: the query's true poses are moved into it by the best rigid 2D fit of the map onto the day
@@ -59,7 +60,7 @@ from ..localization.evaluation import (
     match_traverse,
 )
 from ..localization.localizer import MAX_SEQ_LEN, LocalizationParams
-from ..localization.odometry import NoiseModel, noise_model
+from ..localization.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, noise_model
 from ..preparation.params import PreparationParams
 from .bag_options import add_bag_options, bag_options
 from .camera_option import add_camera_option, preparation_for_camera
@@ -97,9 +98,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument(
         "--odometry-noise",
-        default="1",
-        help="with --odometry log: the odometry noise the filter assumes, a Table III model (0-3) or DIST,HEADING "
-        "standard deviations per frame in metres and radians (default 1)",
+        default=None,
+        help="with --odometry log: the odometry noise the filter assumes, a Table III model (0-3), DIST,HEADING "
+        "standard deviations per frame in metres and radians, or 'wheel' (4 %% of each step's length, 0.02 rad per "
+        "step; default: 'wheel' for wheel odometry (forward,left,turn), 1 for map-frame steps)",
     )
     parser.add_argument("--params", type=Path, help="TOML file with [localization] and/or [preparation] tables")
     add_camera_option(
@@ -169,13 +171,18 @@ def parse_methods(text: str) -> tuple[str, ...]:
 
 
 def parse_noise(text: str, option: str = "--odometry-noise") -> int | NoiseModel:
-    """``"3"`` -> Table III model 3; ``"0.2,0.05"`` -> NoiseModel(0.2 m, 0.05 rad); raises ValueError."""
+    """``"3"`` -> Table III model 3; ``"0.2,0.05"`` -> NoiseModel(0.2 m, 0.05 rad); ``"wheel"`` ->
+    :data:`~nightloc.localization.odometry.WHEEL_ODOMETRY_NOISE`; raises ValueError."""
+    if str(text).strip().lower() == "wheel":
+        return WHEEL_ODOMETRY_NOISE
     parts = [p.strip() for p in str(text).split(",")]
     if len(parts) == 1:
         try:
             model = int(parts[0])
         except ValueError:
-            raise ValueError(f"{option}: {text!r} is not a model number 0-3 or DIST,HEADING (e.g. 0.2,0.05)") from None
+            raise ValueError(
+                f"{option}: {text!r} is not a model number 0-3, 'wheel' or DIST,HEADING (e.g. 0.2,0.05)"
+            ) from None
         noise_model(model)  # checks the range
         return model
     if len(parts) != 2:
@@ -215,7 +222,7 @@ def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
         args.seed,
         args.odometry,
         parse_methods(args.method),
-        parse_noise(args.odometry_noise),
+        None if args.odometry_noise is None else parse_noise(args.odometry_noise),
     )
 
 

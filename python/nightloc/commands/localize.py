@@ -2,7 +2,7 @@
 
     nightloc localize MAP_OR_REFERENCE LOG --out OUT [--format csv|tum|csv,tum] [--min-confidence C]
                       [--odometry FILE|none] [--survey DAY]
-                      [--odometry-noise 1|DIST,HEADING] [--params FILE.toml] [--camera panoramic|forward]
+                      [--odometry-noise wheel|1|DIST,HEADING] [--params FILE.toml] [--camera panoramic|forward]
                       [--shift-window COLUMNS,ROWS] [--image-topic T] [--odometry-topic T] [--pose-topic T]
                       [--sync-tolerance S] [--threads N] [--no-figures]
 
@@ -15,7 +15,8 @@ frame: ``image,forward,left,turn`` (wheel odometry, the motion since the previou
 robot's frame, metres and radians) or ``image,dx,dy`` (map frame), optionally with a
 ``timestamp`` column (seconds); ``--odometry none`` localizes without odometry (every motion
 unknown). Each frame goes through the grid Bayes filter (:class:`nightloc.Localizer`,
-``--odometry-noise`` its noise model).
+``--odometry-noise`` its noise model: by default ``wheel``, the step-scaled model, for wheel
+odometry, and Table III model 1 for map-frame steps).
 
 Writes, each file atomically:
 
@@ -68,7 +69,7 @@ from ..io.trajectory import (
 from ..io.traverse import Traverse, load_traverse
 from ..localization.evaluation import map_alignment
 from ..localization.localizer import LocalizationParams, Localizer
-from ..localization.odometry import traverse_odometry
+from ..localization.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, log_noise_model, traverse_odometry
 from ..localization.tail import FIRST_FRAME, tail_metrics
 from .bag_options import add_bag_options, bag_options
 from .camera_option import add_camera_option
@@ -109,9 +110,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument(
         "--odometry-noise",
-        default="1",
-        help="the odometry's noise per frame: a Table III model (0-3) or DIST,HEADING standard deviations in "
-        "metres and radians (default 1: 0.1 m, 0.02 rad)",
+        default=None,
+        help="the odometry's noise per frame: a Table III model (0-3), DIST,HEADING standard deviations in "
+        "metres and radians, or 'wheel' (4 %% of each step's length, 0.02 rad per step; default: "
+        "'wheel' for wheel odometry (forward,left,turn), 1 (0.1 m, 0.02 rad) for map-frame steps)",
     )
     parser.add_argument("--params", type=Path, help="TOML file with [localization], [filter] and/or [preparation]")
     add_camera_option(
@@ -193,9 +195,18 @@ def _truth_in_map_frame(log: Traverse, ref_map: ReferenceMap, survey: Path | Non
     return alignment[0].inverse().apply(truth), alignment[1]
 
 
+def _noise_label(noise: object) -> str:
+    """The noise model as the figure's caption names it."""
+    if noise == WHEEL_ODOMETRY_NOISE:
+        return "wheel"
+    if isinstance(noise, NoiseModel):
+        return f"{noise.distance_std:g} m, {noise.heading_std:g} rad"
+    return str(noise)
+
+
 def run(args: argparse.Namespace) -> int:
     """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
-    noise = parse_noise(args.odometry_noise)
+    noise = None if args.odometry_noise is None else parse_noise(args.odometry_noise)
     formats = parse_formats(args.format)
     if not 0.0 <= args.min_confidence <= 1.0:
         raise ValueError(f"--min-confidence must be in [0, 1], got {args.min_confidence}")
@@ -228,6 +239,8 @@ def run(args: argparse.Namespace) -> int:
         odometry: list = [None] * len(log)
     else:
         odometry = _log_odometry(log, args.odometry)
+    if noise is None:
+        noise = log_noise_model(odometry)
     ref_map = _load_map(args.map, sections.get("preparation"), args.camera, args.params, bag_options(args))
     ref_map.check_frames(log.read(0).shape, f"the log {log.root}", args.camera)
     if "tum" in formats and ref_map.headings is None:
@@ -265,7 +278,7 @@ def run(args: argparse.Namespace) -> int:
             )
             caption = (
                 f"{len(estimates)} frames of {log.root.name} against {len(ref_map)} references; odometry: "
-                f"{source}, noise {args.odometry_noise}; disks: credible radius "
+                f"{source}, noise {_noise_label(noise)}; disks: credible radius "
                 f"({localizer.filter_params.credibility:.0%})"
                 + (
                     "; true path moved into the map's frame by the rigid fit of its survey"

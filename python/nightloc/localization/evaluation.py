@@ -23,7 +23,8 @@ Odometry (``EvaluationSettings.odometry``): ``"map"`` simulates map-frame displa
 ground truth (the paper), ``"robot"`` wheel odometry (:class:`~nightloc.RobotMotion`), both with
 the Table III noise models; ``"log"`` uses the query's own ``odometry.csv`` (a robot's real
 odometry evaluated against its poses; ``noise_model`` is then -1 in the outputs and the filter
-assumes ``log_noise``).
+assumes ``log_noise``: by default the step-scaled ``WHEEL_ODOMETRY_NOISE`` for wheel odometry,
+Table III model 1 for map-frame steps).
 
 Outputs (:meth:`Evaluation.write_errors_csv`, :meth:`Evaluation.write_summary_csv`, written
 atomically) have the headers :data:`ERRORS_HEADER` and :data:`SUMMARY_HEADER`.
@@ -55,6 +56,7 @@ from .localizer import Estimate, LocalizationParams, Localizer
 from .odometry import (
     NOISE_MODELS,
     NoiseModel,
+    log_noise_model,
     noise_model,
     simulate_map_odometry,
     simulate_robot_odometry,
@@ -142,7 +144,8 @@ class EvaluationSettings:
             (noise models and repeats do not apply).
         methods: ``("paper",)`` (default, the paper's experiments), ``("filter",)`` or both.
         log_noise: the noise model the filter assumes for ``odometry="log"`` (a Table III
-            number or a NoiseModel).
+            number or a NoiseModel; None: :func:`~nightloc.localization.odometry.log_noise_model`
+            of the log, the step-scaled wheel model for robot-frame steps, else model 1).
     """
 
     seq_lengths: tuple[int, ...] = tuple(range(1, 11))
@@ -152,7 +155,7 @@ class EvaluationSettings:
     seed: int = 0
     odometry: Literal["map", "robot", "log"] = "map"
     methods: tuple[str, ...] = ("paper",)
-    log_noise: int | NoiseModel = 1
+    log_noise: int | NoiseModel | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "seq_lengths", _unique_ints(self.seq_lengths, "seq_lengths", 1))
@@ -177,7 +180,8 @@ class EvaluationSettings:
         if not methods or any(m not in EVALUATION_METHODS for m in methods):
             raise ValueError(f"methods must be among {EVALUATION_METHODS}, got {self.methods!r}")
         object.__setattr__(self, "methods", methods)
-        noise_model(self.log_noise)
+        if self.log_noise is not None:
+            noise_model(self.log_noise)
 
     @property
     def models(self) -> tuple[int, ...]:
@@ -770,7 +774,10 @@ def evaluate(
             if tables is None:  # checked above, or match_traverse(..., tables=True)
                 raise ValueError("the filter needs the rotational tables: match_traverse(..., tables=True)")
             loc = bases["filter", interp].fresh()
-            loc.noise = settings.log_noise if model == LOG_NOISE_MODEL else model
+            if model != LOG_NOISE_MODEL:
+                loc.noise = model
+            else:
+                loc.noise = log_noise_model(odometry) if settings.log_noise is None else settings.log_noise
             estimates = [loc.update_table(tables[i], odometry[i]) for i in range(n_frames)]
             record(estimates, np.arange(1, n_frames + 1), model, interp, repeat, "filter")
     columns = {c: np.concatenate(v) if v else np.zeros(0) for c, v in rows.items()}

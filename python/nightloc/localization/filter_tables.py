@@ -16,7 +16,8 @@ prepared images), ``shifts`` (the table's column shifts), ``field_of_view`` (rad
 panorama), ``window`` (``[columns, rows]`` of the translation window), ``settings`` (what
 :class:`~nightloc.localization.grid_filter.GridFilter` gives the core, key for key), and for
 the record the ``localization`` and ``filter`` parameters and ``odometry_noise``
-(``[distance_std, heading_std]``) they came from.
+(``[distance_std, heading_std]``, then ``distance_per_metre, heading_per_radian`` for a
+step-scaled model) they came from.
 
 Arrays (the grid has ``C = width x height`` cells, row-major from the lowest y; ``P`` places):
 ``filter_weights_indptr`` ``(C + 1,)`` int32, ``filter_weights_indices`` int32 and
@@ -73,7 +74,8 @@ def filter_tables(ref_map: ReferenceMap) -> tuple[dict[str, Any], dict[str, np.n
         "settings": dict(flt.settings),
         "localization": params_to_dict(localizer.params),
         "filter": params_to_dict(localizer.filter_params),
-        "odometry_noise": [float(flt.noise.distance_std), float(flt.noise.heading_std)],
+        "odometry_noise": [float(flt.noise.distance_std), float(flt.noise.heading_std)]
+        + ([float(flt.noise.distance_per_metre), float(flt.noise.heading_per_radian)] if flt.noise.step_scaled else []),
     }
     arrays = {
         "filter_weights_indptr": weights.indptr.astype(np.int32),

@@ -235,6 +235,8 @@ class GridFilter:
             "likelihood_gain": params.likelihood_gain,
             "distance_std": self.noise.distance_std,
             "heading_std": self.noise.heading_std,
+            "distance_per_metre": self.noise.distance_per_metre,
+            "heading_per_radian": self.noise.heading_per_radian,
             "position_floor": params.position_floor,
             "heading_floor": params.heading_floor,
             "uniform_floor": params.uniform_floor,
@@ -292,7 +294,14 @@ class GridFilter:
     def set_noise(self, noise: int | NoiseModel) -> None:
         """Replaces the odometry noise model (a Table III number or a NoiseModel)."""
         self.noise = noise_model(noise)
-        self.core.set_noise(self.noise.distance_std, self.noise.heading_std)
+        noise = self.noise
+        self.core.set_noise(noise.distance_std, noise.heading_std, noise.distance_per_metre, noise.heading_per_radian)
+        self.settings.update(
+            distance_std=noise.distance_std,
+            heading_std=noise.heading_std,
+            distance_per_metre=noise.distance_per_metre,
+            heading_per_radian=noise.heading_per_radian,
+        )
 
     def step_image(self, query: np.ndarray, refs: np.ndarray, motion: MotionCode, threads: int) -> FilterState:
         """Predicts by ``motion`` (a :func:`motion_code`), matches ``query`` against ``refs``

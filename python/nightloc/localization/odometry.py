@@ -33,11 +33,13 @@ if TYPE_CHECKING:
 
 __all__ = [
     "NOISE_MODELS",
+    "WHEEL_ODOMETRY_NOISE",
     "MapDisplacement",
     "NoiseModel",
     "RobotMotion",
     "as_motion",
     "compose_motions",
+    "log_noise_model",
     "noise_model",
     "read_odometry",
     "robot_steps_to_map",
@@ -148,10 +150,25 @@ class NoiseModel:
         distance_std: metres, added to the length of each step.
         heading_std: radians, added to the direction of each step (map odometry) or to each
             turn (robot odometry).
+        distance_per_metre: wheel odometry (robot-frame steps) only: a further length noise of
+            this fraction of the step's length, in quadrature with ``distance_std``.
+        heading_per_radian: wheel odometry only: a further turn noise of this fraction of the
+            step's turn, in quadrature with ``heading_std``.
+
+    The two step-scaled terms are what the filter assumes; the simulators
+    (:func:`simulate_map_odometry`, :func:`simulate_robot_odometry`) draw the Table III terms only and
+    refuse a model with step-scaled terms.
     """
 
     distance_std: float
     heading_std: float
+    distance_per_metre: float = 0.0
+    heading_per_radian: float = 0.0
+
+    @property
+    def step_scaled(self) -> bool:
+        """Whether the model has a step-scaled term (``distance_per_metre`` or ``heading_per_radian``)."""
+        return self.distance_per_metre > 0 or self.heading_per_radian > 0
 
 
 #: The paper's Table III.
@@ -161,6 +178,11 @@ NOISE_MODELS: dict[int, NoiseModel] = {
     2: NoiseModel(0.25, 0.05),
     3: NoiseModel(0.5, 0.1),
 }
+
+#: The noise the filter assumes for a robot's own wheel odometry (``nightloc localize`` and
+#: ``evaluate --odometry log`` when the log's steps are robot-frame): 4 % of each step's length
+#: and Table III model 1's 0.02 rad per step (docs/localization.md, lawn scale).
+WHEEL_ODOMETRY_NOISE = NoiseModel(0.0, 0.02, 0.04, 0.0)
 
 
 def noise_model(model: int | NoiseModel) -> NoiseModel:
@@ -173,11 +195,29 @@ def noise_model(model: int | NoiseModel) -> NoiseModel:
         chosen = NOISE_MODELS[int(model)]
     else:
         raise TypeError(f"noise model must be an int 0-3 or a NoiseModel, got {type(model).__name__}")
-    for name in ("distance_std", "heading_std"):
+    for name in ("distance_std", "heading_std", "distance_per_metre", "heading_per_radian"):
         value = getattr(chosen, name)
         if not (math.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value}")
     return chosen
+
+
+def log_noise_model(odometry: Sequence[object]) -> int | NoiseModel:
+    """The noise the filter assumes for a log's own odometry when none is given:
+    :data:`WHEEL_ODOMETRY_NOISE` when any step is a :class:`RobotMotion` (wheel odometry), else
+    Table III model 1 (map-frame steps, or no odometry)."""
+    return WHEEL_ODOMETRY_NOISE if any(isinstance(m, RobotMotion) for m in odometry) else 1
+
+
+def _simulated_noise(model: int | NoiseModel) -> NoiseModel:
+    """The checked model of a simulator: ValueError for step-scaled terms, which it cannot draw."""
+    noise = noise_model(model)
+    if noise.step_scaled:
+        raise ValueError(
+            f"the odometry simulators draw Table III noise (distance_std, heading_std) only, got {noise}: "
+            f"set distance_per_metre and heading_per_radian to 0 (they are what the filter assumes)"
+        )
+    return noise
 
 
 def _poses(positions: object, headings: object | None = None):
@@ -232,7 +272,7 @@ def simulate_map_odometry(
         ``(N, 2)`` steps in metres; row 0 (no previous frame) is zero. Model 0 returns the
         exact steps.
     """
-    noise = noise_model(model)
+    noise = _simulated_noise(model)
     steps = true_map_steps(positions)
     generator = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     n = len(steps) - 1
@@ -263,7 +303,7 @@ def simulate_robot_odometry(
     Returns:
         N :class:`RobotMotion`; element 0 is zero motion.
     """
-    noise = noise_model(model)
+    noise = _simulated_noise(model)
     motions = true_robot_motions(positions, headings)
     generator = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     out = [motions[0]]
