@@ -29,7 +29,7 @@ import numpy as np
 
 import nightloc
 from nightloc.localization.evaluation import EvaluationSettings, match_traverse, simulated_odometry
-from nightloc.localization.odometry import MapDisplacement, RobotMotion, wrap_angle
+from nightloc.motion.odometry import MapDisplacement, RobotMotion, wrap_angle
 from nightloc.localization.tail import tail_metrics
 from nightloc.synth import default_dataset
 

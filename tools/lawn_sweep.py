@@ -47,7 +47,7 @@ from nightloc.localization.evaluation import (
     match_traverse,
     simulated_odometry,
 )
-from nightloc.localization.odometry import MapDisplacement, RobotMotion
+from nightloc.motion.odometry import MapDisplacement, RobotMotion
 from nightloc.localization.tail import TailMetrics, tail_metrics
 from nightloc.synth import default_dataset, make_dataset
 

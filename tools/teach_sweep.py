@@ -36,7 +36,7 @@ from nightloc import ReferenceMap
 from nightloc.io.traverse import load_traverse
 from nightloc.localization.evaluation import EvaluationSettings, align_to_map, evaluate, match_traverse
 from nightloc.localization.localizer import LocalizationParams
-from nightloc.localization.wheel_noise import WheelNoise
+from nightloc.motion.wheel_noise import WheelNoise
 from nightloc.mapping import TeachParams, TeachWarning, absolute_trajectory_error, rigid_fit, teach_run
 from nightloc.mapping.alignment import RigidTransform2D
 

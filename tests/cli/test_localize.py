@@ -36,7 +36,7 @@ def test_localize_writes_the_trajectory_and_prints_errors_against_poses(tmp_path
     assert np.isfinite(values).all() and (values[:, 3] >= 0).all() and (values[:, 3] <= 1).all()
     # the same numbers as the API on the same frames and odometry
     ref_map = nightloc.ReferenceMap.build(folders["day_reference"])
-    odometry = nightloc.localization.odometry.traverse_odometry(log)
+    odometry = nightloc.motion.odometry.traverse_odometry(log)
     loc = nightloc.Localizer(ref_map, odometry_noise=1)
     expected = [loc.update(log.read(i), odometry[i]) for i in range(len(log))]
     np.testing.assert_allclose(values[:, 0], [e.x for e in expected], atol=1e-4)

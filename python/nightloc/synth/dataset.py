@@ -29,7 +29,7 @@ from .._validate import thread_count
 from ..io.atomic import locked_target, make_folder, output_set, replace_folder, staging_folder, write_text
 from ..io.files import open_regular
 from ..io.traverse import save_traverse
-from ..localization.wheel_noise import WheelNoise
+from ..motion.wheel_noise import WheelNoise
 from ..progress import progress
 from .lighting import Lighting, make_lighting
 from .paths import CAMERA_RATE_HZ, DRIVE_SPEED_M_S, FIRST_FRAME_S, TRAVERSE_NAMES, TraversePlan, plan_traverses
