@@ -47,8 +47,8 @@ from nightloc.localization.evaluation import (
     match_traverse,
     simulated_odometry,
 )
-from nightloc.motion.odometry import MapDisplacement, RobotMotion
 from nightloc.localization.tail import TailMetrics, tail_metrics
+from nightloc.motion.odometry import MapDisplacement, RobotMotion
 from nightloc.synth import default_dataset, make_dataset
 
 INT_PARAMS = ("heading_bins", "estimate_window", "settle_frames", "hold_frames")
