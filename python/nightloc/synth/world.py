@@ -2,8 +2,9 @@
 
 A :class:`~nightloc.synth.scene.World` is geometry (vertical prisms, see
 :mod:`nightloc.synth.geometry`), textures (:mod:`nightloc.synth.textures`), a ground albedo map,
-light sources and the *mapped area* the robot drives in. Layouts are fixed by hand, like the paper's sites; the seed only changes the
-textures' random details (board tints, leaf blotches, paintings...).
+light sources and the *mapped area* the robot drives in. Layouts are fixed by hand, like the
+paper's sites; the seed only changes the textures' random details (board tints, leaf blotches,
+paintings...).
 
 World frame: metres, x right (east), y up (north), z up; the mapped area starts at (0, 0).
 """
