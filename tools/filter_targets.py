@@ -29,8 +29,8 @@ import numpy as np
 
 import nightloc
 from nightloc.localization.evaluation import EvaluationSettings, match_traverse, simulated_odometry
-from nightloc.localization.odometry import MapDisplacement, RobotMotion, wrap_angle
 from nightloc.localization.tail import tail_metrics
+from nightloc.motion.odometry import MapDisplacement, RobotMotion, wrap_angle
 from nightloc.synth import default_dataset
 
 FIRST = 10  # errors counted from the 10th query frame on (a 10-frame sequence is full there)

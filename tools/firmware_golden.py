@@ -25,7 +25,7 @@ import numpy as np
 
 import nightloc
 from nightloc.cli import main as nightloc_main
-from nightloc.localization.odometry import RobotMotion, log_noise_model, true_robot_motions
+from nightloc.motion.odometry import RobotMotion, log_noise_model, true_robot_motions
 from nightloc.synth.dataset import SynthScene, forward_view
 from nightloc.synth.render import Camera
 

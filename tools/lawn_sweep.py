@@ -52,14 +52,8 @@ from nightloc.localization.evaluation import (
     match_traverse,
     simulated_odometry,
 )
-from nightloc.localization.odometry import (
-    NOISE_MODELS,
-    MapDisplacement,
-    RobotMotion,
-    log_noise_model,
-    noise_model,
-)
 from nightloc.localization.tail import TailMetrics, tail_metrics
+from nightloc.motion.odometry import NOISE_MODELS, MapDisplacement, RobotMotion, log_noise_model, noise_model
 from nightloc.synth import default_dataset, make_dataset
 
 INT_PARAMS = ("heading_bins", "estimate_window", "settle_frames", "hold_frames")
@@ -178,7 +172,7 @@ def run_filter(case: Case, odometry: list, noise, overrides: dict, order: list[i
 
 def log_noise(overrides: dict, odometry: list):
     """The noise the filter is told for a log's own odometry: what ``nightloc localize`` assumes
-    (:func:`~nightloc.localization.odometry.log_noise_model`), its terms replaced by the sweep's
+    (:func:`~nightloc.motion.odometry.log_noise_model`), its terms replaced by the sweep's
     ``log_distance_std``, ``log_heading_std``, ``log_distance_per_metre``, ``log_heading_per_radian``."""
     base = noise_model(log_noise_model(odometry))
     changes = {k.removeprefix("log_"): float(v) for k, v in overrides.items() if k in LOG_NOISE_KEYS}

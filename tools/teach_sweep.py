@@ -36,9 +36,9 @@ from nightloc import ReferenceMap
 from nightloc.io.traverse import load_traverse
 from nightloc.localization.evaluation import EvaluationSettings, align_to_map, evaluate, match_traverse
 from nightloc.localization.localizer import LocalizationParams
-from nightloc.localization.wheel_noise import WheelNoise
 from nightloc.mapping import TeachParams, TeachWarning, absolute_trajectory_error, rigid_fit, teach_run
 from nightloc.mapping.alignment import RigidTransform2D
+from nightloc.motion.wheel_noise import WheelNoise
 
 #: The night evaluation of docs/teach_run.md: the filter with wheel odometry, noise model 1.
 NIGHT = EvaluationSettings(

@@ -17,7 +17,6 @@ from ._core import __version__
 from .config import load_params, save_params
 from .errors import DatasetError, DatasetWarning, MapFormatError, NightlocError, NightlocWarning
 from .io import Traverse, load_traverse, save_traverse
-from .io.reference_map import ReferenceMap
 from .localization import (
     Estimate,
     FilterParams,
@@ -28,6 +27,7 @@ from .localization import (
     RobotMotion,
     traverse_odometry,
 )
+from .mapping.reference_map import ReferenceMap
 from .matching import (
     MatchResult,
     available_simd_backends,

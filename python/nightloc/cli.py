@@ -16,7 +16,7 @@ import os
 import sys
 import warnings
 
-from . import __version__
+from ._core import __version__
 from .errors import NightlocWarning, cli_message
 
 # Sub-command modules; each defines register(subparsers) which adds its parser and sets

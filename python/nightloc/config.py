@@ -362,11 +362,8 @@ def load_params(path: str | os.PathLike[str], cls: type[T] | None = None) -> T:
     Reads the table ``[section]`` of ``cls``; a file without it gives the defaults. The whole
     file is checked: unknown tables or keys are an error naming them.
     """
-    if cls is None:
-        from .preparation.params import PreparationParams  # the parameters most files hold
-
-        cls = PreparationParams  # type: ignore[assignment]
-    chosen: type = cls  # type: ignore[assignment]
+    # the parameters most files hold; PreparationParams registers itself as [preparation]
+    chosen: type = _SECTIONS["preparation"] if cls is None else cls
     section = _section_of(chosen)
     found = load_params_file(path)
     return found[section] if section in found else chosen()

@@ -14,7 +14,7 @@ import pytest
 
 import nightloc
 from nightloc.cli import main
-from nightloc.io.reference_map import ReferenceMap
+from nightloc.mapping.reference_map import ReferenceMap
 
 from reliability_support import FRAMES, Workspace, random_frames
 

@@ -11,7 +11,7 @@ import pytest
 import nightloc
 from nightloc.cli import main
 from nightloc.commands.localize import TRAJECTORY_HEADER
-from nightloc.localization.odometry import WHEEL_ODOMETRY_NOISE
+from nightloc.motion.odometry import WHEEL_ODOMETRY_NOISE
 
 from synth_support import default_synth_data
 
@@ -37,7 +37,7 @@ def test_localize_writes_the_trajectory_and_prints_errors_against_poses(tmp_path
     assert np.isfinite(values).all() and (values[:, 3] >= 0).all() and (values[:, 3] <= 1).all()
     # the same numbers as the API on the same frames and odometry
     ref_map = nightloc.ReferenceMap.build(folders["day_reference"])
-    odometry = nightloc.localization.odometry.traverse_odometry(log)
+    odometry = nightloc.motion.odometry.traverse_odometry(log)
     # a log of wheel odometry: the filter assumes the step-scaled wheel model by default
     assert isinstance(odometry[1], nightloc.RobotMotion)
     loc = nightloc.Localizer(ref_map, odometry_noise=WHEEL_ODOMETRY_NOISE)
@@ -52,7 +52,7 @@ def test_localize_writes_the_trajectory_and_prints_errors_against_poses(tmp_path
 def test_localize_odometry_noise_option_names_the_model(tmp_path):
     folders = default_synth_data()["garden"]
     log = nightloc.load_traverse(folders["night_query"])
-    odometry = nightloc.localization.odometry.traverse_odometry(log)
+    odometry = nightloc.motion.odometry.traverse_odometry(log)
     ref_map = nightloc.ReferenceMap.build(folders["day_reference"])
     for option, noise in (("1", 1), ("wheel", WHEEL_ODOMETRY_NOISE)):
         out = tmp_path / option

@@ -13,7 +13,7 @@ import nightloc
 from nightloc.cli import main
 from nightloc.localization.evaluation import EvaluationSettings, evaluate, match_traverse
 from nightloc.localization.grid_filter import FilterParams
-from nightloc.localization.odometry import log_noise_model, traverse_odometry
+from nightloc.motion.odometry import log_noise_model, traverse_odometry
 
 from synth_support import default_synth_data
 

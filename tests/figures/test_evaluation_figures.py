@@ -24,7 +24,7 @@ from nightloc.localization.heatmap import HeatGrid
 
 N_FRAMES = 20
 
-# The paper's Table III, written out independently of nightloc.localization.odometry.
+# The paper's Table III, written out independently of nightloc.motion.odometry.
 TABLE_III = {0: "none", 1: "0.1 m, 0.02 rad", 2: "0.25 m, 0.05 rad", 3: "0.5 m, 0.1 rad"}
 
 

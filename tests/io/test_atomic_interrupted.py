@@ -33,7 +33,7 @@ _CHILD_PRELUDE = textwrap.dedent(
     import contextlib, os, sys, time
     import numpy as np
     import nightloc
-    from nightloc.io import atomic as _atomic, reference_map, traverse
+    from nightloc.io import atomic as _atomic, map_file, traverse
 
     def say(*words):
         print(*words, flush=True)
@@ -114,7 +114,7 @@ def test_map_save_killed_half_way_keeps_the_previous_map(tmp_path):
             with real_atomic_file(path, mode, **options) as stream:
                 yield Reporting(stream, 20000 * 24 * 48)
 
-        reference_map.atomic_file = reporting_atomic_file
+        map_file.atomic_file = reporting_atomic_file
         rng = np.random.default_rng(1)
         images = rng.integers(0, 256, (20000, 24, 48), dtype=np.uint8)
         big = nightloc.ReferenceMap(images, rng.uniform(0, 9, (20000, 2)))

@@ -11,7 +11,7 @@ import pytest
 import nightloc
 from nightloc.errors import DatasetError
 from nightloc.io.odometry_csv import read_odometry_rows, write_odometry_csv
-from nightloc.localization.odometry import (
+from nightloc.motion.odometry import (
     MapDisplacement,
     RobotMotion,
     compose_motions,
@@ -101,7 +101,7 @@ def test_save_traverse_rejects_bad_odometry_before_writing(tmp_path):
 def test_synth_writes_realistic_wheel_odometry():
     """Every synthetic drive's odometry.csv is the wheel-noise model applied to the true motions:
     the same draw again from the traverse's own generator, and not the exact motions."""
-    from nightloc.localization.wheel_noise import WheelNoise
+    from nightloc.motion.wheel_noise import WheelNoise
     from nightloc.synth import SynthScene
 
     from synth_support import default_synth_data

@@ -16,8 +16,8 @@ import nightloc
 from filter_oracle import OracleFilter
 from nightloc.localization.grid_filter import FilterParams
 from nightloc.localization.localizer import Localizer
-from nightloc.localization.odometry import MapDisplacement, NoiseModel, RobotMotion, wrap_angle
 from nightloc.matching.sad import shift_table
+from nightloc.motion.odometry import MapDisplacement, NoiseModel, RobotMotion, wrap_angle
 
 # Tolerances against the float64 oracle: the core keeps float32 beliefs and sums 50-tap kernels
 # in float, so beliefs agree to ~1e-6 of their maximum per step; over a few steps 1e-4 leaves room.

@@ -11,9 +11,9 @@ import nightloc
 from nightloc.config import load_params, save_params
 from nightloc.localization.heatmap import HeatMapper
 from nightloc.localization.localizer import LocalizationParams, Localizer
-from nightloc.localization.odometry import MapDisplacement, RobotMotion, true_robot_motions, wrap_angle
 from nightloc.localization.sequence import cumulative_offsets
 from nightloc.matching.sad import MatchResult, shifts_to_headings
+from nightloc.motion.odometry import MapDisplacement, RobotMotion, true_robot_motions, wrap_angle
 
 from heat_oracle import fuse
 

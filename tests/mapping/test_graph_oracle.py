@@ -9,10 +9,10 @@ import pytest
 
 pytest.importorskip("gtsam")
 
-from nightloc.localization.wheel_noise import WheelNoise
 from nightloc.mapping.candidates import VisualConstraint
 from nightloc.mapping.dead_reckoning import compose_steps, dead_reckoning
 from nightloc.mapping.optimiser import optimise_graph, solve_headings, solve_positions
+from nightloc.motion.wheel_noise import WheelNoise
 
 #: Isotropic 1 cm per step, nearly exact turns: every step weighs the same in every direction.
 ISOTROPIC = WheelNoise(

@@ -21,8 +21,8 @@ from nightloc.localization.evaluation import (
     map_alignment,
     match_traverse,
 )
-from nightloc.localization.wheel_noise import WheelNoise
 from nightloc.mapping import TeachParams, TeachWarning, absolute_trajectory_error, teach_run
+from nightloc.motion.wheel_noise import WheelNoise
 from nightloc.synth import make_dataset
 
 from preparation_oracle import panorama

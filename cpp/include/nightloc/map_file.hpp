@@ -1,6 +1,6 @@
 // Reading the map file that `nightloc build-map` writes (ReferenceMap.save, format 3), without
 // Python, zlib or OpenCV: an uncompressed zip (numpy's .npz) of .npy arrays with a JSON header
-// (python/nightloc/io/reference_map.py and python/nightloc/localization/filter_tables.py
+// (python/nightloc/io/map_file.py and python/nightloc/localization/filter_tables.py
 // describe the layout).
 //
 //   const nightloc::MapFile map = nightloc::load_map_file("garden.map");
@@ -26,7 +26,7 @@
 
 namespace nightloc {
 
-/// The map format version this reader reads (python: nightloc.io.reference_map.MAP_FORMAT_VERSION).
+/// The map format version this reader reads (python: nightloc.io.map_file.MAP_FORMAT_VERSION).
 inline constexpr int kMapFormatVersion = 3;
 
 /// A map file that cannot be used: the message names the file and the problem.

@@ -22,12 +22,11 @@ from ..config import load_params
 from ..errors import DatasetError
 from ..io.atomic import check_output_path
 from ..io.odometry_csv import ODOMETRY_FILE
-from ..io.reference_map import ReferenceMap
 from ..io.traverse import Traverse, load_traverse
+from ..mapping.reference_map import ReferenceMap
 from ..preparation.camera import shape_camera
 from ..preparation.params import PreparationParams
-from .bag_options import add_bag_options, bag_options
-from .camera_option import add_camera_option, preparation_for_camera
+from .options import add_bag_options, add_camera_option, bag_options, preparation_for_camera
 from .wording import duration
 
 

@@ -33,7 +33,6 @@ from typing import TYPE_CHECKING
 
 from ..figures import add_figure_format_option
 from ..io.atomic import make_folder, output_set
-from ..io.reference_map import ReferenceMap
 from ..localization.evaluation import (
     Evaluation,
     EvaluationSettings,
@@ -43,7 +42,8 @@ from ..localization.evaluation import (
     match_traverse,
 )
 from ..localization.localizer import LocalizationParams
-from .evaluate import check_draw_options
+from ..mapping.reference_map import ReferenceMap
+from .options import check_draw_options
 
 if TYPE_CHECKING:
     import numpy as np

@@ -39,17 +39,13 @@ the map's frames) before any error is computed, and the command says so.
 from __future__ import annotations
 
 import argparse
-import math
 import re
 import time
 from pathlib import Path
 
-from .._validate import MAX_REPEATS
 from ..config import load_params_file
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set
-from ..io.kinds import bag_kind
-from ..io.reference_map import ReferenceMap
 from ..io.traverse import load_traverse
 from ..localization.evaluation import (
     EVALUATION_METHODS,
@@ -60,11 +56,17 @@ from ..localization.evaluation import (
     match_traverse,
 )
 from ..localization.localizer import MAX_SEQ_LEN, LocalizationParams
-from ..localization.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, noise_model
-from ..preparation.params import PreparationParams
-from .bag_options import add_bag_options, bag_options
-from .camera_option import add_camera_option, preparation_for_camera
-from .shift_window_option import add_shift_window_option, filter_params_with_window, parse_shift_window
+from .options import (
+    add_bag_options,
+    add_camera_option,
+    add_shift_window_option,
+    bag_options,
+    check_draw_options,
+    filter_params_with_window,
+    load_reference,
+    parse_noise,
+    parse_shift_window,
+)
 from .wording import refuse_map_as_traverse
 
 
@@ -170,40 +172,6 @@ def parse_methods(text: str) -> tuple[str, ...]:
     return methods
 
 
-def parse_noise(text: str, option: str = "--odometry-noise") -> int | NoiseModel:
-    """``"3"`` -> Table III model 3; ``"0.2,0.05"`` -> NoiseModel(0.2 m, 0.05 rad); ``"wheel"`` ->
-    :data:`~nightloc.localization.odometry.WHEEL_ODOMETRY_NOISE`; raises ValueError."""
-    if str(text).strip().lower() == "wheel":
-        return WHEEL_ODOMETRY_NOISE
-    parts = [p.strip() for p in str(text).split(",")]
-    if len(parts) == 1:
-        try:
-            model = int(parts[0])
-        except ValueError:
-            raise ValueError(
-                f"{option}: {text!r} is not a model number 0-3, 'wheel' or DIST,HEADING (e.g. 0.2,0.05)"
-            ) from None
-        noise_model(model)  # checks the range
-        return model
-    if len(parts) != 2:
-        raise ValueError(f"{option}: {text!r} must be a model number 0-3 or DIST,HEADING (metres,radians)")
-    try:
-        values = [float(p) for p in parts]
-    except ValueError:
-        raise ValueError(f"{option}: {text!r} must be two numbers DIST,HEADING (metres,radians)") from None
-    if not all(math.isfinite(v) and v >= 0 for v in values):
-        raise ValueError(f"{option}: {text!r}: standard deviations must be finite and >= 0")
-    return NoiseModel(*values)
-
-
-def check_draw_options(args: argparse.Namespace) -> None:
-    """ValueError unless ``--seed`` and ``--repeats`` (the noise draws) are in range."""
-    if args.seed < 0:
-        raise ValueError(f"--seed must be non-negative, got {args.seed}")
-    if not 1 <= args.repeats <= MAX_REPEATS:
-        raise ValueError(f"--repeats must be in 1..{MAX_REPEATS} (MAX_REPEATS), got {args.repeats}")
-
-
 def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
     """The :class:`EvaluationSettings` of the command-line options (checked)."""
     check_draw_options(args)
@@ -224,25 +192,6 @@ def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
         parse_methods(args.method),
         None if args.odometry_noise is None else parse_noise(args.odometry_noise),
     )
-
-
-def load_reference(
-    path: Path,
-    preparation: PreparationParams | None,
-    camera: str | None = None,
-    params_file: Path | None = None,
-    bag: dict | None = None,
-) -> ReferenceMap:
-    """The map of a reference traverse (a folder or a bag; prepared for ``camera`` when given),
-    or a map file (anything but a regular file is refused, naming what it is; its camera is
-    checked against the frames by :meth:`ReferenceMap.check_frames`). ``bag``: the topics of a bag
-    (:func:`nightloc.commands.bag_options.bag_options`)."""
-    if path.is_dir() or bag_kind(path) is not None:
-        options = (bag or {}) if bag_kind(path) is not None else {}
-        return ReferenceMap.build(
-            load_traverse(path, **options), preparation_for_camera(preparation, camera, params_file)
-        )
-    return ReferenceMap.load(path, preparation)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -7,7 +7,8 @@ import time
 
 import numpy as np
 
-from .. import __version__, _core
+from .. import _core
+from .._core import __version__
 from ..matching.sad import match
 from ..matching.simd import available_simd_backends, simd_backend, use_simd_backend
 

@@ -56,7 +56,6 @@ from ..errors import DatasetError
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set
 from ..io.odometry_csv import ODOMETRY_FILE
-from ..io.reference_map import ReferenceMap
 from ..io.trajectory import (
     TRAJECTORY_FORMATS,
     TRAJECTORY_HEADER,
@@ -69,12 +68,19 @@ from ..io.trajectory import (
 from ..io.traverse import Traverse, load_traverse
 from ..localization.evaluation import map_alignment
 from ..localization.localizer import LocalizationParams, Localizer
-from ..localization.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, log_noise_model, traverse_odometry
 from ..localization.tail import FIRST_FRAME, tail_metrics
-from .bag_options import add_bag_options, bag_options
-from .camera_option import add_camera_option
-from .evaluate import load_reference, parse_noise
-from .shift_window_option import add_shift_window_option, filter_params_with_window, parse_shift_window
+from ..mapping.reference_map import ReferenceMap
+from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, log_noise_model, traverse_odometry
+from .options import (
+    add_bag_options,
+    add_camera_option,
+    add_shift_window_option,
+    bag_options,
+    filter_params_with_window,
+    load_reference,
+    parse_noise,
+    parse_shift_window,
+)
 from .wording import duration, refuse_map_as_traverse
 
 __all__ = ["TRAJECTORY_HEADER", "parse_formats", "register", "run"]

@@ -77,9 +77,14 @@ from ..route.params import MOTION_MODELS, PRESETS, RouteParams, resolve_params
 from ..route.pipeline import RouteResult, match_difference, route_difference_matrix
 from ..route.preparation import RoutePreparer
 from ..route.report import COMPARED, comparison_summary, method_summary, motion_line, summary_json
-from .bag_options import add_bag_options, bag_options
-from .camera_option import add_camera_option, preparation_for_camera
-from .shift_window_option import add_shift_window_option, parse_shift_window
+from .options import (
+    add_bag_options,
+    add_camera_option,
+    add_shift_window_option,
+    bag_options,
+    parse_shift_window,
+    preparation_for_camera,
+)
 from .wording import duration, in_option_words, refuse_map_as_traverse
 
 

@@ -30,11 +30,11 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from ..io.reference_map import ReferenceMap
 from ..localization.evaluation import Evaluation, QueryMatches, replay
 from ..localization.heatmap import HeatGrid, invert_scores
 from ..localization.localizer import Estimate, LocalizationParams
-from ..localization.odometry import NOISE_MODELS
+from ..mapping.reference_map import ReferenceMap
+from ..motion.odometry import NOISE_MODELS
 from ._common import figure_path, new_figure, save_figure, styled
 
 __all__ = [

@@ -1,4 +1,4 @@
-"""Data on disk: image files, pose files, videos, traverses, reference maps and atomic writes.
+"""Data on disk: image files, pose files, videos, traverses, reference map files and atomic writes.
 
 * :mod:`~nightloc.io.images` — image suffixes, natural-order folder listing, decoding/encoding;
 * :mod:`~nightloc.io.poses` — ``poses.csv`` (``image,x,y[,heading]``) and frame-keyed pose CSVs;
@@ -7,15 +7,14 @@
 * :mod:`~nightloc.io.kinds` — what a path is (a map, a bag, a traverse folder, ...) for messages;
 * :mod:`~nightloc.io.trajectory` — ``trajectory.csv`` and the TUM trajectory format;
 * :mod:`~nightloc.io.traverse` — :class:`Traverse`, :func:`load_traverse`, :func:`save_traverse`;
-* :mod:`~nightloc.io.reference_map` — :class:`ReferenceMap`, the prepared day map (``.npz``);
+* :mod:`~nightloc.io.map_file` — the reference map file (``.npz``: arrays, JSON header, checksums);
 * :mod:`~nightloc.io.atomic` — atomic file and folder writes.
 """
 
 from __future__ import annotations
 
-# io depends on no other stage, so that every stage may use it. The reference map is the one module
-# here built on preparation and matching: import it as nightloc.ReferenceMap or from
-# nightloc.io.reference_map (re-exporting it here would make io import those stages).
+# io depends on no other stage, so that every stage may use it. The reference map itself
+# (nightloc.ReferenceMap) is built on preparation and matching: it lives in nightloc.mapping.
 from .traverse import IMAGE_SUFFIXES, VIDEO_SUFFIXES, Traverse, load_traverse, save_traverse
 
 __all__ = ["IMAGE_SUFFIXES", "VIDEO_SUFFIXES", "Traverse", "load_traverse", "save_traverse"]

@@ -10,7 +10,7 @@ header says which; docs/design.md, conventions)::
     image,dx,dy                     map-frame displacements, metres
 
 A video log keys its rows by frame index (column ``frame`` instead of ``image``). This module
-reads and writes the rows as numbers; :func:`nightloc.localization.odometry.read_odometry` turns
+reads and writes the rows as numbers; :func:`nightloc.motion.odometry.read_odometry` turns
 them into motions for a traverse's frames.
 """
 

@@ -7,7 +7,7 @@ it), with the paper's method (``methods`` holds ``"paper"``, the default) for ev
 * sequence length ``n`` (default 1..10; at the start of the traverse a sequence holds the frames
   it has),
 * odometry noise model (the paper's Table III, default 0, 1, 2, 3; odometry simulated from the
-  query's ground truth, see :mod:`nightloc.localization.odometry`),
+  query's ground truth, see :mod:`nightloc.motion.odometry`),
 * interpolation on / off,
 * repeat (independent noise draws; the same draw is shared by all ``n`` and both interpolation
   settings, so their comparison is paired),
@@ -46,14 +46,10 @@ import numpy as np
 from .._validate import MAX_REPEATS
 from ..errors import DatasetError
 from ..io.atomic import atomic_file
-from ..io.reference_map import ReferenceMap
 from ..io.traverse import Traverse, load_traverse
+from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, difference_matrix, rotational_sad, shift_table, shifts_to_headings
-from ..preparation.preparer import Preparer
-from ..progress import progress
-from .grid_filter import FilterParams, table_window
-from .localizer import Estimate, LocalizationParams, Localizer
-from .odometry import (
+from ..motion.odometry import (
     NOISE_MODELS,
     NoiseModel,
     log_noise_model,
@@ -62,6 +58,10 @@ from .odometry import (
     simulate_robot_odometry,
     traverse_odometry,
 )
+from ..preparation.preparer import Preparer
+from ..progress import progress
+from .grid_filter import FilterParams, table_window
+from .localizer import Estimate, LocalizationParams, Localizer
 from .tail import FIRST_FRAME, TailMetrics, tail_metrics
 
 __all__ = [
@@ -144,7 +144,7 @@ class EvaluationSettings:
             (noise models and repeats do not apply).
         methods: ``("paper",)`` (default, the paper's experiments), ``("filter",)`` or both.
         log_noise: the noise model the filter assumes for ``odometry="log"`` (a Table III
-            number or a NoiseModel; None: :func:`~nightloc.localization.odometry.log_noise_model`
+            number or a NoiseModel; None: :func:`~nightloc.motion.odometry.log_noise_model`
             of the log, the step-scaled wheel model for robot-frame steps, else model 1).
     """
 

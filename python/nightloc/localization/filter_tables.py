@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from ..config import params_to_dict
-from ..io.reference_map import ReferenceMap
+from ..mapping.reference_map import ReferenceMap
 from .localizer import Localizer
 
 __all__ = ["FILTER_ARRAYS", "filter_tables"]

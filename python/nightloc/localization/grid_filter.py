@@ -9,7 +9,7 @@ localization; docs/localization.md) keeps a belief over the heat-map grid **x he
    its own heading (sub-cell), the heading axis turns by the motion's turn (exactly: whole bins
    roll, the rest moves the bins' centres), then the belief is spread by the odometry noise (a
    Gaussian in position and in heading, from a Table III noise model or a
-   :class:`~nightloc.localization.odometry.NoiseModel`, plus small model-error floors) and mixed
+   :class:`~nightloc.motion.odometry.NoiseModel`, plus small model-error floors) and mixed
    with a little uniform belief (a kidnapped robot is found again). Map-frame displacements move
    a position-only belief (they carry no turn: heading bins would go stale); an unknown motion
    spreads the belief widely;
@@ -37,8 +37,8 @@ import numpy as np
 
 from .. import _core
 from ..config import params_section
+from ..motion.odometry import MapDisplacement, NoiseModel, RobotMotion, noise_model, wrap_angle
 from .heatmap import HeatMapper
-from .odometry import MapDisplacement, NoiseModel, RobotMotion, noise_model, wrap_angle
 
 __all__ = ["MOTION_NONE", "MOTION_UNKNOWN", "FilterParams", "FilterState", "GridFilter", "table_window"]
 

@@ -26,7 +26,7 @@ Two methods (docs/localization.md):
   :class:`RobotMotion` is rotated into the map frame with that heading estimate; ``None`` means
   the motion is unknown: the sequence restarts from this frame.
 
-Odometry is the motion since the previous update (:mod:`nightloc.localization.odometry`): a
+Odometry is the motion since the previous update (:mod:`nightloc.motion.odometry`): a
 map-frame ``(dx, dy)`` / :class:`MapDisplacement` or a robot-frame :class:`RobotMotion`; it is
 ignored on the first frame (and after :meth:`Localizer.reset`).
 """
@@ -53,11 +53,11 @@ from .._validate import (
     uint8_array,
 )
 from ..config import params_section
-from ..io.reference_map import ReferenceMap
+from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, match, rotational_sad, shift_table
+from ..motion.odometry import Motion, NoiseModel, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
 from .grid_filter import MOTION_NONE, FilterParams, FilterState, GridFilter, MotionCode, motion_code
 from .heatmap import HeatMapper
-from .odometry import Motion, NoiseModel, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
 from .sequence import cumulative_offsets
 
 __all__ = ["METHODS", "Estimate", "LocalizationParams", "Localizer"]

@@ -1,5 +1,7 @@
-"""The teach run: a reference map from the robot's own day drive, without a survey.
+"""The reference map, and the teach run: a reference map from the robot's own day drive, without a survey.
 
+* :mod:`~nightloc.mapping.reference_map` — :class:`ReferenceMap` (``nightloc.ReferenceMap``): build,
+  match, save, load;
 * :mod:`~nightloc.mapping.dead_reckoning` — wheel odometry chained into poses, with covariance;
 * :mod:`~nightloc.mapping.params` — :class:`TeachParams` (TOML ``[teach]``);
 * :mod:`~nightloc.mapping.visual` — relative heading of two panoramas to a fraction of a column;
@@ -17,9 +19,11 @@ from __future__ import annotations
 
 from .alignment import RigidTransform2D, absolute_trajectory_error, rigid_fit
 from .params import TeachParams
+from .reference_map import ReferenceMap
 from .teach import TeachReport, TeachWarning, teach_run
 
 __all__ = [
+    "ReferenceMap",
     "RigidTransform2D",
     "TeachParams",
     "TeachReport",

@@ -3,7 +3,7 @@
 The teach run starts from here: pose 0 is the origin of the map frame (heading 0) and each
 step ``(forward, left, turn)`` (robot frame at the step's start) moves the robot on. The
 covariance is propagated with the step's Jacobians (first order), each step's own covariance
-from a :class:`~nightloc.localization.wheel_noise.WheelNoise` model.
+from a :class:`~nightloc.motion.wheel_noise.WheelNoise` model.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from ..localization.wheel_noise import WheelNoise
+from ..motion.wheel_noise import WheelNoise
 
 __all__ = ["compose_steps", "dead_reckoning"]
 

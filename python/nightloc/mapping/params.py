@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from ..config import params_section
-from ..localization.wheel_noise import WheelNoise
+from ..motion.wheel_noise import WheelNoise
 from .warping import WarpParams
 
 __all__ = ["TeachParams"]
@@ -141,7 +141,7 @@ class TeachParams:
 
     @property
     def wheel_noise(self) -> WheelNoise:
-        """The odometry's error model (:class:`~nightloc.localization.wheel_noise.WheelNoise`)."""
+        """The odometry's error model (:class:`~nightloc.motion.wheel_noise.WheelNoise`)."""
         try:
             return WheelNoise(
                 scale_std=self.odometry_scale_std,

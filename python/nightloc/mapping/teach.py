@@ -23,10 +23,9 @@ from typing import Union
 import numpy as np
 
 from ..errors import MappingError
-from ..io.reference_map import ReferenceMap
 from ..io.traverse import Traverse, load_traverse
-from ..localization.odometry import MapDisplacement, RobotMotion, traverse_odometry
 from ..matching.sad import difference_matrix
+from ..motion.odometry import MapDisplacement, RobotMotion, traverse_odometry
 from ..preparation.params import PreparationParams
 from ..preparation.preparer import Preparer
 from .candidates import VisualConstraint, candidate_pairs, measure_constraints
@@ -34,6 +33,7 @@ from .dead_reckoning import compose_steps, dead_reckoning
 from .factors import require_gtsam
 from .optimiser import GraphSolution, optimise_graph, solve_heading_graph, solve_positions
 from .params import TeachParams
+from .reference_map import ReferenceMap
 from .warping import PanoramaWarper
 
 __all__ = ["TeachParams", "TeachReport", "TeachWarning", "odometry_steps", "teach_poses", "teach_run"]

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..io.odometry_csv import ODOMETRY_FILE
 from ..io.traverse import Traverse
-from ..localization.odometry import MapDisplacement, RobotMotion, traverse_odometry
+from ..motion.odometry import MapDisplacement, RobotMotion, traverse_odometry
 
 __all__ = ["MotionPlan", "RouteOdometry", "motion_plan", "route_odometry"]
 

@@ -37,12 +37,12 @@ from typing import Union
 import numpy as np
 
 from ..io.atomic import atomic_file
-from ..io.reference_map import ReferenceMap
 from ..localization.evaluation import EvaluationSettings, QueryMatches, evaluate
 from ..localization.localizer import LocalizationParams
-from ..localization.odometry import noise_model
 from ..localization.tail import tail_metrics
+from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, difference_matrix, rotational_sad, shifts_to_headings
+from ..motion.odometry import noise_model
 from ..preparation.params import PreparationParams
 from ..preparation.preparer import Preparer
 from ..progress import progress

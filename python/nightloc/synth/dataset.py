@@ -35,7 +35,7 @@ from .._validate import thread_count
 from ..io.atomic import locked_target, make_folder, output_set, replace_folder, staging_folder, write_text
 from ..io.files import open_regular
 from ..io.traverse import save_traverse
-from ..localization.wheel_noise import WheelNoise
+from ..motion.wheel_noise import WheelNoise
 from ..progress import progress
 from .lighting import MOON_IRRADIANCE, Lighting, make_lighting, make_night_lighting
 from .nights import (

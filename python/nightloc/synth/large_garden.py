@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from .geometry import Cylinder, Solid, box, panel
+from .scene import GroundMap, LightSource, World
 from .textures import TextureLibrary, fbm, jitter_colour, value_noise
-from .world import GroundMap, LightSource, World
 
 __all__ = ["LARGE_GARDEN_AREA", "large_garden"]
 

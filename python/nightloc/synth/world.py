@@ -1,9 +1,10 @@
 """The two synthetic worlds: a 7 x 5 m garden lawn and a 6 x 3 m living-room floor.
 
-A :class:`World` is geometry (vertical prisms, see :mod:`nightloc.synth.geometry`), textures
-(:mod:`nightloc.synth.textures`), a ground albedo map, light sources and the *mapped area* the
-robot drives in. Layouts are fixed by hand, like the paper's sites; the seed only changes the
-textures' random details (board tints, leaf blotches, paintings...).
+A :class:`~nightloc.synth.scene.World` is geometry (vertical prisms, see
+:mod:`nightloc.synth.geometry`), textures (:mod:`nightloc.synth.textures`), a ground albedo map,
+light sources and the *mapped area* the robot drives in. Layouts are fixed by hand, like the
+paper's sites; the seed only changes the textures' random details (board tints, leaf blotches,
+paintings...).
 
 World frame: metres, x right (east), y up (north), z up; the mapped area starts at (0, 0).
 """
@@ -11,13 +12,14 @@ World frame: metres, x right (east), y up (north), z up; the mapped area starts 
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
 
-from .geometry import Cylinder, PackedGeometry, Prism, Solid, box, check_free, panel
-from .textures import Texture, TextureLibrary, fbm, jitter_colour, value_noise
+from .geometry import Cylinder, Solid, box, panel
+from .large_garden import large_garden
+from .scene import GroundMap, LightSource, World
+from .textures import TextureLibrary, fbm, jitter_colour, value_noise
 
 __all__ = ["ALL_WORLDS", "WORLD_NAMES", "GroundMap", "LightSource", "World", "build_world"]
 
@@ -25,95 +27,6 @@ __all__ = ["ALL_WORLDS", "WORLD_NAMES", "GroundMap", "LightSource", "World", "bu
 WORLD_NAMES: tuple[str, ...] = ("garden", "living_room")
 #: Every world, with those rendered on demand only (the 25 x 15 m large garden).
 ALL_WORLDS: tuple[str, ...] = (*WORLD_NAMES, "large_garden")
-
-RGB = tuple[float, float, float]
-
-
-@dataclass(frozen=True)
-class LightSource:
-    """A small lamp: position ``(x, y, z)`` in metres and RGB power.
-
-    ``power`` is the irradiance (in the worlds' radiance units, where direct noon sun on a
-    facing surface is about 3) that the lamp gives a surface facing it 1 m away; it falls off
-    with the squared distance. ``conditions`` lists when it is on (``"day"``, ``"night"``).
-    Objects whose ``emission`` tag equals the light's name glow while it is on.
-    """
-
-    position: tuple[float, float, float]
-    power: RGB
-    conditions: tuple[str, ...]
-    glow: float = 4.0  # radiance gain of the glowing object (lamp shade, lit window)
-
-
-@dataclass(frozen=True)
-class GroundMap:
-    """A map of the ground plane: ``values[row, col]`` is the cell at ``x = x0 + (col + 0.5) / ppm``,
-    ``y = y0 + (row + 0.5) / ppm`` (rows go north). ``values`` is ``(rows, cols, 3)`` float32."""
-
-    values: np.ndarray
-    x0: float
-    y0: float
-    pixels_per_metre: float
-
-    def sample(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Nearest-cell values at ground points (clamped to the map), ``x.shape + (3,)``."""
-        rows, cols = self.values.shape[:2]
-        c = np.clip(((x - self.x0) * self.pixels_per_metre).astype(np.int64), 0, cols - 1)
-        r = np.clip(((y - self.y0) * self.pixels_per_metre).astype(np.int64), 0, rows - 1)
-        return self.values[r, c]
-
-    def cell_centres(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(x, y)`` of every cell, each ``(rows, cols)``."""
-        rows, cols = self.values.shape[:2]
-        xs = self.x0 + (np.arange(cols) + 0.5) / self.pixels_per_metre
-        ys = self.y0 + (np.arange(rows) + 0.5) / self.pixels_per_metre
-        return np.meshgrid(xs, ys)
-
-
-@dataclass
-class World:
-    """Everything needed to render a world.
-
-    Attributes:
-        name: ``"garden"`` or ``"living_room"``.
-        objects: prisms then cylinders.
-        materials: texture of every material name used by ``objects``.
-        ground: albedo of the ground plane (linear RGB in [0, 1]).
-        mapped_area: ``(x0, y0, x1, y1)`` metres: where the robot drives and maps.
-        indoor: True for rooms (no sun on walls; sunlight enters through windows only).
-        camera_height: height of the panoramic camera above the ground, metres.
-        lights: light sources by name.
-    """
-
-    name: str
-    objects: list[Solid]
-    materials: dict[str, Texture]
-    ground: GroundMap
-    mapped_area: tuple[float, float, float, float]
-    indoor: bool
-    camera_height: float
-    lights: dict[str, LightSource]
-    seed: int
-    geometry: PackedGeometry = field(init=False)
-    material_index: np.ndarray = field(init=False)  # (O,) index into material_names
-    material_names: list[str] = field(init=False)
-
-    def __post_init__(self) -> None:
-        self.objects = [o for o in self.objects if isinstance(o, Prism)] + [
-            o for o in self.objects if isinstance(o, Cylinder)
-        ]
-        self.geometry = PackedGeometry(self.objects)
-        missing = sorted({o.material for o in self.objects} - set(self.materials))
-        if missing:
-            raise ValueError(f"world {self.name!r} uses materials without textures: {missing}")
-        self.material_names = sorted(self.materials)
-        lookup = {name: i for i, name in enumerate(self.material_names)}
-        self.material_index = np.array([lookup[o.material] for o in self.objects], dtype=np.int64)
-
-    def check_camera_positions(self, positions: np.ndarray) -> None:
-        """Raises ValueError for a camera position inside a solid object (0.12 m clearance)."""
-        check_free(self.geometry, positions, self.camera_height, clearance=0.12)
-
 
 # --- garden ------------------------------------------------------------------------------------
 
@@ -405,13 +318,7 @@ def _living_room(seed: int) -> World:
     return World("living_room", objects, tex, _room_floor(rng), (0.0, 0.0, 6.0, 3.0), True, 0.3, lights, seed)
 
 
-def _large_garden(seed: int) -> World:
-    from .large_garden import large_garden  # its own module; it builds on this one's types
-
-    return large_garden(seed)
-
-
-_BUILDERS = {"garden": _garden, "living_room": _living_room, "large_garden": _large_garden}
+_BUILDERS = {"garden": _garden, "living_room": _living_room, "large_garden": large_garden}
 
 
 def build_world(name: str, seed: int = 0) -> World:

@@ -218,6 +218,19 @@ def test_interrupted_save_keeps_the_old_map(garden_map, saved, monkeypatch):
     assert os.listdir(saved.parent) == [saved.name]
 
 
+def test_the_saved_tables_come_from_the_localization_stage(garden_map, tmp_path, monkeypatch):
+    """The map stage sits below localization: importing nightloc gives it the table maker, and
+    without one save refuses before any file is made."""
+    from nightloc.localization.filter_tables import filter_tables
+    from nightloc.mapping import reference_map
+
+    assert reference_map._localizer_tables is filter_tables
+    monkeypatch.setattr(reference_map, "_localizer_tables", None)
+    with pytest.raises(RuntimeError, match="localization stage is not loaded"):
+        garden_map.save(tmp_path / "no_tables.map")
+    assert os.listdir(tmp_path) == []
+
+
 # -------------------------------------------------------------------------------------------
 # the build-map command
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from nightloc.localization.odometry import (
+from nightloc.motion.odometry import (
     NOISE_MODELS,
     WHEEL_ODOMETRY_NOISE,
     MapDisplacement,

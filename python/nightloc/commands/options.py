@@ -1,0 +1,233 @@
+"""The options and arguments that several commands share, each defined and checked once.
+
+* ``--image-topic``, ``--odometry-topic``, ``--pose-topic``, ``--sync-tolerance``: every command
+  that reads a traverse from a ROS bag (which topics, and how far apart a frame and its odometry or
+  pose sample may be);
+* ``--camera panoramic|forward``: every command that chooses or checks how frames are prepared
+  (build-map, localize, evaluate, route);
+* ``--shift-window COLUMNS,ROWS``: the translation window of the comparison, on route mode's
+  commands (route) and the 2D filter's (localize, evaluate);
+* ``--odometry-noise``: a Table III model or ``DIST,HEADING`` (localize, evaluate);
+* ``--seed`` and ``--repeats``: the noise draws (evaluate, demo);
+* ``REFERENCE``: a traverse to build a map from, or a map file (localize, evaluate).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from .._validate import MAX_REPEATS
+from ..io.bag import DEFAULT_SYNC_TOLERANCE_S
+from ..io.kinds import bag_kind
+from ..io.traverse import load_traverse
+from ..localization.grid_filter import FilterParams
+from ..mapping.reference_map import ReferenceMap
+from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, noise_model
+from ..preparation.camera import CAMERAS, params_for_camera
+from ..preparation.params import PreparationParams
+
+__all__ = [
+    "add_bag_options",
+    "add_camera_option",
+    "add_shift_window_option",
+    "bag_options",
+    "check_draw_options",
+    "file_wrap",
+    "filter_params_with_window",
+    "load_reference",
+    "parse_noise",
+    "parse_shift_window",
+    "preparation_for_camera",
+]
+
+# --- ROS bags: --image-topic, --odometry-topic, --pose-topic, --sync-tolerance
+
+
+def add_bag_options(parser: argparse.ArgumentParser) -> None:
+    """Adds ``--image-topic``, ``--odometry-topic``, ``--pose-topic`` and ``--sync-tolerance``."""
+    group = parser.add_argument_group(
+        "ROS bags",
+        "a traverse may be a ROS 1 or ROS 2 bag; its topics are found by type when there is one of each kind",
+    )
+    group.add_argument("--image-topic", help="sensor_msgs/Image or CompressedImage topic of the camera")
+    group.add_argument(
+        "--odometry-topic",
+        help="nav_msgs/Odometry topic of the wheel odometry, or /tf (odom -> base_link), or /tf:PARENT:CHILD",
+    )
+    group.add_argument("--pose-topic", help="PoseStamped, PoseWithCovarianceStamped or Odometry topic of true poses")
+    group.add_argument(
+        "--sync-tolerance",
+        type=float,
+        default=DEFAULT_SYNC_TOLERANCE_S,
+        help=f"largest time (s) between a frame and its nearest odometry or pose message "
+        f"(default {DEFAULT_SYNC_TOLERANCE_S:g})",
+    )
+
+
+def bag_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The keyword arguments of :func:`nightloc.load_traverse` that the options give (only
+    those set, so that folders and videos are not told about topics)."""
+    if not (math.isfinite(args.sync_tolerance) and args.sync_tolerance >= 0):
+        raise ValueError(f"--sync-tolerance must be a finite number of seconds >= 0, got {args.sync_tolerance}")
+    options: dict[str, Any] = {
+        name: getattr(args, name)
+        for name in ("image_topic", "odometry_topic", "pose_topic")
+        if getattr(args, name) is not None
+    }
+    if args.sync_tolerance != DEFAULT_SYNC_TOLERANCE_S:
+        options["sync_tolerance"] = args.sync_tolerance
+    return options
+
+
+# --- --camera panoramic|forward
+
+
+def add_camera_option(parser: argparse.ArgumentParser, what: str) -> None:
+    """Adds ``--camera``; ``what`` ends its help (what the camera decides in this command)."""
+    parser.add_argument(
+        "--camera",
+        choices=CAMERAS,
+        help=f"panoramic: 360-degree panoramas, every column shift searched (heading from the match); forward: a "
+        f"forward-facing camera, shift 0 only. {what}",
+    )
+
+
+def file_wrap(params_file: Path | str | None) -> bool | None:
+    """The ``wrap`` that ``params_file``'s ``[preparation]`` table sets, or None (no file, no
+    table, no key). The file has been read and checked already."""
+    if params_file is None:
+        return None
+    document = tomllib.loads(Path(params_file).read_text(encoding="utf-8-sig"))
+    table = document.get("preparation")
+    value = table.get("wrap") if isinstance(table, dict) else None
+    return value if isinstance(value, bool) else None
+
+
+def preparation_for_camera(
+    preparation: PreparationParams | None, camera: str | None, params_file: Path | str | None
+) -> PreparationParams | None:
+    """The preparation of ``--params`` set for ``--camera`` (None when neither says anything)."""
+    if camera is None:
+        return preparation
+    return params_for_camera(preparation, camera, file_wrap(params_file), str(params_file or ""))
+
+
+# --- --shift-window COLUMNS,ROWS
+
+
+def add_shift_window_option(parser: argparse.ArgumentParser, what: str) -> None:
+    """Adds ``--shift-window``; ``what`` is its help (what the window means in this command)."""
+    parser.add_argument("--shift-window", metavar="COLUMNS,ROWS", help=what)
+
+
+def parse_shift_window(text: str | None) -> tuple[int, int] | None:
+    """``--shift-window COLUMNS,ROWS`` as a pair of ints >= 0 (None when not given)."""
+    if text is None:
+        return None
+    parts = str(text).split(",")
+    try:
+        values = tuple(int(part) for part in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 2 or min(values) < 0:
+        raise ValueError(f"--shift-window {text!r}: expected COLUMNS,ROWS, two integers >= 0 such as 8,2")
+    return (values[0], values[1])
+
+
+def filter_params_with_window(
+    filter_params: FilterParams | None, window: tuple[int, int] | None, camera: str, image_shape: tuple[int, int]
+) -> FilterParams | None:
+    """``filter_params`` (None: the defaults) with ``--shift-window``'s columns as its
+    ``forward_window`` and its rows as its ``row_window``; unchanged when ``window`` is None.
+
+    ``camera`` is the map's (``"panoramic"`` or ``"forward"``), ``image_shape`` its prepared
+    images' ``(rows, columns)`` in pixels. A panorama is already compared at every column shift, so
+    its window has no columns; a forward camera's column window is how the filter tells headings
+    apart, so it has at least one column and fewer than the image's width; rows fewer than the
+    image's height. Raises ValueError naming the option."""
+    if window is None:
+        return filter_params
+    columns, rows = window
+    height, width = image_shape
+    if rows >= height:
+        raise ValueError(
+            f"--shift-window {columns},{rows}: at most {height - 1} rows (the map's images are {height} rows high; "
+            f"a tilting robot needs 1 or 2)"
+        )
+    if camera == "panoramic" and columns != 0:
+        raise ValueError(
+            f"--shift-window {columns},{rows}: the map is panoramic, compared at every column shift already; "
+            f"give it rows only: --shift-window 0,{rows}"
+        )
+    if camera == "forward" and not 1 <= columns < width:
+        raise ValueError(
+            f"--shift-window {columns},{rows}: a forward camera's column window must be 1..{width - 1} columns "
+            f"(its images are {width} wide; the filter's default is a quarter of that, {max(1, width // 4)})"
+        )
+    base = filter_params if filter_params is not None else FilterParams()
+    forward_window = columns if camera == "forward" else base.forward_window
+    return dataclasses.replace(base, forward_window=forward_window, row_window=rows)
+
+
+# --- --odometry-noise, --seed, --repeats
+
+
+def parse_noise(text: str, option: str = "--odometry-noise") -> int | NoiseModel:
+    """``"3"`` -> Table III model 3; ``"0.2,0.05"`` -> NoiseModel(0.2 m, 0.05 rad); ``"wheel"`` ->
+    :data:`~nightloc.motion.odometry.WHEEL_ODOMETRY_NOISE`; raises ValueError."""
+    if str(text).strip().lower() == "wheel":
+        return WHEEL_ODOMETRY_NOISE
+    parts = [p.strip() for p in str(text).split(",")]
+    if len(parts) == 1:
+        try:
+            model = int(parts[0])
+        except ValueError:
+            raise ValueError(
+                f"{option}: {text!r} is not a model number 0-3, 'wheel' or DIST,HEADING (e.g. 0.2,0.05)"
+            ) from None
+        noise_model(model)  # checks the range
+        return model
+    if len(parts) != 2:
+        raise ValueError(f"{option}: {text!r} must be a model number 0-3 or DIST,HEADING (metres,radians)")
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        raise ValueError(f"{option}: {text!r} must be two numbers DIST,HEADING (metres,radians)") from None
+    if not all(math.isfinite(v) and v >= 0 for v in values):
+        raise ValueError(f"{option}: {text!r}: standard deviations must be finite and >= 0")
+    return NoiseModel(*values)
+
+
+def check_draw_options(args: argparse.Namespace) -> None:
+    """ValueError unless ``--seed`` and ``--repeats`` (the noise draws) are in range."""
+    if args.seed < 0:
+        raise ValueError(f"--seed must be non-negative, got {args.seed}")
+    if not 1 <= args.repeats <= MAX_REPEATS:
+        raise ValueError(f"--repeats must be in 1..{MAX_REPEATS} (MAX_REPEATS), got {args.repeats}")
+
+
+# --- REFERENCE: a traverse or a map file
+
+
+def load_reference(
+    path: Path,
+    preparation: PreparationParams | None,
+    camera: str | None = None,
+    params_file: Path | None = None,
+    bag: dict | None = None,
+) -> ReferenceMap:
+    """The map of a reference traverse (a folder or a bag; prepared for ``camera`` when given),
+    or a map file (anything but a regular file is refused, naming what it is; its camera is
+    checked against the frames by :meth:`ReferenceMap.check_frames`). ``bag``: the topics of a bag
+    (:func:`bag_options`)."""
+    if path.is_dir() or bag_kind(path) is not None:
+        options = (bag or {}) if bag_kind(path) is not None else {}
+        return ReferenceMap.build(
+            load_traverse(path, **options), preparation_for_camera(preparation, camera, params_file)
+        )
+    return ReferenceMap.load(path, preparation)
