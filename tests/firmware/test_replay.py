@@ -185,7 +185,7 @@ def corrupt_images(header, arrays):
             lambda m, t: rewrite_map(m, t, version_2, drop=firmware_golden_filter_arrays()),
             "ReferenceMap.load('OLD.map').save('NEW.map')",
         ),
-        (lambda m, t: rewrite_map(m, t, lambda h, a: h.update(format_version=4)), "newer nightloc"),
+        (lambda m, t: rewrite_map(m, t, lambda h, a: h.update(format_version=5)), "newer nightloc"),
         (lambda m, t: rewrite_map(m, t, corrupt_images), "checksum of 'images' does not match"),
         (lambda m, t: rewrite_map(m, t, drop=("filter_closest_ref",)), "lacks its 'filter_closest_ref' array"),
         (

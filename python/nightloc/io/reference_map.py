@@ -15,7 +15,10 @@ map-only tables (``localizer`` in the header and the ``filter_*`` arrays,
 :mod:`nightloc.localization.filter_tables`): what firmware without Python needs to run
 ``nightloc.Localizer(ref_map)``; this module writes them and checks their checksums on loading
 (Python computes its own). Version 2 files
-(no tables) load unchanged; firmware refuses them until they are saved again. Version 1 files
+(no tables) load unchanged; firmware refuses them until they are saved again. Version 4 is an
+experience map (a map that learned from its nights, :mod:`nightloc.mapping.experience`): version 3
+plus each reference's provenance (:mod:`nightloc.io.appearances`: the arrays ``appearance_*`` and
+the header's ``experience``); a map that learned nothing is still written as version 3. Version 1 files
 (before the teach run: no ``pose_source``, no covariances) still load, as surveyed maps. Saving writes a temporary file
 in the same folder and renames it over the target, so an interrupted save never leaves a
 partial map.
@@ -43,6 +46,7 @@ from ..matching.sad import MatchResult, match
 from ..preparation.camera import camera_of, check_frames_fit
 from ..preparation.params import PreparationParams
 from ..preparation.preparer import Preparer
+from .appearances import APPEARANCE_ARRAYS, Appearances, map_fingerprint
 from .atomic import atomic_file
 from .files import open_regular
 from .kinds import ROS1_BAG, ROS2_STORAGE, path_kind
@@ -50,12 +54,21 @@ from .poses import finite_headings
 from .traverse import Traverse, load_traverse
 from .video import VIDEO_SUFFIXES
 
-__all__ = ["MAP_FORMAT", "MAP_FORMAT_VERSION", "MAX_MAP_EXPANSION", "POSE_SOURCES", "ReferenceMap"]
+__all__ = [
+    "DAY_MAP_FORMAT_VERSION",
+    "MAP_FORMAT",
+    "MAP_FORMAT_VERSION",
+    "MAX_MAP_EXPANSION",
+    "POSE_SOURCES",
+    "ReferenceMap",
+]
 
 #: The ``format`` string in every map file's header.
 MAP_FORMAT = "nightloc-reference-map"
 #: The newest map format version this nightloc reads and the one it writes.
-MAP_FORMAT_VERSION = 3
+MAP_FORMAT_VERSION = 4
+#: The version a map without learned nights is written as (what older firmware reads).
+DAY_MAP_FORMAT_VERSION = 3
 #: Where a map's poses came from: a survey (``poses.csv``), the robot's wheel odometry alone, or
 #: the teach run's pose graph (odometry corrected by the images; :mod:`nightloc.mapping`).
 POSE_SOURCES = ("surveyed", "dead-reckoned", "optimised")
@@ -157,9 +170,12 @@ class ReferenceMap:
         pose_source: where the poses came from, one of :data:`POSE_SOURCES`.
         covariances: ``(N, 3, 3)`` float64 marginal covariance of each pose's ``(x, y, heading)``
             (m², m·rad, rad²), or None (a survey states none).
+        appearances: each reference's provenance (day map or learned night,
+            :class:`~nightloc.io.appearances.Appearances`), or None: a day map.
     """
 
     __slots__ = (
+        "_appearances",
         "_covariances",
         "_frame_size",
         "_headings",
@@ -183,12 +199,13 @@ class ReferenceMap:
         *,
         pose_source: str = "surveyed",
         covariances: Any | None = None,
+        appearances: Appearances | None = None,
     ):
         """Wraps already prepared images; see :meth:`build` to prepare a traverse.
 
         Raises TypeError/ValueError for a wrong dtype or shape, sizes that disagree with
         ``params`` (width x height), non-finite positions, headings or covariances, repeated
-        names, or an unknown ``pose_source``.
+        names, an unknown ``pose_source``, or ``appearances`` of another length.
         """
         params = PreparationParams() if params is None else params
         if not isinstance(params, PreparationParams):
@@ -240,6 +257,12 @@ class ReferenceMap:
         self._frame_size = _checked_frame_size(frame_size)
         self._pose_source = str(pose_source)
         self._covariances = None if cov is None else _frozen(cov)
+        if appearances is not None:
+            if not isinstance(appearances, Appearances):
+                raise TypeError(f"appearances must be an Appearances, got {type(appearances).__name__}")
+            if len(appearances) != n:
+                raise ValueError(f"appearances record {len(appearances)} references, the map holds {n}")
+        self._appearances = appearances
 
     def __getstate__(self) -> dict:
         return {name: getattr(self, name) for name in self.__slots__}
@@ -291,6 +314,16 @@ class ReferenceMap:
     def covariances(self) -> np.ndarray | None:
         """``(N, 3, 3)`` marginal covariance of each pose's ``(x, y, heading)``, or None."""
         return self._covariances
+
+    @property
+    def appearances(self) -> Appearances | None:
+        """Each reference's provenance (an experience map), or None (a day map)."""
+        return self._appearances
+
+    @property
+    def fingerprint(self) -> str:
+        """SHA-256 (hex) of the references and their poses (:func:`~nightloc.io.appearances.map_fingerprint`)."""
+        return map_fingerprint(self._images, self._positions, self._headings)
 
     @property
     def camera(self) -> str:
@@ -348,6 +381,7 @@ class ReferenceMap:
             and np.array_equal(self._images, other._images)
             and np.array_equal(self._positions, other._positions)
             and same_headings
+            and self._appearances == other._appearances
         )
 
     __hash__ = None  # type: ignore[assignment]
@@ -419,6 +453,15 @@ class ReferenceMap:
             raise ValueError(f"match takes one frame, got a stack of shape {query.shape}; loop over its frames")
         return match(query, self._images, shifts=self._params.shifts, threads=threads)
 
+    def learn(self, night: Any, params: Any = None) -> tuple[ReferenceMap, Any]:
+        """This map plus what a localized night taught it, and a report
+        (:func:`nightloc.mapping.experience.learn`; ``night`` from
+        :func:`~nightloc.mapping.experience.localize_night` over this map). This map is unchanged."""
+        # the mapping stage (above this one) learns: imported here, when it is used
+        from ..mapping.experience import learn
+
+        return learn(self, night, params)
+
     # --- files
 
     def _header(self, localizer: dict[str, Any], tables: dict[str, np.ndarray]) -> dict[str, Any]:
@@ -428,9 +471,12 @@ class ReferenceMap:
         if self._covariances is not None:
             checksums["covariances"] = _sha256(self._covariances)
         checksums.update((name, _sha256(array)) for name, array in tables.items())
-        return {
+        experience = self._appearances
+        if experience is not None:
+            checksums.update((name, _sha256(array)) for name, array in experience.to_arrays().items())
+        header = {
             "format": MAP_FORMAT,
-            "format_version": MAP_FORMAT_VERSION,
+            "format_version": DAY_MAP_FORMAT_VERSION if experience is None else MAP_FORMAT_VERSION,
             "nightloc_version": __version__,
             "count": len(self),
             "image_shape": [self._params.height, self._params.width],
@@ -443,6 +489,9 @@ class ReferenceMap:
             "checksums": checksums,
             "localizer": localizer,
         }
+        if experience is not None:
+            header["experience"] = experience.to_json()
+        return header
 
     def save(self, path: PathLike, *, overwrite: bool = False) -> Path:
         """Writes the map to one file atomically (temporary file in the same folder, then rename).
@@ -471,6 +520,8 @@ class ReferenceMap:
         if self._covariances is not None:
             arrays["covariances"] = self._covariances
         arrays.update(tables)
+        if self._appearances is not None:
+            arrays.update(self._appearances.to_arrays())
         with atomic_file(target, "wb", overwrite=overwrite) as stream:
             np.savez(stream, **arrays)  # type: ignore[arg-type]  # numpy's stub: allow_pickle
         return target
@@ -567,7 +618,10 @@ class ReferenceMap:
             raise MapFormatError(f"{file}: the header's checksums are not a table (corrupt file)")
         if isinstance(count, bool) or not isinstance(count, int) or count < 1:
             raise MapFormatError(f"{file}: the header's image count {count!r} is not a positive integer")
+        experience = header.get("experience") if version >= 4 else None
+        learned = APPEARANCE_ARRAYS if experience is not None else ()
         optional = tuple(name for name in ("headings", "covariances") if name in checksums or name in arrays)
+        optional += learned
         pose_source = header.get("pose_source", "surveyed") if version >= 2 else "surveyed"
         if pose_source not in POSE_SOURCES:
             raise MapFormatError(
@@ -615,6 +669,7 @@ class ReferenceMap:
                 f"{file}: the header's camera {camera!r} contradicts its parameters (wrap = {map_params.wrap}): corrupt"
             )
         try:
+            appearances = None if experience is None else Appearances.from_file(experience, arrays, count)
             return cls(
                 np.ascontiguousarray(images),
                 arrays["positions"],
@@ -625,6 +680,7 @@ class ReferenceMap:
                 frame_size=frame_size,
                 pose_source=pose_source,
                 covariances=arrays.get("covariances"),
+                appearances=appearances,
             )
         except (TypeError, ValueError) as error:
             raise MapFormatError(f"{file}: inconsistent map contents: {error}") from None
