@@ -192,3 +192,21 @@ def test_learning_params_are_checked():
         LearningParams(attach_fraction=2.0, gap_fraction=1.0)
     with pytest.raises(ValueError, match="max_learned"):
         LearningParams(max_learned=0)
+
+
+def test_a_damaged_experience_record_is_refused(tmp_path):
+    import json
+
+    day = _day_map()
+    rng = np.random.default_rng(6)
+    new, _ = learn(day, _night(day, rng.integers(0, 256, (6, *SHAPE), dtype=np.uint8), [(0.0, 0.0)] * 6))
+    file = new.save(tmp_path / "new.map")
+    with np.load(file) as archive:
+        arrays = {name: archive[name] for name in archive.files}
+    header = json.loads(arrays["header"].tobytes())
+    header["experience"]["nights"] = []  # a learned appearance of night 1, but no night in the history
+    arrays["header"] = np.frombuffer(json.dumps(header).encode(), np.uint8)
+    with open(tmp_path / "bad.map", "wb") as stream:
+        np.savez(stream, **arrays)
+    with pytest.raises(MapFormatError, match="night 1 but the history lists 0 nights"):
+        nightloc.ReferenceMap.load(tmp_path / "bad.map")
