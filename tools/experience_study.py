@@ -216,9 +216,9 @@ def sweep(labels: list[str], cache: Path) -> None:
     second night (test night like the learned, map-frame noise 3, one draw)."""
     grid = [
         LearningParams(min_confidence=c, max_credible_radius=r, novelty=n)
-        for c in (0.5, 0.8, 0.9)
-        for r in (0.3, 0.5, 1.0)
-        for n in (0.3, 0.5, 0.7)
+        for c in (0.5, 0.8, 0.95)
+        for r in (0.5, 0.75, 1.0)
+        for n in (0.3, 0.5, 0.7, 1.0)
     ]
     emit(
         "| world | min_confidence | max_credible_radius | novelty | trusted | learned frames' error p95 | added | "

@@ -24,8 +24,9 @@ What is learned (:class:`LearningParams`, TOML ``[learning]``):
   whose heading is within ``heading_tolerance`` degrees). Per place view and night, the frame
   nearest to the place is its candidate; it becomes another appearance of the place, stored at
   the place's position (a learned pose that is slightly wrong does not blur the heat map), when
-  it is *new*: the best of the place's appearances scores above ``novelty`` x the frame's median
-  score over the whole map (the score the filter scales its likelihood by). A frame with no place
+  tonight's look is *new* there: for every frame of the night belonging to the place, the best of
+  the place's appearances scores above ``novelty`` x the frame's median score over the whole map
+  (the score the filter scales its likelihood by). A frame with no place
   within ``gap_fraction`` x the spacing fills a gap: a new place at the localizer's pose.
 * **Usefulness.** Every trusted frame that belongs to a place counts one match for the place's
   appearance that scored best against it (:attr:`~nightloc.io.appearances.Appearances.matches`).
@@ -82,13 +83,14 @@ class LearningParams:
             place (>= attach_fraction); frames in between are not learned.
         heading_tolerance: degrees; a forward camera's frame belongs to a place's view of the
             nearest heading within this (panoramas: any heading).
-        novelty: a candidate is learned when the best of its place's appearances scores above
-            this fraction of the frame's median score over the map (0: always, a large value: never).
+        novelty: a place learns tonight's look when, for each of tonight's frames belonging to it,
+            the best of its appearances scores above this fraction of the frame's median score
+            over the map (0: always, a large value: never).
         max_learned: learned appearances kept per place view (>= 1).
     """
 
     min_confidence: float = 0.8
-    max_credible_radius: float = 0.5
+    max_credible_radius: float = 0.75
     settled_frames: int = 5
     attach_fraction: float = 0.5
     gap_fraction: float = 1.0
@@ -229,8 +231,8 @@ class LearningReport:
         night: the night's number in the map's line (0: nothing was learned).
         frames: frames of the night; ``trusted``: those learned from; ``first_trusted``: the
             first of them (None: the belief never settled).
-        attached: trusted frames that belong to a place; ``known``: place candidates whose look
-            the place already had (not learned again).
+        attached: trusted frames that belong to a place; ``known``: places that had a look like
+            tonight's already (nothing learned there).
         appearances: appearances added to places; ``places``: new places; ``evicted``: learned
             appearances evicted by the cap.
         places_before: places of the map before learning; ``references``: references after.
@@ -377,14 +379,17 @@ def learn(
         refs = view_refs(target)
         spot = places[target[0]]
         candidate = min(frames, key=lambda f: (_distance(night.estimates[f], spot), -night.estimates[f].confidence))
+        seen, best_of_candidate = False, -1
         for f in frames:
             result = match(night.images[f], ref_map.images[refs], shifts=shifts, threads=1)
             matches[refs[result.index]] += 1
+            seen |= bool(result.score <= params.novelty * night.score_medians[f])
             if f == candidate:
-                if result.score > params.novelty * night.score_medians[f]:
-                    learned.append((target, f, int(refs[result.index])))
-                else:
-                    known += 1
+                best_of_candidate = int(refs[result.index])
+        if seen:
+            known += 1  # the place has a look like tonight's already
+        else:
+            learned.append((target, candidate, best_of_candidate))
 
     # the cap: evict the least useful learned appearances of each view that would overflow
     night_of = record.night
