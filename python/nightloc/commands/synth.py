@@ -11,6 +11,7 @@ from .._validate import MAX_CAMERA_RAYS, MAX_CAMERA_SIDE
 from ..io.atomic import output_set
 from ..synth.creek import CREEK_DARKNESS, make_creek_dataset
 from ..synth.dataset import DEFAULT_DARKNESS, DEFAULT_SEED, make_dataset
+from ..synth.nights import NIGHTS, parse_nights
 from ..synth.render import Camera
 from ..synth.world import ALL_WORLDS, WORLD_NAMES
 
@@ -58,6 +59,16 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         default="rows",
         help="the large garden's mowing pattern: rows along x (default) or columns along y (another night drive)",
     )
+    parser.add_argument(
+        "--nights",
+        default=None,
+        metavar="NAMES",
+        help="render these nights (comma-separated, or all) instead of the paper's Table I night traverses, each as "
+        "OUT/night_reference_NAME (the day path driven again) and OUT/night_query_NAME (the other path); the usual "
+        "night keeps the names night_reference and night_query. Nights: "
+        + "; ".join(f"{night.name} ({night.description})" for night in NIGHTS.values())
+        + ". Not for --world creek",
+    )
     parser.add_argument("--overwrite", action="store_true", help="replace a dataset that exists at OUT")
     parser.add_argument("--threads", type=int, default=None, help="render threads (default all cores)")
     parser.set_defaults(run=run)
@@ -100,6 +111,12 @@ def run(args: argparse.Namespace) -> int:
     looks = {"view": args.camera, "tilt_deg": args.tilt, "height_std": args.height_jitter}
     if args.pattern != "rows":
         looks["pattern"] = args.pattern
+    if args.nights is not None:
+        if args.world == "creek":
+            raise ValueError(
+                "--nights applies to the garden, living_room and large_garden worlds, not to --world creek"
+            )
+        looks["nights"] = parse_nights(args.nights)
     start = time.perf_counter()
     if args.world == "creek":
         if args.size != "192x96" or args.camera != "panoramic" or args.tilt or args.height_jitter:

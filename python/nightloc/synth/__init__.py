@@ -12,6 +12,7 @@ Quick start::
     from nightloc.synth import make_dataset, default_dataset
     folders = make_dataset("garden", "data/garden", seed=0)     # {"day_reference": Path, ...}
     paths = default_dataset()      # both worlds, generated once into ~/.cache/nightloc
+    nights = make_dataset("garden", "data/nights", nights="lamps,moon_only")  # other nights too
 
     from nightloc.synth import SynthScene  # single frames
     scene = SynthScene("living_room", seed=0, darkness=1.0)
@@ -22,7 +23,8 @@ Modules: :mod:`~nightloc.synth.geometry` (prisms, ray intersection), :mod:`~nigh
 (day/night light, sky, cast shadows), :mod:`~nightloc.synth.sensor` (exposure, noise, tone curve),
 :mod:`~nightloc.synth.render` (ray casting, panorama convention), :mod:`~nightloc.synth.paths`
 (Table I traverses), :mod:`~nightloc.synth.dataset` (writing traverses, the cached default),
-:mod:`~nightloc.synth.creek` (the paper's moonless 500 m creek path, for route mode).
+:mod:`~nightloc.synth.creek` (the paper's moonless 500 m creek path, for route mode),
+:mod:`~nightloc.synth.nights` (nights that differ: moved lamps, the moon, lamps off, darker).
 """
 
 from __future__ import annotations
@@ -36,7 +38,8 @@ from .dataset import (
     default_dataset,
     make_dataset,
 )
-from .paths import TRAVERSE_NAMES, TraversePlan, plan_traverses
+from .nights import NIGHT_NAMES, NIGHTS, NightCondition
+from .paths import TRAVERSE_NAMES, TraversePlan, plan_night_drives, plan_traverses
 from .render import Camera, cast_rays, column_azimuths, render_panorama, render_radiance, row_elevations
 from .world import WORLD_NAMES, World, build_world
 
@@ -44,9 +47,12 @@ __all__ = [
     "DEFAULT_DARKNESS",
     "DEFAULT_SEED",
     "GENERATOR_VERSION",
+    "NIGHTS",
+    "NIGHT_NAMES",
     "TRAVERSE_NAMES",
     "WORLD_NAMES",
     "Camera",
+    "NightCondition",
     "SynthScene",
     "TraversePlan",
     "World",
@@ -56,6 +62,7 @@ __all__ = [
     "default_cache_dir",
     "default_dataset",
     "make_dataset",
+    "plan_night_drives",
     "plan_traverses",
     "render_panorama",
     "render_radiance",

@@ -8,6 +8,11 @@ describing the world (mapped area, lighting, camera, the drive's timing, generat
 times are the plan's (:meth:`~nightloc.synth.paths.TraversePlan.timestamps`: a documented drive
 speed and camera rate).
 
+Other nights (``nights=``, :mod:`nightloc.synth.nights`): each night's two drives
+(:func:`~nightloc.synth.paths.plan_night_drives`) go to ``out_dir/night_reference_<night>`` and
+``out_dir/night_query_<night>`` (the usual night ``lamps`` keeps Table I's names), and
+``dataset.json`` records every night's condition under ``nights``.
+
 Determinism: every frame's sensor noise comes from its own generator seeded with
 ``(seed, world, traverse, frame)``, so the same seed gives byte-identical images whatever the
 number of threads.
@@ -15,10 +20,11 @@ number of threads.
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 import shutil
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
@@ -31,8 +37,27 @@ from ..io.files import open_regular
 from ..io.traverse import save_traverse
 from ..localization.wheel_noise import WheelNoise
 from ..progress import progress
-from .lighting import Lighting, make_lighting
-from .paths import CAMERA_RATE_HZ, DRIVE_SPEED_M_S, FIRST_FRAME_S, TRAVERSE_NAMES, TraversePlan, plan_traverses
+from .lighting import MOON_IRRADIANCE, Lighting, make_lighting, make_night_lighting
+from .nights import (
+    NIGHT_NAMES,
+    NIGHTS,
+    USUAL_NIGHT,
+    lamp_layout,
+    lamps_on,
+    moon_direction,
+    night_traverse_name,
+    parse_nights,
+)
+from .paths import (
+    CAMERA_RATE_HZ,
+    DRIVE_SPEED_M_S,
+    FIRST_FRAME_S,
+    NIGHT_DRIVES,
+    TRAVERSE_NAMES,
+    TraversePlan,
+    plan_night_drives,
+    plan_traverses,
+)
 from .render import Camera, render_panorama, render_radiance
 from .sensor import FULL_WELL, READ_NOISE, Exposure, capture, metered_exposure
 from .world import ALL_WORLDS, WORLD_NAMES, World, build_world
@@ -83,6 +108,65 @@ class SynthScene:
         self.exposure: dict[str, Exposure] = {
             "day": metered_exposure(self.metered["day"], 0.0, DAY_GAMMA),
             "night": metered_exposure(self.metered["night"], self.darkness, NIGHT_GAMMA),
+        }
+        #: The night condition of the ``"night"`` lighting (:mod:`nightloc.synth.nights`).
+        self.night_name = USUAL_NIGHT
+        self.moon_direction: np.ndarray | None = None
+        self._usual_night = (self.world, self.darkness)  # what every night() starts from
+
+    def night(self, name: str) -> SynthScene:
+        """This scene on the night ``name`` (:data:`~nightloc.synth.nights.NIGHTS`): the same world,
+        day and night camera (its exposure metered on the usual night), with that night's lamps,
+        moon and darkness (the scene's plus the night's ``extra_darkness``). The moon's direction
+        and the moved lamps are drawn from the scene's seed."""
+        if name not in NIGHTS:
+            raise ValueError(f"unknown night {name!r}; choose from {', '.join(NIGHT_NAMES)}")
+        condition = NIGHTS[name]
+        usual_world, usual_darkness = self._usual_night
+        darkness = usual_darkness + condition.extra_darkness
+        if darkness > 3.0:
+            raise ValueError(
+                f"night {name!r} adds {condition.extra_darkness} to the darkness {usual_darkness}: at most 3 in all"
+            )
+        world = lamp_layout(usual_world, self.seed, condition.lamps)
+        direction = moon_direction(world, self.seed) if condition.moon > 0 else None
+        usual_power = sum(sum(light.power) for light in usual_world.lights.values() if "night" in light.conditions)
+        power = sum(sum(light.power) for light in world.lights.values() if "night" in light.conditions)
+        night = copy.copy(self)
+        night.world = world
+        night.darkness = darkness
+        night.night_name = name
+        night.moon_direction = direction
+        night.lighting = {
+            "day": self.lighting["day"],
+            "night": make_night_lighting(
+                world,
+                self.seed,
+                moon=condition.moon,
+                moon_direction=direction,
+                lamp_bounce=power / usual_power if usual_power > 0 else 1.0,
+            ),
+        }
+        night.exposure = {"day": self.exposure["day"], "night": self.night_exposure(darkness)}
+        return night
+
+    def describe_night(self) -> dict:
+        """The ``dataset.json`` record of this scene's night: its condition, lamps, moon, darkness."""
+        condition = NIGHTS[self.night_name]
+        moon = None
+        if self.moon_direction is not None:
+            moon = {
+                "level": condition.moon,
+                "irradiance": condition.moon * MOON_IRRADIANCE,
+                "direction": [round(float(v), 6) for v in self.moon_direction],
+            }
+        return {
+            "description": condition.description,
+            "lamps": condition.lamps,
+            "lamp_layout_seed": self.seed if condition.lamps == "moved" else None,
+            "lamps_on": lamps_on(self.world),
+            "moon": moon,
+            "darkness": self.darkness,
         }
 
     def night_exposure(self, darkness: float, full_well: float = FULL_WELL, read_noise: float = READ_NOISE) -> Exposure:
@@ -247,6 +331,7 @@ def make_dataset(
     height_std: float = 0.0,
     pattern: str = "rows",
     parents: bool = False,
+    nights: str | Sequence[str] | None = None,
 ) -> dict[str, Path]:
     """Renders every traverse of ``world`` into ``out_dir`` and returns their folders by name.
 
@@ -273,6 +358,14 @@ def make_dataset(
         pattern: the large garden's mowing pattern: ``"rows"`` (along x, the default) or
             ``"columns"`` (along y, with another night drive: a second lawn layout to test on).
         parents: create the missing parent folders of ``out_dir`` (removed again on failure).
+        nights: None (the default): the traverses of the paper's Table I. Otherwise the nights to
+            render (:data:`~nightloc.synth.nights.NIGHT_NAMES`, a sequence or a comma-separated
+            string; ``"all"`` every one): the day reference, then each night's re-drive of the day
+            path and its other path (:func:`~nightloc.synth.paths.plan_night_drives`) as
+            ``night_reference_<night>`` and ``night_query_<night>`` (``lamps``, the usual night:
+            ``night_reference`` and ``night_query``, the garden's byte-identical to Table I's), each
+            night recorded in ``dataset.json`` under ``nights``. An unknown name is a ValueError
+            naming the choices.
 
     The dataset is written as one set (:func:`nightloc.io.atomic.output_set`): the traverses and
     ``dataset.json`` appear together, or -- on an error or an interruption -- the previous
@@ -286,8 +379,16 @@ def make_dataset(
     for name, value in (("tilt_deg", tilt_deg), ("height_std", height_std)):
         if not (np.isfinite(value) and 0 <= value <= 20):
             raise ValueError(f"{name} must be in [0, 20], got {value}")
+    night_names = None if nights is None else parse_nights(nights)
     scene = SynthScene(world, seed, darkness, camera)
     plans = plan_traverses(world, scene.seed, pattern)
+    scenes = {plan.name: scene for plan in plans}
+    if night_names is not None:
+        plans, night_scenes = plans[:1], {name: scene.night(name) for name in night_names}
+        for name in night_names:
+            for drive in plan_night_drives(world, scene.seed, NIGHT_NAMES.index(name), pattern):
+                plans.append(replace(drive, name=night_traverse_name(drive.name, name)))
+                scenes[plans[-1].name] = night_scenes[name]
     if view == "forward":
         plans = [_four_ways(plan) if plan.name == "day_reference" else plan for plan in plans]
     with output_set(
@@ -295,7 +396,7 @@ def make_dataset(
     ) as out:
         for plan in plans:
             frames = progress(
-                scene.render_plan(plan, threads, tilt_deg, height_std),
+                scenes[plan.name].render_plan(plan, threads, tilt_deg, height_std),
                 total=len(plan.positions),
                 desc=f"{world}/{plan.name}",
                 unit="frame",
@@ -315,6 +416,16 @@ def make_dataset(
         description.update(view=view, tilt_deg=float(tilt_deg), height_std_m=float(height_std))
         if pattern != "rows":
             description.update(pattern=pattern)
+        if night_names is not None:
+            for plan in plans[1:]:
+                description["traverses"][plan.name]["night"] = scenes[plan.name].night_name
+            description["nights"] = {
+                name: {
+                    **night_scenes[name].describe_night(),
+                    "traverses": [night_traverse_name(drive, name) for drive in NIGHT_DRIVES],
+                }
+                for name in night_names
+            }
         _write_json_atomic(out / "dataset.json", description)
     return {plan.name: Path(out_dir) / plan.name for plan in plans}
 

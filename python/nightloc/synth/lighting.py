@@ -33,7 +33,16 @@ from .geometry import Cylinder, polygon_of
 from .textures import fbm, value_noise
 from .world import GroundMap, LightSource, World
 
-__all__ = ["CONDITIONS", "Lighting", "SkyMap", "ground_irradiance", "make_lighting", "shade_objects"]
+__all__ = [
+    "CONDITIONS",
+    "MOON_IRRADIANCE",
+    "Lighting",
+    "SkyMap",
+    "ground_irradiance",
+    "make_lighting",
+    "make_night_lighting",
+    "shade_objects",
+]
 
 CONDITIONS: tuple[str, ...] = ("day", "night")
 
@@ -67,9 +76,10 @@ class Lighting:
         ambient: RGB diffuse irradiance on an upward-facing surface.
         ambient_up_weight: how much more diffuse light faces up than sideways (0.45 outdoors,
             0.25 indoors where light bounces off walls and ceiling).
-        sun_direction: unit vector ``(x, y, z)`` towards the sun, or None at night.
-        sun: RGB irradiance of direct sun on a surface facing it.
-        sun_on_surfaces: False indoors (sunlight reaches the floor only through the windows).
+        sun_direction: unit vector ``(x, y, z)`` towards the sun (by day) or the moon (a moonlit
+            night), or None.
+        sun: RGB irradiance of direct sun (or moon) light on a surface facing it.
+        sun_on_surfaces: False indoors (sun and moon light reach the floor only through the windows).
         lamps: the lamps that are on.
         glow: radiance gain of glowing objects by emission tag (their albedo times this).
         sky: radiance of the sky / outside view.
@@ -271,6 +281,115 @@ def _make_lighting(world: World, condition: str, seed: int) -> Lighting:
         sky,
         ground,
     )
+
+
+#: Irradiance of a full moon on a surface facing it, in the worlds' radiance units. A lamp's
+#: ``power`` is its irradiance 1 m away: the garden's porch lamp (0.55, an 800-lumen bulb, about 64
+#: lux at 1 m) sets about 115 lux per unit, and a full moon gives about 0.25 lux.
+MOON_IRRADIANCE = 0.0022
+#: Moonlight's colour (relative RGB): sunlight reflected by grey rock, a little redder.
+MOON_COLOUR = (1.0, 0.93, 0.82)
+#: Indoors at night, the share of the room's diffuse light that comes from outside (street lights
+#: and the sky through the windows); the rest is the lamps' light bounced off walls and ceiling.
+INDOOR_OUTSIDE_SHARE = 0.2
+#: Diffuse light per unit of direct moonlight on a surface facing the moon: scattered by the sky
+#: outdoors (the day's ratio of sky light to sun), bounced off the floor patches indoors.
+_MOON_DIFFUSE = {False: 0.2, True: 0.05}
+
+
+def make_night_lighting(
+    world: World,
+    seed: int = 0,
+    *,
+    moon: float = 0.0,
+    moon_direction: Sequence[float] | np.ndarray | None = None,
+    lamp_bounce: float = 1.0,
+) -> Lighting:
+    """A night of ``world`` lit by the lamps its ``lights`` switch on for ``"night"`` and,
+    optionally, the moon.
+
+    The dark sky (glow, clouds, stars) is the usual night's (:func:`make_lighting` with
+    ``"night"``, same ``seed``). The moon is a second sun, ``moon * MOON_IRRADIANCE`` on a surface
+    facing it, with exact cast shadows on the ground (indoors on the floor through the windows
+    only); its light scattered by the sky adds diffuse light, and the sky brightens like a day sky
+    scaled by the moon's irradiance, with the moon's disc.
+
+    Args:
+        world: the world, with the lamps of this night switched on (``"night"`` in their
+            ``conditions``).
+        seed: the night sky's stars and clouds.
+        moon: the moon's light: 0 none (a moonless night), 1 a full moon.
+        moon_direction: unit vector ``(x, y, z)`` towards the moon (``z > 0``); needed when
+            ``moon > 0``.
+        lamp_bounce: indoors, the lamps' bounced diffuse light relative to the world's usual night
+            (0 = every lamp off, 1 = the usual lamps); :data:`INDOOR_OUTSIDE_SHARE` of the room's
+            diffuse light comes from outside and stays.
+
+    With ``moon = 0`` and ``lamp_bounce = 1`` this is :func:`make_lighting` ``(world, "night", seed)``.
+    """
+    if not (np.isfinite(moon) and 0.0 <= moon <= 10.0):
+        raise ValueError(f"moon must be in [0, 10] (1 = a full moon), got {moon!r}")
+    if not (np.isfinite(lamp_bounce) and lamp_bounce >= 0.0):
+        raise ValueError(f"lamp_bounce must be >= 0, got {lamp_bounce!r}")
+    usual = make_lighting(world, "night", seed)
+    ambient = usual.ambient
+    if world.indoor and lamp_bounce != 1.0:
+        ambient = (ambient * np.float32(INDOOR_OUTSIDE_SHARE + (1.0 - INDOOR_OUTSIDE_SHARE) * lamp_bounce)).astype(
+            np.float32
+        )
+    if moon == 0.0:
+        if ambient is usual.ambient:
+            return usual
+        direction, moonlight, sky = None, np.zeros(3, np.float32), usual.sky
+    else:
+        if moon_direction is None:
+            raise ValueError("a moonlit night needs moon_direction, a unit vector towards the moon")
+        direction = np.asarray(moon_direction, dtype=np.float64)
+        if direction.shape != (3,) or not np.all(np.isfinite(direction)) or direction[2] <= 0:
+            raise ValueError(f"moon_direction must be a finite (x, y, z) vector with z > 0, got {moon_direction!r}")
+        direction = direction / np.linalg.norm(direction)
+        moonlight = (np.float32(moon * MOON_IRRADIANCE) * np.asarray(MOON_COLOUR, np.float32)).astype(np.float32)
+        ambient = (ambient + moonlight * np.float32(_MOON_DIFFUSE[world.indoor])).astype(np.float32)
+        sky = SkyMap(_moonlit_sky(usual.sky.values, direction, float(moon * MOON_IRRADIANCE)), usual.sky.low_deg)
+    lamps = tuple((name, lamp) for name, lamp in sorted(world.lights.items()) if "night" in lamp.conditions)
+    irradiance = ground_irradiance(world, ambient, direction, moonlight, lamps)
+    ground = GroundMap(
+        world.ground.values * irradiance.values, irradiance.x0, irradiance.y0, irradiance.pixels_per_metre
+    )
+    return Lighting(
+        "night",
+        ambient,
+        usual.ambient_up_weight,
+        direction,
+        moonlight,
+        not world.indoor,
+        tuple(lamp for _, lamp in lamps),
+        {name: lamp.glow for name, lamp in lamps},
+        sky,
+        ground,
+    )
+
+
+def _moonlit_sky(night_sky: np.ndarray, direction: np.ndarray, irradiance: float) -> np.ndarray:
+    """The night sky ``(rows, cols, 3)`` plus scattered moonlight: the day sky's gradient and the
+    glow round the disc scaled by ``irradiance / sun`` (the day's sun gives 3), and the disc."""
+    rows, cols = night_sky.shape[:2]
+    elevation = np.radians(90.0 - (np.arange(rows) + 0.5) * 110.0 / rows)[:, None]
+    azimuth = ((np.arange(cols) + 0.5) * 2 * np.pi / cols)[None, :]
+    up = np.clip(np.sin(elevation), 0.0, 1.0) ** 0.5
+    horizon, zenith = np.array([1.6, 1.7, 1.8], np.float32), np.array([0.45, 0.75, 1.5], np.float32)
+    cos_angle = (
+        np.cos(elevation) * np.cos(azimuth) * direction[0]
+        + np.cos(elevation) * np.sin(azimuth) * direction[1]
+        + np.sin(elevation) * direction[2]
+    )
+    scattered = horizon + (zenith - horizon) * up[..., None]
+    scattered = (
+        scattered + (2.5 * np.exp((cos_angle - 1) / 0.01) + 40.0 * (cos_angle > np.cos(np.radians(0.8))))[..., None]
+    )
+    below = np.array([0.2, 0.28, 0.14], np.float32)  # distant ground by day: the sun's light reflected
+    scattered = np.where((elevation < 0)[..., None], below, scattered)
+    return np.ascontiguousarray(night_sky + np.float32(irradiance / 3.0) * scattered, dtype=np.float32)
 
 
 def shade_objects(lighting: Lighting, albedo: np.ndarray, points: np.ndarray, normals: np.ndarray) -> np.ndarray:

@@ -8,9 +8,14 @@ garden/night_reference night       53      the same path, sampled evenly along i
 garden/night_query     night       41      an alternative path, partly overlapping
 living_room/day_reference  day     52      grid points 0.5 m x 1 m (13 x 4), row by row
 living_room/night_query    night   32      random positions and headings
-large_garden/day_reference day     875     a perimeter pass, then a lawn-mower drive, 0.5 m apart
-large_garden/night_query   night   103     across the lawn, along it, back down the middle
+large_garden/day_reference day     901     a perimeter pass, then a lawn-mower drive, 0.5 m apart
+large_garden/night_query   night   98      across the lawn, along it, back down the middle
 =====================  ==========  ======  ==============================================
+
+Another night (:func:`plan_night_drives`) drives both ways in every world: ``night_reference``
+re-drives the day path (the living room's grid, 55 frames; the large garden's whole day drive,
+as many frames as by day) and ``night_query`` drives the world's other path (the living room:
+32 random poses), each night with its own wobble and sideways error.
 
 Headings follow the direction of travel with a random wobble (std 8 degrees); the night
 traverses also wander sideways off the nominal path (std 5-8 cm), as a driven robot does. The
@@ -29,7 +34,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CAMERA_RATE_HZ", "DRIVE_SPEED_M_S", "FIRST_FRAME_S", "TRAVERSE_NAMES", "TraversePlan", "plan_traverses"]
+__all__ = [
+    "CAMERA_RATE_HZ",
+    "DRIVE_SPEED_M_S",
+    "FIRST_FRAME_S",
+    "NIGHT_DRIVES",
+    "TRAVERSE_NAMES",
+    "TraversePlan",
+    "plan_night_drives",
+    "plan_traverses",
+]
 
 TRAVERSE_NAMES: dict[str, tuple[str, ...]] = {
     "garden": ("day_reference", "night_reference", "night_query"),
@@ -199,3 +213,62 @@ def plan_traverses(world: str, seed: int = 0, pattern: str = "rows") -> list[Tra
         query = TraversePlan("night_query", "night", positions, wrap_angle(rng.uniform(-np.pi, np.pi, 32)))
         return [day, query]
     raise ValueError(f"unknown world {world!r}; choose one of {', '.join(TRAVERSE_NAMES)}")
+
+
+#: The two drives of every night of :func:`plan_night_drives`: a re-drive of the day path and another path.
+NIGHT_DRIVES: tuple[str, ...] = ("night_reference", "night_query")
+#: Frames of the living room's night re-drive of its day grid (about 0.5 m apart).
+ROOM_REDRIVE_FRAMES = 55
+
+
+def plan_night_drives(world: str, seed: int = 0, night: int = 0, pattern: str = "rows") -> list[TraversePlan]:
+    """A night's two drives of ``world``, named :data:`NIGHT_DRIVES`: ``night_reference`` along the
+    day path and ``night_query`` along the world's other path, both ``"night"``.
+
+    ``night`` numbers the nights of one dataset: night 0 is the usual one, whose drives are those
+    of :func:`plan_traverses` (for the living room and the large garden, which have no night
+    re-drive there, it is drawn here); night ``k > 0`` draws its own wobble, sideways error and
+    (living room) query poses from ``(seed, k)``, along the same nominal paths.
+    """
+    if isinstance(night, bool) or not isinstance(night, (int, np.integer)) or night < 0:
+        raise ValueError(f"night must be an int >= 0, got {night!r}")
+    usual = {p.name: p for p in plan_traverses(world, seed, pattern)}
+    world_id = {"garden": 0, "living_room": 1}.get(world, 2)
+    rng = np.random.default_rng([int(seed), 4, world_id, 100 + int(night)])
+    if night == 0 and "night_reference" in usual:
+        return [usual[name] for name in NIGHT_DRIVES]
+    if world == "garden":
+        points, directions = _polyline_samples(_lawnmower_polyline(GARDEN_ROW_X, GARDEN_ROW_Y), 53)
+        redrive = TraversePlan(
+            "night_reference", "night", _sideways(rng, points, directions, 0.05), _wobble(rng, directions)
+        )
+        points, directions = _polyline_samples(GARDEN_QUERY_WAYPOINTS, 41)
+        query = TraversePlan("night_query", "night", _sideways(rng, points, directions, 0.08), _wobble(rng, directions))
+    elif world == "living_room":
+        points, directions = _polyline_samples(_lawnmower_polyline(ROOM_GRID_X, ROOM_GRID_Y), ROOM_REDRIVE_FRAMES)
+        points = np.clip(_sideways(rng, points, directions, 0.05), (-0.15, -0.15), (6.15, 3.15))
+        redrive = TraversePlan("night_reference", "night", points, _wobble(rng, directions))
+        if night == 0:
+            query = usual["night_query"]
+        else:
+            positions = np.stack([rng.uniform(0.1, 5.9, 32), rng.uniform(0.1, 2.9, 32)], axis=1)
+            query = TraversePlan("night_query", "night", positions, wrap_angle(rng.uniform(-np.pi, np.pi, 32)))
+    else:  # the large garden: the day drive again, as many frames evenly along it
+        day = usual["day_reference"]
+        mowing = (
+            _lawnmower_polyline(LARGE_COLUMNS_Y, LARGE_COLUMNS_X)[:, ::-1]
+            if pattern == "columns"
+            else _lawnmower_polyline(LARGE_ROWS_X, LARGE_ROWS_Y)
+        )
+        points, directions = _polyline_samples(np.concatenate([LARGE_PERIMETER, mowing[1:]]), len(day.positions))
+        headings = wrap_angle(directions + rng.normal(0.0, LARGE_HEADING_WOBBLE, len(directions)))
+        redrive = TraversePlan("night_reference", "night", _sideways(rng, points, directions, 0.05), headings)
+        if night == 0:
+            query = usual["night_query"]
+        else:
+            waypoints = LARGE_COLUMNS_NIGHT_WAYPOINTS if pattern == "columns" else LARGE_NIGHT_WAYPOINTS
+            points, directions = _spaced_polyline(waypoints, LARGE_STEP)
+            query = TraversePlan(
+                "night_query", "night", _sideways(rng, points, directions, 0.08), _wobble(rng, directions)
+            )
+    return [redrive, query]
