@@ -257,6 +257,49 @@ def sweep(labels: list[str], cache: Path) -> None:
         del matches
 
 
+def _night_folder(root: Path, kind: str, night: str) -> Path:
+    """``night_reference`` / ``night_query`` of ``night`` in a ``nightloc synth --nights`` dataset
+    (the usual night, ``lamps``, keeps Table I's names where the world has them)."""
+    named = root / f"{kind}_{night}"
+    return named if named.exists() or night != "lamps" else root / kind
+
+
+def study_nights(root: Path, label: str, draws: int, params: LearningParams, tests: list[str]) -> None:
+    """``nightloc synth --nights`` data at ``root``: learn the usual night's re-drive of the day path
+    (M1), then the moonlit night's (M2); test every night's other path against the day map, M1 and M2."""
+    day = nightloc.ReferenceMap.build(root / "day_reference")
+    maps = {"day": day}
+    current = day
+    for night in ("lamps", "moonlit"):
+        folder = _night_folder(root, "night_reference", night)
+        run, log = learned_nights(current, folder)
+        errors = errors_of(run.estimates, log.positions)
+        current, report = learn(current, run, params)
+        emit(
+            f"- {label}: learned {folder.name} ({len(log)} frames, filter median {np.median(errors[FIRST:]):.2f} m): "
+            f"{report.line()}"
+        )
+        maps[f"M{len(maps)}"] = current
+        if night == "lamps":
+            again_run, _ = learned_nights(current, folder)
+            _, again_report = learn(current, again_run, params)
+            emit(f"- {label}: {folder.name} learned again into M1: {again_report.line()}")
+    for night in tests:
+        folder = _night_folder(root, "night_query", night)
+        results = {name: evaluate(m, folder, draws) for name, m in maps.items()}
+        emit()
+        emit(f"#### {label}: test night {folder.name}")
+        emit()
+        emit("| odometry | map | filter median | p95 | % > 1 m | longest run > 1 m | paper median | paper p95 |")
+        emit("| --- | --- | --- | --- | --- | --- | --- | --- |")
+        for run_label in results["day"]:
+            for name, res in results.items():
+                entry = res[run_label]
+                paper = entry["paper"]
+                paper_cells = f"{cell(paper)} | {cell(paper, 'p95_m')}" if paper else "- | -"
+                emit(f"| {run_label} | {name} | {tail_cells(entry['filter'])} | {paper_cells} |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worlds", default="garden,living_room,lawn0", help="comma-separated labels")
@@ -264,9 +307,19 @@ def main() -> None:
     parser.add_argument("--cache", type=Path, default=Path("/tmp/nightloc_experience"), help="render cache")
     parser.add_argument("--learn-param", action="append", default=[], help="a LearningParams field, e.g. novelty=0.4")
     parser.add_argument("--sweep", action="store_true", help="sweep the trust and novelty thresholds instead")
+    parser.add_argument(
+        "--nights",
+        type=Path,
+        help="instead: a `nightloc synth --nights` world folder (learn lamps then moonlit; test --tests)",
+    )
+    parser.add_argument("--tests", default="lamps,moonlit,moon_only,lamps_moved,darker", help="--nights: test nights")
     args = parser.parse_args()
     args.cache.mkdir(parents=True, exist_ok=True)
     labels = [w.strip() for w in args.worlds.split(",") if w.strip()]
+    if args.nights is not None:
+        tests = [t.strip() for t in args.tests.split(",") if t.strip()]
+        study_nights(args.nights, args.nights.name, args.draws, LearningParams(), tests)
+        return
     if args.sweep:
         sweep(labels, args.cache)
         return
