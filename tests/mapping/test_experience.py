@@ -210,3 +210,15 @@ def test_a_damaged_experience_record_is_refused(tmp_path):
         np.savez(stream, **arrays)
     with pytest.raises(MapFormatError, match="night 1 but the history lists 0 nights"):
         nightloc.ReferenceMap.load(tmp_path / "bad.map")
+
+
+def test_a_map_pickled_before_experience_maps_unpickles_as_a_day_map():
+    import pickle
+
+    day = _day_map()
+    state = day.__getstate__()
+    del state["_appearances"]
+    old = object.__new__(nightloc.ReferenceMap)
+    old.__setstate__(state)
+    assert old.appearances is None and old == day
+    assert pickle.loads(pickle.dumps(day)) == day

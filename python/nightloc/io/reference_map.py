@@ -268,6 +268,7 @@ class ReferenceMap:
         return {name: getattr(self, name) for name in self.__slots__}
 
     def __setstate__(self, state: dict) -> None:
+        object.__setattr__(self, "_appearances", None)  # pickled before maps learned: a day map
         for name, value in state.items():
             if isinstance(value, np.ndarray):
                 value = _frozen(value)
