@@ -305,10 +305,10 @@ MapFile load_map_file(const std::string& path) {
     }
     if (m.format_version > kMapFormatVersion) {
         r.fail("has map format version " + std::to_string(m.format_version) + ", written by a newer nightloc (" +
-               m.nightloc_version + "); this firmware reads version " + std::to_string(kMapFormatVersion) +
-               ": update the firmware");
+               m.nightloc_version + "); this firmware reads versions " + std::to_string(kMinMapFormatVersion) + " to " +
+               std::to_string(kMapFormatVersion) + ": update the firmware");
     }
-    if (m.format_version < kMapFormatVersion) {
+    if (m.format_version < kMinMapFormatVersion) {
         r.fail("has map format version " + std::to_string(m.format_version) +
                ", without the localizer's tables that firmware needs; " + kUpgrade);
     }
@@ -347,6 +347,12 @@ MapFile load_map_file(const std::string& path) {
         wrapped.object["height"] = size->array[1];
         m.frame_width = r.count(wrapped, "width", "frame_size");
         m.frame_height = r.count(wrapped, "height", "frame_size");
+    }
+    if (m.format_version >= 4 && header.find("experience") != nullptr) {
+        m.appearance_night = r.vector<std::int32_t>("appearance_night", "<i4", {m.count});
+        for (const std::int32_t night : m.appearance_night) {
+            if (night < 0) r.fail("appearance_night holds a negative night");
+        }
     }
     read_tables(r, header, m);
     return m;

@@ -27,6 +27,7 @@ from .localization import (
     RobotMotion,
     traverse_odometry,
 )
+from .mapping.experience import LearningParams, learn, localize_night
 from .mapping.reference_map import ReferenceMap
 from .matching import (
     MatchResult,
@@ -48,6 +49,7 @@ __all__ = [
     "DatasetWarning",
     "Estimate",
     "FilterParams",
+    "LearningParams",
     "LocalizationParams",
     "Localizer",
     "MapDisplacement",
@@ -67,8 +69,10 @@ __all__ = [
     "available_simd_backends",
     "block_normalize",
     "difference_matrix",
+    "learn",
     "load_params",
     "load_traverse",
+    "localize_night",
     "mapping",
     "match",
     "patch_normalize",

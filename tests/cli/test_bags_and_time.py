@@ -277,3 +277,18 @@ def test_poses_csv_timestamps_and_video_frame_times(tmp_path):
     video = tmp_path / "v.avi"
     write_video(video, 6)  # 10 frames per second
     assert nightloc.load_traverse(video, frame_step=2).timestamps.tolist() == pytest.approx([0.0, 0.2, 0.4])
+
+
+def test_a_bag_night_is_learned_with_its_frames_times(garden, tmp_path, capsys):
+    """``localize MAP BAG --learn NEW``: the learned appearances keep their frames' bag stamps."""
+    new_map = tmp_path / "night.map"
+    argv = ["localize", str(garden["map"]), str(garden["bag"]), "--out", str(tmp_path / "run"), "--no-figures"]
+    assert main([*argv, "--learn", str(new_map)]) == 0
+    assert f"wrote {new_map}" in capsys.readouterr().out
+    day, learned = nightloc.ReferenceMap.load(garden["map"]), nightloc.ReferenceMap.load(new_map)
+    rec = learned.appearances
+    assert rec is not None and rec.nights[0].source == str(garden["bag"])
+    times = rec.time[len(day) :]
+    assert len(times) > 0
+    stamps = [n / NS for n in garden["frame_ns"]]
+    assert all(min(abs(t - s) for s in stamps) < 1e-6 for t in times)

@@ -130,6 +130,34 @@ def test_replay_equals_localize_for_a_forward_camera(replay, tmp_path):
     assert tables["shifts"] == [0] and tables["window"] == [12, 0] and tables["field_of_view"] > 0
 
 
+def test_replay_reads_an_experience_map(replay, world, map_file, tmp_path):
+    """A map that learned a night (format 4: appearances at their places' positions, new places):
+    the firmware runs it as Python does."""
+    import nightloc
+    from nightloc.localization.odometry import traverse_odometry
+    from nightloc.mapping.experience import LearningParams, learn, localize_night
+
+    day = nightloc.ReferenceMap.load(map_file)
+    night_log = nightloc.load_traverse(firmware_golden.write_log(world, tmp_path / "night", colour=True))
+    night = localize_night(day, (night_log.read(i) for i in range(len(night_log))), traverse_odometry(night_log))
+    everything = LearningParams(min_confidence=0.0, max_credible_radius=1e3, settled_frames=1, novelty=0.0)
+    learned, report = learn(day, night, everything)
+    assert report.appearances + report.places > 0
+    learned_file = learned.save(tmp_path / "learned.map")
+    with np.load(learned_file) as archive:
+        assert json.loads(archive["header"].tobytes())["format_version"] == 4
+    log = firmware_golden.write_log(world, tmp_path / "log")
+    done = run_replay(replay, learned_file, log, tmp_path / "replay.csv")
+    assert done.returncode == 0, done.stderr
+    api = np.array(
+        [
+            (e.x, e.y, e.heading, e.confidence, e.credible_radius)
+            for e in firmware_golden.api_trajectory(learned_file, log)
+        ]
+    )
+    assert_same_trajectory(read_rows(tmp_path / "replay.csv")[1], api, 1e-8)
+
+
 def test_replay_golden_files_match_python_today(replay, tmp_path):
     """The committed golden data (the ctest's) still is what today's Python computes: rerun
     tools/firmware_golden.py after changing the default localizer."""
@@ -185,7 +213,7 @@ def corrupt_images(header, arrays):
             lambda m, t: rewrite_map(m, t, version_2, drop=firmware_golden_filter_arrays()),
             "ReferenceMap.load('OLD.map').save('NEW.map')",
         ),
-        (lambda m, t: rewrite_map(m, t, lambda h, a: h.update(format_version=4)), "newer nightloc"),
+        (lambda m, t: rewrite_map(m, t, lambda h, a: h.update(format_version=5)), "newer nightloc"),
         (lambda m, t: rewrite_map(m, t, corrupt_images), "checksum of 'images' does not match"),
         (lambda m, t: rewrite_map(m, t, drop=("filter_closest_ref",)), "lacks its 'filter_closest_ref' array"),
         (

@@ -172,7 +172,7 @@ def test_checksum_mismatch(saved):
 @pytest.mark.parametrize(
     ("change", "text"),
     [
-        (lambda h: h.update(format_version=4), "newer nightloc"),
+        (lambda h: h.update(format_version=5), "newer nightloc"),
         (lambda h: h.update(format="something-else"), "not a nightloc reference map"),
         (lambda h: h["params"].update(widht=48), "unknown key 'widht'"),
         (lambda h: h["params"].update(width="48"), "width must be int"),

@@ -515,7 +515,7 @@ MAPS = [
     ),
     (
         "map newer format version",
-        lambda ws: nightloc.ReferenceMap.load(ws.map_variant({"format_version": 4})),
+        lambda ws: nightloc.ReferenceMap.load(ws.map_variant({"format_version": 5})),
         MapFormatError,
         "upgrade nightloc",
     ),

@@ -1,4 +1,4 @@
-// Reading the map file that `nightloc build-map` writes (ReferenceMap.save, format 3), without
+// Reading the map file that `nightloc build-map` writes (ReferenceMap.save, format 3 or 4), without
 // Python, zlib or OpenCV: an uncompressed zip (numpy's .npz) of .npy arrays with a JSON header
 // (python/nightloc/io/map_file.py and python/nightloc/localization/filter_tables.py
 // describe the layout).
@@ -9,9 +9,9 @@
 // What is checked, each failure a MapFileError naming the file and the problem: a regular,
 // readable file; a zip archive whose members are stored (a compressed member is refused, naming
 // its method) and whose CRC-32s match; .npy arrays of the expected type and shape; the header's
-// format, its version (3: older maps lack the localizer's tables and are refused with the command
-// that re-saves them; newer ones ask for a newer firmware), its parameters, and the SHA-256
-// checksum of every array the header lists.
+// format, its version (3, or 4: an experience map, which adds each reference's provenance; older
+// maps lack the localizer's tables and are refused with the command that re-saves them; newer ones
+// ask for a newer firmware), its parameters, and the SHA-256 checksum of every array the header lists.
 #pragma once
 
 #include <cstddef>
@@ -26,8 +26,10 @@
 
 namespace nightloc {
 
-/// The map format version this reader reads (python: nightloc.io.map_file.MAP_FORMAT_VERSION).
-inline constexpr int kMapFormatVersion = 3;
+/// The newest map format version this reader reads (python: nightloc.io.map_file.MAP_FORMAT_VERSION).
+inline constexpr int kMapFormatVersion = 4;
+/// The oldest: the first with the localizer's tables (python: DAY_MAP_FORMAT_VERSION).
+inline constexpr int kMinMapFormatVersion = 3;
 
 /// A map file that cannot be used: the message names the file and the problem.
 class MapFileError : public std::runtime_error {
@@ -73,6 +75,10 @@ struct MapFile {
     std::vector<double> positions;     ///< N x 2 metres
     std::vector<double> headings;      ///< N radians, or empty (no headings)
     std::vector<std::string> names;    ///< N frame names
+    /// N: 0 for the day map's references, else the night each was learned on (format 4, an
+    /// experience map; empty for format 3). The localizer needs none of it: a place's learned
+    /// appearances stand at its position, so the tables group them with it.
+    std::vector<std::int32_t> appearance_night;
     MapPreparation preparation;
     std::size_t frame_width = 0;  ///< of the camera frames the map was built from (0: unknown)
     std::size_t frame_height = 0;

@@ -4,7 +4,7 @@
                       [--odometry FILE|none] [--survey DAY]
                       [--odometry-noise wheel|1|DIST,HEADING] [--params FILE.toml] [--camera panoramic|forward]
                       [--shift-window COLUMNS,ROWS] [--image-topic T] [--odometry-topic T] [--pose-topic T]
-                      [--sync-tolerance S] [--threads N] [--no-figures]
+                      [--sync-tolerance S] [--threads N] [--no-figures] [--learn NEW_MAP [--overwrite]]
 
 MAP_OR_REFERENCE is a map file written by ``nightloc build-map`` or a reference traverse (a folder
 with poses, or a bag with a pose topic). LOG is a traverse folder (``images/``, no poses needed),
@@ -40,6 +40,11 @@ survey frame: the true poses are moved into the map's frame by the best rigid 2D
 onto the day drive's survey (``--survey DAY``, default the map's source traverse; as ``nightloc
 evaluate`` does) before any error is computed or drawn, and the command says so; without a survey
 it says that the frames differ and reports no errors.
+
+``--learn NEW_MAP`` also writes NEW_MAP (atomically; MAP is never changed): the map plus the
+frames this night localized confidently, as further appearances of its places or new places in its
+gaps (:mod:`nightloc.mapping.experience`, ``[learning]`` in ``--params``); a night that never
+settles teaches nothing, and NEW_MAP is then the map unchanged (the command says so).
 """
 
 from __future__ import annotations
@@ -71,6 +76,7 @@ from ..localization.localizer import LocalizationParams, Localizer
 from ..localization.tail import FIRST_FRAME, tail_metrics
 from ..mapping.reference_map import ReferenceMap
 from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, log_noise_model, traverse_odometry
+from .learn_option import add_learn_options, check_learn_target
 from .options import (
     add_bag_options,
     add_camera_option,
@@ -141,6 +147,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--no-figures", action="store_true", help="do not draw trajectory.png")
     add_figure_format_option(parser)
     add_bag_options(parser)
+    add_learn_options(parser)
     parser.set_defaults(run=run)
 
 
@@ -233,6 +240,10 @@ def run(args: argparse.Namespace) -> int:
         args.survey,
     )
     check_output_path(args.out, folder=True, inputs=inputs, parents=True)  # a file in the way fails now
+    if args.learn is not None:
+        check_learn_target(args.learn, args.map, args.out, inputs, args.overwrite)
+    elif args.overwrite:
+        raise ValueError("--overwrite replaces the --learn NEW_MAP: give --learn NEW_MAP too")
     refuse_map_as_traverse(args.log, "LOG", "the map comes first: nightloc localize MAP LOG --out OUT")
     log = load_traverse(args.log, **bag_options(args))
     if "tum" in formats and log.timestamps is None:
@@ -260,9 +271,22 @@ def run(args: argparse.Namespace) -> int:
     # Checked and locked before the work; the files appear together at the end, or not at all.
     with output_set(args.out, command="localize", inputs=inputs, parents=True) as out:
         start = time.perf_counter()
-        estimates = [
-            localizer.update(frame, odometry[i]) for i, frame in log.frames(progress_desc=f"localizing {log.root.name}")
-        ]
+        frames = log.frames(progress_desc=f"localizing {log.root.name}")
+        if args.learn is None:
+            estimates = [localizer.update(frame, odometry[i]) for i, frame in frames]
+        else:
+            from ..mapping.experience import localize_night
+
+            night = localize_night(
+                ref_map,
+                (frame for _, frame in frames),
+                odometry,
+                localizer,
+                names=log.names,
+                timestamps=log.timestamps,
+                source=str(args.log),
+            )
+            estimates = list(night.estimates)
         seconds = time.perf_counter() - start
         written = []
         if "csv" in formats:
@@ -305,6 +329,11 @@ def run(args: argparse.Namespace) -> int:
                 figure_format=args.figure_format,
             )
             written.append(figure.name)
+        if args.learn is not None:
+            from ..mapping.experience import learn
+
+            learned, report = learn(ref_map, night, sections.get("learning"))
+            learned.save(args.learn, overwrite=args.overwrite)
     print(
         f"{len(estimates)} frames of {log.root} localized against {len(ref_map)} references in {duration(seconds)} "
         f"({duration(seconds / max(len(estimates), 1))} per frame)"
@@ -325,4 +354,7 @@ def run(args: argparse.Namespace) -> int:
         if tail.n:
             print(f"from frame {FIRST_FRAME} on ({tail.n} frames): {tail.line()}")
     print(f"wrote {args.out}/" + ", ".join(written))
+    if args.learn is not None:
+        unchanged = " (the map unchanged)" if learned is ref_map else ""
+        print(f"{report.line()}\nwrote {args.learn}{unchanged}")
     return 0

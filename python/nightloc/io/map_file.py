@@ -11,7 +11,10 @@ map-only tables (``localizer`` in the header and the ``filter_*`` arrays,
 :mod:`nightloc.localization.filter_tables`): what firmware without Python needs to run
 ``nightloc.Localizer(ref_map)``; their checksums are checked on loading (Python computes its own
 tables). Version 2 files (no tables) load unchanged; firmware refuses them until they are saved
-again. Version 1 files (before the teach run: no ``pose_source``, no covariances) still load, as
+again. Version 4 is an experience map (a map that learned from its nights,
+:mod:`nightloc.mapping.experience`): version 3 plus each reference's provenance
+(:mod:`nightloc.io.appearances`: the arrays ``appearance_*`` and the header's ``experience``); a map
+that learned nothing is still written as version 3. Version 1 files (before the teach run: no ``pose_source``, no covariances) still load, as
 surveyed maps. Writing goes to a temporary file in the same folder, renamed over the target, so an
 interrupted save never leaves a partial map.
 
@@ -41,6 +44,7 @@ from .kinds import ROS1_BAG, ROS2_STORAGE, path_kind
 from .video import VIDEO_SUFFIXES
 
 __all__ = [
+    "DAY_MAP_FORMAT_VERSION",
     "MAP_FORMAT",
     "MAP_FORMAT_VERSION",
     "MAX_MAP_EXPANSION",
@@ -54,7 +58,9 @@ __all__ = [
 #: The ``format`` string in every map file's header.
 MAP_FORMAT = "nightloc-reference-map"
 #: The newest map format version this nightloc reads and the one it writes.
-MAP_FORMAT_VERSION = 3
+MAP_FORMAT_VERSION = 4
+#: The version a map without learned nights is written as (what older firmware reads).
+DAY_MAP_FORMAT_VERSION = 3
 #: Where a map's poses came from: a survey (``poses.csv``), the robot's wheel odometry alone, or
 #: the teach run's pose graph (odometry corrected by the images; :mod:`nightloc.mapping`).
 POSE_SOURCES = ("surveyed", "dead-reckoned", "optimised")

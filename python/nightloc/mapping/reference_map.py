@@ -25,7 +25,9 @@ from .._core import __version__
 from .._validate import coordinates, not_masked, uint8_array
 from ..config import params_from_dict, params_to_dict
 from ..errors import DatasetError, MapFormatError, with_cli_words
+from ..io.appearances import APPEARANCE_ARRAYS, Appearances, map_fingerprint
 from ..io.map_file import (
+    DAY_MAP_FORMAT_VERSION,
     MAP_FORMAT,
     MAP_FORMAT_VERSION,
     MAX_MAP_EXPANSION,
@@ -43,6 +45,7 @@ from ..preparation.params import PreparationParams
 from ..preparation.preparer import Preparer
 
 __all__ = [
+    "DAY_MAP_FORMAT_VERSION",
     "MAP_FORMAT",
     "MAP_FORMAT_VERSION",
     "MAX_MAP_EXPANSION",
@@ -104,9 +107,12 @@ class ReferenceMap:
         pose_source: where the poses came from, one of :data:`POSE_SOURCES`.
         covariances: ``(N, 3, 3)`` float64 marginal covariance of each pose's ``(x, y, heading)``
             (m², m·rad, rad²), or None (a survey states none).
+        appearances: each reference's provenance (day map or learned night,
+            :class:`~nightloc.io.appearances.Appearances`), or None: a day map.
     """
 
     __slots__ = (
+        "_appearances",
         "_covariances",
         "_frame_size",
         "_headings",
@@ -130,12 +136,13 @@ class ReferenceMap:
         *,
         pose_source: str = "surveyed",
         covariances: Any | None = None,
+        appearances: Appearances | None = None,
     ):
         """Wraps already prepared images; see :meth:`build` to prepare a traverse.
 
         Raises TypeError/ValueError for a wrong dtype or shape, sizes that disagree with
         ``params`` (width x height), non-finite positions, headings or covariances, repeated
-        names, or an unknown ``pose_source``.
+        names, an unknown ``pose_source``, or ``appearances`` of another length.
         """
         params = PreparationParams() if params is None else params
         if not isinstance(params, PreparationParams):
@@ -187,11 +194,18 @@ class ReferenceMap:
         self._frame_size = _checked_frame_size(frame_size)
         self._pose_source = str(pose_source)
         self._covariances = None if cov is None else _frozen(cov)
+        if appearances is not None:
+            if not isinstance(appearances, Appearances):
+                raise TypeError(f"appearances must be an Appearances, got {type(appearances).__name__}")
+            if len(appearances) != n:
+                raise ValueError(f"appearances record {len(appearances)} references, the map holds {n}")
+        self._appearances = appearances
 
     def __getstate__(self) -> dict:
         return {name: getattr(self, name) for name in self.__slots__}
 
     def __setstate__(self, state: dict) -> None:
+        object.__setattr__(self, "_appearances", None)  # pickled before maps learned: a day map
         for name, value in state.items():
             if isinstance(value, np.ndarray):
                 value = _frozen(value)
@@ -238,6 +252,16 @@ class ReferenceMap:
     def covariances(self) -> np.ndarray | None:
         """``(N, 3, 3)`` marginal covariance of each pose's ``(x, y, heading)``, or None."""
         return self._covariances
+
+    @property
+    def appearances(self) -> Appearances | None:
+        """Each reference's provenance (an experience map), or None (a day map)."""
+        return self._appearances
+
+    @property
+    def fingerprint(self) -> str:
+        """SHA-256 (hex) of the references and their poses (:func:`~nightloc.io.appearances.map_fingerprint`)."""
+        return map_fingerprint(self._images, self._positions, self._headings)
 
     @property
     def camera(self) -> str:
@@ -295,6 +319,7 @@ class ReferenceMap:
             and np.array_equal(self._images, other._images)
             and np.array_equal(self._positions, other._positions)
             and same_headings
+            and self._appearances == other._appearances
         )
 
     __hash__ = None  # type: ignore[assignment]
@@ -367,6 +392,14 @@ class ReferenceMap:
             raise ValueError(f"match takes one frame, got a stack of shape {query.shape}; loop over its frames")
         return match(query, self._images, shifts=self._params.shifts, threads=threads)
 
+    def learn(self, night: Any, params: Any = None) -> tuple[ReferenceMap, Any]:
+        """This map plus what a localized night taught it, and a report
+        (:func:`nightloc.mapping.experience.learn`; ``night`` from
+        :func:`~nightloc.mapping.experience.localize_night` over this map). This map is unchanged."""
+        from .experience import learn  # experience builds on this module
+
+        return learn(self, night, params)
+
     # --- files
 
     def _header(self, localizer: dict[str, Any], tables: dict[str, np.ndarray]) -> dict[str, Any]:
@@ -376,9 +409,12 @@ class ReferenceMap:
         if self._covariances is not None:
             checksums["covariances"] = _sha256(self._covariances)
         checksums.update((name, _sha256(array)) for name, array in tables.items())
-        return {
+        experience = self._appearances
+        if experience is not None:
+            checksums.update((name, _sha256(array)) for name, array in experience.to_arrays().items())
+        header = {
             "format": MAP_FORMAT,
-            "format_version": MAP_FORMAT_VERSION,
+            "format_version": DAY_MAP_FORMAT_VERSION if experience is None else MAP_FORMAT_VERSION,
             "nightloc_version": __version__,
             "count": len(self),
             "image_shape": [self._params.height, self._params.width],
@@ -391,6 +427,9 @@ class ReferenceMap:
             "checksums": checksums,
             "localizer": localizer,
         }
+        if experience is not None:
+            header["experience"] = experience.to_json()
+        return header
 
     def save(self, path: PathLike, *, overwrite: bool = False) -> Path:
         """Writes the map to one file atomically (temporary file in the same folder, then rename).
@@ -415,6 +454,8 @@ class ReferenceMap:
         if self._covariances is not None:
             arrays["covariances"] = self._covariances
         arrays.update(tables)
+        if self._appearances is not None:
+            arrays.update(self._appearances.to_arrays())
         write_map_file(target, self._header(localizer, tables), arrays, overwrite=overwrite)
         return target
 
@@ -460,7 +501,10 @@ class ReferenceMap:
             raise MapFormatError(f"{file}: the header's checksums are not a table (corrupt file)")
         if isinstance(count, bool) or not isinstance(count, int) or count < 1:
             raise MapFormatError(f"{file}: the header's image count {count!r} is not a positive integer")
+        experience = header.get("experience") if version >= 4 else None
+        learned = APPEARANCE_ARRAYS if experience is not None else ()
         optional = tuple(name for name in ("headings", "covariances") if name in checksums or name in arrays)
+        optional += learned
         pose_source = header.get("pose_source", "surveyed") if version >= 2 else "surveyed"
         if pose_source not in POSE_SOURCES:
             raise MapFormatError(
@@ -508,6 +552,7 @@ class ReferenceMap:
                 f"{file}: the header's camera {camera!r} contradicts its parameters (wrap = {map_params.wrap}): corrupt"
             )
         try:
+            appearances = None if experience is None else Appearances.from_file(experience, arrays, count)
             return cls(
                 np.ascontiguousarray(images),
                 arrays["positions"],
@@ -518,6 +563,7 @@ class ReferenceMap:
                 frame_size=frame_size,
                 pose_source=pose_source,
                 covariances=arrays.get("covariances"),
+                appearances=appearances,
             )
         except (TypeError, ValueError) as error:
             raise MapFormatError(f"{file}: inconsistent map contents: {error}") from None

@@ -1,0 +1,504 @@
+"""Experience maps: a map that learns from its nights (docs/experience_maps.md).
+
+Day-to-night matching is hard, night-to-night matching easy: a robot that runs every night keeps
+the frames it localized confidently and matches the next night against them too.
+
+::
+
+    night = localize_night(day_map, load_traverse("night1"), odometry)   # the localizer's run
+    new_map, report = learn(day_map, night)                               # or day_map.learn(night)
+    print(report.line())
+    new_map.save("night1.map")
+
+What is learned (:class:`LearningParams`, TOML ``[learning]``):
+
+* **Only what is trusted.** A frame is learned only after the belief has settled: its confidence
+  is at least ``min_confidence`` and its credible radius at most ``max_credible_radius`` metres,
+  and so were the ``settled_frames - 1`` frames before it. A run that never settles adds nothing
+  (the report says so).
+* **Appearances of places.** A place is a distinct reference position (several references at
+  one position form one place, :class:`~nightloc.localization.heatmap.HeatMapper`; the filter and
+  the heat map score a place by the best of its references). A trusted frame within
+  ``attach_fraction`` x the day map's place spacing (the median distance from a place to its
+  nearest neighbour) of a place belongs to that place (for a forward camera, to the view of it
+  whose heading is within ``heading_tolerance`` degrees). Per place view and night, the frame
+  nearest to the place is its candidate; it becomes another appearance of the place, stored at
+  the place's position (a learned pose that is slightly wrong does not blur the heat map), when
+  tonight's look is *new* there: for every frame of the night belonging to the place, the best of
+  the place's appearances scores above ``novelty`` x the frame's median score over the whole map
+  (the score the filter scales its likelihood by). A frame with no place
+  within ``gap_fraction`` x the spacing fills a gap: a new place at the localizer's pose.
+* **Usefulness.** Every trusted frame that belongs to a place counts one match for the place's
+  appearance that scored best against it (:attr:`~nightloc.io.appearances.Appearances.matches`).
+* **A cap per place.** A place view holds at most ``max_learned`` learned appearances; beyond,
+  the least useful learned one goes: the fewest matches, ties the oldest night, then the lowest
+  confidence. The day map's references (survey or teach run) are never evicted, nor the
+  appearance just learned.
+* **Provenance.** Each reference records its night (0: the day map), confidence, time and match
+  count (:class:`~nightloc.io.appearances.Appearances`); the map's header lists the nights learned.
+
+A night is learned only into the map it was localized against (the map's
+:attr:`~nightloc.ReferenceMap.fingerprint`), so frames of another camera or another world never
+enter a map.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..config import params_section
+from ..errors import MapFormatError
+from ..io.appearances import Appearances, LearnedNight
+from .reference_map import ReferenceMap
+from ..localization.localizer import Estimate, Localizer
+from ..localization.odometry import wrap_angle
+from ..matching.sad import match
+from ..preparation.params import PreparationParams
+
+__all__ = ["LearningParams", "LearningReport", "LocalizedNight", "learn", "localize_night", "trusted_frames"]
+
+#: The place spacing assumed for a map of a single place (metres).
+_SINGLE_PLACE_SPACING = 1.0
+
+
+@params_section("learning")
+@dataclass(frozen=True)
+class LearningParams:
+    """What a night may teach a map (TOML ``[learning]``; defaults from the sweep in
+    docs/experience_maps.md).
+
+    Attributes:
+        min_confidence: a frame is trusted when the localizer's confidence is at least this (0..1).
+        max_credible_radius: ... and its credible radius at most this, metres.
+        settled_frames: ... and so were the frames before it: this many in a row (>= 1).
+        attach_fraction: a frame belongs to a place within this fraction of the day map's place
+            spacing (median nearest-neighbour distance between places).
+        gap_fraction: a frame with no place within this fraction of the spacing becomes a new
+            place (>= attach_fraction); frames in between are not learned.
+        heading_tolerance: degrees; a forward camera's frame belongs to a place's view of the
+            nearest heading within this (panoramas: any heading).
+        novelty: a place learns tonight's look when, for each of tonight's frames belonging to it,
+            the best of its appearances scores above this fraction of the frame's median score
+            over the map (0: always, a large value: never).
+        max_learned: learned appearances kept per place view (>= 1).
+    """
+
+    min_confidence: float = 0.8
+    max_credible_radius: float = 0.75
+    settled_frames: int = 5
+    attach_fraction: float = 0.5
+    gap_fraction: float = 1.0
+    heading_tolerance: float = 45.0
+    novelty: float = 0.5
+    max_learned: int = 3
+
+    def validate(self) -> None:
+        if not 0.0 <= self.min_confidence <= 1.0:
+            raise ValueError(f"min_confidence must be in [0, 1], got {self.min_confidence}")
+        if not (self.max_credible_radius > 0 and math.isfinite(self.max_credible_radius)):
+            raise ValueError(f"max_credible_radius must be a positive number of metres, got {self.max_credible_radius}")
+        if self.settled_frames < 1:
+            raise ValueError(f"settled_frames must be >= 1, got {self.settled_frames}")
+        if not 0.0 < self.attach_fraction <= self.gap_fraction < math.inf:
+            raise ValueError(
+                f"need 0 < attach_fraction <= gap_fraction (finite), got {self.attach_fraction} and {self.gap_fraction}"
+            )
+        if not 0.0 < self.heading_tolerance <= 180.0:
+            raise ValueError(f"heading_tolerance must be in (0, 180] degrees, got {self.heading_tolerance}")
+        if not (self.novelty >= 0 and math.isfinite(self.novelty)):
+            raise ValueError(f"novelty must be a finite number >= 0, got {self.novelty}")
+        if self.max_learned < 1:
+            raise ValueError(f"max_learned must be >= 1, got {self.max_learned}")
+
+
+@dataclass(frozen=True, eq=False)
+class LocalizedNight:
+    """A night log localized against a map: what :func:`learn` learns from.
+
+    Attributes:
+        images: ``(M, Ry, Rx)`` uint8, the frames prepared with the map's parameters.
+        estimates: the localizer's M estimates (the grid filter's: confidence and credible radius).
+        score_medians: ``(M,)`` float64, each frame's median over the map's references of its
+            minimum score (eq. 3): the scale novelty is judged on.
+        names: the M frame names; ``timestamps``: ``(M,)`` seconds or None.
+        source: the log (a path), for the map's history.
+        map_fingerprint: :attr:`ReferenceMap.fingerprint` of the map it was localized against.
+        params: the preparation parameters of ``images``.
+    """
+
+    images: np.ndarray
+    estimates: tuple[Estimate, ...]
+    score_medians: np.ndarray
+    names: tuple[str, ...]
+    timestamps: np.ndarray | None
+    source: str
+    map_fingerprint: str
+    params: PreparationParams
+
+    def __len__(self) -> int:
+        return len(self.estimates)
+
+
+def localize_night(
+    ref_map: ReferenceMap,
+    frames: Iterable[np.ndarray],
+    odometry: Sequence[object] | None = None,
+    localizer: Localizer | None = None,
+    *,
+    names: Sequence[str] | None = None,
+    timestamps: Sequence[float] | np.ndarray | None = None,
+    source: str = "",
+) -> LocalizedNight:
+    """Runs the grid filter over a night's frames, keeping what :func:`learn` needs.
+
+    Args:
+        ref_map: the map.
+        frames: raw camera frames (prepared here with the map's parameters).
+        odometry: one motion per frame (see :meth:`Localizer.update`), or None: all unknown.
+        localizer: a filter :class:`Localizer` over ``ref_map`` (default ``Localizer(ref_map)``);
+            it is reset first.
+        names, timestamps, source: the log's frame names, times (seconds) and path.
+    """
+    loc = Localizer(ref_map) if localizer is None else localizer
+    if loc.ref_map is not ref_map and loc.ref_map != ref_map:
+        raise ValueError("the localizer runs over another map than ref_map")
+    if loc.method != "filter":
+        raise ValueError("learning needs the grid filter's confidence: a Localizer with method='filter'")
+    loc.reset()
+    preparer = ref_map.preparer
+    images, estimates, medians = [], [], []
+    for k, frame in enumerate(frames):
+        prepared = preparer.prepare(frame)
+        table = loc.score_table(prepared, prepared=True)
+        motion = None if odometry is None else odometry[k]
+        estimates.append(loc.update_table(table, motion))
+        images.append(prepared)
+        medians.append(float(np.median(table.min(axis=1))))
+    m = len(estimates)
+    if names is None:
+        names = [f"{k:06d}" for k in range(m)]
+    if len(names) != m:
+        raise ValueError(f"{len(names)} names for {m} frames")
+    times = None if timestamps is None else np.asarray(timestamps, dtype=np.float64)
+    if times is not None and times.shape != (m,):
+        raise ValueError(f"timestamps must be ({m},) seconds, got shape {times.shape}")
+    shape = (0, ref_map.params.height, ref_map.params.width)
+    return LocalizedNight(
+        np.stack(images) if images else np.zeros(shape, np.uint8),
+        tuple(estimates),
+        np.asarray(medians, dtype=np.float64),
+        tuple(names),
+        times,
+        str(source),
+        ref_map.fingerprint,
+        ref_map.params,
+    )
+
+
+def trusted_frames(estimates: Sequence[Estimate], params: LearningParams) -> np.ndarray:
+    """``(M,)`` bool: the frames learned from (confident, tight, after the belief settled)."""
+    good = np.array(
+        [
+            math.isfinite(e.confidence)
+            and e.confidence >= params.min_confidence
+            and math.isfinite(e.credible_radius)
+            and e.credible_radius <= params.max_credible_radius
+            and math.isfinite(e.x)
+            and math.isfinite(e.y)
+            for e in estimates
+        ],
+        dtype=bool,
+    )
+    run = 0
+    trusted = np.zeros_like(good)
+    for k, ok in enumerate(good):
+        run = run + 1 if ok else 0
+        trusted[k] = run >= params.settled_frames
+    return trusted
+
+
+@dataclass(frozen=True)
+class LearningReport:
+    """What a night taught a map.
+
+    Attributes:
+        night: the night's number in the map's line (0: nothing was learned).
+        frames: frames of the night; ``trusted``: those learned from; ``first_trusted``: the
+            first of them (None: the belief never settled).
+        attached: trusted frames that belong to a place; ``known``: places that had a look like
+            tonight's already (nothing learned there).
+        appearances: appearances added to places; ``places``: new places; ``evicted``: learned
+            appearances evicted by the cap.
+        places_before: places of the map before learning; ``references``: references after.
+    """
+
+    night: int
+    frames: int
+    trusted: int
+    first_trusted: int | None
+    attached: int
+    known: int
+    appearances: int
+    places: int
+    evicted: int
+    places_before: int
+    references: int
+
+    @property
+    def growth(self) -> float:
+        """References added (appearances and new places, less evictions) per place before."""
+        return (self.appearances + self.places - self.evicted) / max(self.places_before, 1)
+
+    def line(self) -> str:
+        """One line for a person."""
+        if self.first_trusted is None:
+            return (
+                f"learned nothing: the localizer never settled on a confident pose in {self.frames} frames "
+                f"(see [learning] min_confidence, max_credible_radius, settled_frames)"
+            )
+        return (
+            f"night {self.night}: {self.trusted} of {self.frames} frames trusted (from frame {self.first_trusted}); "
+            f"{self.appearances} appearances added to places, {self.places} new places, {self.known} already known, "
+            f"{self.evicted} evicted by the cap; {self.references} references "
+            f"({100 * self.growth:+.1f} % of {self.places_before} places)"
+        )
+
+
+def _places(positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distinct positions ``(P, 2)`` and the place of each reference ``(N,)`` (as the heat map groups them)."""
+    places, inverse = np.unique(np.round(positions, 9), axis=0, return_inverse=True)
+    return places, np.asarray(inverse).ravel()
+
+
+def place_spacing(positions: np.ndarray) -> float:
+    """Median distance (metres) from a place to its nearest neighbouring place."""
+    places, _ = _places(positions)
+    if len(places) < 2:
+        return _SINGLE_PLACE_SPACING
+    distances, _ = cKDTree(places).query(places, k=2)
+    return float(np.median(distances[:, 1]))
+
+
+def _check_night(ref_map: ReferenceMap, night: LocalizedNight) -> None:
+    if not isinstance(night, LocalizedNight):
+        raise TypeError(f"night must be a LocalizedNight (localize_night), got {type(night).__name__}")
+    if night.params != ref_map.params:
+        different = ", ".join(night.params.differences(ref_map.params))
+        raise MapFormatError(
+            f"the night's frames were prepared with other parameters than the map's ({different}): a map of "
+            f"another camera; localize the night against this map to learn from it"
+        )
+    if night.map_fingerprint != ref_map.fingerprint:
+        raise MapFormatError(
+            f"the night was localized against another map (fingerprint {night.map_fingerprint[:12]}, this map "
+            f"{ref_map.fingerprint[:12]}): a night is learned only into the map it was localized against; "
+            f"localize it against this map first (nightloc localize MAP LOG --out RUN --learn NEW_MAP)"
+        )
+    shape = (len(night), ref_map.params.height, ref_map.params.width)
+    if night.images.shape != shape or night.score_medians.shape != (len(night),) or len(night.names) != len(night):
+        raise ValueError(f"the night's arrays disagree: images {night.images.shape}, expected {shape}")
+
+
+def learn(
+    ref_map: ReferenceMap, night: LocalizedNight, params: LearningParams | None = None
+) -> tuple[ReferenceMap, LearningReport]:
+    """The map plus what ``night`` taught (see the module docstring); ``ref_map`` is unchanged.
+
+    Returns the new map (``ref_map`` itself when nothing was trusted) and a :class:`LearningReport`.
+
+    Raises:
+        MapFormatError: the night was localized against another map, or prepared otherwise.
+    """
+    params = LearningParams() if params is None else params
+    if not isinstance(params, LearningParams):
+        raise TypeError(f"params must be a LearningParams, got {type(params).__name__}")
+    _check_night(ref_map, night)
+    record = ref_map.appearances or Appearances.day(len(ref_map), ref_map.fingerprint)
+    trusted = trusted_frames(night.estimates, params)
+    places, place_of_ref = _places(ref_map.positions)
+    n_places = len(places)
+    if not trusted.any():
+        report = LearningReport(0, len(night), 0, None, 0, 0, 0, 0, 0, n_places, len(ref_map))
+        return ref_map, report
+    number = len(record.nights) + 1
+    spacing = place_spacing(ref_map.positions[record.night == 0])
+    attach, gap = params.attach_fraction * spacing, params.gap_fraction * spacing
+    forward = not ref_map.params.wrap and ref_map.headings is not None
+    tolerance = math.radians(params.heading_tolerance)
+    headings = ref_map.headings
+
+    def view_of(place: int, heading: float) -> tuple[int, float] | None:
+        """The place view a frame of ``heading`` belongs to (forward: nearest heading in tolerance)."""
+        if not forward:
+            return (place, 0.0)
+        assert headings is not None
+        members = np.flatnonzero(place_of_ref == place)
+        views = np.unique(np.round(headings[members], 9))
+        gaps = np.abs(wrap_angle(views - heading))
+        k = int(np.argmin(gaps))
+        return (place, float(views[k])) if gaps[k] <= tolerance else None
+
+    def view_refs(view: tuple[int, float]) -> np.ndarray:
+        members = place_of_ref == view[0]
+        if forward:
+            assert headings is not None
+            members &= np.round(headings, 9) == view[1]
+        return np.flatnonzero(members)
+
+    tree = cKDTree(places)
+    new_places: list[int] = []  # frames that became new places
+    attached: dict[tuple[int, float], list[int]] = {}
+    for k in np.flatnonzero(trusted):
+        e = night.estimates[k]
+        distance, place = tree.query((e.x, e.y))
+        if new_places:
+            new_xy = np.array([(night.estimates[f].x, night.estimates[f].y) for f in new_places])
+            nearest_new = float(np.min(np.hypot(*(new_xy - (e.x, e.y)).T)))
+            if nearest_new < distance:
+                if nearest_new >= gap:
+                    new_places.append(int(k))
+                continue  # near a place of this night: it holds this night's look already
+        if distance <= attach:
+            view = view_of(int(place), e.heading)
+            if view is not None:
+                attached.setdefault(view, []).append(int(k))
+        elif distance >= gap:
+            new_places.append(int(k))
+
+    matches = record.matches.copy()
+    learned: list[tuple[tuple[int, float], int, int]] = []  # (view, frame, best appearance)
+    known = 0
+    shifts = ref_map.params.shifts
+    for target, frames in attached.items():
+        refs = view_refs(target)
+        spot = places[target[0]]
+        candidate = min(frames, key=lambda f: (_distance(night.estimates[f], spot), -night.estimates[f].confidence))
+        seen, best_of_candidate = False, -1
+        for f in frames:
+            result = match(night.images[f], ref_map.images[refs], shifts=shifts, threads=1)
+            matches[refs[result.index]] += 1
+            seen |= bool(result.score <= params.novelty * night.score_medians[f])
+            if f == candidate:
+                best_of_candidate = int(refs[result.index])
+        if seen:
+            known += 1  # the place has a look like tonight's already
+        else:
+            learned.append((target, candidate, best_of_candidate))
+
+    # the cap: evict the least useful learned appearances of each view that would overflow
+    night_of = record.night
+    evict: list[int] = []
+    for view, _, _ in learned:
+        refs = view_refs(view)
+        old = [int(r) for r in refs if night_of[r] > 0]
+        excess = len(old) + 1 - params.max_learned
+        if excess > 0:
+            order = sorted(old, key=lambda r: (matches[r], night_of[r], record.confidence[r], r))
+            evict.extend(order[:excess])
+    keep = np.setdiff1d(np.arange(len(ref_map)), np.asarray(evict, dtype=np.int64))
+
+    images = [ref_map.images[keep]]
+    positions = [ref_map.positions[keep]]
+    heads = None if headings is None else [headings[keep]]
+    covs = None if ref_map.covariances is None else [ref_map.covariances[keep]]
+    names = [ref_map.names[i] for i in keep]
+    taken = set(names)
+    added = record.subset(keep)
+    new_night, new_conf, new_time = [], [], []
+
+    def add(frame: int, position: np.ndarray, heading: float, covariance: np.ndarray | None) -> None:
+        e = night.estimates[frame]
+        images.append(night.images[frame][None])
+        positions.append(np.asarray(position, dtype=np.float64)[None])
+        if heads is not None:
+            heads.append(np.array([heading]))
+        if covs is not None and covariance is not None:
+            covs.append(covariance[None])
+        name = f"night{number}/{night.names[frame]}"
+        while name in taken:
+            name += "'"
+        taken.add(name)
+        names.append(name)
+        new_night.append(number)
+        new_conf.append(min(max(float(e.confidence), 0.0), 1.0))
+        new_time.append(math.nan if night.timestamps is None else float(night.timestamps[frame]))
+
+    for view, f, best in learned:
+        e = night.estimates[f]
+        heading = view[1] if forward else _frame_heading(e, ref_map, night, f, best)
+        cov = None if ref_map.covariances is None else ref_map.covariances[best]
+        add(f, ref_map.positions[best], heading, cov)
+    for f in new_places:
+        e = night.estimates[f]
+        best = int(match(night.images[f], ref_map.images, shifts=shifts, threads=1).index)
+        heading = e.heading if math.isfinite(e.heading) else _frame_heading(e, ref_map, night, f, best)
+        cov = None
+        if ref_map.covariances is not None:
+            cov = np.zeros((3, 3))
+            cov[:2, :2] = np.asarray(e.covariance) if e.covariance is not None else np.eye(2) * e.credible_radius**2
+            cov[2, 2] = (math.pi / ref_map.params.width) ** 2
+        add(f, np.array([e.x, e.y]), heading, cov)
+
+    history = LearnedNight(
+        number,
+        night.source,
+        dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        len(night),
+        int(trusted.sum()),
+        len(learned),
+        len(new_places),
+        len(evict),
+    )
+    appearances = Appearances(
+        np.concatenate([added.night, np.asarray(new_night, np.int32)]),
+        np.concatenate([added.confidence, np.asarray(new_conf, np.float64)]),
+        np.concatenate([added.time, np.asarray(new_time, np.float64)]),
+        np.concatenate([matches[keep], np.zeros(len(new_night), np.int64)]),
+        (*record.nights, history),
+        record.day_fingerprint,
+    )
+    new_map = ReferenceMap(
+        np.concatenate(images),
+        np.concatenate(positions),
+        None if heads is None else np.concatenate(heads),
+        names,
+        ref_map.params,
+        ref_map.source,
+        ref_map.frame_size,
+        pose_source=ref_map.pose_source,
+        covariances=None if covs is None else np.concatenate(covs),
+        appearances=appearances,
+    )
+    first = int(np.flatnonzero(trusted)[0])
+    report = LearningReport(
+        number,
+        len(night),
+        int(trusted.sum()),
+        first,
+        sum(len(f) for f in attached.values()),
+        known,
+        len(learned),
+        len(new_places),
+        len(evict),
+        n_places,
+        len(new_map),
+    )
+    return new_map, report
+
+
+def _distance(estimate: Estimate, place: np.ndarray) -> float:
+    return math.hypot(estimate.x - float(place[0]), estimate.y - float(place[1]))
+
+
+def _frame_heading(estimate: Estimate, ref_map: ReferenceMap, night: LocalizedNight, frame: int, ref: int) -> float:
+    """A learned frame's heading: the localizer's, else the reference's plus the panoramic shift."""
+    if math.isfinite(estimate.heading) or ref_map.headings is None:
+        return float(estimate.heading) if math.isfinite(estimate.heading) else 0.0
+    result = match(night.images[frame], ref_map.images[ref : ref + 1], shifts=ref_map.params.shifts, threads=1)
+    return float(wrap_angle(ref_map.headings[ref] + result.headings[0]))

@@ -1,0 +1,224 @@
+"""Experience maps: what a localized night adds to a map (appearances, new places, the cap)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+import nightloc
+from nightloc.errors import MapFormatError
+from nightloc.io.appearances import Appearances
+from nightloc.localization.heatmap import HeatMapper
+from nightloc.localization.localizer import Estimate
+from nightloc.mapping.experience import (
+    LearningParams,
+    LocalizedNight,
+    learn,
+    place_spacing,
+    trusted_frames,
+)
+
+from oracle import rotational_sad
+
+SHAPE = (24, 48)
+
+
+def _day_map(seed: int = 0) -> nightloc.ReferenceMap:
+    """12 places on a 1 m grid (4 x 3), random prepared images, heading 0."""
+    rng = np.random.default_rng(seed)
+    xs, ys = np.meshgrid(np.arange(4.0), np.arange(3.0))
+    positions = np.column_stack([xs.ravel(), ys.ravel()])
+    images = rng.integers(0, 256, (len(positions), *SHAPE), dtype=np.uint8)
+    return nightloc.ReferenceMap(images, positions, np.zeros(len(positions)), source="day")
+
+
+def _estimate(x: float, y: float, confidence: float = 0.95, radius: float = 0.2, heading: float = 0.1) -> Estimate:
+    return Estimate(x, y, heading, 0, confidence, 10, 0, 0.0, credible_radius=radius, method="filter")
+
+
+def _night(ref_map, images, poses, confidence=0.95, radius=0.2, source="night") -> LocalizedNight:
+    """A night of prepared ``images`` at ``poses`` (x, y), its score medians from the numpy oracle."""
+    images = np.asarray(images, dtype=np.uint8)
+    medians = [float(np.median(rotational_sad(q, ref_map.images, range(SHAPE[1])).min(axis=1))) for q in images]
+    estimates = tuple(_estimate(x, y, confidence, radius) for x, y in poses)
+    return LocalizedNight(
+        images,
+        estimates,
+        np.asarray(medians),
+        tuple(f"{k:06d}.png" for k in range(len(images))),
+        np.arange(len(images), dtype=np.float64) * 0.5 + 1.0,
+        source,
+        ref_map.fingerprint,
+        ref_map.params,
+    )
+
+
+def _settled(poses_after):
+    """Five frames at (0, 0) then ``poses_after``: with ``settled_frames=5`` the fifth frame is the
+    first trusted (the run of five confident frames counts it)."""
+    return [(0.0, 0.0)] * 5 + list(poses_after)
+
+
+def test_trusted_frames_need_a_settled_run_of_confident_tight_frames():
+    params = LearningParams(min_confidence=0.8, max_credible_radius=0.5, settled_frames=3)
+    conf = [0.9, 0.9, 0.9, 0.9, 0.5, 0.9, 0.9, 0.9, 0.9, 0.9]
+    radius = [0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.9, 0.1, 0.1]
+    estimates = [_estimate(0, 0, c, r) for c, r in zip(conf, radius)]
+    expected = [False, False, True, True, False, False, False, False, False, False]
+    assert trusted_frames(estimates, params).tolist() == expected
+    assert trusted_frames([_estimate(0, 0, 0.9, math.nan)] * 6, params).tolist() == [False] * 6
+
+
+def test_place_spacing_is_the_median_nearest_neighbour_distance():
+    positions = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [3.0, 0.0], [3.0, 2.0]])
+    # places (0,0) (1,0) (3,0) (3,2): nearest 1, 1, 2, 2 -> median 1.5
+    assert place_spacing(positions) == pytest.approx(1.5)
+
+
+def test_a_new_look_becomes_an_appearance_at_the_place_and_a_gap_a_new_place():
+    day = _day_map()
+    rng = np.random.default_rng(1)
+    night_look = rng.integers(0, 256, (8, *SHAPE), dtype=np.uint8)
+    # frames 0-4 at place (0, 0), frame 4 the first trusted; 5 is 0.2 m off place (2, 1); 6 is 0.45 m
+    # off (3, 2), within half the 1 m spacing: both belong to their places; 7 lies 4 m beyond the map: a gap.
+    poses = _settled([(2.2, 1.0), (3.0, 2.45), (7.0, 1.0)])
+    night = _night(day, night_look, poses)
+    new, report = learn(day, night)
+    assert len(day) == 12 and day.appearances is None  # the day map is unchanged
+    assert report.trusted == 4 and report.first_trusted == 4 and report.places == 1
+    # candidates: the frame nearest each place: (0,0) frame 4, (2,1) frame 5, (3,2) frame 6
+    assert report.appearances == 3 and report.known == 0 and report.evicted == 0
+    assert len(new) == 12 + 4
+    learned = new.positions[12:]
+    np.testing.assert_array_equal(learned[:3], [[0.0, 0.0], [2.0, 1.0], [3.0, 2.0]])  # at the places, exactly
+    np.testing.assert_array_equal(learned[3], [7.0, 1.0])  # the gap's new place at the localizer's pose
+    np.testing.assert_array_equal(new.images[12:15], night_look[[4, 5, 6]])
+    assert new.names[12:] == ("night1/000004.png", "night1/000005.png", "night1/000006.png", "night1/000007.png")
+    rec = new.appearances
+    assert rec.night.tolist() == [0] * 12 + [1] * 4
+    assert rec.origins("surveyed")[:1] == ["survey"] and rec.origins("surveyed")[-1] == "learned"
+    np.testing.assert_array_equal(rec.time[12:], [3.0, 3.5, 4.0, 4.5])
+    assert rec.nights[0].night == 1 and rec.nights[0].trusted == 4 and rec.nights[0].places == 1
+    assert rec.day_fingerprint == day.fingerprint
+    # the heat map groups an appearance with its place: one place more (the gap), not four
+    assert len(np.unique(HeatMapper(new.positions).place_of_ref)) == 13
+    # every trusted frame near a place counted one match for the place's best (only) appearance
+    assert rec.matches[0] == 1 and rec.matches[6] == 1 and rec.matches[11] == 1 and rec.matches[12:].sum() == 0
+
+
+def test_learning_the_same_night_again_adds_nothing():
+    day = _day_map()
+    rng = np.random.default_rng(2)
+    poses = _settled([(x + 0.1, y) for x in range(4) for y in range(3)])
+    images = rng.integers(0, 256, (len(poses), *SHAPE), dtype=np.uint8)
+    once, first = learn(day, _night(day, images, poses))
+    assert first.appearances == 12
+    twice, second = learn(once, _night(once, images, poses))
+    assert second.appearances == 0 and second.places == 0 and second.known == 12
+    assert len(twice) == len(once) and second.growth == 0.0
+    # the learned looks were the best match of their frames this time
+    assert twice.appearances.matches[12:].sum() >= 12
+    assert [n.night for n in twice.appearances.nights] == [1, 2]
+
+
+def test_a_frame_like_the_day_image_is_known_and_not_learned():
+    day = _day_map()
+    images = np.repeat(day.images[:1], 6, axis=0)  # the day's own look of place (0, 0)
+    new, report = learn(day, _night(day, images, [(0.0, 0.0)] * 6))
+    assert report.known == 1 and report.appearances == 0 and len(new) == len(day)
+    assert new.appearances.matches[0] == 2  # frames 4 and 5 (the settled ones) matched it
+
+
+def test_the_cap_evicts_the_least_matched_learned_appearance_never_the_day_one():
+    day = _day_map()
+    rng = np.random.default_rng(3)
+    params = LearningParams(max_learned=2)
+    current = day
+    looks = []
+    for k in range(3):  # three nights, each a new look of place (1, 1)
+        # night 1's look (black) is never the best match of later frames: it is the least useful
+        look = np.zeros((1, *SHAPE), np.uint8) if k == 0 else rng.integers(0, 256, (1, *SHAPE), dtype=np.uint8)
+        looks.append(look[0])
+        images = np.repeat(look, 5, axis=0)
+        current, report = learn(current, _night(current, images, [(1.0, 1.0)] * 5), params)
+    rec = current.appearances
+    at_place = np.flatnonzero((current.positions == (1.0, 1.0)).all(axis=1))
+    assert rec.night[at_place].tolist() == [0, 2, 3]  # night 1's look was matched least (ties: oldest) and went
+    assert report.evicted == 1 and current.appearances.nights[2].evicted == 1
+    np.testing.assert_array_equal(current.images[at_place[1:]], looks[1:])
+
+
+def test_a_night_that_never_settles_adds_nothing():
+    day = _day_map()
+    images = np.zeros((6, *SHAPE), np.uint8)
+    new, report = learn(day, _night(day, images, [(0.0, 0.0)] * 6, confidence=0.3))
+    assert new is day and report.trusted == 0 and report.first_trusted is None
+    assert "learned nothing" in report.line() and "never settled" in report.line()
+
+
+def test_a_night_of_another_map_or_camera_is_refused():
+    day, other = _day_map(0), _day_map(5)
+    night = _night(other, other.images[:6], [(0.0, 0.0)] * 6)
+    with pytest.raises(MapFormatError, match="localized against another map"):
+        learn(day, night)
+    forward = dataclasses.replace(night, params=nightloc.PreparationParams(wrap=False), map_fingerprint=day.fingerprint)
+    with pytest.raises(MapFormatError, match="other parameters"):
+        learn(day, forward)
+
+
+def test_experience_map_round_trips_as_format_4_and_a_day_map_stays_format_3(tmp_path):
+    import json
+    import zipfile
+
+    day = _day_map()
+    rng = np.random.default_rng(4)
+    new, _ = learn(day, _night(day, rng.integers(0, 256, (6, *SHAPE), dtype=np.uint8), [(0.0, 0.0)] * 6))
+    day_file, new_file = day.save(tmp_path / "day.map"), new.save(tmp_path / "new.map")
+    for file, version in ((day_file, 3), (new_file, 4)):
+        with zipfile.ZipFile(file) as archive:
+            header = json.loads(np.load(archive.open("header.npy")).tobytes())
+        assert header["format_version"] == version
+    loaded = nightloc.ReferenceMap.load(new_file)
+    assert loaded == new and isinstance(loaded.appearances, Appearances)
+    assert loaded.appearances.nights == new.appearances.nights
+    assert nightloc.ReferenceMap.load(day_file).appearances is None
+
+
+def test_learning_params_are_checked():
+    with pytest.raises(ValueError, match="attach_fraction"):
+        LearningParams(attach_fraction=2.0, gap_fraction=1.0)
+    with pytest.raises(ValueError, match="max_learned"):
+        LearningParams(max_learned=0)
+
+
+def test_a_damaged_experience_record_is_refused(tmp_path):
+    import json
+
+    day = _day_map()
+    rng = np.random.default_rng(6)
+    new, _ = learn(day, _night(day, rng.integers(0, 256, (6, *SHAPE), dtype=np.uint8), [(0.0, 0.0)] * 6))
+    file = new.save(tmp_path / "new.map")
+    with np.load(file) as archive:
+        arrays = {name: archive[name] for name in archive.files}
+    header = json.loads(arrays["header"].tobytes())
+    header["experience"]["nights"] = []  # a learned appearance of night 1, but no night in the history
+    arrays["header"] = np.frombuffer(json.dumps(header).encode(), np.uint8)
+    with open(tmp_path / "bad.map", "wb") as stream:
+        np.savez(stream, **arrays)
+    with pytest.raises(MapFormatError, match="night 1 but the history lists 0 nights"):
+        nightloc.ReferenceMap.load(tmp_path / "bad.map")
+
+
+def test_a_map_pickled_before_experience_maps_unpickles_as_a_day_map():
+    import pickle
+
+    day = _day_map()
+    state = day.__getstate__()
+    del state["_appearances"]
+    old = object.__new__(nightloc.ReferenceMap)
+    old.__setstate__(state)
+    assert old.appearances is None and old == day
+    assert pickle.loads(pickle.dumps(day)) == day
