@@ -46,6 +46,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("motion",),
     ("mapping",),
     ("localization", "route"),
+    ("experience",),
     ("synth",),
     ("studies",),
     ("figures",),

@@ -32,9 +32,9 @@ from pathlib import Path
 import numpy as np
 
 import nightloc
+from nightloc.experience.learning import LearningParams, learn, localize_night
 from nightloc.localization.evaluation import EvaluationSettings, match_traverse, simulated_odometry
 from nightloc.localization.tail import tail_metrics
-from nightloc.mapping.experience import LearningParams, learn, localize_night
 from nightloc.synth.dataset import SYNTH_WHEEL_NOISE, SynthScene
 from nightloc.synth.paths import TraversePlan, plan_traverses, wrap_angle
 
@@ -239,7 +239,7 @@ def sweep(labels: list[str], cache: Path) -> None:
         matches = match_traverse(day, test, tables=True, odometry=True)
         for params in grid:
             new, report = learn(day, run, params)
-            trusted = nightloc.mapping.experience.trusted_frames(run.estimates, params)
+            trusted = nightloc.experience.learning.trusted_frames(run.estimates, params)
             p95 = float(np.percentile(errors[trusted], 95)) if trusted.any() else float("nan")
             medians = []
             if new is not day:

@@ -16,6 +16,7 @@ from . import mapping, route  # mapping registers the [teach] parameter table (G
 from ._core import __version__
 from .config import load_params, save_params
 from .errors import DatasetError, DatasetWarning, MapFormatError, NightlocError, NightlocWarning
+from .experience import LearningParams, learn, localize_night
 from .io import Traverse, load_traverse, save_traverse
 from .localization import (
     Estimate,
@@ -27,7 +28,6 @@ from .localization import (
     RobotMotion,
     traverse_odometry,
 )
-from .mapping.experience import LearningParams, learn, localize_night
 from .mapping.reference_map import ReferenceMap
 from .matching import (
     MatchResult,

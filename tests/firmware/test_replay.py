@@ -134,8 +134,8 @@ def test_replay_reads_an_experience_map(replay, world, map_file, tmp_path):
     """A map that learned a night (format 4: appearances at their places' positions, new places):
     the firmware runs it as Python does."""
     import nightloc
+    from nightloc.experience.learning import LearningParams, learn, localize_night
     from nightloc.localization.odometry import traverse_odometry
-    from nightloc.mapping.experience import LearningParams, learn, localize_night
 
     day = nightloc.ReferenceMap.load(map_file)
     night_log = nightloc.load_traverse(firmware_golden.write_log(world, tmp_path / "night", colour=True))

@@ -10,16 +10,16 @@ import pytest
 
 import nightloc
 from nightloc.errors import MapFormatError
-from nightloc.io.appearances import Appearances
-from nightloc.localization.heatmap import HeatMapper
-from nightloc.localization.localizer import Estimate
-from nightloc.mapping.experience import (
+from nightloc.experience.learning import (
     LearningParams,
     LocalizedNight,
     learn,
     place_spacing,
     trusted_frames,
 )
+from nightloc.io.appearances import Appearances
+from nightloc.localization.heatmap import HeatMapper
+from nightloc.localization.localizer import Estimate
 
 from oracle import rotational_sad
 

@@ -43,7 +43,7 @@ it says that the frames differ and reports no errors.
 
 ``--learn NEW_MAP`` also writes NEW_MAP (atomically; MAP is never changed): the map plus the
 frames this night localized confidently, as further appearances of its places or new places in its
-gaps (:mod:`nightloc.mapping.experience`, ``[learning]`` in ``--params``); a night that never
+gaps (:mod:`nightloc.experience.learning`, ``[learning]`` in ``--params``); a night that never
 settles teaches nothing, and NEW_MAP is then the map unchanged (the command says so).
 """
 
@@ -76,12 +76,13 @@ from ..localization.localizer import LocalizationParams, Localizer
 from ..localization.tail import FIRST_FRAME, tail_metrics
 from ..mapping.reference_map import ReferenceMap
 from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, log_noise_model, traverse_odometry
-from .learn_option import add_learn_options, check_learn_target
 from .options import (
     add_bag_options,
     add_camera_option,
+    add_learn_options,
     add_shift_window_option,
     bag_options,
+    check_learn_target,
     filter_params_with_window,
     load_reference,
     parse_noise,
@@ -275,7 +276,7 @@ def run(args: argparse.Namespace) -> int:
         if args.learn is None:
             estimates = [localizer.update(frame, odometry[i]) for i, frame in frames]
         else:
-            from ..mapping.experience import localize_night
+            from ..experience.learning import localize_night
 
             night = localize_night(
                 ref_map,
@@ -330,7 +331,7 @@ def run(args: argparse.Namespace) -> int:
             )
             written.append(figure.name)
         if args.learn is not None:
-            from ..mapping.experience import learn
+            from ..experience.learning import learn
 
             learned, report = learn(ref_map, night, sections.get("learning"))
             learned.save(args.learn, overwrite=args.overwrite)

@@ -1,6 +1,6 @@
 """Where each reference image of an experience map came from: the day map, or a night it learned.
 
-A map that learns from its nights (:mod:`nightloc.mapping.experience`) keeps the day map's
+A map that learns from its nights (:mod:`nightloc.experience.learning`) keeps the day map's
 references and adds night frames as further *appearances* of its places. :class:`Appearances`
 is the record of each reference's provenance, one entry per reference of the map (in its order):
 

@@ -12,11 +12,11 @@ map-only tables (``localizer`` in the header and the ``filter_*`` arrays,
 ``nightloc.Localizer(ref_map)``; their checksums are checked on loading (Python computes its own
 tables). Version 2 files (no tables) load unchanged; firmware refuses them until they are saved
 again. Version 4 is an experience map (a map that learned from its nights,
-:mod:`nightloc.mapping.experience`): version 3 plus each reference's provenance
+:mod:`nightloc.experience.learning`): version 3 plus each reference's provenance
 (:mod:`nightloc.io.appearances`: the arrays ``appearance_*`` and the header's ``experience``); a map
-that learned nothing is still written as version 3. Version 1 files (before the teach run: no ``pose_source``, no covariances) still load, as
-surveyed maps. Writing goes to a temporary file in the same folder, renamed over the target, so an
-interrupted save never leaves a partial map.
+that learned nothing is still written as version 3. Version 1 files (before the teach run: no
+``pose_source``, no covariances) still load, as surveyed maps. Writing goes to a temporary file in
+the same folder, renamed over the target, so an interrupted save never leaves a partial map.
 
 This module knows the file: its archive, header, format version and checksums.
 :class:`nightloc.ReferenceMap` (:mod:`nightloc.mapping.reference_map`) is what the arrays and the

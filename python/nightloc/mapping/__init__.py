@@ -10,9 +10,10 @@
 * :mod:`~nightloc.mapping.factors` — the GTSAM pose graph (odometry, visual, closed-loop factors);
 * :mod:`~nightloc.mapping.optimiser` — headings, then positions, then the whole graph; marginals;
 * :mod:`~nightloc.mapping.alignment` — rigid 2D fit and absolute trajectory error (ATE);
-* :mod:`~nightloc.mapping.teach` — :func:`teach_run`, the whole teach run;
-* :mod:`~nightloc.mapping.experience` — experience maps: :func:`learn` a localized night into a
-  map (:class:`LearningParams`, TOML ``[learning]``).
+* :mod:`~nightloc.mapping.teach` — :func:`teach_run`, the whole teach run.
+
+Experience maps (a map that learns from its nights) localize as well as map: they are the stage
+:mod:`nightloc.experience`, above localization.
 
 GTSAM is optional: ``pip install "nightloc[mapping]"``.
 """
@@ -20,23 +21,17 @@ GTSAM is optional: ``pip install "nightloc[mapping]"``.
 from __future__ import annotations
 
 from .alignment import RigidTransform2D, absolute_trajectory_error, rigid_fit
-from .experience import LearningParams, LearningReport, LocalizedNight, learn, localize_night
 from .params import TeachParams
 from .reference_map import ReferenceMap
 from .teach import TeachReport, TeachWarning, teach_run
 
 __all__ = [
-    "LearningParams",
-    "LearningReport",
-    "LocalizedNight",
     "ReferenceMap",
     "RigidTransform2D",
     "TeachParams",
     "TeachReport",
     "TeachWarning",
     "absolute_trajectory_error",
-    "learn",
-    "localize_night",
     "rigid_fit",
     "teach_run",
 ]

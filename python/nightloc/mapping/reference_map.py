@@ -392,14 +392,6 @@ class ReferenceMap:
             raise ValueError(f"match takes one frame, got a stack of shape {query.shape}; loop over its frames")
         return match(query, self._images, shifts=self._params.shifts, threads=threads)
 
-    def learn(self, night: Any, params: Any = None) -> tuple[ReferenceMap, Any]:
-        """This map plus what a localized night taught it, and a report
-        (:func:`nightloc.mapping.experience.learn`; ``night`` from
-        :func:`~nightloc.mapping.experience.localize_night` over this map). This map is unchanged."""
-        from .experience import learn  # experience builds on this module
-
-        return learn(self, night, params)
-
     # --- files
 
     def _header(self, localizer: dict[str, Any], tables: dict[str, np.ndarray]) -> dict[str, Any]:

@@ -6,7 +6,7 @@ the frames it localized confidently and matches the next night against them too.
 ::
 
     night = localize_night(day_map, load_traverse("night1"), odometry)   # the localizer's run
-    new_map, report = learn(day_map, night)                               # or day_map.learn(night)
+    new_map, report = learn(day_map, night)
     print(report.line())
     new_map.save("night1.map")
 
@@ -55,10 +55,10 @@ from scipy.spatial import cKDTree
 from ..config import params_section
 from ..errors import MapFormatError
 from ..io.appearances import Appearances, LearnedNight
-from .reference_map import ReferenceMap
 from ..localization.localizer import Estimate, Localizer
-from ..localization.odometry import wrap_angle
+from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import match
+from ..motion.odometry import wrap_angle
 from ..preparation.params import PreparationParams
 
 __all__ = ["LearningParams", "LearningReport", "LocalizedNight", "learn", "localize_night", "trusted_frames"]
