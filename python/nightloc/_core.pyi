@@ -218,6 +218,29 @@ class HeatWeights:
 # (x, y, heading, cov_xx, cov_xy, cov_yy, credible_radius, confidence, cell, flat)
 _GridEstimate = tuple[float, float, float, float, float, float, float, float, int, bool]
 
+class GridFilterSettings:
+    """The grid filter's settings with the core's defaults (nightloc/grid_filter.hpp); setting a
+    value checks its type (finite; counts non-negative integers), validate() its range."""
+
+    heading_bins: int
+    likelihood_gain: float
+    distance_std: float
+    heading_std: float
+    position_floor: float
+    heading_floor: float
+    uniform_floor: float
+    unknown_spread: float
+    credibility: float
+    confidence_radius: float
+    estimate_window: int
+    negligible: float
+    settle_frames: int
+    score_cap: float
+    lookalike_places: float
+    def __init__(self) -> None: ...
+    def validate(self) -> None: ...
+    def to_dict(self) -> dict[str, float | int]: ...
+
 class GridFilter:
     """The grid Bayes filter (nightloc/grid_filter.hpp). Motion kinds: 0 none, 1 unknown,
     2 map frame (a=dx, b=dy), 3 robot frame (a=forward, b=left, c=turn)."""
@@ -233,7 +256,7 @@ class GridFilter:
         ref_headings: npt.NDArray[np.float64] | None,
         columns: int,
         shifts: npt.NDArray[np.int32],
-        settings: dict[str, float | int],
+        settings: GridFilterSettings,
         field_of_view: float = 0.0,
         window_columns: int = 0,
         window_rows: int = 0,
@@ -266,6 +289,8 @@ class GridFilter:
     def can_pose(self) -> bool: ...
     @property
     def heading_bins(self) -> int: ...
+    @property
+    def settings(self) -> GridFilterSettings: ...
     @property
     def offset(self) -> float: ...
     @property
