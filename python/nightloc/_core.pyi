@@ -1,5 +1,7 @@
 """Type stubs of nightloc's compiled core (private: use the functions in ``nightloc``)."""
 
+from typing import Literal
+
 import numpy as np
 import numpy.typing as npt
 
@@ -171,18 +173,25 @@ def motion_kernel(vmin: float, vmax: float, backward: float) -> tuple[int, npt.N
 def texture_weights(images: npt.NDArray[np.uint8], min_texture: float) -> npt.NDArray[np.float64]: ...
 
 # Frame preparation (cpp/bindings/register_preparation.cpp; use nightloc.prepare)
-def prepare_frame(
-    frame: npt.NDArray[np.uint8],
-    order: str,
-    crop: tuple[int, int, int, int],
-    equalize: str,
-    width: int,
-    height: int,
-    normalize: bool,
-    radius: int,
-    wrap: bool,
-    scale: float,
-) -> npt.NDArray[np.uint8]: ...
+class PrepareSettings:
+    """What prepare_frame does, with the core's defaults (nightloc/prepare.hpp); validate() checks
+    ranges."""
+
+    crop_top: int
+    crop_bottom: int
+    crop_left: int
+    crop_right: int
+    equalize: Literal["global", "clahe", "none"]
+    width: int
+    height: int
+    normalize: bool
+    radius: int
+    wrap: bool
+    scale: float
+    def __init__(self) -> None: ...
+    def validate(self) -> None: ...
+
+def prepare_frame(frame: npt.NDArray[np.uint8], order: str, settings: PrepareSettings) -> npt.NDArray[np.uint8]: ...
 def downsample_method(in_height: int, in_width: int, out_height: int, out_width: int) -> str: ...
 
 # Heat maps and the grid filter (cpp/bindings/register_localization.cpp; use
