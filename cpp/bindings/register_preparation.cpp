@@ -2,7 +2,9 @@
 // stacks (nightloc/normalize.hpp) and the per-frame preparation of camera frames
 // (nightloc/prepare.hpp: crop, grey, equalize, area-downsample, patch-normalize).
 #include <cstdint>
+#include <limits>
 #include <string>
+#include <type_traits>
 
 #include "glue.hpp"
 #include "nightloc/normalize.hpp"
@@ -122,15 +124,31 @@ py::array prepare_frame(const py::array& frame, const std::string& order_name, n
     return std::move(out);
 }
 
-// A count field: a negative Python int is a ValueError naming the field (not a TypeError).
-template <class Class>
-void count_property(Class& cls, const char* name, std::size_t nightloc::PrepareSettings::* member) {
+// An integer field set from any Python int: one outside the field's type is a ValueError naming
+// the field (not pybind11's TypeError); the range is validate()'s.
+template <class T>
+void integer_property(py::class_<nightloc::PrepareSettings>& cls, const char* name,
+                      T nightloc::PrepareSettings::* member) {
     cls.def_property(
         name, [member](const nightloc::PrepareSettings& s) { return s.*member; },
-        [member, field = std::string(name)](nightloc::PrepareSettings& s, long long value) {
-            if (value < 0)
-                throw py::value_error(field + " must be a non-negative integer, got " + std::to_string(value));
-            s.*member = static_cast<std::size_t>(value);
+        [member, field = std::string(name)](nightloc::PrepareSettings& s, const py::int_& value) {
+            int overflow = 0;
+            const long long v = PyLong_AsLongLongAndOverflow(value.ptr(), &overflow);
+            if (overflow == 0 && v == -1 && PyErr_Occurred()) throw py::error_already_set();
+            const bool negative = overflow < 0 || (overflow == 0 && v < 0);
+            if (std::is_unsigned_v<T> && negative) {
+                throw py::value_error(field + " must be a non-negative integer, got " + std::string(py::str(value)));
+            }
+            const bool too_large =
+                overflow > 0 || (!negative && static_cast<unsigned long long>(v) >
+                                                  static_cast<unsigned long long>(std::numeric_limits<T>::max()));
+            const bool too_small =
+                negative && (overflow < 0 || v < static_cast<long long>(std::numeric_limits<T>::min()));
+            if (too_large || too_small) {
+                throw py::value_error(field + " = " + std::string(py::str(value)) + " is too " +
+                                      (too_large ? "large" : "small") + " for the core");
+            }
+            s.*member = static_cast<T>(v);
         });
 }
 
@@ -140,18 +158,18 @@ void register_prepare_settings(py::module_& m) {
         m, "PrepareSettings",
         "What prepare_frame does, with the core's defaults (nightloc/prepare.hpp); validate() checks ranges.");
     settings.def(py::init<>());
-    count_property(settings, "crop_top", &PrepareSettings::crop_top);
-    count_property(settings, "crop_bottom", &PrepareSettings::crop_bottom);
-    count_property(settings, "crop_left", &PrepareSettings::crop_left);
-    count_property(settings, "crop_right", &PrepareSettings::crop_right);
+    integer_property<std::size_t>(settings, "crop_top", &PrepareSettings::crop_top);
+    integer_property<std::size_t>(settings, "crop_bottom", &PrepareSettings::crop_bottom);
+    integer_property<std::size_t>(settings, "crop_left", &PrepareSettings::crop_left);
+    integer_property<std::size_t>(settings, "crop_right", &PrepareSettings::crop_right);
     settings.def_property(
         "equalize", [](const PrepareSettings& s) { return std::string(equalization_name(s.equalize)); },
         [](PrepareSettings& s, const std::string& name) { s.equalize = equalization_from_name(name); },
         "'global', 'clahe' (OpenCV's: prepare_frame refuses it) or 'none'.");
-    count_property(settings, "width", &PrepareSettings::width);
-    count_property(settings, "height", &PrepareSettings::height);
+    integer_property<std::size_t>(settings, "width", &PrepareSettings::width);
+    integer_property<std::size_t>(settings, "height", &PrepareSettings::height);
+    integer_property<int>(settings, "radius", &PrepareSettings::radius);
     settings.def_readwrite("normalize", &PrepareSettings::normalize)
-        .def_readwrite("radius", &PrepareSettings::radius)
         .def_readwrite("wrap", &PrepareSettings::wrap)
         .def_readwrite("scale", &PrepareSettings::scale)
         .def(

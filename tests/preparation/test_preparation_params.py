@@ -72,6 +72,9 @@ def test_core_settings_is_the_conversion():
         ({"radius": -1}, r"^radius must be in \[0, 1024\], got -1$"),
         ({"scale": float("nan")}, r"^scale must be a positive finite number, got nan$"),
         ({"scale": -2.0}, r"^scale must be a positive finite number, got -2$"),
+        ({"width": 2**64}, r"^width = 18446744073709551616 is too large for the core$"),
+        ({"radius": 2**31}, r"^radius = 2147483648 is too large for the core$"),
+        ({"radius": -(2**31) - 1}, r"^radius = -2147483649 is too small for the core$"),
     ],
 )
 def test_the_cores_range_check_is_the_python_error(change, message):
