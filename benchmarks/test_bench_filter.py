@@ -101,7 +101,7 @@ def test_numpy_oracle_step(benchmark, setup):
         place[members] = p
     oracle = OracleFilter(
         mapper.weights, grid.height, grid.width, grid.x0, grid.y0, grid.dx, grid.dy, place, ref_map.headings,
-        ref_map.params.width, f.shifts, f.settings,
+        ref_map.params.width, f.shifts, f.settings.to_dict(),
     )  # fmt: skip
     table = nightloc.rotational_sad(query, ref_map.images)
     loc.update_table(table)
@@ -215,7 +215,7 @@ def test_large_map_numpy_oracle_step(benchmark, drive):
     grid = mapper.grid
     oracle = OracleFilter(
         mapper.weights, grid.height, grid.width, grid.x0, grid.y0, grid.dx, grid.dy, mapper.place_of_ref,
-        ref_map.headings, ref_map.params.width, f.shifts, f.settings,
+        ref_map.headings, ref_map.params.width, f.shifts, f.settings.to_dict(),
     )  # fmt: skip
     belief = loc.pose_belief  # the oracle starts from the core's belief
     oracle.p = belief.copy()

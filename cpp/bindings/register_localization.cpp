@@ -208,11 +208,12 @@ py::array_t<float, py::array::c_style> checked_table(const py::array& a, std::si
 class GridFilterPy {
 public:
     GridFilterPy(Weights weights, double x0, double y0, double dx, double dy, const py::array& place_of_ref,
-                 const py::object& ref_headings, std::size_t columns, const py::array& shifts, const py::dict& settings,
-                 double field_of_view, std::size_t window_columns, std::size_t window_rows)
+                 const py::object& ref_headings, std::size_t columns, const py::array& shifts,
+                 const nightloc::GridFilterSettings& settings, double field_of_view, std::size_t window_columns,
+                 std::size_t window_rows)
         : filter_(make_map(std::move(weights), x0, y0, dx, dy, place_of_ref, ref_headings, columns, shifts,
                            field_of_view, window_columns, window_rows),
-                  make_settings(settings)) {}
+                  settings) {}
 
     void reset() { filter_.reset(); }
     void set_noise(double distance_std, double heading_std, double distance_per_metre, double heading_per_radian) {
@@ -357,19 +358,6 @@ private:
         return map;
     }
 
-    static nightloc::GridFilterSettings make_settings(const py::dict& d) {
-        nightloc::GridFilterSettings s;
-        for (const auto& item : d) {
-            const auto key = item.first.cast<std::string>();
-            try {
-                nightloc::set_grid_filter_setting(s, key, item.second.cast<double>());
-            } catch (const std::invalid_argument& error) {
-                throw py::value_error(error.what());
-            }
-        }
-        return s;
-    }
-
     void check_motion(int kind, double a, double b, double c) const {
         if (kind < kNoMotion || kind > kRobotMotion) throw py::value_error("unknown motion kind");
         if (!std::isfinite(a) || !std::isfinite(b) || !std::isfinite(c)) throw py::value_error("motion must be finite");
@@ -413,13 +401,81 @@ private:
     nightloc::GridFilter filter_;
 };
 
+// The settings as a Python class whose attributes are the fields of the one name table
+// (nightloc::grid_filter_setting_fields()); a value is set as the map reader sets it.
+void register_grid_filter_settings(py::module_& m) {
+    using nightloc::GridFilterSettings;
+    py::class_<GridFilterSettings> settings(
+        m, "GridFilterSettings",
+        "The grid filter's settings with the core's defaults (nightloc/grid_filter.hpp); validate() checks ranges.");
+    settings.def(py::init<>());
+    for (const nightloc::GridFilterSettingField& field : nightloc::grid_filter_setting_fields()) {
+        const std::string name = field.name;
+        if (field.real != nullptr) {
+            settings.def_property(
+                field.name, [member = field.real](const GridFilterSettings& s) { return s.*member; },
+                [name](GridFilterSettings& s, double value) { nightloc::set_grid_filter_setting(s, name, value); });
+        } else {
+            settings.def_property(
+                field.name, [member = field.count](const GridFilterSettings& s) { return s.*member; },
+                [name](GridFilterSettings& s, double value) { nightloc::set_grid_filter_setting(s, name, value); });
+        }
+    }
+    settings
+        .def(
+            "validate", [](const GridFilterSettings& s) { nightloc::validate(s); },
+            "ValueError naming the first setting out of its range, and the range.")
+        .def(
+            "to_dict",
+            [](const GridFilterSettings& s) {
+                py::dict out;
+                for (const nightloc::GridFilterSettingField& field : nightloc::grid_filter_setting_fields()) {
+                    if (field.real != nullptr)
+                        out[field.name] = s.*field.real;
+                    else
+                        out[field.name] = s.*field.count;
+                }
+                return out;
+            },
+            "name -> value of every setting, in the table's order (counts as int).")
+        .def(py::pickle(
+            [](const GridFilterSettings& s) {
+                py::tuple state(nightloc::kGridFilterSettingCount);
+                std::size_t k = 0;
+                for (const nightloc::GridFilterSettingField& field : nightloc::grid_filter_setting_fields())
+                    state[k++] = nightloc::grid_filter_setting(s, field);
+                return state;
+            },
+            [](const py::tuple& state) {
+                if (state.size() != nightloc::kGridFilterSettingCount)
+                    throw py::value_error("invalid GridFilterSettings state");
+                GridFilterSettings s;
+                std::size_t k = 0;
+                for (const nightloc::GridFilterSettingField& field : nightloc::grid_filter_setting_fields())
+                    nightloc::set_grid_filter_setting(s, field.name, state[k++].cast<double>());
+                return s;
+            }))
+        .def("__repr__", [](const GridFilterSettings& s) {
+            std::string text = "GridFilterSettings(";
+            const char* separator = "";
+            for (const nightloc::GridFilterSettingField& field : nightloc::grid_filter_setting_fields()) {
+                const py::object value = field.real != nullptr ? py::object(py::float_(s.*field.real))
+                                                               : py::object(py::int_(s.*field.count));
+                text += separator + std::string(field.name) + "=" + std::string(py::repr(value));
+                separator = ", ";
+            }
+            return text + ")";
+        });
+}
+
 }  // namespace
 
 void register_localization(py::module_& m) {
+    register_grid_filter_settings(m);
     py::class_<GridFilterPy>(m, "GridFilter",
                              "The grid Bayes filter over position x heading (nightloc/grid_filter.hpp).")
         .def(py::init<Weights, double, double, double, double, const py::array&, const py::object&, std::size_t,
-                      const py::array&, const py::dict&, double, std::size_t, std::size_t>(),
+                      const py::array&, const nightloc::GridFilterSettings&, double, std::size_t, std::size_t>(),
              py::arg("weights"), py::arg("x0"), py::arg("y0"), py::arg("dx"), py::arg("dy"), py::arg("place_of_ref"),
              py::arg("ref_headings"), py::arg("columns"), py::arg("shifts"), py::arg("settings"),
              py::arg("field_of_view") = 0.0, py::arg("window_columns") = 0, py::arg("window_rows") = 0)
@@ -442,6 +498,9 @@ void register_localization(py::module_& m) {
         .def_property_readonly("pose_mode", [](const GridFilterPy& f) { return f.core().pose_mode(); })
         .def_property_readonly("can_pose", [](const GridFilterPy& f) { return f.core().can_pose(); })
         .def_property_readonly("heading_bins", [](const GridFilterPy& f) { return f.core().heading_bins(); })
+        .def_property_readonly(
+            "settings", [](const GridFilterPy& f) { return f.core().settings(); },
+            "A copy of the settings the filter runs with (heading_bins 0 resolved to the image's columns).")
         .def_property_readonly("offset", [](const GridFilterPy& f) { return f.core().offset(); })
         .def_property_readonly("lambda_", [](const GridFilterPy& f) { return f.core().lambda(); })
         .def_property_readonly("frames", [](const GridFilterPy& f) { return f.core().frames(); })

@@ -2,8 +2,9 @@
 // stacks (nightloc/normalize.hpp) and the per-frame preparation of camera frames
 // (nightloc/prepare.hpp: crop, grey, equalize, area-downsample, patch-normalize).
 #include <cstdint>
+#include <limits>
 #include <string>
-#include <tuple>
+#include <type_traits>
 
 #include "glue.hpp"
 #include "nightloc/normalize.hpp"
@@ -50,10 +51,24 @@ nightloc::PixelOrder order_from_name(const std::string& name) {
     throw py::value_error("unknown pixel order '" + name + "'; expected grey, bgr, rgb, bgra or rgba");
 }
 
+// Equalization by the names of nightloc.PreparationParams.equalize.
 nightloc::Equalization equalization_from_name(const std::string& name) {
     if (name == "global") return nightloc::Equalization::global;
     if (name == "none") return nightloc::Equalization::none;
-    throw py::value_error("the core equalizes 'global' or 'none', got '" + name + "' (CLAHE runs in OpenCV)");
+    if (name == "clahe") return nightloc::Equalization::clahe;
+    throw py::value_error("equalize must be 'global', 'clahe' or 'none', got '" + name + "'");
+}
+
+const char* equalization_name(nightloc::Equalization equalize) {
+    switch (equalize) {
+        case nightloc::Equalization::none:
+            return "none";
+        case nightloc::Equalization::global:
+            return "global";
+        case nightloc::Equalization::clahe:
+            return "clahe";
+    }
+    return "unknown";
 }
 
 const char* method_name(nightloc::DownsampleMethod method) {
@@ -93,22 +108,12 @@ nightloc::FrameView frame_view(const py::array& frame, nightloc::PixelOrder orde
     return {static_cast<const std::uint8_t*>(frame.data()), height, width, static_cast<std::size_t>(row_stride), order};
 }
 
-using Crop = std::tuple<std::size_t, std::size_t, std::size_t, std::size_t>;  // top, bottom, left, right
-
-py::array prepare_frame(const py::array& frame, const std::string& order_name, const Crop& crop,
-                        const std::string& equalize, std::size_t width, std::size_t height, bool normalize, int radius,
-                        bool wrap, double scale) {
+// `settings` by value: a copy that other Python threads cannot change while the GIL is released.
+py::array prepare_frame(const py::array& frame, const std::string& order_name, nightloc::PrepareSettings settings) {
     const nightloc::FrameView view = frame_view(frame, order_from_name(order_name));
-    nightloc::PrepareSettings settings;
-    std::tie(settings.crop_top, settings.crop_bottom, settings.crop_left, settings.crop_right) = crop;
-    settings.equalize = equalization_from_name(equalize);
-    settings.width = width;
-    settings.height = height;
-    settings.normalize = normalize;
-    settings.radius = radius;
-    settings.wrap = wrap;
-    settings.scale = scale;
-    py::array_t<std::uint8_t> out({static_cast<py::ssize_t>(height), static_cast<py::ssize_t>(width)});
+    nightloc::validate(settings);
+    const auto height = static_cast<py::ssize_t>(settings.height), width = static_cast<py::ssize_t>(settings.width);
+    py::array_t<std::uint8_t> out({height, width});
     std::uint8_t* o = out.mutable_data();
     without_gil([&] {
         // one workspace per thread: its buffers (a grey copy of the frame) are reused across frames
@@ -119,16 +124,68 @@ py::array prepare_frame(const py::array& frame, const std::string& order_name, c
     return std::move(out);
 }
 
+// An integer field set from any Python int: one outside the field's type is a ValueError naming
+// the field (not pybind11's TypeError); the range is validate()'s.
+template <class T>
+void integer_property(py::class_<nightloc::PrepareSettings>& cls, const char* name,
+                      T nightloc::PrepareSettings::* member) {
+    cls.def_property(
+        name, [member](const nightloc::PrepareSettings& s) { return s.*member; },
+        [member, field = std::string(name)](nightloc::PrepareSettings& s, const py::int_& value) {
+            int overflow = 0;
+            const long long v = PyLong_AsLongLongAndOverflow(value.ptr(), &overflow);
+            if (overflow == 0 && v == -1 && PyErr_Occurred()) throw py::error_already_set();
+            const bool negative = overflow < 0 || (overflow == 0 && v < 0);
+            if (std::is_unsigned_v<T> && negative) {
+                throw py::value_error(field + " must be a non-negative integer, got " + std::string(py::str(value)));
+            }
+            const bool too_large =
+                overflow > 0 || (!negative && static_cast<unsigned long long>(v) >
+                                                  static_cast<unsigned long long>(std::numeric_limits<T>::max()));
+            const bool too_small =
+                negative && (overflow < 0 || v < static_cast<long long>(std::numeric_limits<T>::min()));
+            if (too_large || too_small) {
+                throw py::value_error(field + " = " + std::string(py::str(value)) + " is too " +
+                                      (too_large ? "large" : "small") + " for the core");
+            }
+            s.*member = static_cast<T>(v);
+        });
+}
+
+void register_prepare_settings(py::module_& m) {
+    using nightloc::PrepareSettings;
+    py::class_<PrepareSettings> settings(
+        m, "PrepareSettings",
+        "What prepare_frame does, with the core's defaults (nightloc/prepare.hpp); validate() checks ranges.");
+    settings.def(py::init<>());
+    integer_property<std::size_t>(settings, "crop_top", &PrepareSettings::crop_top);
+    integer_property<std::size_t>(settings, "crop_bottom", &PrepareSettings::crop_bottom);
+    integer_property<std::size_t>(settings, "crop_left", &PrepareSettings::crop_left);
+    integer_property<std::size_t>(settings, "crop_right", &PrepareSettings::crop_right);
+    settings.def_property(
+        "equalize", [](const PrepareSettings& s) { return std::string(equalization_name(s.equalize)); },
+        [](PrepareSettings& s, const std::string& name) { s.equalize = equalization_from_name(name); },
+        "'global', 'clahe' (OpenCV's: prepare_frame refuses it) or 'none'.");
+    integer_property<std::size_t>(settings, "width", &PrepareSettings::width);
+    integer_property<std::size_t>(settings, "height", &PrepareSettings::height);
+    integer_property<int>(settings, "radius", &PrepareSettings::radius);
+    settings.def_readwrite("normalize", &PrepareSettings::normalize)
+        .def_readwrite("wrap", &PrepareSettings::wrap)
+        .def_readwrite("scale", &PrepareSettings::scale)
+        .def(
+            "validate", [](const PrepareSettings& s) { nightloc::validate(s); },
+            "ValueError naming the first setting out of its range, and the range.");
+}
+
 }  // namespace
 
 void register_preparation(py::module_& m) {
+    register_prepare_settings(m);
     m.attr("DEFAULT_PATCH_SCALE") = nightloc::kDefaultPatchScale;
     m.attr("MAX_PATCH_RADIUS") = nightloc::kMaxPatchRadius;
     m.def("patch_normalize", &patch_normalize, py::arg("images"), py::arg("radius"), py::arg("wrap"), py::arg("scale"));
     m.def("block_normalize", &block_normalize, py::arg("images"), py::arg("side"));
-    m.def("prepare_frame", &prepare_frame, py::arg("frame"), py::arg("order"), py::arg("crop"), py::arg("equalize"),
-          py::arg("width"), py::arg("height"), py::arg("normalize"), py::arg("radius"), py::arg("wrap"),
-          py::arg("scale"),
+    m.def("prepare_frame", &prepare_frame, py::arg("frame"), py::arg("order"), py::arg("settings"),
           "Crop, grey, equalize, area-downsample and patch-normalize one uint8 frame (nightloc/prepare.hpp).");
     m.def(
         "downsample_method",

@@ -107,27 +107,12 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
         seen[static_cast<std::size_t>(s)] = true;
         full = full && static_cast<std::size_t>(s) == k;
     }
+    validate(settings_);
+    if (settings_.heading_bins == 0) settings_.heading_bins = map_.columns;
+    require(settings_.heading_bins <= 4096, "grid filter: heading_bins 0 means one per image column, and " +
+                                                std::to_string(map_.columns) +
+                                                " columns are more than 4096 bins; set heading_bins");
     const GridFilterSettings& s = settings_;
-    require(s.heading_bins >= 1 && s.heading_bins <= 4096, "grid filter: heading_bins must be 1..4096");
-    require(finite_nonnegative(s.likelihood_gain), "grid filter: likelihood_gain must be finite and >= 0");
-    require(finite_nonnegative(s.distance_std) && finite_nonnegative(s.heading_std) &&
-                finite_nonnegative(s.distance_per_metre) && finite_nonnegative(s.heading_per_radian),
-            "grid filter: odometry noise must be finite and >= 0");
-    require(finite_nonnegative(s.position_floor) && finite_nonnegative(s.heading_floor),
-            "grid filter: position_floor and heading_floor must be finite and >= 0");
-    require(std::isfinite(s.uniform_floor) && s.uniform_floor >= 0 && s.uniform_floor < 1,
-            "grid filter: uniform_floor must be in [0, 1)");
-    require(finite_nonnegative(s.unknown_spread), "grid filter: unknown_spread must be finite and >= 0");
-    require(std::isfinite(s.credibility) && s.credibility > 0 && s.credibility <= 1,
-            "grid filter: credibility must be in (0, 1]");
-    require(finite_nonnegative(s.confidence_radius), "grid filter: confidence_radius must be finite and >= 0");
-    require(s.estimate_window <= 1000, "grid filter: estimate_window must be <= 1000 cells");
-    require(std::isfinite(s.negligible) && s.negligible >= 0 && s.negligible < 1,
-            "grid filter: negligible must be in [0, 1)");
-    require(s.settle_frames <= 1000, "grid filter: settle_frames must be 0..1000");
-    require(finite_nonnegative(s.score_cap), "grid filter: score_cap must be finite and >= 0");
-    require(std::isfinite(s.lookalike_places) && (s.lookalike_places == 0 || s.lookalike_places >= 2),
-            "grid filter: lookalike_places must be 0 (never tempered) or >= 2");
     // the score cap tempered by the map's look-alikes: places with references beyond lookalike_places
     const auto with_refs = static_cast<double>(places_ - empty_places_.size());
     cap_ = s.score_cap;

@@ -1,6 +1,8 @@
-// Grid-filter settings by name: one list of the names Python's GridFilter passes, shared by the
-// Python module and the map-file reader.
+// Grid-filter settings by name and their ranges: the one table of names, read by the map-file
+// reader and by the Python class nightloc._core.GridFilterSettings.
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <stdexcept>
 #include <string>
 
@@ -10,54 +12,103 @@ namespace nightloc {
 
 namespace {
 
-std::size_t count_of(const std::string& name, double value) {
-    if (!(value >= 0) || value != std::floor(value) || value > 1e15) {
-        throw std::invalid_argument("grid filter setting '" + name + "' must be a non-negative integer, got " +
-                                    std::to_string(value));
+using S = GridFilterSettings;
+
+constexpr std::array<GridFilterSettingField, kGridFilterSettingCount> kFields{{
+    {"heading_bins", nullptr, &S::heading_bins},
+    {"likelihood_gain", &S::likelihood_gain, nullptr},
+    {"distance_std", &S::distance_std, nullptr},
+    {"heading_std", &S::heading_std, nullptr},
+    {"distance_per_metre", &S::distance_per_metre, nullptr},
+    {"heading_per_radian", &S::heading_per_radian, nullptr},
+    {"position_floor", &S::position_floor, nullptr},
+    {"heading_floor", &S::heading_floor, nullptr},
+    {"uniform_floor", &S::uniform_floor, nullptr},
+    {"unknown_spread", &S::unknown_spread, nullptr},
+    {"credibility", &S::credibility, nullptr},
+    {"confidence_radius", &S::confidence_radius, nullptr},
+    {"estimate_window", nullptr, &S::estimate_window},
+    {"negligible", &S::negligible, nullptr},
+    {"settle_frames", nullptr, &S::settle_frames},
+    {"score_cap", &S::score_cap, nullptr},
+    {"lookalike_places", &S::lookalike_places, nullptr},
+}};
+
+// A number in few characters: an integer without a fraction ("5000"), otherwise the fewest
+// significant digits that read back as the same double ("1.5", "0.015", "-inf").
+std::string text(double value) {
+    char buffer[40];
+    if (std::isfinite(value) && value == std::floor(value) && std::fabs(value) < 1e15) {
+        std::snprintf(buffer, sizeof buffer, "%.0f", value);
+        return buffer;
     }
-    return static_cast<std::size_t>(value);
+    for (int digits = 1; digits <= 17; ++digits) {
+        std::snprintf(buffer, sizeof buffer, "%.*g", digits, value);
+        if (std::strtod(buffer, nullptr) == value) break;
+    }
+    return buffer;
 }
+
+void require(bool ok, const char* name, const std::string& range, double value) {
+    if (!ok) throw std::invalid_argument(std::string(name) + " must be " + range + ", got " + text(value));
+}
+
+bool finite_nonnegative(double v) { return std::isfinite(v) && v >= 0; }
 
 }  // namespace
 
+const std::array<GridFilterSettingField, kGridFilterSettingCount>& grid_filter_setting_fields() noexcept {
+    return kFields;
+}
+
+void validate(const GridFilterSettings& s) {
+    require(s.heading_bins <= 4096, "heading_bins", "0 (one per image column) .. 4096",
+            static_cast<double>(s.heading_bins));
+    require(finite_nonnegative(s.likelihood_gain), "likelihood_gain", "a finite number >= 0", s.likelihood_gain);
+    require(finite_nonnegative(s.distance_std), "distance_std", "a finite number of metres >= 0", s.distance_std);
+    require(finite_nonnegative(s.heading_std), "heading_std", "a finite number of radians >= 0", s.heading_std);
+    require(finite_nonnegative(s.distance_per_metre), "distance_per_metre", "a finite fraction >= 0",
+            s.distance_per_metre);
+    require(finite_nonnegative(s.heading_per_radian), "heading_per_radian", "a finite fraction >= 0",
+            s.heading_per_radian);
+    require(finite_nonnegative(s.position_floor), "position_floor", "a finite number of metres >= 0", s.position_floor);
+    require(finite_nonnegative(s.heading_floor), "heading_floor", "a finite number of radians >= 0", s.heading_floor);
+    require(std::isfinite(s.uniform_floor) && s.uniform_floor >= 0 && s.uniform_floor < 1, "uniform_floor", "in [0, 1)",
+            s.uniform_floor);
+    require(finite_nonnegative(s.unknown_spread), "unknown_spread", "a finite number of metres >= 0", s.unknown_spread);
+    require(std::isfinite(s.credibility) && s.credibility > 0 && s.credibility <= 1, "credibility", "in (0, 1]",
+            s.credibility);
+    require(finite_nonnegative(s.confidence_radius), "confidence_radius", "a finite number of metres >= 0",
+            s.confidence_radius);
+    require(s.estimate_window <= 1000, "estimate_window", "0..1000 cells", static_cast<double>(s.estimate_window));
+    require(std::isfinite(s.negligible) && s.negligible >= 0 && s.negligible < 1, "negligible", "in [0, 1)",
+            s.negligible);
+    require(s.settle_frames <= 1000, "settle_frames", "0..1000 frames", static_cast<double>(s.settle_frames));
+    require(finite_nonnegative(s.score_cap), "score_cap", "a finite number >= 0", s.score_cap);
+    require(std::isfinite(s.lookalike_places) && (s.lookalike_places == 0 || s.lookalike_places >= 2),
+            "lookalike_places", "0 (never tempered) or >= 2", s.lookalike_places);
+}
+
 void set_grid_filter_setting(GridFilterSettings& s, const std::string& name, double value) {
-    if (!std::isfinite(value)) throw std::invalid_argument("grid filter setting '" + name + "' must be finite");
-    if (name == "heading_bins")
-        s.heading_bins = count_of(name, value);
-    else if (name == "likelihood_gain")
-        s.likelihood_gain = value;
-    else if (name == "distance_std")
-        s.distance_std = value;
-    else if (name == "heading_std")
-        s.heading_std = value;
-    else if (name == "distance_per_metre")
-        s.distance_per_metre = value;
-    else if (name == "heading_per_radian")
-        s.heading_per_radian = value;
-    else if (name == "position_floor")
-        s.position_floor = value;
-    else if (name == "heading_floor")
-        s.heading_floor = value;
-    else if (name == "uniform_floor")
-        s.uniform_floor = value;
-    else if (name == "unknown_spread")
-        s.unknown_spread = value;
-    else if (name == "credibility")
-        s.credibility = value;
-    else if (name == "confidence_radius")
-        s.confidence_radius = value;
-    else if (name == "estimate_window")
-        s.estimate_window = count_of(name, value);
-    else if (name == "negligible")
-        s.negligible = value;
-    else if (name == "settle_frames")
-        s.settle_frames = count_of(name, value);
-    else if (name == "score_cap")
-        s.score_cap = value;
-    else if (name == "lookalike_places")
-        s.lookalike_places = value;
-    else
-        throw std::invalid_argument("unknown grid filter setting '" + name + "'");
+    for (const GridFilterSettingField& field : kFields) {
+        if (name != field.name) continue;
+        if (!std::isfinite(value)) throw std::invalid_argument("grid filter setting '" + name + "' must be finite");
+        if (field.real != nullptr) {
+            s.*field.real = value;
+        } else {
+            if (!(value >= 0) || value != std::floor(value) || value > 1e15) {
+                throw std::invalid_argument("grid filter setting '" + name + "' must be a non-negative integer, got " +
+                                            text(value));
+            }
+            s.*field.count = static_cast<std::size_t>(value);
+        }
+        return;
+    }
+    throw std::invalid_argument("unknown grid filter setting '" + name + "'");
+}
+
+double grid_filter_setting(const GridFilterSettings& s, const GridFilterSettingField& field) noexcept {
+    return field.real != nullptr ? s.*field.real : static_cast<double>(s.*field.count);
 }
 
 }  // namespace nightloc

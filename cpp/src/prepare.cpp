@@ -10,9 +10,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
+#include "nightloc/sad.hpp"
 #include "prepare_kernels.hpp"
 
 namespace nightloc {
@@ -371,6 +373,10 @@ void equalization_table(const std::uint32_t* counts, std::size_t total, std::uin
 }
 
 void check_settings(const FrameView& frame, const PrepareSettings& s) {
+    validate(s);
+    if (s.equalize == Equalization::clahe) {
+        throw std::invalid_argument("the core equalizes 'global' or 'none', not 'clahe' (CLAHE runs in OpenCV)");
+    }
     if (frame.data == nullptr) throw std::invalid_argument("frame data is null");
     if (frame.height == 0 || frame.width == 0) throw std::invalid_argument("frame is empty (zero rows or columns)");
     const std::size_t channels = pixel_bytes(frame.order);
@@ -394,27 +400,36 @@ void check_settings(const FrameView& frame, const PrepareSettings& s) {
         throw std::invalid_argument("frame of " + std::to_string(h) + " x " + std::to_string(w) +
                                     " pixels is too large (at most 2^31 pixels)");
     }
-    if (s.width == 0 || s.height == 0) throw std::invalid_argument("output size must be at least 1 x 1");
     if (s.height > h || s.width > w) {
         throw std::invalid_argument("output " + std::to_string(s.width) + " x " + std::to_string(s.height) +
                                     " is larger than the cropped " + std::to_string(w) + " x " + std::to_string(h) +
                                     " frame; prepare_frame only downsamples");
     }
-    if (s.equalize != Equalization::none && s.equalize != Equalization::global) {
-        throw std::invalid_argument("unknown equalization");
-    }
-    if (s.normalize) {
-        if (s.radius < 0 || s.radius > kMaxPatchRadius) {
-            throw std::invalid_argument("radius must be in [0, " + std::to_string(kMaxPatchRadius) + "], got " +
-                                        std::to_string(s.radius));
-        }
-        if (!(s.scale > 0.0) || !std::isfinite(s.scale)) {
-            throw std::invalid_argument("scale must be a positive finite number");
-        }
-    }
 }
 
 }  // namespace
+
+void validate(const PrepareSettings& s) {
+    if (s.width == 0) throw std::invalid_argument("width must be >= 1 pixel, got 0");
+    if (s.height == 0) throw std::invalid_argument("height must be >= 1 pixel, got 0");
+    if (s.width > kMaxImagePixels / s.height) {
+        throw std::invalid_argument("width x height = " + std::to_string(s.width) + "x" + std::to_string(s.height) +
+                                    " is too large: prepared images hold at most " + std::to_string(kMaxImagePixels) +
+                                    " pixels (the paper uses 48x24)");
+    }
+    if (s.radius < 0 || s.radius > kMaxPatchRadius) {
+        throw std::invalid_argument("radius must be in [0, " + std::to_string(kMaxPatchRadius) + "], got " +
+                                    std::to_string(s.radius));
+    }
+    if (!(s.scale > 0.0) || !std::isfinite(s.scale)) {
+        std::ostringstream text;
+        text << "scale must be a positive finite number, got " << s.scale;
+        throw std::invalid_argument(text.str());
+    }
+    if (s.equalize != Equalization::none && s.equalize != Equalization::global && s.equalize != Equalization::clahe) {
+        throw std::invalid_argument("unknown equalization");
+    }
+}
 
 DownsampleMethod downsample_method(std::size_t in_height, std::size_t in_width, std::size_t out_height,
                                    std::size_t out_width) noexcept {

@@ -329,6 +329,7 @@ void test_errors_leave_the_belief() {
     const SmallMap m = small_map(12, 14, 4, false, 1);
     GridFilter filter(m.map, GridFilterSettings{});
     CHECK(!filter.can_pose());
+    CHECK(filter.settings().heading_bins == m.map.columns);  // 0: one bin per image column
     CHECK_THROWS(filter.predict_robot(0.1, 0, 0), std::logic_error);
     std::mt19937 rng(4);
     filter.update(random_table(4, 16, rng).data());

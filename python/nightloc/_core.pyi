@@ -1,5 +1,7 @@
 """Type stubs of nightloc's compiled core (private: use the functions in ``nightloc``)."""
 
+from typing import Literal
+
 import numpy as np
 import numpy.typing as npt
 
@@ -172,18 +174,25 @@ def route_motion_names() -> list[str]: ...
 def texture_weights(images: npt.NDArray[np.uint8], min_texture: float) -> npt.NDArray[np.float64]: ...
 
 # Frame preparation (cpp/bindings/register_preparation.cpp; use nightloc.prepare)
-def prepare_frame(
-    frame: npt.NDArray[np.uint8],
-    order: str,
-    crop: tuple[int, int, int, int],
-    equalize: str,
-    width: int,
-    height: int,
-    normalize: bool,
-    radius: int,
-    wrap: bool,
-    scale: float,
-) -> npt.NDArray[np.uint8]: ...
+class PrepareSettings:
+    """What prepare_frame does, with the core's defaults (nightloc/prepare.hpp); validate() checks
+    ranges."""
+
+    crop_top: int
+    crop_bottom: int
+    crop_left: int
+    crop_right: int
+    equalize: Literal["global", "clahe", "none"]
+    width: int
+    height: int
+    normalize: bool
+    radius: int
+    wrap: bool
+    scale: float
+    def __init__(self) -> None: ...
+    def validate(self) -> None: ...
+
+def prepare_frame(frame: npt.NDArray[np.uint8], order: str, settings: PrepareSettings) -> npt.NDArray[np.uint8]: ...
 def downsample_method(in_height: int, in_width: int, out_height: int, out_width: int) -> str: ...
 
 # Heat maps and the grid filter (cpp/bindings/register_localization.cpp; use
@@ -219,6 +228,29 @@ class HeatWeights:
 # (x, y, heading, cov_xx, cov_xy, cov_yy, credible_radius, confidence, cell, flat)
 _GridEstimate = tuple[float, float, float, float, float, float, float, float, int, bool]
 
+class GridFilterSettings:
+    """The grid filter's settings with the core's defaults (nightloc/grid_filter.hpp); setting a
+    value checks its type (finite; counts non-negative integers), validate() its range."""
+
+    heading_bins: int
+    likelihood_gain: float
+    distance_std: float
+    heading_std: float
+    position_floor: float
+    heading_floor: float
+    uniform_floor: float
+    unknown_spread: float
+    credibility: float
+    confidence_radius: float
+    estimate_window: int
+    negligible: float
+    settle_frames: int
+    score_cap: float
+    lookalike_places: float
+    def __init__(self) -> None: ...
+    def validate(self) -> None: ...
+    def to_dict(self) -> dict[str, float | int]: ...
+
 class GridFilter:
     """The grid Bayes filter (nightloc/grid_filter.hpp). Motion kinds: 0 none, 1 unknown,
     2 map frame (a=dx, b=dy), 3 robot frame (a=forward, b=left, c=turn)."""
@@ -234,7 +266,7 @@ class GridFilter:
         ref_headings: npt.NDArray[np.float64] | None,
         columns: int,
         shifts: npt.NDArray[np.int32],
-        settings: dict[str, float | int],
+        settings: GridFilterSettings,
         field_of_view: float = 0.0,
         window_columns: int = 0,
         window_rows: int = 0,
@@ -269,6 +301,8 @@ class GridFilter:
     def can_pose(self) -> bool: ...
     @property
     def heading_bins(self) -> int: ...
+    @property
+    def settings(self) -> GridFilterSettings: ...
     @property
     def offset(self) -> float: ...
     @property

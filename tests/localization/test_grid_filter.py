@@ -41,7 +41,7 @@ def _oracle(loc: Localizer) -> OracleFilter:
         place[members] = p
     return OracleFilter(
         m.weights, g.height, g.width, g.x0, g.y0, g.dx, g.dy, place, loc.ref_map.headings,
-        loc.ref_map.params.width, f.shifts, f.settings, f.field_of_view, f.window[0],
+        loc.ref_map.params.width, f.shifts, f.settings.to_dict(), f.field_of_view, f.window[0],
     )  # fmt: skip
 
 

@@ -387,7 +387,7 @@ def test_the_stored_tables_are_the_default_localizers(saved, garden_map):
     flt, mapper = localizer.grid_filter, localizer.mapper
     with np.load(saved) as archive:
         header = json.loads(archive["header"].tobytes())["localizer"]
-        assert header["settings"] == flt.settings and header["method"] == "filter"
+        assert header["settings"] == flt.settings.to_dict() and header["method"] == "filter"
         assert header["grid"] == {
             "x0": mapper.grid.x0,
             "y0": mapper.grid.y0,

@@ -214,25 +214,36 @@ def test_threads_prepare_concurrently():
             np.testing.assert_array_equal(got, expected[(i + k) % 8])
 
 
+def _settings(**fields) -> _core.PrepareSettings:
+    settings = _core.PrepareSettings()
+    for name, value in fields.items():
+        setattr(settings, name, value)
+    return settings
+
+
 def test_binding_errors_are_clear():
     frame = np.zeros((100, 120, 3), np.uint8)
-    args = ((0, 0, 0, 0), "global", 48, 24, True, 4, True, 24.0)
+    paper = _core.PrepareSettings()
     with pytest.raises(TypeError, match="uint8"):
-        _core.prepare_frame(frame.astype(np.float32), "bgr", *args)
+        _core.prepare_frame(frame.astype(np.float32), "bgr", paper)
     with pytest.raises(ValueError, match="pixel order"):
-        _core.prepare_frame(frame, "yuv", *args)
+        _core.prepare_frame(frame, "yuv", paper)
     with pytest.raises(ValueError, match=r"\(H, W, 4\)"):
-        _core.prepare_frame(frame, "bgra", *args)
+        _core.prepare_frame(frame, "bgra", paper)
     with pytest.raises(ValueError, match="packed"):
-        _core.prepare_frame(frame[:, ::2], "bgr", *args)
+        _core.prepare_frame(frame[:, ::2], "bgr", paper)
     with pytest.raises(ValueError, match="CLAHE"):
-        _core.prepare_frame(frame, "bgr", (0, 0, 0, 0), "clahe", 48, 24, True, 4, True, 24.0)
+        _core.prepare_frame(frame, "bgr", _settings(equalize="clahe"))
     with pytest.raises(ValueError, match="removes the whole"):
-        _core.prepare_frame(frame, "bgr", (60, 40, 0, 0), *args[1:])
+        _core.prepare_frame(frame, "bgr", _settings(crop_top=60, crop_bottom=40))
     with pytest.raises(ValueError, match="only downsamples"):
-        _core.prepare_frame(frame, "bgr", (0, 0, 0, 0), "global", 200, 24, True, 4, True, 24.0)
-    with pytest.raises(ValueError, match="radius"):
-        _core.prepare_frame(frame, "bgr", (0, 0, 0, 0), "global", 48, 24, True, -1, True, 24.0)
+        _core.prepare_frame(frame, "bgr", _settings(width=200))
+    with pytest.raises(ValueError, match=r"^radius must be in \[0, 1024\], got -1$"):
+        _core.prepare_frame(frame, "bgr", _settings(radius=-1))
+    with pytest.raises(ValueError, match="equalize must be 'global', 'clahe' or 'none', got 'histogram'"):
+        _settings(equalize="histogram")
+    with pytest.raises(ValueError, match="crop_left must be a non-negative integer, got -1"):
+        _settings(crop_left=-1)
     assert _core.downsample_method(480, 640, 24, 48) == "integral"
     assert _core.downsample_method(20, 40, 24, 48) == "unsupported"
     # the Python API keeps its own messages

@@ -74,6 +74,7 @@
 // sums in double with a fixed number of lanes.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -114,9 +115,11 @@ template <class T>
 using LineVector = std::vector<T, LineAllocator<T>>;
 }  // namespace detail
 
-/// The filter's tunables (python: nightloc.localization.FilterParams, where they are documented).
+/// The filter's tunables (python: nightloc.localization.FilterParams, where they are documented,
+/// takes its defaults from here). Every field is listed by name in grid_filter_setting_fields();
+/// validate() checks the ranges.
 struct GridFilterSettings {
-    std::size_t heading_bins = 48;    ///< B; 1 = position only
+    std::size_t heading_bins = 0;     ///< B; 0 = one per image column (map.columns); 1 = position only
     double likelihood_gain = 3.0;     ///< kappa: lambda = kappa / (median - min of the frame's scores)
     double distance_std = 0.0;        ///< odometry noise per step, metres
     double heading_std = 0.0;         ///< odometry noise per step, radians
@@ -170,7 +173,8 @@ struct GridEstimate {
 
 class GridFilter {
 public:
-    /// Throws std::invalid_argument for inconsistent map data or settings out of range.
+    /// Throws std::invalid_argument for inconsistent map data or settings out of range
+    /// (validate()). heading_bins 0 becomes map.columns (settings() holds the value used).
     GridFilter(GridFilterMap map, GridFilterSettings settings);
 
     /// Uniform belief (pose mode where possible), heading offset 0.
@@ -314,11 +318,31 @@ private:
     mutable std::vector<RingCell> ring_;
 };
 
-/// Sets one setting by the name Python gives it (nightloc.localization.grid_filter.GridFilter.settings:
-/// the FilterParams fields, the odometry noise and the confidence radius), as the Python module
-/// and map files (nightloc/map_file.hpp) pass them. Throws std::invalid_argument for an unknown
-/// name, a value that is not finite, or a count (heading_bins, estimate_window, settle_frames)
-/// that is not a non-negative integer.
+/// One named field of GridFilterSettings: a real number or a count (exactly one member is set).
+struct GridFilterSettingField {
+    const char* name;
+    double GridFilterSettings::* real;
+    std::size_t GridFilterSettings::* count;
+};
+
+/// Fields of GridFilterSettings.
+inline constexpr std::size_t kGridFilterSettingCount = 17;
+static_assert(sizeof(std::size_t) != 8 || sizeof(GridFilterSettings) == kGridFilterSettingCount * 8,
+              "every field of GridFilterSettings needs its line in grid_filter_setting_fields()");
+
+/// The one table of the settings' names, in declaration order: the names map files store
+/// (nightloc/map_file.hpp) and the Python class nightloc._core.GridFilterSettings binds.
+const std::array<GridFilterSettingField, kGridFilterSettingCount>& grid_filter_setting_fields() noexcept;
+
+/// Throws std::invalid_argument naming the first setting out of its range and the range.
+void validate(const GridFilterSettings& settings);
+
+/// Sets one setting by its name in grid_filter_setting_fields(). Throws std::invalid_argument for
+/// an unknown name, a value that is not finite, or a count (heading_bins, estimate_window,
+/// settle_frames) that is not a non-negative integer; the range is validate()'s.
 void set_grid_filter_setting(GridFilterSettings& settings, const std::string& name, double value);
+
+/// The value of one setting (a count as a double).
+double grid_filter_setting(const GridFilterSettings& settings, const GridFilterSettingField& field) noexcept;
 
 }  // namespace nightloc

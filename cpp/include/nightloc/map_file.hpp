@@ -38,13 +38,14 @@ public:
 };
 
 /// How the map's images were prepared (python: nightloc.PreparationParams, stored in the map).
+/// Missing keys take PrepareSettings' defaults (Python's PreparationParams takes the same).
 struct MapPreparation {
-    std::size_t width = 48, height = 24;  ///< prepared image size, pixels
-    int radius = 4;                       ///< patch-normalization radius
-    bool wrap = true;                     ///< 360-degree panoramas
-    std::string equalize = "global";      ///< "global", "clahe" or "none"
-    bool patch_normalize = true;
-    double scale = kDefaultPatchScale;
+    std::size_t width = PrepareSettings{}.width, height = PrepareSettings{}.height;  ///< prepared image size, pixels
+    int radius = PrepareSettings{}.radius;                                           ///< patch-normalization radius
+    bool wrap = PrepareSettings{}.wrap;                                              ///< 360-degree panoramas
+    std::string equalize = "global";                                                 ///< "global", "clahe" or "none"
+    bool patch_normalize = PrepareSettings{}.normalize;
+    double scale = PrepareSettings{}.scale;
     std::string channel_order = "bgr";  ///< "bgr" or "rgb": the order the frames' pixels are given in
     /// crop (top, bottom, left, right): pixels, or fractions of the height / width when `fraction`
     double crop[4] = {0, 0, 0, 0};

@@ -32,6 +32,7 @@ std::size_t pixel_bytes(PixelOrder order) noexcept;
 enum class Equalization : int {
     none = 0,    ///< grey levels unchanged
     global = 1,  ///< cv2.equalizeHist of the cropped grey frame
+    clahe = 2,   ///< OpenCV's CLAHE: a valid setting that prepare_frame does not implement (it throws)
 };
 
 /// A borrowed 8-bit frame: `height` rows of `width` packed pixels, row r at data + r * row_stride.
@@ -43,7 +44,8 @@ struct FrameView {
     PixelOrder order = PixelOrder::grey;
 };
 
-/// What prepare_frame does; the defaults are the paper's (Table II).
+/// What prepare_frame does; the defaults are the paper's (Table II), and nightloc.PreparationParams
+/// takes its defaults from here. validate() checks the ranges.
 struct PrepareSettings {
     std::size_t crop_top = 0, crop_bottom = 0, crop_left = 0, crop_right = 0;  ///< pixels removed
     Equalization equalize = Equalization::global;
@@ -54,6 +56,11 @@ struct PrepareSettings {
     bool wrap = true;                   ///< window wraps horizontally (360-degree panoramas)
     double scale = kDefaultPatchScale;  ///< quantization gain of patch_normalize
 };
+
+/// Throws std::invalid_argument naming the first setting out of its range, and the range: an
+/// output size of zero or of more than kMaxImagePixels pixels (what the matcher takes), radius
+/// outside [0, kMaxPatchRadius], a scale that is not positive and finite, an unknown equalization.
+void validate(const PrepareSettings& settings);
 
 /// Largest frame prepare_frame accepts, in pixels after cropping (2^31).
 inline constexpr std::size_t kMaxFramePixels = std::size_t{1} << 31;
@@ -115,8 +122,8 @@ private:
 /// Uses the SIMD path of active_simd_backend() (every path gives the same bytes).
 /// Throws std::invalid_argument for a null or empty frame, a row stride shorter than a row, a
 /// crop that removes the whole frame, more than kMaxFramePixels pixels or kMaxFrameWidth
-/// columns, a zero output size, an output larger than the cropped frame (upsampling), or invalid
-/// patch settings.
+/// columns, settings that validate() refuses, CLAHE, or an output larger than the cropped frame
+/// (upsampling).
 void prepare_frame(const FrameView& frame, const PrepareSettings& settings, std::uint8_t* out,
                    PrepareWorkspace& workspace);
 

@@ -71,7 +71,7 @@ def filter_tables(ref_map: ReferenceMap) -> tuple[dict[str, Any], dict[str, np.n
         "shifts": [int(s) for s in flt.shifts],
         "field_of_view": float(flt.field_of_view),
         "window": [int(flt.window[0]), int(flt.window[1])],
-        "settings": dict(flt.settings),
+        "settings": flt.settings.to_dict(),
         "localization": params_to_dict(localizer.params),
         "filter": params_to_dict(localizer.filter_params),
         "odometry_noise": [float(flt.noise.distance_std), float(flt.noise.heading_std)]

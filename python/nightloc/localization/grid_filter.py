@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -45,12 +45,18 @@ __all__ = ["MOTION_NONE", "MOTION_UNKNOWN", "FilterParams", "FilterState", "Grid
 #: Motion codes of the core: no prediction (the first frame), unknown motion, map frame, robot frame.
 MOTION_NONE, MOTION_UNKNOWN, MOTION_MAP, MOTION_ROBOT = 0, 1, 2, 3
 
+#: The core's settings with their defaults (``GridFilterSettings`` in nightloc/grid_filter.hpp):
+#: the one place the defaults of :class:`FilterParams`' core fields are written.
+_CORE_DEFAULTS = _core.GridFilterSettings()
+
 
 @params_section("filter")
 @dataclass(frozen=True)
 class FilterParams:
     """The grid filter's tunables (TOML ``[filter]``); the odometry noise is the localizer's
-    ``odometry_noise``. Defaults were tuned on the project's synthetic world (docs/localization.md).
+    ``odometry_noise``. Defaults were tuned on the project's synthetic world (docs/localization.md);
+    the fields the core holds take theirs from the core's ``GridFilterSettings``, whose
+    ``validate()`` checks their ranges (:meth:`core_settings` is the one conversion).
 
     Attributes:
         heading_bins: heading bins; 0 = one per panorama column (48 for the paper's images, so a
@@ -95,48 +101,56 @@ class FilterParams:
             every map the same.
     """
 
-    heading_bins: int = 0
-    likelihood_gain: float = 3.0
-    position_floor: float = 0.05
-    heading_floor: float = 0.06
-    uniform_floor: float = 1.5e-2
-    unknown_spread: float = 2.0
-    credibility: float = 0.9
-    estimate_window: int = 2
-    negligible: float = 1e-3
-    settle_frames: int = 12
+    heading_bins: int = _CORE_DEFAULTS.heading_bins
+    likelihood_gain: float = _CORE_DEFAULTS.likelihood_gain
+    position_floor: float = _CORE_DEFAULTS.position_floor
+    heading_floor: float = _CORE_DEFAULTS.heading_floor
+    uniform_floor: float = _CORE_DEFAULTS.uniform_floor
+    unknown_spread: float = _CORE_DEFAULTS.unknown_spread
+    credibility: float = _CORE_DEFAULTS.credibility
+    estimate_window: int = _CORE_DEFAULTS.estimate_window
+    negligible: float = _CORE_DEFAULTS.negligible
+    settle_frames: int = _CORE_DEFAULTS.settle_frames
     field_of_view: float = 90.0
     forward_window: int = 0
     row_window: int = 0
-    score_cap: float = 1.45
-    lookalike_places: float = 64.0
+    score_cap: float = _CORE_DEFAULTS.score_cap
+    lookalike_places: float = _CORE_DEFAULTS.lookalike_places
 
     def validate(self) -> None:
-        """Checks ranges (called on construction); raises ValueError naming the field."""
-        if not (math.isfinite(self.lookalike_places) and (self.lookalike_places == 0 or self.lookalike_places >= 2)):
-            raise ValueError(f"lookalike_places must be 0 (never tempered) or >= 2, got {self.lookalike_places}")
-        if not 0 <= self.heading_bins <= 4096:
-            raise ValueError(f"heading_bins must be 0 (one per panorama column) .. 4096, got {self.heading_bins}")
-        for name in ("likelihood_gain", "position_floor", "heading_floor", "unknown_spread", "score_cap"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {value}")
-        if not (math.isfinite(self.uniform_floor) and 0 <= self.uniform_floor < 1):
-            raise ValueError(f"uniform_floor must be in [0, 1), got {self.uniform_floor}")
-        if not (math.isfinite(self.credibility) and 0 < self.credibility <= 1):
-            raise ValueError(f"credibility must be in (0, 1], got {self.credibility}")
-        if not 0 <= self.estimate_window <= 1000:
-            raise ValueError(f"estimate_window must be 0..1000 cells, got {self.estimate_window}")
-        if not (math.isfinite(self.negligible) and 0 <= self.negligible < 1):
-            raise ValueError(f"negligible must be in [0, 1), got {self.negligible}")
-        if not 0 <= self.settle_frames <= 1000:
-            raise ValueError(f"settle_frames must be 0..1000 frames, got {self.settle_frames}")
+        """Checks ranges (called on construction); raises ValueError naming the field: the core's
+        ``validate()`` for its fields, here the forward camera's and the row window."""
+        self.core_settings().validate()
         if not (math.isfinite(self.field_of_view) and 0 < self.field_of_view <= 360):
             raise ValueError(f"field_of_view must be in (0, 360] degrees, got {self.field_of_view}")
         if not 0 <= self.forward_window <= 1000:
             raise ValueError(f"forward_window must be 0..1000 columns, got {self.forward_window}")
         if not 0 <= self.row_window <= 1000:
             raise ValueError(f"row_window must be 0..1000 rows, got {self.row_window}")
+
+    def core_settings(
+        self, noise: NoiseModel | None = None, confidence_radius: float | None = None
+    ) -> _core.GridFilterSettings:
+        """The core's ``GridFilterSettings``: every field of this class that the core holds, the
+        odometry noise per step (``None``: the core's default) and ``confidence_radius`` metres
+        (``None``: the core's default). ``heading_bins`` 0 stays 0: the core makes it one bin per
+        image column."""
+        settings = _core.GridFilterSettings()
+        for name in _CORE_FIELDS:
+            setattr(settings, name, getattr(self, name))
+        if noise is not None:
+            settings.distance_std = noise.distance_std
+            settings.heading_std = noise.heading_std
+            settings.distance_per_metre = noise.distance_per_metre
+            settings.heading_per_radian = noise.heading_per_radian
+        if confidence_radius is not None:
+            settings.confidence_radius = float(confidence_radius)
+        return settings
+
+
+#: The fields of :class:`FilterParams` the core's settings hold (the others are the map's or
+#: the localizer's: the forward camera, the row window).
+_CORE_FIELDS = tuple(f.name for f in fields(FilterParams) if f.name in _CORE_DEFAULTS.to_dict())
 
 
 @dataclass(frozen=True)
@@ -230,26 +244,6 @@ class GridFilter:
         self.field_of_view = math.radians(params.field_of_view) if window_columns else 0.0
         place_of_ref = mapper.place_of_ref
         grid = mapper.grid
-        settings = {
-            "heading_bins": int(params.heading_bins or columns),
-            "likelihood_gain": params.likelihood_gain,
-            "distance_std": self.noise.distance_std,
-            "heading_std": self.noise.heading_std,
-            "distance_per_metre": self.noise.distance_per_metre,
-            "heading_per_radian": self.noise.heading_per_radian,
-            "position_floor": params.position_floor,
-            "heading_floor": params.heading_floor,
-            "uniform_floor": params.uniform_floor,
-            "unknown_spread": params.unknown_spread,
-            "credibility": params.credibility,
-            "confidence_radius": float(confidence_radius),
-            "estimate_window": params.estimate_window,
-            "negligible": params.negligible,
-            "settle_frames": params.settle_frames,
-            "score_cap": params.score_cap,
-            "lookalike_places": params.lookalike_places,
-        }
-        self.settings = settings  # what the core was given (tests build their oracle from it)
         self.core = _core.GridFilter(
             mapper._core_weights,
             grid.x0,
@@ -260,7 +254,7 @@ class GridFilter:
             None if headings is None else np.ascontiguousarray(headings, dtype=np.float64),
             int(columns),
             self.shifts,
-            settings,
+            params.core_settings(self.noise, confidence_radius),
             self.field_of_view,
             self.window[0],
             self.window[1],
@@ -282,6 +276,12 @@ class GridFilter:
         return clone
 
     @property
+    def settings(self) -> _core.GridFilterSettings:
+        """A copy of the settings the core runs with (heading bins resolved, the odometry noise as
+        last set; what map files store)."""
+        return self.core.settings
+
+    @property
     def pose_mode(self) -> bool:
         """Whether the belief holds headings now (robot-frame odometry) or only positions."""
         return bool(self.core.pose_mode)
@@ -296,12 +296,6 @@ class GridFilter:
         self.noise = noise_model(noise)
         noise = self.noise
         self.core.set_noise(noise.distance_std, noise.heading_std, noise.distance_per_metre, noise.heading_per_radian)
-        self.settings.update(
-            distance_std=noise.distance_std,
-            heading_std=noise.heading_std,
-            distance_per_metre=noise.distance_per_metre,
-            heading_per_radian=noise.heading_per_radian,
-        )
 
     def step_image(self, query: np.ndarray, refs: np.ndarray, motion: MotionCode, threads: int) -> FilterState:
         """Predicts by ``motion`` (a :func:`motion_code`), matches ``query`` against ``refs``

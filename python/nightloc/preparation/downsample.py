@@ -82,7 +82,11 @@ def area_downsample(image: np.ndarray, width: int, height: int) -> np.ndarray:
     """
     in_h, in_w = image.shape
     if image.dtype == np.uint8 and in_h >= height and in_w >= width and packed(image):
-        return _core.prepare_frame(image, "grey", (0, 0, 0, 0), "none", width, height, False, 0, True, 1.0)
+        settings = _core.PrepareSettings()
+        settings.equalize = "none"
+        settings.width, settings.height = width, height
+        settings.normalize = False
+        return _core.prepare_frame(image, "grey", settings)
     return area_downsample_opencv(image, width, height)
 
 

@@ -9,11 +9,14 @@ from typing import Any, Literal
 from .. import _core
 from .._validate import MAX_CLAHE_TILES
 from ..config import params_section
-from .normalize import DEFAULT_PATCH_SCALE, MAX_PATCH_RADIUS
 
 __all__ = ["PreparationParams"]
 
 CropValue = int | float
+
+#: The core's ``PrepareSettings`` with their defaults (nightloc/prepare.hpp): the one place the
+#: defaults of the fields the core holds are written.
+_CORE_DEFAULTS = _core.PrepareSettings()
 
 
 @params_section("preparation")
@@ -40,30 +43,23 @@ class PreparationParams:
         channel_order: ``"bgr"`` (OpenCV, :meth:`Traverse.read`) or ``"rgb"`` for colour input.
     """
 
-    width: int = 48
-    height: int = 24
-    radius: int = 4
-    wrap: bool = True
-    equalize: Literal["global", "clahe", "none"] = "global"
+    width: int = _CORE_DEFAULTS.width
+    height: int = _CORE_DEFAULTS.height
+    radius: int = _CORE_DEFAULTS.radius
+    wrap: bool = _CORE_DEFAULTS.wrap
+    equalize: Literal["global", "clahe", "none"] = _CORE_DEFAULTS.equalize
     clahe_clip_limit: float = 2.0
     clahe_tiles: tuple[int, int] = (8, 8)
     crop: tuple[CropValue, CropValue, CropValue, CropValue] = (0, 0, 0, 0)
-    patch_normalize: bool = True
-    scale: float = DEFAULT_PATCH_SCALE
+    patch_normalize: bool = _CORE_DEFAULTS.normalize
+    scale: float = _CORE_DEFAULTS.scale
     channel_order: Literal["bgr", "rgb"] = "bgr"
 
     def validate(self) -> None:
-        """Checks ranges (called on construction); raises ValueError naming the field."""
-        for name in ("width", "height"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be >= 1 pixel, got {getattr(self, name)}")
-        if self.width * self.height > _core.MAX_IMAGE_PIXELS:
-            raise ValueError(
-                f"width x height = {self.width}x{self.height} is too large: prepared images hold at most "
-                f"{_core.MAX_IMAGE_PIXELS} pixels (the paper uses 48x24)"
-            )
-        if not 0 <= self.radius <= MAX_PATCH_RADIUS:
-            raise ValueError(f"radius must be in [0, {MAX_PATCH_RADIUS}], got {self.radius}")
+        """Checks ranges (called on construction); raises ValueError naming the field: the core's
+        ``validate()`` for the fields it holds (size, radius, scale), here CLAHE's and the crop's
+        (fractions of a frame, which the core takes as pixels)."""
+        self.core_settings().validate()
         if not (math.isfinite(self.clahe_clip_limit) and self.clahe_clip_limit > 0):
             raise ValueError(f"clahe_clip_limit must be a positive number, got {self.clahe_clip_limit}")
         if min(self.clahe_tiles) < 1 or max(self.clahe_tiles) > MAX_CLAHE_TILES:
@@ -71,8 +67,6 @@ class PreparationParams:
                 f"clahe_tiles must be 1..{MAX_CLAHE_TILES} in both directions (MAX_CLAHE_TILES; OpenCV keeps a "
                 f"histogram per tile), got {self.clahe_tiles}"
             )
-        if not (math.isfinite(self.scale) and self.scale > 0):
-            raise ValueError(f"scale must be a positive number, got {self.scale}")
         for side, value in zip(("top", "bottom", "left", "right"), self.crop):
             if isinstance(value, float):
                 if not 0.0 <= value < 1.0:
@@ -85,6 +79,23 @@ class PreparationParams:
             a, b = self.crop[first], self.crop[second]
             if isinstance(a, float) and isinstance(b, float) and a + b >= 1.0:
                 raise ValueError(f"crop removes the whole {axis}: fractions {a} + {b} >= 1")
+
+    def core_settings(
+        self, crop: tuple[int, int, int, int] = (0, 0, 0, 0), patch_normalize: bool | None = None
+    ) -> _core.PrepareSettings:
+        """The core's ``PrepareSettings`` (what ``prepare_frame`` takes): this class's fields with
+        ``crop`` in pixels (top, bottom, left, right; ``Preparer.crop_pixels`` resolves the
+        fractions for a frame) and ``patch_normalize`` (None: this class's)."""
+        settings = _core.PrepareSettings()
+        settings.crop_top, settings.crop_bottom, settings.crop_left, settings.crop_right = crop
+        settings.equalize = self.equalize
+        settings.width = self.width
+        settings.height = self.height
+        settings.normalize = self.patch_normalize if patch_normalize is None else patch_normalize
+        settings.radius = self.radius
+        settings.wrap = self.wrap
+        settings.scale = self.scale
+        return settings
 
     @property
     def shifts(self) -> list | None:

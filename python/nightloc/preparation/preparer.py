@@ -94,6 +94,8 @@ class Preparer:
         if not isinstance(params, PreparationParams):
             raise TypeError(f"params must be a PreparationParams, got {type(params).__name__}")
         self._params = params
+        #: The core's settings by (crop in pixels, normalize): read-only once made.
+        self._core_settings: dict[tuple[tuple[int, int, int, int], bool], _core.PrepareSettings] = {}
 
     @property
     def params(self) -> PreparationParams:
@@ -102,6 +104,12 @@ class Preparer:
 
     def __repr__(self) -> str:
         return f"Preparer({self._params!r})"
+
+    def __getstate__(self) -> dict:
+        return {"_params": self._params}  # pickle and copy: the core's settings are made again
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(state["_params"])  # type: ignore[misc]
 
     # --- steps 1-4 on one frame
 
@@ -184,18 +192,11 @@ class Preparer:
             frame = np.ascontiguousarray(frame[crop[0] : h - crop[1], crop[2] : w - crop[3]])
             crop = (0, 0, 0, 0)
         order = _CORE_ORDERS[(2 if frame.ndim == 2 else frame.shape[2], p.channel_order)]
-        return _core.prepare_frame(
-            frame,
-            order,
-            crop,
-            p.equalize,
-            p.width,
-            p.height,
-            normalize and p.patch_normalize,
-            p.radius,
-            p.wrap,
-            p.scale,
-        )
+        key = (crop, normalize)
+        settings = self._core_settings.get(key)
+        if settings is None:  # one per crop (frame size) and step: the frames of a traverse share it
+            settings = self._core_settings[key] = p.core_settings(crop, normalize and p.patch_normalize)
+        return _core.prepare_frame(frame, order, settings)
 
     def normalize(self, small: np.ndarray) -> np.ndarray:
         """Step 5 on ``(H, W)`` or ``(N, H, W)`` uint8: patch normalization, or a copy when off."""
