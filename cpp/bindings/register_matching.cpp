@@ -7,8 +7,8 @@
 #include <utility>
 #include <vector>
 
-#include "avx512_variant.hpp"
 #include "glue.hpp"
+#include "matching/avx512_variant.hpp"
 #include "nightloc/sad.hpp"
 #include "nightloc/simd.hpp"
 

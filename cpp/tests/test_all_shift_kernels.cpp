@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
-#include "avx512_variant.hpp"
 #include "check.hpp"
+#include "matching/avx512_variant.hpp"
+#include "matching/sad_kernels.hpp"
 #include "nightloc/sad.hpp"
 #include "nightloc/simd.hpp"
-#include "sad_kernels.hpp"
 
 #if NIGHTLOC_X86_KERNELS
 namespace {

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "check.hpp"
-#include "grid_filter_kernels.hpp"
+#include "localization/grid_filter_kernels.hpp"
 
 #include <nightloc/grid_filter.hpp>
 #include <nightloc/heatmap.hpp>

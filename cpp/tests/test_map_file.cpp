@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "check.hpp"
-#include "file_formats.hpp"
+#include "mapping/file_formats.hpp"
 
 #include <nightloc/localizer.hpp>
 #include <nightloc/map_file.hpp>

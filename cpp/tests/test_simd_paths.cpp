@@ -11,12 +11,12 @@
 #include <vector>
 
 #include "check.hpp"
-#include "float_kernel_table.hpp"
+#include "common/float_kernel_table.hpp"
+#include "common/simd_paths.hpp"
+#include "matching/query_plan.hpp"
+#include "matching/sad_kernels.hpp"
 #include "nightloc/simd.hpp"
-#include "prepare_kernels.hpp"
-#include "query_plan.hpp"
-#include "sad_kernels.hpp"
-#include "simd_paths.hpp"
+#include "preparation/prepare_kernels.hpp"
 
 namespace {
 

@@ -5,10 +5,10 @@ For each kernel, the hot loop is taken from the assembly the cross compiler make
 repository's source (the byte-comparison loop with the most comparisons per iteration) and handed
 to llvm-mca for a CPU model; the result is byte comparisons per cycle:
 
-  scalar        cpp/src/sad_scalar.cpp as shipped (auto-vectorization off: the reference path)
+  scalar        cpp/src/matching/sad_scalar.cpp as shipped (auto-vectorization off: the reference path)
   plain C++     a plain |a - b| sum loop, -O3 -mcpu=<the CPU>: the compiler's best for that CPU
-  neon          cpp/src/sad_neon.cpp as shipped (AArch64 baseline, no -mcpu)
-  neon-dotprod  cpp/src/sad_neon_dotprod.cpp as shipped (CPUs with the dot product only)
+  neon          cpp/src/matching/arm/sad_neon.cpp as shipped (AArch64 baseline, no -mcpu)
+  neon-dotprod  cpp/src/matching/arm/sad_neon_dotprod.cpp as shipped (CPUs with the dot product only)
 
 CPU models: LLVM has no Cortex-A72 or A76 model of its own. -mcpu=cortex-a72 (and cortex-a76)
 select its Cortex-A57 model (A72 is the A57's successor: same pipes, 1 load + 2 vector pipes);
