@@ -15,9 +15,9 @@ TOP = ("docs", "cpp", "python", "tests", "tools", "benchmarks", ".ci")
 SUFFIXES = {".py", ".pyi", ".cpp", ".hpp", ".txt", ".toml", ".cmake", ".md", ".sh"}
 #: A path from the repository's root (``docs/<name>.md``, ``cpp/src/<stage>/<name>.cpp``), or from
 #: the citing file's folder (CMake lists name their sources from cpp/).
+_TOPS = "|".join(re.escape(t) for t in TOP)
 CITED = re.compile(
-    r"(?<![\w./-])((?:%s)/[\w./-]*\w\.(?:md|py|pyi|cpp|hpp|txt|toml|csv|json|npz|png|sh|cmake))(?![\w/])"
-    % "|".join(re.escape(t) for t in TOP)
+    rf"(?<![\w./-])((?:{_TOPS})/[\w./-]*\w\.(?:md|py|pyi|cpp|hpp|txt|toml|csv|json|npz|png|sh|cmake))(?![\w/])"
 )
 #: ``nightloc/grid_filter.hpp`` in C++ comments: a public header under cpp/include.
 HEADER = re.compile(r"(?<![\w./-])(nightloc/\w+\.hpp)\b")

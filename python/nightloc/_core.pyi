@@ -236,6 +236,8 @@ class GridFilterSettings:
     likelihood_gain: float
     distance_std: float
     heading_std: float
+    distance_per_metre: float
+    heading_per_radian: float
     position_floor: float
     heading_floor: float
     uniform_floor: float
