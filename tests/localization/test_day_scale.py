@@ -79,3 +79,12 @@ def test_the_paper_method_prefers_the_day_image_to_a_night_look_on_the_night_sca
     for k in range(3):
         estimate = loc.update_match(result, None if k == 0 else (0.0, 0.0))
     assert np.hypot(estimate.x, estimate.y) < 0.5, (estimate.x, estimate.y)
+
+
+def test_the_core_refuses_learned_flags_that_do_not_fit_the_map():
+    core = nightloc.Localizer(_experience_map())._filter.core
+    with pytest.raises(ValueError, match="one flag per reference"):
+        core.set_learned(np.zeros(3, np.uint8))
+    with pytest.raises(ValueError, match=r"0 \(day map\) or 1"):
+        core.set_learned(np.array([0, 0, 0, 0, 2], np.uint8))
+    core.set_learned(np.zeros(0, np.uint8))  # none: a day map's filter
