@@ -292,8 +292,9 @@ void GridFilter::set_learned(std::vector<std::uint8_t> learned) {
 }
 
 void GridFilter::scale_learned() {
-    // the frame's learned scores onto the day references' scale: times the ratio of the two
-    // kinds' median minimum scores (table_ and mins_ hold the frame's scores)
+    // the frame's learned scores onto the day references' scale (GridFilterMap::learned): times
+    // the ratio of the two kinds' median minimum scores, then a look's lead over its place's
+    // best day reference tempered (table_ and mins_ hold the frame's scores)
     const std::size_t n = n_refs(), S = n_shifts();
     sorted_.clear();
     for (std::size_t i = 0; i < n; ++i)
