@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from nightloc.localization.day_scale import LEARNED_ADVANTAGE
+
 TWO_PI = 2.0 * math.pi
 LOWEST_LOG2 = -60.0
 
@@ -88,6 +90,7 @@ class OracleFilter:
         settings: the core's settings (heading_bins, likelihood_gain, distance_std, heading_std,
             distance_per_metre, heading_per_radian (wheel odometry), position_floor, heading_floor,
             uniform_floor, unknown_spread, credibility, confidence_radius, estimate_window).
+        learned: ``(N,)`` flags of references learned on a night, or None.
     """
 
     def __init__(
@@ -106,8 +109,13 @@ class OracleFilter:
         settings,
         field_of_view=0.0,
         window_columns=0,
+        learned=None,
     ):
         self.w = weights.tocsr()
+        # learned references (an experience map): their scores times the ratio of the day and the
+        # learned references' median minimum scores of the frame, their lead over their place's
+        # day images tempered, before anything else
+        self.learned = None if learned is None else np.asarray(learned, dtype=bool)
         self.h, self.wd = height, width
         self.x0, self.y0, self.dx, self.dy = x0, y0, dx, dy
         self.place_of_ref = np.asarray(place_of_ref)
@@ -246,8 +254,22 @@ class OracleFilter:
             raise ValueError("table holds NaN or infinity")
         n, _n_shifts = t.shape
         best = np.argmin(t, axis=1)
-        self.mins = t[np.arange(n), best]
         self.best_shifts = self.candidates[best]
+        if self.learned is not None and 0 < self.learned.sum() < n:
+            raw = t.min(axis=1)
+            day = float(np.median(raw[~self.learned]))
+            night = float(np.median(raw[self.learned]))
+            if day > 0 and night > 0:  # float32 products, as the core stores them
+                t[self.learned] = (t[self.learned] * (day / night)).astype(np.float32)
+                # then a look's lead over its place's best day reference counts LEARNED_ADVANTAGE
+                scaled = t.min(axis=1)
+                for i in np.flatnonzero(self.learned):
+                    day_refs = (self.place_of_ref == self.place_of_ref[i]) & ~self.learned
+                    day_best = scaled[day_refs].min() if day_refs.any() else np.inf
+                    if scaled[i] < day_best:
+                        lift = (1.0 - LEARNED_ADVANTAGE) * (day_best - scaled[i])
+                        t[i] = (t[i] + lift).astype(np.float32)
+        self.mins = t[np.arange(n), best]
         s_min = self.mins.min()
         spread = float(np.median(self.mins)) - s_min
         settle = self.s.get("settle_frames", 0)

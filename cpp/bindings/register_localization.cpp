@@ -220,6 +220,8 @@ public:
         filter_.set_noise(distance_std, heading_std, distance_per_metre, heading_per_radian);
     }
 
+    void set_learned(const py::array& learned) { filter_.set_learned(vector_of<std::uint8_t>(learned, "learned")); }
+
     void predict(int kind, double a, double b, double c) {
         check_motion(kind, a, b, c);
         py::gil_scoped_release release;
@@ -483,6 +485,7 @@ void register_localization(py::module_& m) {
         .def(
             "__copy__", [](const GridFilterPy& f) { return GridFilterPy(f); },
             "An independent filter in the same state, bit for bit (the map's weights are shared: immutable).")
+        .def("set_learned", &GridFilterPy::set_learned, py::arg("learned"))
         .def("set_noise", &GridFilterPy::set_noise, py::arg("distance_std"), py::arg("heading_std"),
              py::arg("distance_per_metre") = 0.0, py::arg("heading_per_radian") = 0.0)
         .def("predict", &GridFilterPy::predict, py::arg("kind"), py::arg("a"), py::arg("b"), py::arg("c"))

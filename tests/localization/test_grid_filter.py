@@ -41,7 +41,7 @@ def _oracle(loc: Localizer) -> OracleFilter:
         place[members] = p
     return OracleFilter(
         m.weights, g.height, g.width, g.x0, g.y0, g.dx, g.dy, place, loc.ref_map.headings,
-        loc.ref_map.params.width, f.shifts, f.settings.to_dict(), f.field_of_view, f.window[0],
+        loc.ref_map.params.width, f.shifts, f.settings.to_dict(), f.field_of_view, f.window[0], f.learned,
     )  # fmt: skip
 
 
@@ -110,6 +110,42 @@ def test_core_equals_the_numpy_oracle_on_random_maps_and_motions(seed, noise):
     estimates = _drive_beside_oracle(loc, rng)
     assert [e.frames for e in estimates] == list(range(1, len(MOTIONS) + 1))
     assert all(e.method == "filter" for e in estimates)
+
+
+@pytest.mark.sanitize
+@pytest.mark.parametrize("seed", [0, 1])
+def test_core_equals_the_numpy_oracle_on_an_experience_map(seed):
+    # learned references (appearances at their places' positions) whose scores run lower than the
+    # day ones, as a night frame's do against night looks: the core brings them onto the day scale
+    from nightloc.io.appearances import Appearances, LearnedNight
+
+    rng = np.random.default_rng(seed)
+    day = _random_map(rng, n=9)
+    looks = rng.choice(9, 5, replace=False)
+    night = np.r_[np.zeros(9, np.int32), np.ones(5, np.int32)]
+    appearances = Appearances(
+        night=night, confidence=np.where(night > 0, 0.9, 0.0), time=np.zeros(14), matches=np.zeros(14, np.int64),
+        nights=(LearnedNight(1, "night1", "2026-01-01T00:00:00Z", 5, 5, 5, 0, 0),),
+    )  # fmt: skip
+    ref_map = nightloc.ReferenceMap(
+        np.concatenate([day.images, day.images[looks]]),
+        np.concatenate([day.positions, day.positions[looks]]),
+        np.concatenate([day.headings, day.headings[looks]]),
+        params=day.params,
+        appearances=appearances,
+    )
+    loc = Localizer(ref_map, odometry_noise=1, grid_width=30, grid_height=24)
+    np.testing.assert_array_equal(loc._filter.learned, night > 0)
+    oracle = _oracle(loc)
+    for k, motion in enumerate(MOTIONS):
+        table = rng.uniform(15, 25, (len(ref_map), 16)).astype(np.float32)
+        table[9:] *= 0.4  # night looks: lower scores everywhere
+        estimate = loc.update_table(table, motion if k else None)
+        if k:
+            _apply(oracle, motion)
+        oracle.update(table)
+        _check_against_oracle(loc, oracle, estimate)
+        assert estimate.score == pytest.approx(float(oracle.mins.min()), rel=1e-6)
 
 
 def test_step_scaled_noise_is_the_constant_noise_of_each_step():

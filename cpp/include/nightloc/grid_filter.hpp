@@ -141,6 +141,10 @@ struct GridFilterSettings {
                                       ///< score_cap ln(lookalike_places) / ln(P) (0: never tempered)
 };
 
+/// The share of a learned appearance's advantage over the best day reference of its place that
+/// counts (GridFilterMap::learned; python: nightloc.localization.day_scale.LEARNED_ADVANTAGE).
+inline constexpr double kLearnedAdvantage = 0.4;
+
 /// What the filter knows of the map (python: built from the HeatMapper of the localizer).
 struct GridFilterMap {
     std::shared_ptr<const HeatWeights> weights;  ///< cells x places interpolation weights
@@ -158,6 +162,15 @@ struct GridFilterMap {
     /// > 0 and reference headings, the filter keeps heading bins: heading theta sees reference i
     /// at column offset dx = wrap(theta - heading_i) columns / field_of_view.
     double field_of_view = 0;
+    /// n_refs: 1 for a reference learned on a night (an experience map's appearance), 0 for the
+    /// day map's; or empty (a day map). When both kinds are present, each frame's scores of a
+    /// learned reference are, before the per-place minimum, (1) multiplied by median(day minimum
+    /// scores) / median(learned minimum scores) of the frame (night frames score lower against
+    /// any night image than against a day image: a place must not win by owning a night look),
+    /// then (2) raised by (1 - kLearnedAdvantage) of how far their minimum lies below the best
+    /// day reference of the same place (a night look, sharp but taken at one pose, keeps the
+    /// day images' smooth geometry between places); a place without a day reference: (1) only.
+    std::vector<std::uint8_t> learned;
 };
 
 /// One estimate of the filter.
@@ -184,6 +197,8 @@ public:
     /// per radian of its turn; finite, >= 0).
     void set_noise(double distance_std, double heading_std, double distance_per_metre = 0.0,
                    double heading_per_radian = 0.0);
+    /// Replaces GridFilterMap::learned (empty, or n_refs values 0 or 1).
+    void set_learned(std::vector<std::uint8_t> learned);
 
     /// Motion in the robot's frame at the previous frame: metres ahead, metres left, radians
     /// turned counter-clockwise. Position mode cannot use it without headings: throws
@@ -224,7 +239,8 @@ public:
     double scale() const;
     /// The marginal over heading (height x width), times scale() (sums to 1).
     const float* marginal() const;
-    /// The last table's per-reference minimum scores and the shifts attaining them (first).
+    /// The last table's per-reference minimum scores (the learned ones on the day scale, see
+    /// GridFilterMap::learned) and the shifts attaining them (first).
     const std::vector<float>& min_scores() const noexcept { return mins_; }
     const std::vector<std::int32_t>& best_shifts() const noexcept { return best_shifts_; }
     /// The likelihood sharpness lambda of the last update (1 / score units).
@@ -255,6 +271,7 @@ private:
         double shift_x, shift_y, sigma_x, sigma_y;
     };
     void to_position();
+    void scale_learned();
     void to_pose();
     // A prediction is pending until the next update (fused with it) or materialize(): per bin of
     // the result its SliceMotion, then the heading blur, the normalization and the floor.
@@ -307,6 +324,8 @@ private:
     std::vector<double> ref_fraction_;          // and its fraction (bin b: columns c0 + b, c0 + b + 1)
     std::vector<float> row_y_;                  // a row of log2-likelihoods (scratch)
     std::vector<std::uint8_t> first_of_place_;  // per reference: the first of its place
+    bool two_kinds_ = false;                    // learned and day references both present
+    std::vector<float> day_best_;               // per place: its day references' lowest score (scratch)
     std::vector<std::int32_t> empty_places_;    // places no reference stands at (take the bin's highest score)
     std::vector<float> bin_max_;                // each bin's largest value after the last measurement (pose mode)
     mutable bool bin_max_valid_ = false;        // false once the belief changed otherwise (see negligible)

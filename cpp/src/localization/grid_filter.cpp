@@ -58,6 +58,20 @@ void axis_shares(double angle, double& wx, double& wy) {
     wy = k * s;
 }
 
+// The median of `values` by selection (the mean of the two middle values for an even count, in
+// double); reorders them.
+double median_of(std::vector<float>& values) {
+    const std::size_t n = values.size();
+    const auto middle = values.begin() + static_cast<std::ptrdiff_t>(n / 2);
+    std::nth_element(values.begin(), middle, values.end());
+    double median = static_cast<double>(*middle);
+    if (n % 2 == 0) {
+        const float below = *std::max_element(values.begin(), middle);
+        median = 0.5 * (static_cast<double>(below) + median);
+    }
+    return median;
+}
+
 // Wraps an angle to (-pi, pi].
 double wrap(double angle) {
     double a = std::fmod(angle + kPi, kTwoPi);
@@ -92,6 +106,7 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
         first_of_place_[i] = has_ref[p] ? 0 : 1;
         has_ref[p] = true;
     }
+    set_learned(std::move(map_.learned));
     require(map_.ref_headings.empty() || map_.ref_headings.size() == map_.place_of_ref.size(),
             "grid filter: ref_headings must be empty or hold one heading per reference");
     for (double h : map_.ref_headings) require(std::isfinite(h), "grid filter: reference headings must be finite");
@@ -246,6 +261,54 @@ void GridFilter::reset() {
     std::fill(belief_.begin(), belief_.begin() + static_cast<std::ptrdiff_t>(n), 1.f);
     scale_ = 1.0 / static_cast<double>(n);
     marginal_valid_ = false;
+}
+
+void GridFilter::set_learned(std::vector<std::uint8_t> learned) {
+    const std::size_t n = map_.place_of_ref.size();
+    require(learned.empty() || learned.size() == n,
+            "grid filter: learned must be empty or hold one flag per reference (" + std::to_string(n) + ")");
+    std::size_t count = 0;
+    for (const std::uint8_t flag : learned) {
+        require(flag <= 1, "grid filter: learned flags must be 0 (day map) or 1 (learned on a night)");
+        count += flag;
+    }
+    map_.learned = std::move(learned);
+    two_kinds_ = count > 0 && count < n;
+}
+
+void GridFilter::scale_learned() {
+    // the frame's learned scores onto the day references' scale (GridFilterMap::learned): times
+    // the ratio of the two kinds' median minimum scores, then a look's lead over its place's
+    // best day reference tempered (table_ and mins_ hold the frame's scores)
+    const std::size_t n = n_refs(), S = n_shifts();
+    sorted_.clear();
+    for (std::size_t i = 0; i < n; ++i)
+        if (map_.learned[i] == 0) sorted_.push_back(mins_[i]);
+    const double day = median_of(sorted_);
+    sorted_.clear();
+    for (std::size_t i = 0; i < n; ++i)
+        if (map_.learned[i] != 0) sorted_.push_back(mins_[i]);
+    const double night = median_of(sorted_);
+    if (!(day > 0 && night > 0)) return;  // a frame that equals references: no scale to bring
+    const double ratio = day / night;
+    const float inf = std::numeric_limits<float>::infinity();
+    day_best_.assign(places_, inf);
+    for (std::size_t i = 0; i < n; ++i) {
+        float& best = day_best_[static_cast<std::size_t>(map_.place_of_ref[i])];
+        if (map_.learned[i] == 0) best = std::min(best, mins_[i]);
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+        if (map_.learned[i] == 0) continue;
+        float* row = table_.data() + i * S;
+        for (std::size_t j = 0; j < S; ++j) row[j] = static_cast<float>(static_cast<double>(row[j]) * ratio);
+        mins_[i] = static_cast<float>(static_cast<double>(mins_[i]) * ratio);
+        // only kLearnedAdvantage of the look's lead over its place's day image counts
+        const float best = day_best_[static_cast<std::size_t>(map_.place_of_ref[i])];
+        if (!(best < inf) || !(mins_[i] < best)) continue;
+        const double lift = (1.0 - kLearnedAdvantage) * (static_cast<double>(best) - static_cast<double>(mins_[i]));
+        for (std::size_t j = 0; j < S; ++j) row[j] = static_cast<float>(static_cast<double>(row[j]) + lift);
+        mins_[i] = static_cast<float>(static_cast<double>(mins_[i]) + lift);
+    }
 }
 
 void GridFilter::set_noise(double distance_std, double heading_std, double distance_per_metre,
@@ -612,15 +675,13 @@ void GridFilter::update(const float* table) {
     }
     if (table != table_.data()) std::copy(table, table + n * S, table_.begin());
     for (std::size_t i = 0; i < n; ++i) best_shifts_[i] = candidates_[static_cast<std::size_t>(best_shifts_[i])];
+    if (two_kinds_) {
+        scale_learned();
+        table = table_.data();
+    }
     // the median by selection (the two middle values for an even count), not a full sort
     sorted_.assign(mins_.begin(), mins_.end());
-    const auto middle = sorted_.begin() + static_cast<std::ptrdiff_t>(n / 2);
-    std::nth_element(sorted_.begin(), middle, sorted_.end());
-    double median = static_cast<double>(*middle);
-    if (n % 2 == 0) {
-        const float below = *std::max_element(sorted_.begin(), middle);
-        median = 0.5 * (static_cast<double>(below) + median);
-    }
+    const double median = median_of(sorted_);
     const double s_min = *std::min_element(mins_.begin(), mins_.end());
     const double spread = median - s_min;
     // the first frames since reset() tempered: frame k (from 0) at (k + 1) / settle_frames of the
@@ -1084,7 +1145,7 @@ std::size_t GridFilter::memory_bytes() const noexcept {
     add(sums_table_), add(table_), add(mins_), add(sorted_), add(bin_high_), add(place_scores_), add(log_lik_);
     add(row_of_ref_), add(ref_c0_), add(ref_fraction_), add(row_y_), add(first_of_place_);
     add(empty_places_), add(bin_max_), add(best_shifts_), add(xs_), add(dx2_), add(hist_), add(ring_);
-    add(map_.place_of_ref), add(map_.ref_headings), add(map_.shifts);
+    add(map_.place_of_ref), add(map_.ref_headings), add(map_.shifts), add(map_.learned), add(day_best_);
     return bytes;
 }
 

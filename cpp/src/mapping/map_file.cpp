@@ -355,6 +355,8 @@ MapFile load_map_file(const std::string& path) {
         }
     }
     read_tables(r, header, m);
+    m.localizer.map.learned.clear();  // the filter brings learned appearances' scores onto the day scale
+    for (const std::int32_t night : m.appearance_night) m.localizer.map.learned.push_back(night > 0 ? 1 : 0);
     return m;
 }
 

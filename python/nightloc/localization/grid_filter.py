@@ -218,6 +218,8 @@ class GridFilter:
         params: :class:`FilterParams`.
         noise: the odometry noise per step (a Table III model number or a NoiseModel).
         confidence_radius: metres; confidence = belief within it.
+        learned: ``(N,)`` uint8, 1 for a reference learned on a night (its scores are brought onto
+            the day references' scale per frame, :mod:`nightloc.localization.day_scale`), or None.
     """
 
     def __init__(
@@ -229,6 +231,7 @@ class GridFilter:
         params: FilterParams,
         noise: int | NoiseModel,
         confidence_radius: float,
+        learned: np.ndarray | None = None,
     ):
         self.params = params
         self.noise = noise_model(noise)
@@ -259,6 +262,10 @@ class GridFilter:
             self.window[0],
             self.window[1],
         )
+        #: ``(N,)`` uint8 learned flags the core was given, or None (a day map).
+        self.learned = None if learned is None else np.ascontiguousarray(learned, dtype=np.uint8)
+        if self.learned is not None:
+            self.core.set_learned(self.learned)
 
     def __copy__(self) -> GridFilter:
         return self._copy(self.mapper)

@@ -56,6 +56,7 @@ from ..config import params_section
 from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, match, rotational_sad, shift_table
 from ..motion.odometry import Motion, NoiseModel, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
+from .day_scale import learned_mask, on_day_scale
 from .grid_filter import MOTION_NONE, FilterParams, FilterState, GridFilter, MotionCode, motion_code
 from .heatmap import HeatMapper
 from .sequence import cumulative_offsets
@@ -250,6 +251,7 @@ class Localizer:
             confidence_radius=params.confidence_radius,
         )
         self._shifts = ref_map.params.shifts
+        self._learned = learned_mask(ref_map)  # experience maps: learned scores on the day scale
         self._prepared_shape = (ref_map.params.height, ref_map.params.width)
         if method == "filter":
             self._filter: GridFilter | None = self._new_filter(odometry_noise)
@@ -296,6 +298,7 @@ class Localizer:
             self.filter_params,
             noise,
             self.params.confidence_radius,
+            self._learned,
         )
 
     def with_seq_len(self, seq_len: int) -> Localizer:
@@ -542,7 +545,8 @@ class Localizer:
                 "robot-frame odometry (RobotMotion) needs a heading estimate, and there is none: the reference "
                 "map has no headings; pass map-frame displacements (MapDisplacement or (dx, dy)) instead"
             )
-        values, fill = self.mapper.place_excess(result.scores)  # checks the scores before any state changes
+        scores = on_day_scale(result.scores, self._learned, self.mapper.place_of_ref)  # learned looks: day scale
+        values, fill = self.mapper.place_excess(scores)  # checks the scores before any state changes
         if isinstance(motion, RobotMotion) and math.isfinite(self._heading):
             predicted = self._heading + motion.turn
         elif headings is not None:
@@ -570,7 +574,7 @@ class Localizer:
         fill_sum, cell, peak, floor, second = sequence.fuse_peak(offsets)
         heatmap = sequence.fused() + fill_sum if return_heatmap else None
         frame_heatmap = sequence.frame(-1) + fill if return_heatmap else None
-        found = self.mapper.estimate_from_peak(cell, peak, floor, second, result.scores)
+        found = self.mapper.estimate_from_peak(cell, peak, floor, second, scores)
         if headings is not None:
             self._heading = float(wrap_angle(headings[found.ref_index] + result.headings[found.ref_index]))
         return Estimate(
