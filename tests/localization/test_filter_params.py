@@ -17,8 +17,8 @@ from nightloc.localization.localizer import LocalizationParams, Localizer
 from nightloc.localization.odometry import NoiseModel
 
 #: Core settings that FilterParams does not hold: the localizer's odometry noise (odometry_noise,
-#: a noise model) and its confidence radius (LocalizationParams).
-_LOCALIZER_SETTINGS = {"distance_std", "heading_std", "confidence_radius"}
+#: a noise model, step-scaled terms included) and its confidence radius (LocalizationParams).
+_LOCALIZER_SETTINGS = {"distance_std", "heading_std", "distance_per_metre", "heading_per_radian", "confidence_radius"}
 
 
 def test_python_defaults_are_the_cores_for_every_setting():
@@ -28,6 +28,8 @@ def test_python_defaults_are_the_cores_for_every_setting():
     for name, field in held.items():
         assert field.default == core[name], name
         assert type(field.default) is type(core[name]), name  # counts int, the rest float
+    for name in ("distance_per_metre", "heading_per_radian"):  # a Table III model leaves them at the core's 0
+        assert getattr(NoiseModel(0.1, 0.02), name) == core[name], name
     assert LocalizationParams().confidence_radius == core["confidence_radius"]
     assert core["distance_std"] == core["heading_std"] == 0.0  # the localizer always sets its noise
     assert core["heading_bins"] == 0  # one bin per image column
