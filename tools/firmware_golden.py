@@ -14,6 +14,7 @@ files); tests/firmware/test_replay.py makes the same data afresh in a temporary 
 
 from __future__ import annotations
 
+import argparse
 import math
 import shutil
 import sys
@@ -122,10 +123,12 @@ def write_expected(path: Path, names: list[str], estimates: list[nightloc.Estima
 
 
 def main(argv: list[str]) -> int:
-    if len(argv) != 1:
-        sys.stderr.write("usage: python tools/firmware_golden.py OUT_FOLDER (e.g. cpp/tests/data/replay)\n")
-        return 2
-    target = Path(argv[0])
+    parser = argparse.ArgumentParser(
+        prog="python tools/firmware_golden.py",
+        description="Writes map.npz, log/ and expected.csv (the firmware replay's golden data) into OUT_FOLDER.",
+    )
+    parser.add_argument("out_folder", type=Path, help="where to write them (e.g. cpp/tests/data/replay)")
+    target = parser.parse_args(argv).out_folder
     target.mkdir(parents=True, exist_ok=True)
     world = scene()
     with tempfile.TemporaryDirectory() as scratch:
