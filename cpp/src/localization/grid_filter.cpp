@@ -32,8 +32,6 @@ constexpr std::size_t kFusedBins = detail::kGroupBins;
 // Most places of a dense block of the measurement (see detail::UpdateArgs).
 constexpr std::size_t kDensePlaces = 8;
 
-bool finite_nonnegative(double v) { return std::isfinite(v) && v >= 0; }
-
 void require(bool ok, const std::string& message) {
     if (!ok) throw std::invalid_argument(message);
 }
@@ -313,13 +311,13 @@ void GridFilter::scale_learned() {
 
 void GridFilter::set_noise(double distance_std, double heading_std, double distance_per_metre,
                            double heading_per_radian) {
-    require(finite_nonnegative(distance_std) && finite_nonnegative(heading_std) &&
-                finite_nonnegative(distance_per_metre) && finite_nonnegative(heading_per_radian),
-            "grid filter: odometry noise must be finite and >= 0");
-    settings_.distance_std = distance_std;
-    settings_.heading_std = heading_std;
-    settings_.distance_per_metre = distance_per_metre;
-    settings_.heading_per_radian = heading_per_radian;
+    GridFilterSettings next = settings_;
+    next.distance_std = distance_std;
+    next.heading_std = heading_std;
+    next.distance_per_metre = distance_per_metre;
+    next.heading_per_radian = heading_per_radian;
+    validate(next);  // the settings' one range check; the filter is unchanged when it throws
+    settings_ = next;
 }
 
 // ---------------------------------------------------------------------------------------------
