@@ -56,7 +56,7 @@ def on_day_scale(scores: np.ndarray, learned: np.ndarray | None, place_of_ref: n
     if mask.all() or not mask.any():
         return s
     mins = s if s.ndim == 1 else s.min(axis=1)
-    day, night = _median(mins[~mask]), _median(mins[mask])
+    day, night = (float(np.median(mins[k].astype(np.float64))) for k in (~mask, mask))
     if not (day > 0 and night > 0):
         return s
     out = s.copy()
@@ -71,10 +71,3 @@ def on_day_scale(scores: np.ndarray, learned: np.ndarray | None, place_of_ref: n
     lifted = out[rows].astype(np.float64) + (lift[rows] if out.ndim == 1 else lift[rows, None])
     out[rows] = lifted.astype(s.dtype)
     return out
-
-
-def _median(values: np.ndarray) -> float:
-    """The median in double precision (the mean of the two middle values for an even count)."""
-    v = np.sort(np.asarray(values, dtype=np.float64))
-    n = v.size
-    return float(v[n // 2]) if n % 2 else 0.5 * (float(v[n // 2 - 1]) + float(v[n // 2]))
