@@ -201,14 +201,19 @@ def study_world(label: str, cache: Path, draws: int, params: LearningParams) -> 
             f"({condition} the learned nights)"
         )
         emit()
-        emit("| odometry | map | filter median | p95 | % > 1 m | longest run > 1 m | paper median | paper p95 |")
-        emit("| --- | --- | --- | --- | --- | --- | --- | --- |")
-        for run_label in results["day"]:
-            for name, res in results.items():
-                entry = res[run_label]
-                paper = entry["paper"]
-                paper_cells = f"{cell(paper)} | {cell(paper, 'p95_m')}" if paper else "- | -"
-                emit(f"| {run_label} | {name} | {tail_cells(entry['filter'])} | {paper_cells} |")
+        emit_results(results)
+
+
+def emit_results(results: dict) -> None:
+    """One test night's table: a row per odometry run and map (filter with its tail, the paper's method)."""
+    emit("| odometry | map | filter median | p95 | % > 1 m | longest run > 1 m | paper median | paper p95 |")
+    emit("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for run_label in results["day"]:
+        for name, res in results.items():
+            entry = res[run_label]
+            paper = entry["paper"]
+            paper_cells = f"{cell(paper)} | {cell(paper, 'p95_m')}" if paper else "- | -"
+            emit(f"| {run_label} | {name} | {tail_cells(entry['filter'])} | {paper_cells} |")
 
 
 def sweep(labels: list[str], cache: Path) -> None:
@@ -290,14 +295,7 @@ def study_nights(root: Path, label: str, draws: int, params: LearningParams, tes
         emit()
         emit(f"#### {label}: test night {folder.name}")
         emit()
-        emit("| odometry | map | filter median | p95 | % > 1 m | longest run > 1 m | paper median | paper p95 |")
-        emit("| --- | --- | --- | --- | --- | --- | --- | --- |")
-        for run_label in results["day"]:
-            for name, res in results.items():
-                entry = res[run_label]
-                paper = entry["paper"]
-                paper_cells = f"{cell(paper)} | {cell(paper, 'p95_m')}" if paper else "- | -"
-                emit(f"| {run_label} | {name} | {tail_cells(entry['filter'])} | {paper_cells} |")
+        emit_results(results)
 
 
 def main() -> None:
