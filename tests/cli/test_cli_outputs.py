@@ -207,7 +207,7 @@ SACRED = [
     ),
     ("demo out contains the cache", lambda r, q, t: ["demo", "--out", str(t), "--cache", str(t / "c")], "contains"),
     ("build-map over an existing map", lambda r, q, t: ["build-map", str(r), str(t / "m" / "ref.map")], "--overwrite"),
-    ("build-map into a missing folder", lambda r, q, t: ["build-map", str(r), str(t / "no" / "x.map")], "not exist"),
+    ("build-map under a file", lambda r, q, t: ["build-map", str(r), str(t / "p.toml" / "x.map")], "is a file"),
     ("route under a file", lambda r, q, t: ["route", str(r), str(q), "--out", str(t / "p.toml" / "o")], "is a file"),
 ]
 

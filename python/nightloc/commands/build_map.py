@@ -20,13 +20,13 @@ import numpy as np
 
 from ..config import load_params
 from ..errors import DatasetError
-from ..io.atomic import check_output_path
+from ..io.atomic import check_output_path, parent_folders
 from ..io.odometry_csv import ODOMETRY_FILE
 from ..io.traverse import Traverse, load_traverse
 from ..mapping.reference_map import ReferenceMap
 from ..preparation.camera import shape_camera
 from ..preparation.params import PreparationParams
-from .options import add_bag_options, add_camera_option, bag_options, preparation_for_camera
+from .options import add_bag_options, add_camera_option, bag_options, preparation_for_camera, traverse_camera
 from .wording import duration
 
 
@@ -82,9 +82,10 @@ def run(args: argparse.Namespace) -> int:
     if args.frame_step < 1:
         raise ValueError(f"--frame-step must be >= 1, got {args.frame_step}")
     params = load_params(args.params, PreparationParams) if args.params is not None else None
-    params = preparation_for_camera(params, args.camera, args.params) or PreparationParams()
     # names, times and poses only
     traverse = load_traverse(args.traverse, frame_step=args.frame_step, poses=args.poses, **bag_options(args))
+    camera, camera_said_by = traverse_camera(traverse, args.camera, args.params)
+    params = preparation_for_camera(params, camera, args.params) or PreparationParams()
     teach = args.evaluate_poses or not traverse.has_poses
     if args.evaluate_poses and not traverse.has_poses:
         where = "a pose topic (--pose-topic)" if traverse.is_bag else f"{args.traverse}/poses.csv"
@@ -97,24 +98,36 @@ def run(args: argparse.Namespace) -> int:
         has_odometry = not traverse.is_video and (Path(traverse.root) / ODOMETRY_FILE).is_file()
     if teach and not has_odometry:
         raise no_poses_error(traverse)
-    # Fail before preparing every frame: a folder, a missing parent, an existing map without
+    # Fail before preparing every frame: a folder, a parent that is a file, an existing map without
     # --overwrite, or a map that would land on or inside an input (a frame of the traverse).
-    check_output_path(args.output, overwrite=args.overwrite, inputs=(args.traverse, args.poses, args.params))
+    check_output_path(
+        args.output, overwrite=args.overwrite, inputs=(args.traverse, args.poses, args.params), parents=True
+    )
     if args.figure is not None:
         check_output_path(args.figure, overwrite=True, inputs=(args.traverse, args.poses, args.params, args.output))
-    if teach:
-        return _teach(args, traverse, params)
+    with parent_folders(args.output):  # maps/garden.map creates maps/ (removed again on a failure)
+        if teach:
+            return _teach(args, traverse, params, camera_said_by)
+        return _survey(args, traverse, params, camera_said_by)
+
+
+def _survey(args: argparse.Namespace, traverse: Traverse, params: PreparationParams, camera_said_by: str | None) -> int:
     start = time.perf_counter()
     reference_map = ReferenceMap.build(traverse, params)
     elapsed = time.perf_counter() - start
     written = reference_map.save(args.output, overwrite=args.overwrite)
-    _describe(args, reference_map, traverse.root, params, elapsed)
+    _describe(args, reference_map, traverse.root, params, elapsed, camera_said_by)
     print(f"wrote {written} ({written.stat().st_size / 1024:.1f} KiB)")
     return 0
 
 
 def _describe(
-    args: argparse.Namespace, reference_map: ReferenceMap, root: Path, params: PreparationParams, elapsed: float
+    args: argparse.Namespace,
+    reference_map: ReferenceMap,
+    root: Path,
+    params: PreparationParams,
+    elapsed: float,
+    camera_said_by: str | None,
 ) -> None:
     kind = "360-degree panoramas" if params.wrap else "forward camera"
     print(
@@ -132,14 +145,15 @@ def _describe(
             )
     extent_min = reference_map.positions.min(axis=0)
     extent_max = reference_map.positions.max(axis=0)
+    said_by = f" (as {camera_said_by} says)" if camera_said_by else " (the default)"
     print(
         f"positions span x {extent_min[0]:.2f}..{extent_max[0]:.2f} m, y {extent_min[1]:.2f}..{extent_max[1]:.2f} m; "
-        f"headings {'yes' if reference_map.headings is not None else 'no'}; camera {reference_map.camera}; "
+        f"headings {'yes' if reference_map.headings is not None else 'no'}; camera {reference_map.camera}{said_by}; "
         f"pose source {reference_map.pose_source}"
     )
 
 
-def _teach(args: argparse.Namespace, traverse, params: PreparationParams) -> int:
+def _teach(args: argparse.Namespace, traverse, params: PreparationParams, camera_said_by: str | None) -> int:
     from ..mapping import TeachParams, TeachWarning, absolute_trajectory_error, rigid_fit, teach_run
     from ..mapping.factors import require_gtsam
 
@@ -155,7 +169,7 @@ def _teach(args: argparse.Namespace, traverse, params: PreparationParams) -> int
     for warning in caught:
         print(f"warning: {warning.message}")
     written = reference_map.save(args.output, overwrite=args.overwrite)
-    _describe(args, reference_map, traverse.root, params, report.seconds)
+    _describe(args, reference_map, traverse.root, params, report.seconds, camera_said_by)
     kinds = report.counts_by_kind()
     print(
         f"visual constraints: {report.accepted} accepted, {report.rejected} rejected "

@@ -339,6 +339,11 @@ def run(args: argparse.Namespace) -> int:
         f"{len(estimates)} frames of {log.root} localized against {len(ref_map)} references in {duration(seconds)} "
         f"({duration(seconds / max(len(estimates), 1))} per frame)"
     )
+    last = estimates[-1]
+    print(
+        f"last frame: ({last.x:.2f}, {last.y:.2f}) m ± {last.credible_radius:.2f} m, heading {last.heading:.2f} rad, "
+        f"confidence {last.confidence:.2f}"
+    )
     if "tum" in formats and args.min_confidence > 0:
         print(
             f"trajectory.tum: {len(chosen)} of {len(estimates)} frames, those of confidence >= {args.min_confidence:g}"

@@ -25,12 +25,13 @@ from typing import Any
 from .._validate import MAX_REPEATS
 from ..io.atomic import check_output_path
 from ..io.bag import DEFAULT_SYNC_TOLERANCE_S
+from ..io.dataset_record import recorded_camera
 from ..io.kinds import bag_kind
-from ..io.traverse import load_traverse
+from ..io.traverse import Traverse, load_traverse
 from ..localization.grid_filter import FilterParams
 from ..mapping.reference_map import ReferenceMap
 from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, noise_model
-from ..preparation.camera import CAMERAS, params_for_camera
+from ..preparation.camera import CAMERAS, check_panorama_shape, params_for_camera
 from ..preparation.params import PreparationParams
 
 __all__ = [
@@ -47,6 +48,7 @@ __all__ = [
     "parse_noise",
     "parse_shift_window",
     "preparation_for_camera",
+    "traverse_camera",
 ]
 
 # --- ROS bags: --image-topic, --odometry-topic, --pose-topic, --sync-tolerance
@@ -119,6 +121,39 @@ def preparation_for_camera(
     if camera is None:
         return preparation
     return params_for_camera(preparation, camera, file_wrap(params_file), str(params_file or ""))
+
+
+def traverse_camera(
+    traverse: Traverse, camera: str | None, params_file: Path | str | None
+) -> tuple[str | None, str | None]:
+    """The camera to prepare ``traverse`` for, and who says so: ``--camera`` (``camera``), the
+    ``wrap`` of ``params_file``'s ``[preparation]`` table, or the camera that the traverse's
+    dataset description records (:func:`~nightloc.io.dataset_record.recorded_camera`); ``(None,
+    None)`` when none says (frames are then prepared as panoramas, the default).
+
+    A recorded camera that ``--camera`` or the parameter file contradicts is a ValueError naming
+    both (the two options are checked against each other by :func:`preparation_for_camera`), as
+    are frames too narrow for a panorama that would be prepared as one
+    (:func:`~nightloc.preparation.camera.check_panorama_shape`): the camera is never guessed."""
+    wrap = file_wrap(params_file)
+    said: list[tuple[str, str]] = []
+    if camera is not None:
+        said.append((camera, f"--camera {camera}"))
+    if wrap is not None:
+        said.append(("panoramic" if wrap else "forward", f"{params_file} ([preparation] wrap = {str(wrap).lower()})"))
+    record = None if traverse.is_bag or traverse.is_video else recorded_camera(traverse.root)
+    if record is not None and record.camera in CAMERAS:
+        for name, who in said:
+            if name != record.camera:
+                raise ValueError(
+                    f"{who} contradicts {record.source}, which records a {record.camera} camera for the traverse "
+                    f"{traverse.root}: drop the option (the recorded camera is used), or correct {record.source}"
+                )
+        said.append((record.camera, str(record.source)))
+    chosen, said_by = said[0] if said else (None, None)
+    if chosen in (None, "panoramic"):
+        check_panorama_shape(traverse.read(0).shape, f"the traverse {traverse.root}", said_by)
+    return chosen, said_by
 
 
 # --- --shift-window COLUMNS,ROWS
@@ -231,9 +266,9 @@ def load_reference(
     (:func:`bag_options`)."""
     if path.is_dir() or bag_kind(path) is not None:
         options = (bag or {}) if bag_kind(path) is not None else {}
-        return ReferenceMap.build(
-            load_traverse(path, **options), preparation_for_camera(preparation, camera, params_file)
-        )
+        traverse = load_traverse(path, **options)
+        camera, _ = traverse_camera(traverse, camera, params_file)
+        return ReferenceMap.build(traverse, preparation_for_camera(preparation, camera, params_file))
     return ReferenceMap.load(path, preparation)
 
 

@@ -32,7 +32,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         default="garden",
         help="which world (default garden; all = the default dataset's, garden and living_room; large_garden is "
         "the 25x15 m lawn of the teach run, about 1000 frames; creek is the paper's 500 m unlit bushland path for "
-        "route mode: a forward camera, 272 day and 315 night frames, darkness 1 unless --darkness is given)",
+        f"route mode: a forward camera, 272 day and 315 night frames, darkness {CREEK_DARKNESS:g} unless --darkness "
+        "is given)",
     )
     parser.add_argument("--out", required=True, type=Path, help="output folder (created with its parents if missing)")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"random seed (default {DEFAULT_SEED})")
