@@ -176,6 +176,11 @@ class StudySettings:
         return len(self.sizes) * len(self.darkness) * len(self.sensors) * len(self.methods)
 
 
+#: A method is lost at a light level and sensor when even its best resolution errs over 1 m on
+#: more than this share of the frames (or has a median over 1 m): a robot that loses its track
+#: that often cannot drive on the estimate, however good its typical frame.
+LOST_SHARE_OVER_1M = 0.4
+
 #: Columns of ``camera_study.csv``.
 CSV_HEADER: tuple[str, ...] = (
     "width",
@@ -261,7 +266,7 @@ class CameraStudy:
     def smallest_within(self, darkness: float, sensor: Sensor, method: str, tolerance: float = 0.10) -> StudyRow:
         """The fewest-pixel resolution whose median is within ``tolerance`` (a fraction) of the best
         resolution's median at this darkness, sensor and method."""
-        cells = [r for r in self.rows if r.darkness == darkness and r.sensor == sensor and r.method == method]
+        cells = self.cells(darkness, sensor, method)
         if not cells:
             raise KeyError(f"no cells at darkness {darkness}, {sensor.label}, {method}")
         best = min(r.median_m for r in cells)
@@ -277,30 +282,38 @@ class CameraStudy:
                 writer.writerow(r.csv_row())
         return Path(path)
 
+    def cells(self, darkness: float, sensor: Sensor, method: str) -> list[StudyRow]:
+        """Every resolution's row at this darkness, sensor and method."""
+        return [r for r in self.rows if (r.darkness, r.sensor, r.method) == (darkness, sensor, method)]
+
+    def lost(self, darkness: float, sensor: Sensor, method: str) -> bool:
+        """True when ``method`` is lost at this darkness and sensor at every resolution: a median
+        over 1 m, or more than :data:`LOST_SHARE_OVER_1M` of the frames over 1 m."""
+        return all(
+            r.median_m > 1.0 or r.share_over_1m > LOST_SHARE_OVER_1M for r in self.cells(darkness, sensor, method)
+        )
+
     def summary_lines(self, tolerance: float = 0.10) -> list[str]:
         """Per darkness level and sensor: the smallest resolution within ``tolerance`` of the best,
-        per method (the paper's "about 1000 pixels" as a number on this world)."""
+        per method (the paper's "about 1000 pixels" as a number on this world), and the methods
+        lost at every resolution (:meth:`lost`)."""
         lines = []
         for darkness in self.settings.darkness:
             for sensor in self.settings.sensors:
                 parts = []
                 for method in self.settings.methods:
+                    cells = self.cells(darkness, sensor, method)
                     small = self.smallest_within(darkness, sensor, method, tolerance)
-                    best = min(
-                        (r for r in self.rows if (r.darkness, r.sensor, r.method) == (darkness, sensor, method)),
-                        key=lambda r: r.median_m,
-                    )
+                    best = min(cells, key=lambda r: r.median_m)
+                    lost = ""
+                    if self.lost(darkness, sensor, method):
+                        fewest = min(r.share_over_1m for r in cells)
+                        lost = f"; LOST: {fewest:.0%} or more of the frames over 1 m at every resolution"
                     parts.append(
                         f"{method} {small.width}x{small.height} ({small.pixels} px, {small.median_m:.2f} m; best "
-                        f"{best.median_m:.2f} m at {best.width}x{best.height})"
+                        f"{best.median_m:.2f} m at {best.width}x{best.height}{lost})"
                     )
-                lost = all(
-                    min(r.median_m for r in self.rows if (r.darkness, r.sensor, r.method) == (darkness, sensor, m))
-                    > 1.0
-                    for m in self.settings.methods
-                )
-                note = " -- lost at every resolution (best median over 1 m)" if lost else ""
-                lines.append(f"darkness {darkness:g}, {sensor.label}: " + "; ".join(parts) + note)
+                lines.append(f"darkness {darkness:g}, {sensor.label}: " + "; ".join(parts))
         return lines
 
 
