@@ -73,11 +73,11 @@ def camera_study_figure(
         left.set_ylabel("error (m): median, p95 dotted")
         left.set_title(f"{method}: error vs resolution, {sensor.label}")
         left.legend(loc="upper right")
-        darkness = np.array(settings.darkness, dtype=float)
-        step = float(np.min(np.diff(darkness))) if len(darkness) > 1 else 1.0
+        levels = np.array(settings.darkness, dtype=float)
+        step = float(np.min(np.diff(levels))) if len(levels) > 1 else 1.0
         for k, s in enumerate(settings.sensors):
             cells = [study.row(size[0], size[1], d, s, method) for d in settings.darkness]
-            shifted = darkness + _DODGE * step * (k - (len(settings.sensors) - 1) / 2)
+            shifted = levels + _DODGE * step * (k - (len(settings.sensors) - 1) / 2)
             style = _line_style(k)
             right.plot(shifted, [c.median_m for c in cells], "-", **style, label=s.label)
             right.plot(shifted, [c.p95_m for c in cells], ":", color=style["color"], linewidth=0.9)
