@@ -223,9 +223,3 @@ def test_paths_in_messages_are_the_users(ws, capsys):
     assert "no/such/traverse" in capsys.readouterr().err
     assert not (ws.root / "x.map").exists()
     assert Path(ws.root).is_dir()
-
-
-def test_case_count_is_recorded_in_the_readme():
-    from reliability_support import reliability_section
-
-    assert f"{len(CASES)} command-line cases" in reliability_section()
