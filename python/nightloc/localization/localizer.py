@@ -146,6 +146,9 @@ class Estimate:
         credible_radius: metres around ``(x, y)`` holding ``credibility`` (default 0.9) of the
             filter's belief (NaN for the paper's method).
         method: ``"filter"`` or ``"paper"``.
+        heading_variance: rad^2, the filter's belief about its heading (its heading histogram about
+            the circular mean, at most pi^2); NaN while the belief is position-only and for the
+            paper's method.
     """
 
     x: float
@@ -161,6 +164,7 @@ class Estimate:
     covariance: tuple[tuple[float, float], tuple[float, float]] | None = None
     credible_radius: float = math.nan
     method: str = "paper"
+    heading_variance: float = math.nan
 
     @property
     def position(self) -> np.ndarray:
@@ -512,6 +516,7 @@ class Localizer:
             covariance=((float(cov[0, 0]), float(cov[0, 1])), (float(cov[1, 0]), float(cov[1, 1]))),
             credible_radius=state.credible_radius,
             method="filter",
+            heading_variance=state.heading_variance,
         )
 
     def update_match(self, result: MatchResult, odometry: object = None, *, return_heatmap: bool = False) -> Estimate:
