@@ -160,6 +160,13 @@ class Graph:
                         self.arrivals[role].append(time.perf_counter())
             time.sleep(0.002)
 
+    @staticmethod
+    def types_for_test():
+        """The node's DDS types (to build messages before a Graph exists)."""
+        from nightloc.node.messages import TYPES
+
+        return TYPES
+
     def write(self, role: str, message, msgtype: str | None = None) -> None:
         from nightloc.node.conventions import TOPICS
 

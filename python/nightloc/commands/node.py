@@ -186,10 +186,11 @@ def run(args: argparse.Namespace) -> int:
     recorder = None
     staging = None
     if args.record is not None:
-        staging = args.record.parent / f".{args.record.name}.partial-{os.getpid()}"
+        staging = args.record.parent / f".{args.record.name}.partial-{os.getpid()}"  # renamed when complete
         shutil.rmtree(staging, ignore_errors=True)
+        staging.mkdir(parents=True)
         recorder = NightRecorder(
-            staging,
+            staging / args.record.name,
             localizer.grid,
             frames=settings.frames,
             topics=settings.topics,
@@ -223,7 +224,8 @@ def run(args: argparse.Namespace) -> int:
             timer.cancel()
         if recorder is not None and staging is not None:
             recorder.close()
-            os.rename(staging, args.record)
+            os.rename(staging / args.record.name, args.record)
+            staging.rmdir()
     stats = node.stats
     _log(
         f"stopped: {stats.received} frames received, {stats.processed} localized, {stats.dropped} dropped (a newer "

@@ -18,6 +18,7 @@ complaint at most every few seconds, counted) and the node goes on.
 from __future__ import annotations
 
 import math
+import re
 import threading
 import time
 from collections import deque
@@ -105,6 +106,7 @@ class _Complaints:
         self._quiet: dict[str, int] = {}
 
     def __call__(self, kind: str, line: str) -> None:
+        kind = f"{kind}: {re.sub(r'[0-9.]+', '#', line)}"  # the same complaint about another frame or time
         now = time.monotonic()
         if now - self._last.get(kind, -math.inf) < COMPLAINT_INTERVAL_S:
             self._quiet[kind] = self._quiet.get(kind, 0) + 1

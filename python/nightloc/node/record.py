@@ -26,9 +26,10 @@ import numpy as np
 from ..localization.heatmap import HeatGrid
 from ..localization.localizer import Estimate
 from . import build
-from .conventions import DEFAULT_FRAMES, TOPICS, BeliefRaster, map_to_odom
+from ..motion.odometry import MapDisplacement, RobotMotion
+from .conventions import DEFAULT_FRAMES, TOPICS, BeliefRaster, compose, map_to_odom
 
-__all__ = ["PREPARED_TOPIC", "TRUTH_TOPIC", "FrameRecord", "NightRecorder", "recorded_topics"]
+__all__ = ["PREPARED_TOPIC", "TRUTH_TOPIC", "FrameRecord", "NightRecorder", "odometry_poses", "recorded_topics"]
 
 #: Topics only recordings carry.
 PREPARED_TOPIC = "/nightloc/prepared"
@@ -70,6 +71,21 @@ def recorded_topics(topics: dict[str, str] | None = None) -> dict[str, str]:
         PREPARED_TOPIC: "sensor_msgs/msg/Image",
         TRUTH_TOPIC: "geometry_msgs/msg/PoseStamped",
     }
+
+
+def odometry_poses(motions: list) -> list[Pose2D]:
+    """A log's odometry as poses of the base frame in an odom frame that starts at the first
+    frame: each :class:`RobotMotion` composed onto the pose before, a :class:`MapDisplacement`
+    added (the odom frame's axes then the map's), an unknown motion (None) no motion."""
+    pose: Pose2D = (0.0, 0.0, 0.0)
+    poses = []
+    for k, motion in enumerate(motions):
+        if k and isinstance(motion, RobotMotion):
+            pose = compose(pose, (motion.forward, motion.left, motion.turn))
+        elif k and isinstance(motion, MapDisplacement):
+            pose = (pose[0] + motion.dx, pose[1] + motion.dy, pose[2])
+        poses.append(pose)
+    return poses
 
 
 def _ns(stamp: tuple[int, int]) -> int:
