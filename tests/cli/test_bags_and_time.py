@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import nightloc
-from bag_support import NS, stamp_ns, write_bag
 from nightloc.cli import main
 
+from bag_support import NS, stamp_ns, write_bag
 from synth_support import default_synth_data
 from video_support import write_video
 

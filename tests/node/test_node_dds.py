@@ -13,13 +13,19 @@ import signal
 import sys
 from pathlib import Path
 
+import mcap.reader as mcap_reader  # the test extra brings it (and cyclonedds): these tests never skip
 import numpy as np
 import pytest
 
-pytest.importorskip("cyclonedds", reason="the node needs cyclonedds (pip install 'nightloc[ros2]')")
-mcap_reader = pytest.importorskip("mcap.reader", reason="the recordings are read back with the mcap package")
+import nightloc
+from nightloc.cli import main
+from nightloc.mapping.dead_reckoning import compose_steps
+from nightloc.motion.odometry import traverse_odometry
+from nightloc.node import build
+from nightloc.node.conventions import compose, stamp_of
+from nightloc.synth import default_dataset
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bag_support import stamp_ns, write_bag
 from dds_support import (
     Graph,
     loopback_environment,
@@ -30,15 +36,6 @@ from dds_support import (
     unique_prefix,
     wait_for,
 )
-
-import nightloc
-from bag_support import stamp_ns, write_bag
-from nightloc.cli import main
-from nightloc.mapping.dead_reckoning import compose_steps
-from nightloc.motion.odometry import traverse_odometry
-from nightloc.node import build
-from nightloc.node.conventions import compose, stamp_of
-from nightloc.synth import default_dataset
 
 TOLERANCE_S = 1.0  # the node's default --transform-tolerance
 CONVERGED = 0.8  # its default --converged-confidence
@@ -290,17 +287,21 @@ def test_faster_than_the_node_drops_frames_bounded_and_says_so(garden, tmp_path)
             _matched(graph, log)
             sent = 0
             rss = []
-            for burst in range(3):
-                for k in range(400):
+            for _burst in range(3):
+                for _ in range(400):
                     stamp = stamp_of(1.0 + 0.01 * sent)
-                    graph.write("odometry", build.odometry(graph.types, stamp, ("odom", "base_link"), (0.001 * sent, 0, 0)))
+                    graph.write(
+                        "odometry", build.odometry(graph.types, stamp, ("odom", "base_link"), (0.001 * sent, 0, 0))
+                    )
                     graph.write("image", build.image(graph.types, stamp, "camera", frame))
                     sent += 1
                 wait_for(
-                    lambda s=sent: graph.messages["status"]
-                    and int(_status(graph.messages["status"][-1])["frames_received"])
-                    == int(_status(graph.messages["status"][-1])["frames_processed"])
-                    + int(_status(graph.messages["status"][-1])["frames_dropped"]),
+                    lambda s=sent: (
+                        graph.messages["status"]
+                        and int(_status(graph.messages["status"][-1])["frames_received"])
+                        == int(_status(graph.messages["status"][-1])["frames_processed"])
+                        + int(_status(graph.messages["status"][-1])["frames_dropped"])
+                    ),
                     20,
                     "the node to catch up",
                     log,

@@ -9,16 +9,13 @@ import math
 
 import numpy as np
 import pytest
-
-pytest.importorskip("cyclonedds", reason="the node's DDS types need cyclonedds (pip install 'nightloc[ros2]')")
-
 from rosbags.typesys import Stores, get_typestore
 
+from nightloc.localization.heatmap import HeatGrid
 from nightloc.localization.localizer import Estimate
 from nightloc.node import build
 from nightloc.node.conventions import TOPICS, BeliefRaster
 from nightloc.node.messages import TYPES, dds_topic
-from nightloc.localization.heatmap import HeatGrid
 
 STORES = {"humble": Stores.ROS2_HUMBLE, "jazzy": Stores.ROS2_JAZZY}
 STAMP = (1_700_000_123, 456_789_012)
@@ -36,7 +33,9 @@ def _messages(types):
     """One message of each type the node reads or writes, filled by the node's builders."""
     rng = np.random.default_rng(3)
     raster = BeliefRaster(HeatGrid(0.1, -0.2, 0.3, 0.2, 7, 5))
-    odometry = build.odometry(types, STAMP, ("odom", "base_link"), (0.5, -0.25, 1.0), np.arange(36.0), np.eye(6).ravel())
+    odometry = build.odometry(
+        types, STAMP, ("odom", "base_link"), (0.5, -0.25, 1.0), np.arange(36.0), np.eye(6).ravel()
+    )
     compressed = types["sensor_msgs/msg/CompressedImage"](
         header=build.header(types, STAMP, "camera"), format="png", data=rng.integers(0, 256, 57, dtype=np.uint8)
     )

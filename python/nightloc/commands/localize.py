@@ -325,7 +325,9 @@ def run(args: argparse.Namespace) -> int:
         start = time.perf_counter()
         frames = log.frames(progress_desc=f"localizing {log.root.name}")
         runner = FrameLocalizer(localizer, learn=args.learn is not None)
-        recorder = _BagOfTheNight(out.path, localizer, log, odometry, truth, alignment_note) if "mcap" in formats else None
+        recorder = (
+            _BagOfTheNight(out.path, localizer, log, odometry, truth, alignment_note) if "mcap" in formats else None
+        )
         estimates = []
         for i, frame in frames:
             prepared = runner.prepare(frame)

@@ -97,9 +97,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--transform-tolerance", type=float, default=1.0, help="seconds map -> odom is post-dated by (AMCL's; 1.0)"
     )
     parser.add_argument("--belief-rate", type=float, default=1.0, help="belief grids per second (default 1; 0: none)")
-    parser.add_argument(
-        "--domain-id", type=int, default=None, help="the DDS domain (default $ROS_DOMAIN_ID, else 0)"
-    )
+    parser.add_argument("--domain-id", type=int, default=None, help="the DDS domain (default $ROS_DOMAIN_ID, else 0)")
     parser.add_argument("--params", type=Path, help="TOML file with [localization], [filter], [learning]")
     add_shift_window_option(parser, "the filter's translation window, as for nightloc localize")
     parser.add_argument("--threads", type=int, default=1, help="matching threads (default 1)")
@@ -147,7 +145,9 @@ def run(args: argparse.Namespace) -> int:
     sections = load_params_file(args.params) if args.params is not None else {}
     inputs = (args.map, args.params)
     if args.learn is not None:
-        check_learn_target(args.learn, args.map, args.learn.parent / f".{args.learn.name}.unused", inputs, args.overwrite)
+        check_learn_target(
+            args.learn, args.map, args.learn.parent / f".{args.learn.name}.unused", inputs, args.overwrite
+        )
     elif args.overwrite:
         raise ValueError("--overwrite replaces the --learn NEW_MAP: give --learn NEW_MAP too")
     if args.record is not None:
@@ -230,8 +230,7 @@ def run(args: argparse.Namespace) -> int:
     _log(
         f"stopped: {stats.received} frames received, {stats.processed} localized, {stats.dropped} dropped (a newer "
         f"frame came first), {stats.skipped} skipped (bad input); latency p50 {1e3 * stats.latency(0.5):.1f} ms, p99 "
-        f"{1e3 * stats.latency(0.99):.1f} ms"
-        + (f"; recorded {args.record}" if args.record is not None else "")
+        f"{1e3 * stats.latency(0.99):.1f} ms" + (f"; recorded {args.record}" if args.record is not None else "")
     )
     if args.learn is not None:
         learned, report = runner.learned_map(

@@ -455,10 +455,17 @@ def _index(
                     key = (transform.header.frame_id.lstrip("/"), transform.child_frame_id.lstrip("/"))
                     if (edge is None and key[0] in TF_PARENTS and key[1] in TF_CHILDREN) or key == edge:
                         t, r = transform.transform.translation, transform.transform.rotation
-                        tf_samples.setdefault(key, []).append((stamp_seconds(transform.header.stamp), t.x, t.y, quaternion_yaw(r)))
+                        tf_samples.setdefault(key, []).append(
+                            (stamp_seconds(transform.header.stamp), t.x, t.y, quaternion_yaw(r))
+                        )
                 continue
             held = message.pose.pose if hasattr(message.pose, "pose") else message.pose
-            sample = (stamp_seconds(message.header.stamp), held.position.x, held.position.y, quaternion_yaw(held.orientation))
+            sample = (
+                stamp_seconds(message.header.stamp),
+                held.position.x,
+                held.position.y,
+                quaternion_yaw(held.orientation),
+            )
             if connection.topic == odometry:
                 odometry_samples.append(sample)
             if connection.topic == pose:

@@ -391,9 +391,7 @@ class Localizer:
         self._require_sequence().clear()  # the frames' excess heat maps and fill values (in the core)
         self._motions: deque[Motion] = deque(maxlen=max(self.params.seq_len - 1, 1))
 
-    def set_pose(
-        self, x: float, y: float, heading: float = math.nan, covariance: np.ndarray | None = None
-    ) -> None:
+    def set_pose(self, x: float, y: float, heading: float = math.nan, covariance: np.ndarray | None = None) -> None:
         """The filter's belief becomes a Gaussian about ``(x, y)`` metres and ``heading`` radians
         (what RViz's "2D Pose Estimate" sends): ``covariance`` ``(3, 3)`` of x, y and heading (m^2,
         rad^2; default 0.25 m and 0.2 rad standard deviations), widened by half a cell and half a

@@ -117,7 +117,8 @@ TOPICS: tuple[TopicSpec, ...] = (
         True,
         False,
         100,
-        "map -> odom while converged, post-dated by --transform-tolerance (read too: odom -> base_link with --odometry-topic /tf)",
+        "map -> odom while converged, post-dated by --transform-tolerance (and odom -> base_link read from it "
+        "with --odometry-topic /tf)",
     ),
     TopicSpec(
         "belief",

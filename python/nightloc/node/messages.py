@@ -14,9 +14,7 @@ for an array or sequence field is converted on construction, so the message buil
 :data:`TYPES` maps each ROS 2 type name (``sensor_msgs/msg/Image``) to its class.
 """
 
-
 from dataclasses import dataclass, field, fields
-from typing import Any
 
 import numpy as np
 from cyclonedds.idl import IdlStruct
@@ -66,10 +64,6 @@ def _octets(cls: type, *names: str) -> None:
 
 
 _OCTET_FIELDS: dict[type, tuple[str, ...]] = {}
-
-
-def _list(size: int, value: Any = 0.0):
-    return field(default_factory=lambda: [value] * size)
 
 
 @dataclass
@@ -138,13 +132,11 @@ class Pose(IdlStruct, _Message, typename="geometry_msgs::msg::dds_::Pose_"):
 @dataclass
 class PoseWithCovariance(IdlStruct, _Message, typename="geometry_msgs::msg::dds_::PoseWithCovariance_"):
     pose: Pose = field(default_factory=Pose)
-    covariance: t.array[t.float64, 36] = _list(36)
+    covariance: t.array[t.float64, 36] = field(default_factory=lambda: [0.0] * 36)
 
 
 @dataclass
-class PoseWithCovarianceStamped(
-    IdlStruct, _Message, typename="geometry_msgs::msg::dds_::PoseWithCovarianceStamped_"
-):
+class PoseWithCovarianceStamped(IdlStruct, _Message, typename="geometry_msgs::msg::dds_::PoseWithCovarianceStamped_"):
     header: Header = field(default_factory=Header)
     pose: PoseWithCovariance = field(default_factory=PoseWithCovariance)
 
@@ -164,7 +156,7 @@ class Twist(IdlStruct, _Message, typename="geometry_msgs::msg::dds_::Twist_"):
 @dataclass
 class TwistWithCovariance(IdlStruct, _Message, typename="geometry_msgs::msg::dds_::TwistWithCovariance_"):
     twist: Twist = field(default_factory=Twist)
-    covariance: t.array[t.float64, 36] = _list(36)
+    covariance: t.array[t.float64, 36] = field(default_factory=lambda: [0.0] * 36)
 
 
 @dataclass

@@ -30,14 +30,13 @@ import numpy as np
 
 from ..errors import DatasetError
 from ..io.bag import decode_image, quaternion_yaw, stamp_seconds
-from ..motion.odometry import NoiseModel
 from . import build
 from .conventions import DEFAULT_FRAMES, TOPICS, BeliefRaster, map_to_odom
 from .record import FrameRecord, NightRecorder
 from .runner import FrameLocalizer
 from .sync import OdometrySync
 
-__all__ = ["NodeSettings", "NodeStats", "Node"]
+__all__ = ["Node", "NodeSettings", "NodeStats"]
 
 #: Seconds between two log lines of the same complaint.
 COMPLAINT_INTERVAL_S = 5.0
@@ -164,8 +163,7 @@ class Node:
 
     # ---------------------------------------------------------------------------------- DDS
     def _dds(self) -> None:
-        from cyclonedds.core import Policy, Qos, ReadCondition, WaitSet
-        from cyclonedds.core import InstanceState, SampleState, ViewState
+        from cyclonedds.core import InstanceState, Policy, Qos, ReadCondition, SampleState, ViewState, WaitSet
         from cyclonedds.domain import DomainParticipant
         from cyclonedds.pub import DataWriter
         from cyclonedds.sub import DataReader
@@ -177,7 +175,7 @@ class Node:
         s = self.settings
         self.types = TYPES
         self.participant = DomainParticipant(s.domain_id)
-        topics: dict[str, Any] = {}
+        topics: dict[tuple[str, str], Any] = {}
 
         def qos(spec):
             return Qos(
@@ -306,15 +304,16 @@ class Node:
     def _work(self) -> None:
         try:
             while True:
+                command: tuple[str, Any] | None = None
+                frame: _Frame | None = None
                 with self._lock:
                     while True:
                         if self._commands:
                             command = self._commands.popleft()
-                            frame = None
                             break
                         now = time.perf_counter()
                         if self._slot is not None and self._ready(self._slot, now):
-                            frame, self._slot, command = self._slot, None, None
+                            frame, self._slot = self._slot, None
                             break
                         if self._stop.is_set():
                             return

@@ -25,8 +25,8 @@ import numpy as np
 
 from ..localization.heatmap import HeatGrid
 from ..localization.localizer import Estimate
-from . import build
 from ..motion.odometry import MapDisplacement, RobotMotion
+from . import build
 from .conventions import DEFAULT_FRAMES, TOPICS, BeliefRaster, compose, map_to_odom
 
 __all__ = ["PREPARED_TOPIC", "TRUTH_TOPIC", "FrameRecord", "NightRecorder", "odometry_poses", "recorded_topics"]
@@ -169,5 +169,3 @@ class NightRecorder:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
