@@ -5,7 +5,7 @@ The map: 5 000 places 0.4 m apart (``test_bench_filter._drive``: a robot driving
 place, exact wheel odometry), the 100 x 100 grid, 48 heading bins; each frame a 192 x 96 BGR
 camera frame (the place's image, turned to the robot's heading, enlarged 4x; prepared again on
 arrival). The node runs in a child process pinned to one core, over DDS on loopback
-(tests/node/dds_support.py).
+(tests/dds_support.py).
 
 * ``latency``: one frame at a time (the next once its pose is back): the round trip robot -> node
   -> listener, timed by pytest-benchmark, beside ``Localizer.update`` of the same frames in this

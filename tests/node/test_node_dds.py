@@ -1,7 +1,7 @@
 """``nightloc node`` end to end over real DDS on loopback: the node in a child process, this test's
 participant as the robot (publishing the synthetic garden's night: images and odometry) and the
 listener. Discovery is pinned to ``lo`` by a CYCLONEDDS_URI file; each test has its own domain
-and topic namespace (tests/node/dds_support.py)."""
+and topic namespace (tests/dds_support.py)."""
 
 from __future__ import annotations
 
