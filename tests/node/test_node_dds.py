@@ -13,6 +13,7 @@ import signal
 import sys
 from pathlib import Path
 
+import cv2
 import mcap.reader as mcap_reader  # the test extra brings it (and cyclonedds): these tests never skip
 import numpy as np
 import pytest
@@ -186,6 +187,47 @@ def test_node_equals_localize_learns_the_same_map_and_records(garden, tmp_path):
     assert {topic: value for topic, value in node_bag.items() if value[1]} == {
         prefix + topic if topic != "/nightloc/prepared" else topic: value for topic, value in common.items()
     }
+
+
+def test_tf_odometry_and_compressed_frames_give_the_same_poses(garden, tmp_path):
+    env = loopback_environment(tmp_path)
+    prefix, log = unique_prefix(), tmp_path / "node.log"
+    night, n = garden["night"], 12
+    args = [str(garden["map"]), *topic_options(prefix), "--odometry-topic", "/tf", "--compressed"]
+    with node_process(args, env, log) as process:
+        graph = Graph(prefix)
+        try:
+            _matched_tf(graph, log)
+            t = graph.types
+            for (_, frame), pose, seconds in list(zip(night.frames(), garden["poses"], night.timestamps))[:n]:
+                stamp = stamp_of(float(seconds))
+                ok, png = cv2.imencode(".png", frame)
+                assert ok
+                image = t["sensor_msgs/msg/CompressedImage"](
+                    header=build.header(t, stamp, "camera"), format="png", data=png.reshape(-1)
+                )
+                before = len(graph.messages["pose"])
+                graph.write("tf", build.tf_message(t, [build.transform_stamped(t, stamp, "odom", "base_link", pose)]))
+                graph.write("image", image, "sensor_msgs/msg/CompressedImage")
+                wait_for(lambda b=before: len(graph.messages["pose"]) > b, 10, "the pose of a frame", log)
+            stop_node(process, log)
+        finally:
+            graph.close()
+    exact = _bag_poses(garden["bag"])[:n]
+    for message, theirs in zip(graph.messages["pose"], exact, strict=True):
+        assert abs(message.pose.pose.position.x - theirs.pose.pose.position.x) <= 1e-6
+        assert abs(message.pose.pose.position.y - theirs.pose.pose.position.y) <= 1e-6
+        assert abs(math.remainder(_heading(message) - _heading(theirs), 2 * math.pi)) <= 1e-6
+
+
+def _matched_tf(graph: Graph, log: Path) -> None:
+    wait_for(
+        lambda: graph.matched("image", "sensor_msgs/msg/CompressedImage") and graph.matched("tf")
+        and len(graph.readers["pose"].get_matched_publications()),
+        15,
+        "discovery between the robot and the node",
+        log,
+    )  # fmt: skip
 
 
 def test_transform_waits_for_convergence_stops_at_a_kidnap_and_resumes(garden, tmp_path):
