@@ -145,9 +145,7 @@ def run(args: argparse.Namespace) -> int:
     sections = load_params_file(args.params) if args.params is not None else {}
     inputs = (args.map, args.params)
     if args.learn is not None:
-        check_learn_target(
-            args.learn, args.map, args.learn.parent / f".{args.learn.name}.unused", inputs, args.overwrite
-        )
+        check_learn_target(args.learn, args.map, None, inputs, args.overwrite)
     elif args.overwrite:
         raise ValueError("--overwrite replaces the --learn NEW_MAP: give --learn NEW_MAP too")
     if args.record is not None:
@@ -217,15 +215,21 @@ def run(args: argparse.Namespace) -> int:
     )
     try:
         node.spin()
+    except BaseException:
+        if recorder is not None and staging is not None:  # no half-written bag: the staging goes
+            recorder.close()
+            shutil.rmtree(staging, ignore_errors=True)
+        raise
+    else:
+        if recorder is not None and staging is not None:  # the whole run, at once
+            recorder.close()
+            os.rename(staging / args.record.name, args.record)
+            staging.rmdir()
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
         if timer is not None:
             timer.cancel()
-        if recorder is not None and staging is not None:
-            recorder.close()
-            os.rename(staging / args.record.name, args.record)
-            staging.rmdir()
     stats = node.stats
     _log(
         f"stopped: {stats.received} frames received, {stats.processed} localized, {stats.dropped} dropped (a newer "

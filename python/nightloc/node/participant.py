@@ -331,7 +331,7 @@ class Node:
         if role == "relocalize":
             self.runner.relocalize()
             self.log("relocalize: the belief is uniform again; map -> odom stops until it has converged")
-            self._publish_status(None, time.time())
+            self._publish_status(None, self._last_stamp or 0.0)
             return
         frame_id = message.header.frame_id.lstrip("/")
         if frame_id not in (map_frame, ""):
