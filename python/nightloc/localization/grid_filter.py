@@ -356,5 +356,5 @@ def _state(estimate: tuple, scores: np.ndarray | None, shifts: np.ndarray | None
         bool(flat),
         scores,
         shifts,
-        float(heading_var),
+        float(heading_var) if math.isfinite(heading_var) else math.nan,  # one NaN: estimates compare with ==
     )
