@@ -193,7 +193,9 @@ def test_tf_odometry_and_compressed_frames_give_the_same_poses(garden, tmp_path)
     env = loopback_environment(tmp_path)
     prefix, log = unique_prefix(), tmp_path / "node.log"
     night, n = garden["night"], 12
+    # TF carries no covariance: --odometry-noise covariance falls back to the wheel model, as localize's
     args = [str(garden["map"]), *topic_options(prefix), "--odometry-topic", "/tf", "--compressed"]
+    args += ["--odometry-noise", "covariance"]
     with node_process(args, env, log) as process:
         graph = Graph(prefix)
         try:
@@ -412,6 +414,29 @@ def test_a_map_that_does_not_load_is_one_line(tmp_path, capsys):
     assert main(["node", str(bad)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("nightloc node: error:") and "bad.map" in err[0]
+
+
+@pytest.mark.parametrize(
+    ("options", "words"),
+    [
+        (["--domain-id", "300"], "--domain-id (or ROS_DOMAIN_ID) must be 0-232"),
+        (["--converged-confidence", "1.5"], "--converged-confidence must be in [0, 1]"),
+        (["--odometry-noise", "7"], "noise model must be one of [0, 1, 2, 3]"),
+        (["--belief-rate", "-1"], "--belief-rate must be a finite number >= 0"),
+        (["--overwrite"], "--overwrite replaces the --learn NEW_MAP"),
+    ],
+)
+def test_bad_options_are_one_line(garden, capsys, options, words):
+    assert main(["node", str(garden["map"]), *options, "--duration", "5"]) == 2  # (a node that started: 5 s)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0], err
+
+
+def test_an_existing_record_bag_is_refused_before_any_work(garden, tmp_path, capsys):
+    (tmp_path / "bag").mkdir()
+    assert main(["node", str(garden["map"]), "--record", str(tmp_path / "bag"), "--duration", "5"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "exists: a recording goes into a new folder" in err[0], err
 
 
 def test_without_cyclonedds_one_line_names_the_extra(tmp_path, capsys, monkeypatch):

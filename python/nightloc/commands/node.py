@@ -119,7 +119,7 @@ def _domain(value: int | None) -> int:
         except ValueError:
             raise ValueError(f"ROS_DOMAIN_ID={text!r} is not a number (0-232)") from None
     if not 0 <= value <= 232:
-        raise ValueError(f"the DDS domain must be 0-232 (ROS 2's range), got {value}")
+        raise ValueError(f"--domain-id (or ROS_DOMAIN_ID) must be 0-232 (ROS 2's range), got {value}")
     return value
 
 
@@ -138,6 +138,8 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"--{name.replace('_', '-')} must be a finite number >= 0, got {value}")
     if args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
+    if not 0.0 <= args.converged_confidence <= 1.0:
+        raise ValueError(f"--converged-confidence must be in [0, 1], got {args.converged_confidence}")
     domain = _domain(args.domain_id)
     covariance_noise = args.odometry_noise.strip().lower() == "covariance"
     noise = WHEEL_ODOMETRY_NOISE if covariance_noise else parse_noise(args.odometry_noise)
@@ -149,6 +151,8 @@ def run(args: argparse.Namespace) -> int:
     elif args.overwrite:
         raise ValueError("--overwrite replaces the --learn NEW_MAP: give --learn NEW_MAP too")
     if args.record is not None:
+        if os.path.lexists(args.record):
+            raise ValueError(f"--record {args.record} exists: a recording goes into a new folder (rosbags writes it)")
         check_output_path(args.record, folder=True, overwrite=False, inputs=inputs)
     if not args.map.is_file():
         raise ValueError(f"map {args.map} is not a map file (nightloc build-map writes one)")
