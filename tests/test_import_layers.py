@@ -13,6 +13,8 @@ imports only stages of lower layers; stages of one layer do not import each othe
     motion                                 odometry and wheel noise, shared by the stages above
     mapping                                the reference map and the teach run
     localization, route
+    experience                             experience maps
+    node                                   the live ROS 2 node: messages, conventions, recordings
     synth
     studies
     figures
@@ -47,6 +49,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("mapping",),
     ("localization", "route"),
     ("experience",),
+    ("node",),
     ("synth",),
     ("studies",),
     ("figures",),

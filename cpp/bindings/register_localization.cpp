@@ -388,7 +388,7 @@ private:
 
     static py::tuple estimate_tuple(const nightloc::GridEstimate& e) {
         return py::make_tuple(e.x, e.y, e.heading, e.cov_xx, e.cov_xy, e.cov_yy, e.credible_radius, e.confidence,
-                              e.cell, e.flat);
+                              e.cell, e.flat, e.heading_var);
     }
 
     py::tuple result(const nightloc::GridEstimate& e) const {

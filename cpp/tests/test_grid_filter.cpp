@@ -200,7 +200,7 @@ bool same_estimate(const GridEstimate& a, const GridEstimate& b) {
     auto same = [](double x, double y) { return x == y || (std::isnan(x) && std::isnan(y)); };
     return same(a.x, b.x) && same(a.y, b.y) && same(a.heading, b.heading) && a.cov_xx == b.cov_xx &&
            a.cov_xy == b.cov_xy && a.cov_yy == b.cov_yy && a.credible_radius == b.credible_radius &&
-           a.confidence == b.confidence && a.cell == b.cell && a.flat == b.flat;
+           a.confidence == b.confidence && a.cell == b.cell && a.flat == b.flat && same(a.heading_var, b.heading_var);
 }
 
 void check_paths_identical(const char* name, const SmallMap& m, const GridFilterSettings& settings, bool settle) {

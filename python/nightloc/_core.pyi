@@ -225,8 +225,8 @@ class HeatWeights:
     def places(self) -> int: ...
     def interpolate(self, values: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]: ...
 
-# (x, y, heading, cov_xx, cov_xy, cov_yy, credible_radius, confidence, cell, flat)
-_GridEstimate = tuple[float, float, float, float, float, float, float, float, int, bool]
+# (x, y, heading, cov_xx, cov_xy, cov_yy, credible_radius, confidence, cell, flat, heading_var)
+_GridEstimate = tuple[float, float, float, float, float, float, float, float, int, bool, float]
 
 class GridFilterSettings:
     """The grid filter's settings with the core's defaults (nightloc/grid_filter.hpp); setting a

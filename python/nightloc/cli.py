@@ -30,6 +30,7 @@ COMMAND_MODULES = (
     "nightloc.commands.evaluate",
     "nightloc.commands.localize",
     "nightloc.commands.camera_study",
+    "nightloc.commands.node",
 )
 
 

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 import nightloc
-from bag_support import NS, stamp_ns, write_bag
 from nightloc.errors import DatasetError
 
+from bag_support import NS, stamp_ns, write_bag
 from reliability_support import random_frames
 
 T0 = 1_700_000_000.25  # seconds: stamps of the size a robot's clock gives

@@ -59,7 +59,7 @@ def _check_against_oracle(loc, oracle, estimate):
     want = oracle.p / oracle.p.sum()
     assert got.shape == want.shape
     assert np.abs(got - want).max() <= BELIEF_RTOL * want.max()
-    x, y, heading, cov, radius, confidence, _cell, _flat = oracle.estimate()
+    x, y, heading, cov, radius, confidence, _cell, _flat, heading_var = oracle.estimate()
     marginal = oracle.marginal().ravel()
     top2 = np.sort(marginal)[-2:]
     if top2[1] - top2[0] > 1e-3 * top2[1]:  # a clear peak: the same cell, the same refinement
@@ -70,6 +70,10 @@ def _check_against_oracle(loc, oracle, estimate):
         # the radius is a cell-centre distance: it may step to the next ring within rounding
         assert abs(estimate.credible_radius - radius) <= 1.5 * math.hypot(oracle.dx, oracle.dy)
     np.testing.assert_allclose(estimate.covariance, cov, rtol=1e-3, atol=1e-6)
+    if math.isfinite(heading_var):
+        assert estimate.heading_variance == pytest.approx(heading_var, rel=1e-3, abs=1e-6)
+    else:
+        assert math.isnan(estimate.heading_variance)
 
 
 MOTIONS = [

@@ -68,7 +68,10 @@
 // (counted by their centres) no farther than it reaches `credibility`; confidence: the mass
 // within confidence_radius metres. Heading (pose mode): over the window's cells, the heading
 // histogram's first maximum bin, refined to the circular mean of the bins within 2 of it; NaN in
-// position mode. A flat marginal has no peak: the estimate is then the mean position.
+// position mode. Heading variance (pose mode): of the whole belief's heading histogram (each bin's
+// mass at its centre) about its circular mean, sum m_b wrap(theta_b - mean)^2 / sum m_b (rad^2, at
+// most pi^2; NaN in position mode). A flat marginal has no peak: the estimate is then the mean
+// position.
 //
 // Every SIMD path gives the same values: element-wise IEEE operations in a fixed order, no FMA,
 // sums in double with a fixed number of lanes.
@@ -177,6 +180,7 @@ struct GridFilterMap {
 struct GridEstimate {
     double x = 0, y = 0;                        ///< metres
     double heading = 0;                         ///< radians in (-pi, pi]; NaN in position mode
+    double heading_var = 0;                     ///< rad^2, the belief's about its circular mean; NaN in position mode
     double cov_xx = 0, cov_xy = 0, cov_yy = 0;  ///< covariance of the marginal, m^2
     double credible_radius = 0;                 ///< metres
     double confidence = 0;                      ///< mass within confidence_radius of (x, y), 0..1
@@ -265,6 +269,8 @@ public:
     void set_belief(const float* belief, bool pose, double offset);
 
 private:
+    /// The heading variance of estimate() (pose mode, the belief materialized).
+    double heading_variance() const;
     /// One slice's pending motion: its source bin and the shift and blur, in cells.
     struct SliceMotion {
         std::size_t source;
@@ -330,7 +336,7 @@ private:
     std::vector<float> bin_max_;                // each bin's largest value after the last measurement (pose mode)
     mutable bool bin_max_valid_ = false;        // false once the belief changed otherwise (see negligible)
     std::vector<std::int32_t> best_shifts_;
-    mutable std::vector<double> xs_, dx2_, hist_;  // the estimate's scratch
+    mutable std::vector<double> xs_, dx2_, hist_, bin_mass_;  // the estimate's scratch
     struct RingCell {
         double d2, mass;  // squared distance (m^2) from the estimate, marginal mass
     };

@@ -1,6 +1,6 @@
 """``nightloc localize``: a recorded night log (frames + odometry) turned into a trajectory.
 
-    nightloc localize MAP_OR_REFERENCE LOG --out OUT [--format csv|tum|csv,tum] [--min-confidence C]
+    nightloc localize MAP_OR_REFERENCE LOG --out OUT [--format csv|tum|mcap|csv,tum,mcap] [--min-confidence C]
                       [--odometry FILE|none] [--survey DAY]
                       [--odometry-noise wheel|1|DIST,HEADING] [--params FILE.toml] [--camera panoramic|forward]
                       [--shift-window COLUMNS,ROWS] [--image-topic T] [--odometry-topic T] [--pose-topic T]
@@ -29,6 +29,10 @@ Writes, each file atomically:
   beside it ``OUT/trajectory_confidence.csv``: ``timestamp,confidence,credible_radius``, one row
   per line of the TUM file. ``--min-confidence C`` keeps only the frames whose confidence is at
   least C in both (a cold start left out of ``evo``'s statistics); ``trajectory.csv`` keeps all;
+* ``OUT/trajectory_bag/`` (``--format mcap``): a ROS 2 bag (MCAP storage, :mod:`nightloc.node.record`)
+  of the pose with covariance, ``/tf`` (``map -> odom`` once converged and the log's ``odom ->
+  base_link``), the belief grid, the prepared image and the true pose, at the frames' times, for
+  Foxglove and ``ros2 bag play``; needs the frames' times;
 * ``OUT/trajectory.png`` (unless ``--no-figures``; ``--figure-format pdf|svg`` for another
   format): the references, the estimated path with its credible radius, and the true path when
   LOG has poses, with the error and the confidence per frame — then the command also prints the
@@ -50,6 +54,7 @@ settles teaches nothing, and NEW_MAP is then the map unchanged (the command says
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import time
 from pathlib import Path
@@ -76,6 +81,7 @@ from ..localization.localizer import LocalizationParams, Localizer
 from ..localization.tail import FIRST_FRAME, tail_metrics
 from ..mapping.reference_map import ReferenceMap
 from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, log_noise_model, traverse_odometry
+from ..node.runner import FrameLocalizer
 from .options import (
     add_bag_options,
     add_camera_option,
@@ -109,7 +115,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--format",
         default="csv",
         help="csv (trajectory.csv, default), tum (trajectory.tum: timestamp x y z qx qy qz qw, as evo reads, and "
-        f"{TUM_CONFIDENCE_FILE}: timestamp,confidence,credible_radius per TUM line), or csv,tum",
+        f"{TUM_CONFIDENCE_FILE}: timestamp,confidence,credible_radius per TUM line), mcap (trajectory_bag/: a ROS 2 "
+        "MCAP bag of the pose with covariance, /tf, the belief, the prepared image and the truth, for Foxglove and "
+        "ros2 bag play), or several: csv,tum,mcap",
     )
     parser.add_argument(
         "--min-confidence",
@@ -157,7 +165,9 @@ def parse_formats(text: str) -> list[str]:
     formats = list(dict.fromkeys(part.strip().lower() for part in str(text).split(",")))
     bad = [f for f in formats if f not in TRAJECTORY_FORMATS]
     if bad or not formats:
-        raise ValueError(f"--format: {bad[0] if bad else text!r} is not csv or tum (e.g. --format tum or csv,tum)")
+        raise ValueError(
+            f"--format: {bad[0] if bad else text!r} is not csv, tum or mcap (e.g. --format tum or csv,tum,mcap)"
+        )
     return formats
 
 
@@ -218,6 +228,42 @@ def _noise_label(noise: object) -> str:
     return str(noise)
 
 
+class _BagOfTheNight:
+    """``--format mcap``: each localized frame into ``OUT/trajectory_bag`` (:mod:`nightloc.node.record`),
+    with the log's odometry as ``odom -> base_link`` and its true poses where it has them."""
+
+    def __init__(self, folder: Path, localizer: Localizer, log: Traverse, odometry: list, truth, note: str):
+        from ..node.record import NightRecorder, odometry_poses
+
+        self.recorder = NightRecorder(folder / TRAJECTORY_FORMATS["mcap"], localizer.grid, transform_tolerance=1.0)
+        self.localizer, self.log, self.truth = localizer, log, truth
+        self.odometry = odometry_poses(odometry)
+        self.headings = log.headings if not note else None  # a teach run's map: the truth's frame differs
+
+    def write(self, k: int, estimate, prepared: np.ndarray, converged: bool) -> None:
+        from ..node.conventions import stamp_of
+        from ..node.record import FrameRecord
+
+        assert self.log.timestamps is not None
+        truth = None
+        if self.truth is not None:
+            heading = float(self.headings[k]) if self.headings is not None else 0.0
+            truth = (float(self.truth[k][0]), float(self.truth[k][1]), heading if math.isfinite(heading) else 0.0)
+        record = FrameRecord(
+            stamp_of(float(self.log.timestamps[k])),
+            estimate,
+            self.odometry[k],
+            prepared,
+            self.localizer.belief,
+            truth,
+            converged,
+        )
+        self.recorder.write(record)
+
+    def close(self) -> None:
+        self.recorder.close()
+
+
 def run(args: argparse.Namespace) -> int:
     """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
     noise = None if args.odometry_noise is None else parse_noise(args.odometry_noise)
@@ -247,6 +293,11 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--overwrite replaces the --learn NEW_MAP: give --learn NEW_MAP too")
     refuse_map_as_traverse(args.log, "LOG", "the map comes first: nightloc localize MAP LOG --out OUT")
     log = load_traverse(args.log, **bag_options(args))
+    if "mcap" in formats and log.timestamps is None:
+        raise DatasetError(
+            f"--format mcap needs each frame's time, and the log {log.root} carries none: add a timestamp column "
+            f"(seconds) to its odometry.csv or poses.csv, or localize a bag or a video; --format csv needs none"
+        )
     if "tum" in formats and log.timestamps is None:
         raise DatasetError(
             f"--format tum needs each frame's time, and the log {log.root} carries none: add a timestamp column "
@@ -273,23 +324,21 @@ def run(args: argparse.Namespace) -> int:
     with output_set(args.out, command="localize", inputs=inputs, parents=True) as out:
         start = time.perf_counter()
         frames = log.frames(progress_desc=f"localizing {log.root.name}")
-        if args.learn is None:
-            estimates = [localizer.update(frame, odometry[i]) for i, frame in frames]
-        else:
-            from ..experience.learning import localize_night
-
-            night = localize_night(
-                ref_map,
-                (frame for _, frame in frames),
-                odometry,
-                localizer,
-                names=log.names,
-                timestamps=log.timestamps,
-                source=str(args.log),
-            )
-            estimates = list(night.estimates)
+        runner = FrameLocalizer(localizer, learn=args.learn is not None)
+        recorder = (
+            _BagOfTheNight(out.path, localizer, log, odometry, truth, alignment_note) if "mcap" in formats else None
+        )
+        estimates = []
+        for i, frame in frames:
+            prepared = runner.prepare(frame)
+            time_s = math.nan if log.timestamps is None else float(log.timestamps[i])
+            estimates.append(runner.step(prepared, odometry[i], log.names[i], time_s))
+            if recorder is not None:
+                recorder.write(i, estimates[-1], prepared, runner.converged)
+        if recorder is not None:
+            recorder.close()
         seconds = time.perf_counter() - start
-        written = []
+        written = ["trajectory_bag/"] if recorder is not None else []
         if "csv" in formats:
             written.append(write_trajectory_csv(out / "trajectory.csv", log.names, estimates, log.timestamps).name)
         if "tum" in formats and log.timestamps is not None:
@@ -331,9 +380,7 @@ def run(args: argparse.Namespace) -> int:
             )
             written.append(figure.name)
         if args.learn is not None:
-            from ..experience.learning import learn
-
-            learned, report = learn(ref_map, night, sections.get("learning"))
+            learned, report = runner.learned_map(str(args.log), sections.get("learning"))
             learned.save(args.learn, overwrite=args.overwrite)
     print(
         f"{len(estimates)} frames of {log.root} localized against {len(ref_map)} references in {duration(seconds)} "

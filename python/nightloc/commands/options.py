@@ -288,9 +288,10 @@ def add_learn_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--overwrite", action="store_true", help="--learn: replace NEW_MAP when it exists")
 
 
-def check_learn_target(target: Path, map_path: Path, out: Path, inputs: tuple, overwrite: bool) -> Path:
+def check_learn_target(target: Path, map_path: Path, out: Path | None, inputs: tuple, overwrite: bool) -> Path:
     """Fails before any work when NEW_MAP cannot be written: it is MAP (or inside an input), lies
-    inside OUT, is a folder, or exists without ``overwrite``."""
+    inside OUT (None: the command has no output folder), is a folder, or exists without
+    ``overwrite``."""
     same = target.resolve() == map_path.resolve()
     if not same and os.path.lexists(target) and os.path.lexists(map_path):
         try:
@@ -302,6 +303,6 @@ def check_learn_target(target: Path, map_path: Path, out: Path, inputs: tuple, o
             f"--learn {target} is the map itself: the map is never changed; write the learned map to a new file "
             f"(e.g. --learn {target.with_name(target.stem + '-learned' + target.suffix)})"
         )
-    if target.resolve().is_relative_to(out.resolve()):
+    if out is not None and target.resolve().is_relative_to(out.resolve()):
         raise ValueError(f"--learn {target} lies inside --out {out} (replaced as a whole): write it elsewhere")
     return check_output_path(target, overwrite=overwrite, inputs=inputs)

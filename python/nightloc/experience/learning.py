@@ -61,7 +61,15 @@ from ..matching.sad import match
 from ..motion.odometry import wrap_angle
 from ..preparation.params import PreparationParams
 
-__all__ = ["LearningParams", "LearningReport", "LocalizedNight", "learn", "localize_night", "trusted_frames"]
+__all__ = [
+    "LearningParams",
+    "LearningReport",
+    "LocalizedNight",
+    "NightLearner",
+    "learn",
+    "localize_night",
+    "trusted_frames",
+]
 
 #: The place spacing assumed for a map of a single place (metres).
 _SINGLE_PLACE_SPACING = 1.0
@@ -145,6 +153,73 @@ class LocalizedNight:
         return len(self.estimates)
 
 
+class NightLearner:
+    """A night localized frame by frame, keeping what :func:`learn` needs (the streaming form of
+    :func:`localize_night`, e.g. a live robot's frames).
+
+    Args:
+        ref_map: the map.
+        localizer: a filter :class:`Localizer` over ``ref_map`` (default ``Localizer(ref_map)``);
+            it is reset first.
+    """
+
+    def __init__(self, ref_map: ReferenceMap, localizer: Localizer | None = None):
+        loc = Localizer(ref_map) if localizer is None else localizer
+        if loc.ref_map is not ref_map and loc.ref_map != ref_map:
+            raise ValueError("the localizer runs over another map than ref_map")
+        if loc.method != "filter":
+            raise ValueError("learning needs the grid filter's confidence: a Localizer with method='filter'")
+        loc.reset()
+        self.ref_map = ref_map
+        self.localizer = loc
+        self._images: list[np.ndarray] = []
+        self._estimates: list[Estimate] = []
+        self._medians: list[float] = []
+
+    def __len__(self) -> int:
+        return len(self._estimates)
+
+    def step(self, frame: np.ndarray, motion: object = None, *, prepared: bool = False) -> Estimate:
+        """Localizes one raw camera frame (or a prepared one, ``prepared=True``) with ``motion``
+        since the previous frame (see :meth:`Localizer.update`), and keeps it."""
+        image = frame if prepared else self.ref_map.preparer.prepare(frame)
+        table = self.localizer.score_table(image, prepared=True)
+        estimate = self.localizer.update_table(table, motion)
+        self._estimates.append(estimate)
+        self._images.append(image)
+        self._medians.append(float(np.median(table.min(axis=1))))
+        return estimate
+
+    def night(
+        self,
+        names: Sequence[str] | None = None,
+        timestamps: Sequence[float] | np.ndarray | None = None,
+        source: str = "",
+    ) -> LocalizedNight:
+        """The frames so far as a :class:`LocalizedNight` (``names``, ``timestamps`` in seconds
+        and ``source`` as :func:`localize_night` takes them)."""
+        ref_map = self.ref_map
+        m = len(self._estimates)
+        if names is None:
+            names = [f"{k:06d}" for k in range(m)]
+        if len(names) != m:
+            raise ValueError(f"{len(names)} names for {m} frames")
+        times = None if timestamps is None else np.asarray(timestamps, dtype=np.float64)
+        if times is not None and times.shape != (m,):
+            raise ValueError(f"timestamps must be ({m},) seconds, got shape {times.shape}")
+        shape = (0, ref_map.params.height, ref_map.params.width)
+        return LocalizedNight(
+            np.stack(self._images) if self._images else np.zeros(shape, np.uint8),
+            tuple(self._estimates),
+            np.asarray(self._medians, dtype=np.float64),
+            tuple(names),
+            times,
+            str(source),
+            ref_map.fingerprint,
+            ref_map.params,
+        )
+
+
 def localize_night(
     ref_map: ReferenceMap,
     frames: Iterable[np.ndarray],
@@ -165,40 +240,10 @@ def localize_night(
             it is reset first.
         names, timestamps, source: the log's frame names, times (seconds) and path.
     """
-    loc = Localizer(ref_map) if localizer is None else localizer
-    if loc.ref_map is not ref_map and loc.ref_map != ref_map:
-        raise ValueError("the localizer runs over another map than ref_map")
-    if loc.method != "filter":
-        raise ValueError("learning needs the grid filter's confidence: a Localizer with method='filter'")
-    loc.reset()
-    preparer = ref_map.preparer
-    images, estimates, medians = [], [], []
+    learner = NightLearner(ref_map, localizer)
     for k, frame in enumerate(frames):
-        prepared = preparer.prepare(frame)
-        table = loc.score_table(prepared, prepared=True)
-        motion = None if odometry is None else odometry[k]
-        estimates.append(loc.update_table(table, motion))
-        images.append(prepared)
-        medians.append(float(np.median(table.min(axis=1))))
-    m = len(estimates)
-    if names is None:
-        names = [f"{k:06d}" for k in range(m)]
-    if len(names) != m:
-        raise ValueError(f"{len(names)} names for {m} frames")
-    times = None if timestamps is None else np.asarray(timestamps, dtype=np.float64)
-    if times is not None and times.shape != (m,):
-        raise ValueError(f"timestamps must be ({m},) seconds, got shape {times.shape}")
-    shape = (0, ref_map.params.height, ref_map.params.width)
-    return LocalizedNight(
-        np.stack(images) if images else np.zeros(shape, np.uint8),
-        tuple(estimates),
-        np.asarray(medians, dtype=np.float64),
-        tuple(names),
-        times,
-        str(source),
-        ref_map.fingerprint,
-        ref_map.params,
-    )
+        learner.step(frame, None if odometry is None else odometry[k])
+    return learner.night(names, timestamps, source)
 
 
 def trusted_frames(estimates: Sequence[Estimate], params: LearningParams) -> np.ndarray:

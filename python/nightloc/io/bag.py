@@ -58,7 +58,9 @@ __all__ = [
     "decode_image",
     "interpolate_poses",
     "load_bag",
+    "quaternion_yaw",
     "robot_motions",
+    "stamp_seconds",
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -145,12 +147,12 @@ def decode_image(message: Any, msgtype: str, where: str) -> np.ndarray:
     return np.ascontiguousarray(image)
 
 
-def _yaw(q: Any) -> float:
+def quaternion_yaw(q: Any) -> float:
     """Rotation about z (radians) of a quaternion message."""
     return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
-def _seconds(stamp: Any) -> float:
+def stamp_seconds(stamp: Any) -> float:
     """A ``builtin_interfaces/Time`` as seconds, the double nearest the exact decimal."""
     return float(f"{int(stamp.sec)}.{int(stamp.nanosec):09d}")
 
@@ -453,10 +455,17 @@ def _index(
                     key = (transform.header.frame_id.lstrip("/"), transform.child_frame_id.lstrip("/"))
                     if (edge is None and key[0] in TF_PARENTS and key[1] in TF_CHILDREN) or key == edge:
                         t, r = transform.transform.translation, transform.transform.rotation
-                        tf_samples.setdefault(key, []).append((_seconds(transform.header.stamp), t.x, t.y, _yaw(r)))
+                        tf_samples.setdefault(key, []).append(
+                            (stamp_seconds(transform.header.stamp), t.x, t.y, quaternion_yaw(r))
+                        )
                 continue
             held = message.pose.pose if hasattr(message.pose, "pose") else message.pose
-            sample = (_seconds(message.header.stamp), held.position.x, held.position.y, _yaw(held.orientation))
+            sample = (
+                stamp_seconds(message.header.stamp),
+                held.position.x,
+                held.position.y,
+                quaternion_yaw(held.orientation),
+            )
             if connection.topic == odometry:
                 odometry_samples.append(sample)
             if connection.topic == pose:

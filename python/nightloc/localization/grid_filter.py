@@ -20,7 +20,7 @@ localization; docs/localization.md) keeps a belief over the heat-map grid **x he
    above the lowest count as that: one frame cannot erase a place), interpolated onto the grid with the map's
    weights (in log space);
 3. **estimates** position (the marginal's peak refined to the mean of the cells around it),
-   heading, covariance, ``credible_radius`` and ``confidence`` (the belief within
+   heading, covariance, the heading's variance, ``credible_radius`` and ``confidence`` (the belief within
    ``confidence_radius`` metres of the estimate: low means lost).
 
 The arithmetic runs in the compiled core (``nightloc/grid_filter.hpp``), one call per frame with
@@ -165,6 +165,8 @@ class FilterState:
         cell: row-major index of the marginal's peak; ``flat``: the marginal had no peak.
         scores: ``(N,)`` the frame's minimum scores per reference, ``shifts`` their best shifts
             (None for a prediction without a frame).
+        heading_variance: rad^2, the belief's heading histogram about its circular mean (at most
+            pi^2); NaN when the belief is position-only.
     """
 
     x: float
@@ -177,6 +179,7 @@ class FilterState:
     flat: bool
     scores: np.ndarray | None = None
     shifts: np.ndarray | None = None
+    heading_variance: float = math.nan
 
 
 def table_window(columns: int, n_shifts: int, has_headings: bool, params: FilterParams) -> tuple[int, int]:
@@ -340,7 +343,7 @@ class GridFilter:
 
 
 def _state(estimate: tuple, scores: np.ndarray | None, shifts: np.ndarray | None) -> FilterState:
-    x, y, heading, cxx, cxy, cyy, radius, confidence, cell, flat = estimate
+    x, y, heading, cxx, cxy, cyy, radius, confidence, cell, flat, heading_var = estimate
     covariance = np.array([[cxx, cxy], [cxy, cyy]])
     return FilterState(
         float(x),
@@ -353,4 +356,5 @@ def _state(estimate: tuple, scores: np.ndarray | None, shifts: np.ndarray | None
         bool(flat),
         scores,
         shifts,
+        float(heading_var) if math.isfinite(heading_var) else math.nan,  # one NaN: estimates compare with ==
     )

@@ -146,6 +146,9 @@ class Estimate:
         credible_radius: metres around ``(x, y)`` holding ``credibility`` (default 0.9) of the
             filter's belief (NaN for the paper's method).
         method: ``"filter"`` or ``"paper"``.
+        heading_variance: rad^2, the filter's belief about its heading (its heading histogram about
+            the circular mean, at most pi^2); NaN while the belief is position-only and for the
+            paper's method.
     """
 
     x: float
@@ -161,6 +164,7 @@ class Estimate:
     covariance: tuple[tuple[float, float], tuple[float, float]] | None = None
     credible_radius: float = math.nan
     method: str = "paper"
+    heading_variance: float = math.nan
 
     @property
     def position(self) -> np.ndarray:
@@ -387,6 +391,45 @@ class Localizer:
         self._require_sequence().clear()  # the frames' excess heat maps and fill values (in the core)
         self._motions: deque[Motion] = deque(maxlen=max(self.params.seq_len - 1, 1))
 
+    def set_pose(self, x: float, y: float, heading: float = math.nan, covariance: np.ndarray | None = None) -> None:
+        """The filter's belief becomes a Gaussian about ``(x, y)`` metres and ``heading`` radians
+        (what RViz's "2D Pose Estimate" sends): ``covariance`` ``(3, 3)`` of x, y and heading (m^2,
+        rad^2; default 0.25 m and 0.2 rad standard deviations), widened by half a cell and half a
+        heading bin. A NaN heading or heading variance, or a filter without heading bins: the
+        heading stays unknown (uniform). ValueError when the pose lies too far off the grid for
+        any cell to hold belief."""
+        flt = self._require_filter("set_pose")
+        cov = np.diag([0.0625, 0.0625, 0.04]) if covariance is None else np.asarray(covariance, dtype=np.float64)
+        if cov.shape != (3, 3) or not np.isfinite(cov[:2, :2]).all() or not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError(f"set_pose needs a finite x, y and a (3, 3) covariance, got {x}, {y}, shape {cov.shape}")
+        grid = self.grid
+        position_cov = cov[:2, :2] + np.diag([(grid.dx / 2) ** 2, (grid.dy / 2) ** 2])
+        try:
+            inverse = np.linalg.inv(position_cov)
+        except np.linalg.LinAlgError:
+            raise ValueError(f"set_pose: the position covariance {cov[:2, :2].tolist()} is singular") from None
+        gx, gy = np.meshgrid(np.asarray(grid.xs) - x, np.asarray(grid.ys) - y)
+        distance2 = inverse[0, 0] * gx * gx + 2 * inverse[0, 1] * gx * gy + inverse[1, 1] * gy * gy
+        position = np.exp(-0.5 * distance2)
+        if not position.sum() > 0:
+            raise ValueError(f"set_pose: ({x:g}, {y:g}) lies off the map's grid ({grid.x0:g}.. m, {grid.y0:g}.. m)")
+        heading_var = float(cov[2, 2])
+        if flt.can_pose:
+            bins = int(flt.settings.heading_bins)
+            step = 2 * math.pi / bins
+            if math.isfinite(heading) and math.isfinite(heading_var) and heading_var >= 0:
+                offset = np.asarray(wrap_angle(step * np.arange(bins) - heading))
+                weights = np.exp(-0.5 * offset**2 / (heading_var + (step / 2) ** 2))
+            else:
+                weights = np.ones(bins)
+            belief = weights[:, None, None] * position[None]
+            pose = True
+        else:
+            belief, pose = position[None], False
+        with self._guard("set_pose"):
+            flt.core.set_belief(np.ascontiguousarray(belief / belief.sum(), dtype=np.float32), pose, 0.0)
+            self._heading = float(wrap_angle(heading)) if math.isfinite(heading) else math.nan
+
     def update(
         self,
         frame: np.ndarray,
@@ -512,6 +555,7 @@ class Localizer:
             covariance=((float(cov[0, 0]), float(cov[0, 1])), (float(cov[1, 0]), float(cov[1, 1]))),
             credible_radius=state.credible_radius,
             method="filter",
+            heading_variance=state.heading_variance,
         )
 
     def update_match(self, result: MatchResult, odometry: object = None, *, return_heatmap: bool = False) -> Estimate:
