@@ -67,6 +67,7 @@ __all__ = [
     "locked_target",
     "make_folder",
     "output_set",
+    "parent_folders",
     "refuse_overlap",
     "replace_folder",
     "staging_folder",
@@ -195,6 +196,20 @@ def check_output_path(
             f"{user} exists; pass --overwrite to replace it",
         )
     return user
+
+
+@contextlib.contextmanager
+def parent_folders(path: PathLike) -> Iterator[Path]:
+    """Context manager for an output whose missing parent folders a command creates (a command's
+    output folder): makes them on entry and removes those it made again when the block raises.
+    Raises NotADirectoryError when an existing ancestor is a file. Yields ``path``."""
+    user = Path(path)
+    made = _make_parents(_resolve(user), user)
+    try:
+        yield user
+    except BaseException:
+        _remove_made(made)
+        raise
 
 
 def make_folder(folder: PathLike) -> Path:
