@@ -2,7 +2,8 @@
 localize`` and ``nightloc.Localizer`` on the same frames, and refuses bad input clearly.
 
 The program is the one ``pip install`` put beside this Python's ``nightloc`` script (built from the
-same core as the module), or ``$NIGHTLOC_REPLAY`` (CI names its CMake build's). The data: a small
+same core as the module), or ``$NIGHTLOC_REPLAY`` (e.g. a CMake build's). Tests of PNG frames check
+whichever the build does: read them as Python does, or refuse them naming both fixes. The data: a small
 synthetic garden map and night log (tools/firmware_golden.py), and a night ``nightloc synth`` wrote.
 """
 
