@@ -65,7 +65,6 @@ from ..config import load_params_file
 from ..errors import DatasetError
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set
-from ..io.odometry_csv import ODOMETRY_FILE
 from ..io.trajectory import (
     TRAJECTORY_FORMATS,
     TRAJECTORY_HEADER,
@@ -80,7 +79,7 @@ from ..localization.evaluation import map_alignment
 from ..localization.localizer import LocalizationParams, Localizer
 from ..localization.tail import FIRST_FRAME, tail_metrics
 from ..mapping.reference_map import ReferenceMap
-from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, log_noise_model, traverse_odometry
+from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, log_noise_model
 from ..node.runner import FrameLocalizer
 from .options import (
     add_bag_options,
@@ -91,6 +90,7 @@ from .options import (
     check_learn_target,
     filter_params_with_window,
     load_reference,
+    log_odometry,
     parse_noise,
     parse_shift_window,
 )
@@ -177,24 +177,6 @@ def _load_map(path: Path, preparation, camera: str | None, params_file: Path | N
             f"map {path} does not exist (a map file from nightloc build-map or a reference traverse folder)"
         )
     return load_reference(path, preparation, camera, params_file, bag)  # a FIFO, device or link loop is named
-
-
-def _log_odometry(log: Traverse, option: str | None) -> list:
-    """The log's odometry: ``--odometry FILE``, or the log's own (its ``odometry.csv``)."""
-    if option is None and log.is_bag:
-        return traverse_odometry(log)  # the bag's own odometry topic (or names what is missing)
-    if option is None and not log.is_video and not os.path.lexists(Path(log.root) / ODOMETRY_FILE):
-        raise DatasetError(
-            f"the log {log.root} has no {ODOMETRY_FILE} (its wheel odometry, one row per frame: "
-            f"image,forward,left,turn or image,dx,dy); name one with --odometry FILE, or localize without odometry: "
-            f"--odometry none"
-        )
-    try:
-        return traverse_odometry(log, None if option is None else Path(option))
-    except DatasetError as error:
-        if log.is_video and option is None:
-            raise DatasetError(f"{error}: --odometry FILE, or localize without odometry: --odometry none") from None
-        raise
 
 
 def _truth_in_map_frame(log: Traverse, ref_map: ReferenceMap, survey: Path | None) -> tuple[np.ndarray | None, str]:
@@ -307,7 +289,7 @@ def run(args: argparse.Namespace) -> int:
     if no_odometry:
         odometry: list = [None] * len(log)
     else:
-        odometry = _log_odometry(log, args.odometry)
+        odometry = log_odometry(log, args.odometry, "localize without odometry: --odometry none")
     if noise is None:
         noise = log_noise_model(odometry)
     ref_map = _load_map(args.map, sections.get("preparation"), args.camera, args.params, bag_options(args))

@@ -9,7 +9,8 @@
   commands (route) and the 2D filter's (localize, evaluate);
 * ``--odometry-noise``: a Table III model or ``DIST,HEADING`` (localize, evaluate);
 * ``--seed`` and ``--repeats``: the noise draws (evaluate, demo);
-* ``REFERENCE``: a traverse to build a map from, or a map file (localize, evaluate).
+* ``REFERENCE``: a traverse to build a map from, or a map file (localize, evaluate);
+* ``--odometry FILE``: a log's odometry, or its own (localize, export-log).
 """
 
 from __future__ import annotations
@@ -23,14 +24,16 @@ from pathlib import Path
 from typing import Any
 
 from .._validate import MAX_REPEATS
+from ..errors import DatasetError
 from ..io.atomic import check_output_path
 from ..io.bag import DEFAULT_SYNC_TOLERANCE_S
 from ..io.dataset_record import recorded_camera
 from ..io.kinds import bag_kind
+from ..io.odometry_csv import ODOMETRY_FILE
 from ..io.traverse import Traverse, load_traverse
 from ..localization.grid_filter import FilterParams
 from ..mapping.reference_map import ReferenceMap
-from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, noise_model
+from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, noise_model, traverse_odometry
 from ..preparation.camera import CAMERAS, check_panorama_shape, params_for_camera
 from ..preparation.params import PreparationParams
 
@@ -45,6 +48,7 @@ __all__ = [
     "file_wrap",
     "filter_params_with_window",
     "load_reference",
+    "log_odometry",
     "parse_noise",
     "parse_shift_window",
     "preparation_for_camera",
@@ -306,3 +310,26 @@ def check_learn_target(target: Path, map_path: Path, out: Path | None, inputs: t
     if out is not None and target.resolve().is_relative_to(out.resolve()):
         raise ValueError(f"--learn {target} lies inside --out {out} (replaced as a whole): write it elsewhere")
     return check_output_path(target, overwrite=overwrite, inputs=inputs)
+
+
+# --- --odometry FILE: a log's odometry
+
+
+def log_odometry(log: Traverse, option: str | None, without: str) -> list:
+    """The log's odometry, one motion per frame: ``--odometry FILE``, or the log's own (its
+    ``odometry.csv``, a bag's odometry topic). A missing one is a DatasetError saying how to name
+    one and, ``without``, what the command can do without it."""
+    if option is None and log.is_bag:
+        return traverse_odometry(log)  # the bag's own odometry topic (or names what is missing)
+    if option is None and not log.is_video and not os.path.lexists(Path(log.root) / ODOMETRY_FILE):
+        raise DatasetError(
+            f"the log {log.root} has no {ODOMETRY_FILE} (its wheel odometry, one row per frame: "
+            f"image,forward,left,turn or image,dx,dy); name one with --odometry FILE"
+            + (f", or {without}" if without else "")
+        )
+    try:
+        return traverse_odometry(log, None if option is None else Path(option))
+    except DatasetError as error:
+        if log.is_video and option is None:
+            raise DatasetError(f"{error}: --odometry FILE" + (f", or {without}" if without else "")) from None
+        raise
