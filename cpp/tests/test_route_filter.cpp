@@ -459,6 +459,25 @@ void test_motion_names() {
     }
     CHECK(named_choices);
     CHECK_THROWS(nightloc::route_motion_name(static_cast<nightloc::RouteMotion>(-1)), std::invalid_argument);
+    // Each model's steady speeds come from its own fields; odometry follows any speed.
+    nightloc::RouteFilterParams p;
+    p.vmin = 0.7;
+    p.vmax = 1.3;
+    p.speed_min = 0.4;
+    p.speed_max = 2.5;
+    p.motion = nightloc::RouteMotion::kWindow;
+    nightloc::RouteMotionSpeeds speeds = nightloc::route_motion_speeds(p);
+    CHECK(speeds.lowest == 0.7 && speeds.highest == 1.3 && speeds.lowest_field == "vmin" &&
+          speeds.highest_field == "vmax");
+    p.motion = nightloc::RouteMotion::kSpeed;
+    speeds = nightloc::route_motion_speeds(p);
+    CHECK(speeds.lowest == 0.4 && speeds.highest == 2.5 && speeds.lowest_field == "speed_min" &&
+          speeds.highest_field == "speed_max");
+    p.motion = nightloc::RouteMotion::kOdometry;
+    speeds = nightloc::route_motion_speeds(p);
+    CHECK(std::isinf(speeds.lowest) && speeds.lowest < 0 && std::isinf(speeds.highest) && speeds.lowest_field.empty());
+    p.motion = static_cast<nightloc::RouteMotion>(7);
+    CHECK_THROWS(nightloc::route_motion_speeds(p), std::invalid_argument);
 }
 
 }  // namespace

@@ -77,6 +77,16 @@ RouteMotion route_motion_from_name(const std::string& name);
 /// Whether `motion` names a model.
 bool route_motion_known(RouteMotion motion) noexcept;
 
+/// The speeds a motion model follows, references per query frame: the model's own range of
+/// steady speeds under `params` (lowest .. highest), and the RouteFilterParams fields that set
+/// them (empty, with an unbounded range, for a model that moves by the distance travelled).
+struct RouteMotionSpeeds {
+    double lowest = 0.0;
+    double highest = 0.0;
+    std::string lowest_field;
+    std::string highest_field;
+};
+
 namespace route_detail {
 class RouteMotionModel;
 }
@@ -108,6 +118,9 @@ struct RouteFilterParams {
 
 /// Throws std::invalid_argument naming the first parameter out of range.
 void validate(const RouteFilterParams& params);
+
+/// The speeds params.motion follows under `params` (the registry's entry for that model).
+RouteMotionSpeeds route_motion_speeds(const RouteFilterParams& params);
 
 /// The prediction kernel: P(the reference advances by k) for k = first .. first+weights.size()-1.
 /// A speed v uniform in [vmin, vmax] and a sub-frame phase x uniform in [0, 1) advance the

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <utility>
 
@@ -17,13 +18,21 @@ struct RouteMotionEntry {
     const char* name;
     RouteMotionFactory make;
     bool needs_distances;  // the model moves by the distance travelled
+    // The RouteFilterParams fields of the steady speeds the model follows, and their names
+    // (nullptr: the model follows any speed).
+    double RouteFilterParams::* lowest;
+    const char* lowest_field;
+    double RouteFilterParams::* highest;
+    const char* highest_field;
 };
 
 // The registry: one line per model, in RouteMotion order.
 constexpr RouteMotionEntry kRouteMotions[] = {
-    {RouteMotion::kWindow, "window", &make_window_motion, false},
-    {RouteMotion::kSpeed, "speed", &make_speed_motion, false},
-    {RouteMotion::kOdometry, "odometry", &make_odometry_motion, true},
+    {RouteMotion::kWindow, "window", &make_window_motion, false, &RouteFilterParams::vmin, "vmin",
+     &RouteFilterParams::vmax, "vmax"},
+    {RouteMotion::kSpeed, "speed", &make_speed_motion, false, &RouteFilterParams::speed_min, "speed_min",
+     &RouteFilterParams::speed_max, "speed_max"},
+    {RouteMotion::kOdometry, "odometry", &make_odometry_motion, true, nullptr, nullptr, nullptr, nullptr},
 };
 
 const RouteMotionEntry* find_entry(RouteMotion motion) noexcept {
@@ -146,5 +155,22 @@ std::vector<std::string> route_motion_names() {
 }
 
 bool route_motion_known(RouteMotion motion) noexcept { return route_detail::find_entry(motion) != nullptr; }
+
+RouteMotionSpeeds route_motion_speeds(const RouteFilterParams& params) {
+    const route_detail::RouteMotionEntry* entry = route_detail::find_entry(params.motion);
+    route_detail::require(entry != nullptr, "motion must be one of " + route_detail::name_list() + ", got " +
+                                                std::to_string(static_cast<std::int32_t>(params.motion)));
+    RouteMotionSpeeds speeds;
+    if (entry->lowest == nullptr) {
+        speeds.lowest = -std::numeric_limits<double>::infinity();
+        speeds.highest = std::numeric_limits<double>::infinity();
+        return speeds;
+    }
+    speeds.lowest_field = entry->lowest_field;
+    speeds.highest_field = entry->highest_field;
+    speeds.lowest = params.*(entry->lowest);
+    speeds.highest = params.*(entry->highest);
+    return speeds;
+}
 
 }  // namespace nightloc
