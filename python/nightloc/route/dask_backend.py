@@ -338,7 +338,8 @@ def local_client(workers: int, threads_per_worker: int = 1, processes: bool = Tr
         processes=processes,
         host="127.0.0.1",
         protocol="tcp://",  # loopback TCP also when the workers are threads of this process
-        dashboard_address=None,
+        dashboard_address=":0",  # the scheduler's HTTP server on a free port, without the dashboard
+        scheduler_kwargs={"dashboard": False},
         silence_logs=logging.ERROR,
     )
     client = distributed.Client(cluster)
