@@ -54,7 +54,6 @@ def test_matches_are_dots_on_their_cells_coloured_by_correctness(matched):
     np.testing.assert_array_equal(plain.get_offsets(), expected)
 
 
-
 def test_pr_curve_is_the_evaluation_curve_from_full_precision(matched):
     _, evaluation = matched
     ax = pr_curve_figure(evaluation).axes[0]

@@ -17,6 +17,7 @@ from nightloc.route.params import MOTION_MODELS, motion_speeds
 from nightloc.route.speed_check import (
     STRETCH_ROWS,
     STRETCHES,
+    MatchesRatio,
     StretchSampler,
     check_speed,
     ratio_from_odometry,
@@ -95,13 +96,30 @@ def test_sampler_takes_bands_in_any_order():
     partial.take(0, matrix[:100])
     with pytest.raises(ValueError, match="not given whole"):
         partial.rows()
+    # a stream hands each stretch over once it is whole, and holds it no longer
+    stream = StretchSampler(40_000)
+    handed = []
+    for start in range(0, 40_000, 777):
+        stream.take(start, matrix[start : start + 777])
+        handed += stream.complete()
+        assert sum(len(part) for parts in stream._parts for part in parts.values()) < 2 * STRETCH_ROWS
+    assert len(handed) == len(whole)
+    for got, expected in zip(handed, whole):
+        np.testing.assert_array_equal(got, expected)
+    with pytest.raises(ValueError, match="handed over"):
+        stream.rows()
 
 
 @pytest.mark.parametrize("ratio", [0.45, 1.0, 2.2])
 def test_the_matches_show_the_ratio(ratio):
-    measured = ratio_from_rows(_stretches(_enhanced(ratio)))
+    stretches = _stretches(_enhanced(ratio))
+    measured = ratio_from_rows(stretches)
     assert measured is not None and measured.source == "matches"
     assert measured.median == pytest.approx(ratio, abs=0.08)
+    one_at_a_time = MatchesRatio()
+    for stretch in stretches:
+        one_at_a_time.add(stretch)
+    assert one_at_a_time.ratio() == measured
 
 
 def test_a_query_off_the_route_shows_no_ratio():

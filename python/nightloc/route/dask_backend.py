@@ -57,7 +57,7 @@ from .filter import core_params, motion_name, texture_weights
 from .params import RouteParams, resolve_params
 from .pipeline import RouteResult, _divisor
 from .preview import MatrixPreview, PreviewPart, preview_part
-from .speed_check import StretchSampler, check_speed
+from .speed_check import MatchesRatio, StretchSampler, check_speed
 
 __all__ = [
     "BAND_CELLS",
@@ -69,8 +69,8 @@ __all__ = [
     "require_distributed",
 ]
 
-#: Matrix cells per band of query rows in :func:`dask_stream_match` (float32: 16 MB).
-BAND_CELLS = 1 << 22
+#: Matrix cells per band of query rows in :func:`dask_stream_match` (float32: 4 MB).
+BAND_CELLS = 1 << 20
 #: Install command named by the errors.
 INSTALL = 'pip install "nightloc[dask]"'
 
@@ -543,6 +543,7 @@ def dask_stream_match(
     if advances is not None and reference_distances is not None:
         odometry = (advances, reference_distances)
     sampler = StretchSampler(n_queries) if speed_check and odometry is None else None
+    matches = MatchesRatio()  # takes each sampled stretch once it is whole, then drops it
     confidence = off_route = speed = weights = None
     motion = None
     if p.method == "filter":
@@ -572,6 +573,8 @@ def dask_stream_match(
             preview.add(part)
             if sampler is not None:
                 sampler.take(lo, band)
+                for stretch in sampler.complete():
+                    matches.add(stretch)
             del band
         matched = np.concatenate([piece[0] for piece in pieces]).astype(np.int64)
         confidence = np.concatenate([piece[1] for piece in pieces])
@@ -622,12 +625,15 @@ def dask_stream_match(
             if sampler is not None:
                 for lo, piece in sampled:
                     sampler.take(lo, piece, copy=False)
+                for stretch in sampler.complete():
+                    matches.add(stretch)
         matched = np.concatenate(matched_parts).astype(np.int64)
         scores = np.concatenate(score_parts).astype(np.float64)
     checked = None
     if speed_check:
-        checked = check_speed(p, motion, None if sampler is None else sampler.rows(), odometry)
-    _, enhanced, _ = dask_route_matrices(r, q, p, rows, False, threads_per_task)
+        checked = check_speed(p, motion, None, odometry, matches if sampler is not None else None)
+    # the lazy matrix in at most 8 blocks of rows: its graph is built in a fraction of a second
+    _, enhanced, _ = dask_route_matrices(r, q, p, max(rows, -(-n_queries // 8)), False, threads_per_task)
     timings: dict[str, float] = {"total": time.perf_counter() - start_time}
     return RouteResult(
         refs=matched,

@@ -2,13 +2,14 @@
 
 A figure of an ``(n_query, n_ref)`` matrix shows at most :data:`MAX_IMAGE_CELLS` cells per side:
 a larger matrix is area-averaged, each picture cell the mean of the matrix cells it covers
-(a cell covered in part weighs by the part, as OpenCV's ``INTER_AREA``), with every non-finite
+(a cell covered in part weighs by the part: OpenCV's ``INTER_AREA`` along the references,
+the same weights along the queries), with every non-finite
 cell counted as the matrix's largest finite value (0 when it has none), so one bad cell does not
 blank its neighbourhood. The average is linear, so it is accumulated band by band
 (:class:`MatrixPreview`): a run on a Dask cluster draws the matrix it never held whole, each band
 reduced where it was computed (:func:`preview_part`), and a matrix in memory is reduced the same
-way (:func:`matrix_preview`), so both give the same picture. Scratch memory: ``PART_CELLS`` cells
-in float64.
+way (:func:`matrix_preview`), so both give the same picture (to rounding). Scratch memory: a few
+times ``PART_CELLS`` cells.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import functools
 import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 import scipy.sparse
 
@@ -53,6 +55,14 @@ def _area_weights(n_in: int, n_out: int) -> scipy.sparse.csr_matrix:
     return scipy.sparse.csr_matrix((values, (rows, cols)), shape=(n_out, n_in))
 
 
+def _columns(rows: np.ndarray, out_cols: int) -> np.ndarray:
+    """``rows`` (float32, finite) area-averaged along the columns to ``out_cols`` (float64)."""
+    if rows.shape[1] == out_cols:
+        return rows.astype(np.float64)
+    size = (out_cols, rows.shape[0])  # OpenCV: (width, height); the rows stay
+    return cv2.resize(np.ascontiguousarray(rows), size, interpolation=cv2.INTER_AREA).astype(np.float64)
+
+
 @dataclass(frozen=True)
 class PreviewPart:
     """One band's share of a picture.
@@ -80,22 +90,24 @@ def preview_part(band: np.ndarray, start: int, n_rows: int, limit: int = MAX_IMA
     first = int(touched[0]) if touched.size else 0
     last = int(touched[-1]) + 1 if touched.size else 0
     row_weights = row_weights[first:last]
-    column_weights = _area_weights(n_cols, out_cols).T.tocsr()
     finite_sum = np.zeros((last - first, out_cols))
     missing_sum = np.zeros((last - first, out_cols))
     largest = math.nan
     step = max(1, PART_CELLS // max(1, n_cols))
     for lo in range(0, band.shape[0], step):
-        chunk = np.asarray(band[lo : lo + step], dtype=np.float64)
+        chunk = np.asarray(band[lo : lo + step], dtype=np.float32)
+        weights = row_weights[:, lo : lo + step]
+        low, high = float(chunk.min()), float(chunk.max())  # NaN if any cell is NaN
+        if math.isfinite(low) and math.isfinite(high):
+            largest = high if math.isnan(largest) else max(largest, high)
+            finite_sum += weights @ _columns(chunk, out_cols)
+            continue
         finite = np.isfinite(chunk)
         if finite.any():
             chunk_max = float(chunk[finite].max())
             largest = chunk_max if math.isnan(largest) else max(largest, chunk_max)
-        chunk[~finite] = 0.0
-        weights = row_weights[:, lo : lo + step]
-        finite_sum += weights @ np.asarray(chunk @ column_weights)
-        if not finite.all():
-            missing_sum += weights @ np.asarray((~finite).astype(np.float64) @ column_weights)
+        finite_sum += weights @ _columns(np.where(finite, chunk, np.float32(0)), out_cols)
+        missing_sum += weights @ _columns((~finite).astype(np.float32), out_cols)
     return PreviewPart(first, finite_sum, missing_sum, largest)
 
 

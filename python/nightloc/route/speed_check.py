@@ -36,6 +36,7 @@ from .filter import RouteFilter
 from .params import MotionSpeeds, RouteParams, motion_speeds, resolve_params
 
 __all__ = [
+    "MatchesRatio",
     "SpeedCheck",
     "SpeedRatio",
     "StretchSampler",
@@ -148,11 +149,15 @@ class StretchSampler:
         for start, band in bands:          # (rows, n_ref) float32, rows start .. start+rows-1
             sampler.take(start, band)
         sampler.rows()                     # one (rows, n_ref) array per stretch
+
+    In a stream, :meth:`complete` hands each stretch over as soon as it is whole
+    (:class:`MatchesRatio` takes them one at a time).
     """
 
     def __init__(self, n_queries: int):
         self.stretches = sample_stretches(n_queries)
         self._parts: list[dict[int, np.ndarray]] = [{} for _ in self.stretches]
+        self._done: set[int] = set()
 
     def take(self, start: int, band: np.ndarray, copy: bool = True) -> None:
         """Keeps the rows of ``band`` (query rows ``start ..``) that lie in a stretch: copies, or
@@ -164,17 +169,30 @@ class StretchSampler:
                 piece = band[lo - start : hi - start]
                 parts[lo] = np.array(piece, dtype=np.float32) if copy else piece
 
+    def complete(self) -> list[np.ndarray]:
+        """The stretches given whole since the last call, in order, released from the sampler (so
+        that a stream holds at most the stretches still being filled)."""
+        out = []
+        for index, (parts, (first, last)) in enumerate(zip(self._parts, self.stretches)):
+            if parts and sum(piece.shape[0] for piece in parts.values()) == last - first:
+                pieces = [parts[key] for key in sorted(parts)]
+                out.append(pieces[0] if len(pieces) == 1 else np.concatenate(pieces, axis=0))
+                self._parts[index] = {}
+                self._done.add(index)
+        return out
+
     def rows(self) -> list[np.ndarray]:
         """Each stretch's rows, in order; raises ValueError when a row was never given."""
         out = []
-        for parts, (first, last) in zip(self._parts, self.stretches):
+        for index, (parts, (first, last)) in enumerate(zip(self._parts, self.stretches)):
             pieces = [parts[key] for key in sorted(parts)]
             if len(pieces) == 1:
                 rows = pieces[0]
             else:
                 rows = np.concatenate(pieces, axis=0) if pieces else np.zeros((0, 0), np.float32)
             if rows.shape[0] != last - first:
-                raise ValueError(f"the speed check's stretch {first}..{last - 1} was not given whole")
+                done = " (already handed over by complete())" if index in self._done else ""
+                raise ValueError(f"the speed check's stretch {first}..{last - 1} was not given whole{done}")
             out.append(rows)
         return out
 
@@ -227,33 +245,49 @@ def _slopes(refs: np.ndarray, confidence: np.ndarray, settled: int) -> np.ndarra
     return (refs[both + frames] - refs[both]).astype(np.float64) / frames
 
 
-def ratio_from_rows(stretches: list[np.ndarray]) -> SpeedRatio | None:
-    """The ratio the matches show on stretches of consecutive rows of an enhanced difference
-    matrix (``(rows, n_ref)`` float32 each, lower = more similar): each stretch standardized per
-    reference column (a reference that resembles every query frame must not win by standing
-    still), tracked by the window model under each of :data:`SPEEDS`; the speed tracked with the
-    highest mean confidence over all stretches (after each one's first ``SETTLE_FRAMES``) wins,
-    and the ratio is the slope of its confident matches. None when the stretches are too short
-    or no speed is tracked with a mean confidence of at least ``CONFIDENT`` (a query off the
-    route). Scratch memory: ``CHUNK_ROWS`` rows."""
-    stretches = [s for s in stretches if s.shape[0] >= MIN_STRETCH_ROWS and s.shape[1] >= 2]
-    if not stretches:
-        return None
-    confident = np.zeros(len(SPEEDS))
-    counted = 0
-    slopes: list[list[np.ndarray]] = [[] for _ in SPEEDS]
-    for stretch in stretches:
+class MatchesRatio:
+    """The ratio the matches show, from stretches of consecutive rows of an enhanced difference
+    matrix given one at a time (``(rows, n_ref)`` float32 each, lower = more similar): each
+    stretch standardized per reference column (a reference that resembles every query frame must
+    not win by standing still) and tracked by the window model under each of :data:`SPEEDS`; the
+    speed tracked with the highest mean confidence over all stretches (after each one's first
+    ``SETTLE_FRAMES``) wins, and the ratio is the slope of its confident matches. Scratch memory:
+    ``CHUNK_ROWS`` rows; a stretch may be dropped once added."""
+
+    def __init__(self) -> None:
+        self._confident = np.zeros(len(SPEEDS))
+        self._counted = 0
+        self._slopes: list[list[np.ndarray]] = [[] for _ in SPEEDS]
+
+    def add(self, stretch: np.ndarray) -> None:
+        """Tracks one stretch (ignored when shorter than ``MIN_STRETCH_ROWS``)."""
+        if stretch.shape[0] < MIN_STRETCH_ROWS or stretch.shape[1] < 2:
+            return
         mean, inverse = _column_statistics(stretch)
         settled = min(SETTLE_FRAMES, stretch.shape[0] // 5)
-        counted += stretch.shape[0] - settled
+        self._counted += stretch.shape[0] - settled
         for index, speed in enumerate(SPEEDS):
             refs, confidence = _track(stretch, mean, inverse, speed)
-            confident[index] += confidence[settled:].sum()
-            slopes[index].append(_slopes(refs, confidence, settled).astype(np.float32))
-    best = int(np.argmax(confident))
-    if confident[best] / counted < CONFIDENT:
-        return None
-    return _ratio(np.concatenate(slopes[best]).astype(np.float64), "matches")
+            self._confident[index] += confidence[settled:].sum()
+            self._slopes[index].append(_slopes(refs, confidence, settled).astype(np.float32))
+
+    def ratio(self) -> SpeedRatio | None:
+        """The ratio, or None when no stretch was long enough or no speed is tracked with a mean
+        confidence of at least ``CONFIDENT`` (a query off the route)."""
+        if self._counted == 0:
+            return None
+        best = int(np.argmax(self._confident))
+        if self._confident[best] / self._counted < CONFIDENT:
+            return None
+        return _ratio(np.concatenate(self._slopes[best]).astype(np.float64), "matches")
+
+
+def ratio_from_rows(stretches: list[np.ndarray]) -> SpeedRatio | None:
+    """:class:`MatchesRatio` of these stretches."""
+    matches = MatchesRatio()
+    for stretch in stretches:
+        matches.add(stretch)
+    return matches.ratio()
 
 
 @dataclass(frozen=True)
@@ -309,6 +343,7 @@ def check_speed(
     motion: str | None,
     stretches: list[np.ndarray] | None = None,
     odometry: tuple[np.ndarray, np.ndarray] | None = None,
+    matches: MatchesRatio | None = None,
 ) -> SpeedCheck:
     """The speed check of a run.
 
@@ -319,11 +354,15 @@ def check_speed(
             only without odometry.
         odometry: ``(advances, reference_distances)`` when both traverses carry odometry (used or
             not by the search): the ratio comes from it.
+        matches: a :class:`MatchesRatio` already given the stretches (a stream), instead of
+            ``stretches``.
     """
     p = resolve_params(params)
     speeds = motion_speeds(p, motion)
     if odometry is not None:
         ratio = ratio_from_odometry(*odometry)
+    elif matches is not None and speeds.bounded:
+        ratio = matches.ratio()
     elif stretches is not None and speeds.bounded:
         ratio = ratio_from_rows(stretches)
     else:
