@@ -43,20 +43,34 @@ def _stretches(matrix: np.ndarray) -> list[np.ndarray]:
     return sampler.rows()
 
 
+def _central_planes(p: route.RouteParams) -> tuple[float, float]:
+    """The oracle's speed planes holding the central 80 % of the speed prior."""
+    speeds, _, _, prior, _ = ro.speed_chain(p)
+    below = np.cumsum(prior)
+    return speeds[int(np.argmax(below > 0.1))], speeds[int(np.argmax(below >= 0.9 - 1e-9))]
+
+
 def test_each_motion_model_reads_its_range_from_its_own_fields():
-    params = route.RouteParams(vmin=0.6, vmax=1.7, filter_speed_min=0.3, filter_speed_max=2.5)
+    params = route.RouteParams(vmin=0.6, vmax=1.7, filter_speed_change=0.1, filter_speed_tau=6.0)
     for name in MOTION_MODELS:
         speeds = motion_speeds(params, name)
         assert speeds.search == f"{name} motion model"
         if speeds.fields is None:  # moves by the distance travelled: any speed
             assert not speeds.bounded and speeds.covers(0.01) and speeds.covers(100.0)
             continue
-        low, high = (getattr(params, field) for field in speeds.fields)
-        assert (speeds.lowest, speeds.highest) == (low, high)
-        assert speeds.covers(low) and speeds.covers(high) and not speeds.covers(high + 0.01)
-        # the fields are RouteParams', so changing them moves the range
-        moved = motion_speeds(route.resolve_params(params, **{speeds.fields[1]: high + 1.0}), name)
-        assert moved.highest == high + 1.0
+        assert all(hasattr(params, field) for field in speeds.fields)
+        assert speeds.covers(speeds.lowest) and not speeds.covers(speeds.highest + 0.01)
+    window = motion_speeds(params, "window")  # the central 80 % of a speed uniform in vmin .. vmax
+    assert (window.lowest, window.highest) == pytest.approx((0.71, 1.59)) and window.fields == ("vmin", "vmax")
+    for prior in (params, route.RouteParams(), route.RouteParams(filter_speed_tau=math.inf)):
+        speed = motion_speeds(prior, "speed")
+        assert (speed.lowest, speed.highest) == pytest.approx(_central_planes(prior))
+        assert "filter_speed_tau" in speed.fields and "filter_speed_change" in speed.fields
+    # the default prior keeps 80 % of its mass on 0.9 .. 1.1 although its planes span 0.5 .. 1.5
+    default = motion_speeds(route.RouteParams(), "speed")
+    assert (default.lowest, default.highest) == pytest.approx((0.9, 1.1))
+    free = motion_speeds(route.RouteParams(filter_speed_tau=math.inf), "speed")  # no pull: a uniform prior
+    assert (free.lowest, free.highest) == pytest.approx((0.6, 1.4))
     seqslam = motion_speeds(params, None)
     assert (seqslam.lowest, seqslam.highest, seqslam.fields) == (0.6, 1.7, ("vmin", "vmax"))
 
@@ -140,7 +154,7 @@ def test_check_names_what_fits():
     assert low == pytest.approx(0.8 * speed_model.ratio.median, abs=0.006)
     assert high == pytest.approx(1.2 * speed_model.ratio.median, abs=0.006)
     message = speed_model.message()
-    assert "outside the speed motion model's 0.5..1.5 (filter_speed_min..filter_speed_max)" in message
+    assert "outside the speed motion model's 0.9..1.1 (set by filter_speed_min, filter_speed_max, " in message
     assert f"filter_motion = 'window', vmin = {low!r}, vmax = {high!r} fits" in message
     assert f"--motion window --vmin {low} --vmax {high} fits" in speed_model.message(
         lambda field: {"filter_motion": "--motion"}.get(field, "--" + field)
@@ -154,7 +168,7 @@ def test_check_names_what_fits():
     assert check_speed(None, "odometry", None, odometry).fits  # any speed
     on_time = check_speed(None, "speed", _stretches(_enhanced(1.0)))
     assert on_time.fits and on_time.advice == {} and on_time.message() == ""
-    assert on_time.as_dict()["range"] == [0.5, 1.5] and on_time.as_dict()["fits"]
+    assert on_time.as_dict()["range"] == pytest.approx([0.9, 1.1]) and on_time.as_dict()["fits"]
 
 
 def _write_route(tmp_path, ratio: float, odometry: bool):

@@ -77,14 +77,17 @@ RouteMotion route_motion_from_name(const std::string& name);
 /// Whether `motion` names a model.
 bool route_motion_known(RouteMotion motion) noexcept;
 
-/// The speeds a motion model follows, references per query frame: the model's own range of
-/// steady speeds under `params` (lowest .. highest), and the RouteFilterParams fields that set
-/// them (empty, with an unbounded range, for a model that moves by the distance travelled).
+/// The steady speeds a motion model follows, references per query frame (lowest .. highest;
+/// -inf .. inf for a model that moves by the distance travelled), and the RouteFilterParams
+/// fields that set them: the central kRouteMotionSpeedMass of the model's speed distribution.
+/// The window model: of its speed, uniform in vmin .. vmax. The speed model: the planes that
+/// hold that share of its speed prior (the speed chain's stationary distribution; the other
+/// planes are reached only against the pull towards 1).
+inline constexpr double kRouteMotionSpeedMass = 0.8;
 struct RouteMotionSpeeds {
     double lowest = 0.0;
     double highest = 0.0;
-    std::string lowest_field;
-    std::string highest_field;
+    std::vector<std::string> fields;
 };
 
 namespace route_detail {

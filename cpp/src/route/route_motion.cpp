@@ -17,22 +17,15 @@ struct RouteMotionEntry {
     RouteMotion motion;
     const char* name;
     RouteMotionFactory make;
-    bool needs_distances;  // the model moves by the distance travelled
-    // The RouteFilterParams fields of the steady speeds the model follows, and their names
-    // (nullptr: the model follows any speed).
-    double RouteFilterParams::* lowest;
-    const char* lowest_field;
-    double RouteFilterParams::* highest;
-    const char* highest_field;
+    bool needs_distances;        // the model moves by the distance travelled
+    RouteMotionSpeedsOf speeds;  // its steady speeds (nullptr: it follows any speed)
 };
 
 // The registry: one line per model, in RouteMotion order.
 constexpr RouteMotionEntry kRouteMotions[] = {
-    {RouteMotion::kWindow, "window", &make_window_motion, false, &RouteFilterParams::vmin, "vmin",
-     &RouteFilterParams::vmax, "vmax"},
-    {RouteMotion::kSpeed, "speed", &make_speed_motion, false, &RouteFilterParams::speed_min, "speed_min",
-     &RouteFilterParams::speed_max, "speed_max"},
-    {RouteMotion::kOdometry, "odometry", &make_odometry_motion, true, nullptr, nullptr, nullptr, nullptr},
+    {RouteMotion::kWindow, "window", &make_window_motion, false, &window_motion_speeds},
+    {RouteMotion::kSpeed, "speed", &make_speed_motion, false, &speed_motion_speeds},
+    {RouteMotion::kOdometry, "odometry", &make_odometry_motion, true, nullptr},
 };
 
 const RouteMotionEntry* find_entry(RouteMotion motion) noexcept {
@@ -160,17 +153,14 @@ RouteMotionSpeeds route_motion_speeds(const RouteFilterParams& params) {
     const route_detail::RouteMotionEntry* entry = route_detail::find_entry(params.motion);
     route_detail::require(entry != nullptr, "motion must be one of " + route_detail::name_list() + ", got " +
                                                 std::to_string(static_cast<std::int32_t>(params.motion)));
-    RouteMotionSpeeds speeds;
-    if (entry->lowest == nullptr) {
-        speeds.lowest = -std::numeric_limits<double>::infinity();
-        speeds.highest = std::numeric_limits<double>::infinity();
-        return speeds;
+    validate(params);
+    if (entry->speeds == nullptr) {
+        RouteMotionSpeeds any;
+        any.lowest = -std::numeric_limits<double>::infinity();
+        any.highest = std::numeric_limits<double>::infinity();
+        return any;
     }
-    speeds.lowest_field = entry->lowest_field;
-    speeds.highest_field = entry->highest_field;
-    speeds.lowest = params.*(entry->lowest);
-    speeds.highest = params.*(entry->highest);
-    return speeds;
+    return entry->speeds(params);
 }
 
 }  // namespace nightloc

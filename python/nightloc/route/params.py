@@ -308,13 +308,14 @@ class MotionSpeeds:
         search: what follows them, in words (``"speed motion model"``, ``"SeqSLAM"``).
         lowest, highest: the range (``-inf``, ``inf`` for a model that moves by the distance
             travelled).
-        fields: the :class:`RouteParams` fields that set ``lowest`` and ``highest``, or None.
+        fields: the :class:`RouteParams` fields that set ``lowest`` and ``highest`` (the window
+            model's ``vmin``, ``vmax``; the speed model's planes and prior), or None.
     """
 
     search: str
     lowest: float
     highest: float
-    fields: tuple[str, str] | None
+    fields: tuple[str, ...] | None
 
     @property
     def bounded(self) -> bool:
@@ -331,21 +332,27 @@ class MotionSpeeds:
         if not self.bounded:
             return f"the {self.search} (any speed)"
         owner = "SeqSLAM's speeds" if self.search == "SeqSLAM" else f"the {self.search}'s"
-        fields = f" ({option(self.fields[0])}..{option(self.fields[1])})" if self.fields else ""
+        fields = ""
+        if self.fields and len(self.fields) == 2:
+            fields = f" ({option(self.fields[0])}..{option(self.fields[1])})"
+        elif self.fields:
+            fields = f" (set by {', '.join(option(field) for field in self.fields)})"
         return f"{owner} {self.lowest:g}..{self.highest:g}{fields}"
 
 
 def motion_speeds(params: RouteParams, motion: str | None) -> MotionSpeeds:
-    """The speeds the search of ``params`` follows: the filter's motion model ``motion`` (a name of
-    :data:`MOTION_MODELS`; the range and the fields that set it come from the core's registry of
-    models), or SeqSLAM's trajectories (``motion`` None: ``vmin .. vmax``)."""
+    """The steady speeds the search of ``params`` follows: the filter's motion model ``motion`` (a
+    name of :data:`MOTION_MODELS`; the range and the fields that set it come from the core's
+    registry of models: the central 80 % of the model's speed, ``vmin .. vmax`` uniform for the
+    window model, the speed prior over its planes for the speed model; any speed for odometry),
+    or SeqSLAM's trajectories (``motion`` None: every speed of ``vmin .. vmax`` is searched)."""
     if motion is None:
         return MotionSpeeds("SeqSLAM", params.vmin, params.vmax, ("vmin", "vmax"))
     core = params.core_filter_params()
     core.motion = motion
-    lowest, highest, lowest_field, highest_field = _core.route_motion_speeds(core)
-    fields = (_PARAMS_FIELDS[lowest_field], _PARAMS_FIELDS[highest_field]) if lowest_field else None
-    return MotionSpeeds(f"{motion} motion model", float(lowest), float(highest), fields)
+    lowest, highest, fields = _core.route_motion_speeds(core)
+    named = tuple(_PARAMS_FIELDS[field] for field in fields) or None
+    return MotionSpeeds(f"{motion} motion model", float(lowest), float(highest), named)
 
 
 #: Preset name -> parameters.
