@@ -112,6 +112,7 @@ def run_one(args: argparse.Namespace) -> dict:
         start = time.perf_counter()
         result = route.match_prepared(refs, queries, params, threads=args.workers, keep_difference=False)
         record["wall_s"] = round(time.perf_counter() - start, 2)
+        record["stages_s"] = {stage: round(seconds, 2) for stage, seconds in result.timings.items()}
         del result.enhanced
         record["peak_mb"] = round(_peak_mb(), 1)
         record["client_peak_mb"] = record["peak_mb"]

@@ -69,6 +69,7 @@ def test_each_motion_model_reads_its_range_from_its_own_fields():
     # the default prior keeps 80 % of its mass on 0.9 .. 1.1 although its planes span 0.5 .. 1.5
     default = motion_speeds(route.RouteParams(), "speed")
     assert (default.lowest, default.highest) == pytest.approx((0.9, 1.1))
+    assert default.covers(0.9) and default.covers(1.1000001) and not default.covers(1.11)  # its ends, rounded
     free = motion_speeds(route.RouteParams(filter_speed_tau=math.inf), "speed")  # no pull: a uniform prior
     assert (free.lowest, free.highest) == pytest.approx((0.6, 1.4))
     seqslam = motion_speeds(params, None)

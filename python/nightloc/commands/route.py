@@ -460,7 +460,8 @@ def _write_method(
 def _print_method(result: RouteResult, evaluation, truth, truth_kind, no_truth, folder: Path, figures: list) -> None:
     p = result.params
     timings = result.timings
-    compute = timings.get("matching", sum(timings.get(k, 0.0) for k in ("difference", "enhancement", "search")))
+    stages = ("difference", "enhancement", "search", "speed_check")
+    compute = timings.get("matching", sum(timings.get(k, 0.0) for k in stages))
     search = f" (search {duration(timings['search'])})" if "search" in timings else " (on the Dask cluster)"
     how = (
         f"filter, {motion_line(result)}, sharpness {p.filter_sharpness:g}"

@@ -323,8 +323,9 @@ class MotionSpeeds:
         return math.isfinite(self.lowest) or math.isfinite(self.highest)
 
     def covers(self, ratio: float) -> bool:
-        """Whether ``ratio`` (reference frames per query frame) lies in the range."""
-        return self.lowest <= ratio <= self.highest
+        """Whether ``ratio`` (reference frames per query frame) lies in the range (its ends
+        included, to 1e-6: a plane's speed or a measured slope may carry rounding)."""
+        return self.lowest - 1e-6 <= ratio <= self.highest + 1e-6
 
     def words(self, option: Callable[[str], str] = str) -> str:
         """The range in words: ``"the speed motion model's 0.5..1.5 (filter_speed_min..filter_speed_max)"``;

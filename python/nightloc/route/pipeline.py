@@ -70,8 +70,8 @@ class RouteResult:
             enhanced in place.
         params: the parameters used (``params.method`` says which search ran).
         timings: seconds per stage (``difference``, ``enhancement``, ``search`` (the filter or
-            the trajectory search), and ``preparation`` when :func:`match_route` prepared the
-            images).
+            the trajectory search), ``speed_check``, and ``preparation`` when :func:`match_route`
+            prepared the images; a run on a Dask cluster: ``total``).
         confidence: filter only, ``(n_query,)`` float64 belief within ``filter_window`` of the
             match; None for SeqSLAM.
         off_route: filter only, ``(n_query,)`` float64 probability that the query shows no
@@ -350,6 +350,7 @@ def match_difference(
         matched, scores = trajectory_search(enhanced, p, threads)
     timings["search"] = time.perf_counter() - start
     checked = None
+    start = time.perf_counter()
     if speed_check:
         odometry = carried_odometry
         if advances is not None and reference_distances is not None:
@@ -360,6 +361,7 @@ def match_difference(
             sampler.take(0, enhanced, copy=False)
             stretches = sampler.rows()
         checked = check_speed(p, motion, stretches, odometry)
+        timings["speed_check"] = time.perf_counter() - start
     return RouteResult(
         refs=matched,
         scores=scores,
