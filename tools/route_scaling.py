@@ -120,11 +120,10 @@ def run_one(args: argparse.Namespace) -> dict:
         from nightloc.route.dask_backend import dask_stream_match, local_client
 
         start = time.perf_counter()
-        client = local_client(args.workers, 1, processes=args.run == "processes")
-        record["cluster_start_s"] = round(time.perf_counter() - start, 2)
-        idle = _current_mb()  # with dask imported and the cluster started
-        record["client_idle_mb"] = round(idle, 1)
-        with client:
+        with local_client(args.workers, 1, processes=args.run == "processes") as client:
+            record["cluster_start_s"] = round(time.perf_counter() - start, 2)
+            idle = _current_mb()  # with dask imported and the cluster started
+            record["client_idle_mb"] = round(idle, 1)
             workers_idle = client.run(_warmed_mb) if args.run == "processes" else {}
             start = time.perf_counter()
             result = dask_stream_match(client, refs, queries, params)

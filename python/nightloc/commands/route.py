@@ -267,11 +267,11 @@ def cluster_client(scheduler: str, threads: int | None):
     """A client of the scheduler ``--dask`` names (``local``: a LocalCluster of ``threads`` worker
     processes on loopback, one thread each), closed on exit."""
     if scheduler == "local":
-        client = local_client(thread_count(threads))
-    else:
-        distributed = require_distributed()
-        client = distributed.Client(scheduler, timeout=20)
-    with client:
+        with local_client(thread_count(threads)) as client:
+            yield client
+        return
+    distributed = require_distributed()
+    with distributed.Client(scheduler, timeout=20) as client:
         yield client
 
 

@@ -43,6 +43,8 @@ worker's memory: ``n_ref * H * W`` bytes, 7 MB for 3576 Nordland frames); one bl
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import math
 import time
 from collections.abc import Callable, Iterator
@@ -326,37 +328,29 @@ def _dask_filter(refs, queries, p, rows_per_block, keep_difference, threads_per_
 # streaming on a dask.distributed client: bands of query rows, a bounded number in flight
 
 
-def local_client(workers: int, threads_per_worker: int = 1, processes: bool = True):
-    """A ``dask.distributed`` client of a new ``LocalCluster`` on loopback (127.0.0.1, no
-    dashboard); closing the client (``with`` or ``close()``) closes the cluster."""
+@contextlib.contextmanager
+def local_client(workers: int, threads_per_worker: int = 1, processes: bool = True) -> Iterator[Any]:
+    """A ``dask.distributed`` client of a new ``LocalCluster`` on loopback (127.0.0.1, TCP, no
+    dashboard), for a ``with`` block; the client and the cluster close at its end."""
     distributed = require_distributed()
-    import logging
-
-    cluster = distributed.LocalCluster(
-        n_workers=workers,
-        threads_per_worker=threads_per_worker,
-        processes=processes,
-        host="127.0.0.1",
-        protocol="tcp://",  # loopback TCP also when the workers are threads of this process
-        dashboard_address=":0",  # the scheduler's HTTP server on a free port, without the dashboard
-        scheduler_kwargs={"dashboard": False},
-        silence_logs=logging.ERROR,
-    )
-    client = distributed.Client(cluster)
-    client._nightloc_cluster = cluster  # closed with the client (Client.close does not close it)
-    original_close = client.close
-
-    def close(*args, **kwargs):
-        try:
-            return original_close(*args, **kwargs)
-        finally:
-            cluster.close()
-
-    client.close = close
-    return client
+    with (
+        distributed.LocalCluster(
+            n_workers=workers,
+            threads_per_worker=threads_per_worker,
+            processes=processes,
+            host="127.0.0.1",
+            protocol="tcp://",  # loopback TCP also when the workers are threads of this process
+            dashboard_address=":0",  # the scheduler's HTTP server on a free port, without the dashboard
+            scheduler_kwargs={"dashboard": False},
+            silence_logs=logging.ERROR,
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        yield client
 
 
-def _band_rows(params: RouteParams, n_refs: int, n_queries: int, rows: int | None) -> int:
+def _band_rows(n_refs: int, rows: int | None) -> int:
+    """Query rows per band: ``rows``, or ``BAND_CELLS`` cells (at least 8 rows)."""
     if rows is None:
         return max(8, BAND_CELLS // max(1, n_refs))
     if isinstance(rows, bool) or not isinstance(rows, (int, np.integer)) or rows < 1:
@@ -526,7 +520,7 @@ def dask_stream_match(
     if (advances is None) != (reference_distances is None):
         raise ValueError("the odometry model needs both advances and reference_distances")
     n_queries, n_refs = q.shape[0], r.shape[0]
-    rows = _band_rows(p, n_refs, n_queries, rows_per_band)
+    rows = _band_rows(n_refs, rows_per_band)
     if in_flight is None:
         in_flight = 2 * max(1, sum(client.nthreads().values()))  # type: ignore[attr-defined]
     if isinstance(in_flight, bool) or not isinstance(in_flight, (int, np.integer)) or in_flight < 1:
