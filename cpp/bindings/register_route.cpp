@@ -453,6 +453,15 @@ void register_route_filter(py::module_& m) {
         py::arg("vmin"), py::arg("vmax"), py::arg("backward"), "The prediction kernel: (first advance, weights).");
     m.def("route_motion_names", &nightloc::route_motion_names,
           "The route filter's motion models by name, in the order of the C++ RouteMotion enum.");
+    m.def(
+        "route_motion_speeds",
+        [](const nightloc::RouteFilterParams& p) {
+            const nightloc::RouteMotionSpeeds s = nightloc::route_motion_speeds(p);
+            return py::make_tuple(s.lowest, s.highest, s.fields);
+        },
+        py::arg("params"),
+        "The steady speeds params.motion follows, references per query frame: (lowest, highest, the "
+        "RouteFilterParams fields that set them); (-inf, inf, []) for a model that moves by the distance travelled.");
     m.def("texture_weights", &texture_weights, py::arg("images"), py::arg("min_texture"),
           "Evidence weight min(1, mean absolute deviation / min_texture) of each prepared image.");
 }

@@ -77,6 +77,19 @@ RouteMotion route_motion_from_name(const std::string& name);
 /// Whether `motion` names a model.
 bool route_motion_known(RouteMotion motion) noexcept;
 
+/// The steady speeds a motion model follows, references per query frame (lowest .. highest;
+/// -inf .. inf for a model that moves by the distance travelled), and the RouteFilterParams
+/// fields that set them: the central kRouteMotionSpeedMass of the model's speed distribution.
+/// The window model: of its speed, uniform in vmin .. vmax. The speed model: the planes that
+/// hold that share of its speed prior (the speed chain's stationary distribution; the other
+/// planes are reached only against the pull towards 1).
+inline constexpr double kRouteMotionSpeedMass = 0.8;
+struct RouteMotionSpeeds {
+    double lowest = 0.0;
+    double highest = 0.0;
+    std::vector<std::string> fields;
+};
+
 namespace route_detail {
 class RouteMotionModel;
 }
@@ -108,6 +121,9 @@ struct RouteFilterParams {
 
 /// Throws std::invalid_argument naming the first parameter out of range.
 void validate(const RouteFilterParams& params);
+
+/// The speeds params.motion follows under `params` (the registry's entry for that model).
+RouteMotionSpeeds route_motion_speeds(const RouteFilterParams& params);
 
 /// The prediction kernel: P(the reference advances by k) for k = first .. first+weights.size()-1.
 /// A speed v uniform in [vmin, vmax] and a sub-frame phase x uniform in [0, 1) advance the

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <utility>
 
@@ -16,14 +17,15 @@ struct RouteMotionEntry {
     RouteMotion motion;
     const char* name;
     RouteMotionFactory make;
-    bool needs_distances;  // the model moves by the distance travelled
+    bool needs_distances;        // the model moves by the distance travelled
+    RouteMotionSpeedsOf speeds;  // its steady speeds (nullptr: it follows any speed)
 };
 
 // The registry: one line per model, in RouteMotion order.
 constexpr RouteMotionEntry kRouteMotions[] = {
-    {RouteMotion::kWindow, "window", &make_window_motion, false},
-    {RouteMotion::kSpeed, "speed", &make_speed_motion, false},
-    {RouteMotion::kOdometry, "odometry", &make_odometry_motion, true},
+    {RouteMotion::kWindow, "window", &make_window_motion, false, &window_motion_speeds},
+    {RouteMotion::kSpeed, "speed", &make_speed_motion, false, &speed_motion_speeds},
+    {RouteMotion::kOdometry, "odometry", &make_odometry_motion, true, nullptr},
 };
 
 const RouteMotionEntry* find_entry(RouteMotion motion) noexcept {
@@ -146,5 +148,19 @@ std::vector<std::string> route_motion_names() {
 }
 
 bool route_motion_known(RouteMotion motion) noexcept { return route_detail::find_entry(motion) != nullptr; }
+
+RouteMotionSpeeds route_motion_speeds(const RouteFilterParams& params) {
+    const route_detail::RouteMotionEntry* entry = route_detail::find_entry(params.motion);
+    route_detail::require(entry != nullptr, "motion must be one of " + route_detail::name_list() + ", got " +
+                                                std::to_string(static_cast<std::int32_t>(params.motion)));
+    validate(params);
+    if (entry->speeds == nullptr) {
+        RouteMotionSpeeds any;
+        any.lowest = -std::numeric_limits<double>::infinity();
+        any.highest = std::numeric_limits<double>::infinity();
+        return any;
+    }
+    return entry->speeds(params);
+}
 
 }  // namespace nightloc

@@ -28,7 +28,7 @@ from ..io.odometry_csv import ODOMETRY_FILE
 from ..io.traverse import Traverse
 from ..motion.odometry import MapDisplacement, RobotMotion, traverse_odometry
 
-__all__ = ["MotionPlan", "RouteOdometry", "motion_plan", "route_odometry"]
+__all__ = ["MotionPlan", "RouteOdometry", "carried_odometry", "motion_plan", "route_odometry"]
 
 
 @dataclass(frozen=True)
@@ -130,3 +130,12 @@ def _plan(reference: Traverse, query: Traverse, fallback: str, use_odometry: boo
         return MotionPlan(fallback, None, None, "neither traverse has odometry.csv or poses", sources)
     side, other = ("query", "reference") if query_odometry is not None else ("reference", "query")
     return MotionPlan(fallback, None, None, f"odometry in the {side} only (the {other} has none)", sources)
+
+
+def carried_odometry(reference: Traverse, query: Traverse) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(query advances, reference distances)`` when both traverses carry odometry and the
+    reference moves (what the odometry model would run on, whichever model runs), else None."""
+    plan = _plan(reference, query, "odometry", True)
+    if plan.advances is None or plan.reference_distances is None:
+        return None
+    return plan.advances, plan.reference_distances

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any, Literal
 
 from .. import _core
@@ -36,8 +37,10 @@ __all__ = [
     "DEFAULT_SHIFT_WINDOWS",
     "MOTION_MODELS",
     "PRESETS",
+    "MotionSpeeds",
     "RouteParams",
     "default_preparation",
+    "motion_speeds",
     "resolve_params",
     "route_preset",
 ]
@@ -292,6 +295,66 @@ _CORE_FIELDS = {
     for name in ("vmin", "vmax", *_FILTER_FIELDS)
     if hasattr(_core.RouteFilterParams, name.removeprefix("filter_"))
 }
+
+#: The core's RouteFilterParams field -> the RouteParams field of the same meaning.
+_PARAMS_FIELDS = {core_name: name for name, core_name in _CORE_FIELDS.items()}
+
+
+@dataclasses.dataclass(frozen=True)
+class MotionSpeeds:
+    """The steady speeds a search follows, reference frames per query frame.
+
+    Attributes:
+        search: what follows them, in words (``"speed motion model"``, ``"SeqSLAM"``).
+        lowest, highest: the range (``-inf``, ``inf`` for a model that moves by the distance
+            travelled).
+        fields: the :class:`RouteParams` fields that set ``lowest`` and ``highest`` (the window
+            model's ``vmin``, ``vmax``; the speed model's planes and prior), or None.
+    """
+
+    search: str
+    lowest: float
+    highest: float
+    fields: tuple[str, ...] | None
+
+    @property
+    def bounded(self) -> bool:
+        """Whether the search assumes a range of speeds at all."""
+        return math.isfinite(self.lowest) or math.isfinite(self.highest)
+
+    def covers(self, ratio: float) -> bool:
+        """Whether ``ratio`` (reference frames per query frame) lies in the range (its ends
+        included, to 1e-6: a plane's speed or a measured slope may carry rounding)."""
+        return self.lowest - 1e-6 <= ratio <= self.highest + 1e-6
+
+    def words(self, option: Callable[[str], str] = str) -> str:
+        """The range in words: ``"the speed motion model's 0.5..1.5 (filter_speed_min..filter_speed_max)"``;
+        ``option(field)`` names each field as the user sets it (e.g. a command's ``--vmin``)."""
+        if not self.bounded:
+            return f"the {self.search} (any speed)"
+        owner = "SeqSLAM's speeds" if self.search == "SeqSLAM" else f"the {self.search}'s"
+        fields = ""
+        if self.fields and len(self.fields) == 2:
+            fields = f" ({option(self.fields[0])}..{option(self.fields[1])})"
+        elif self.fields:
+            fields = f" (set by {', '.join(option(field) for field in self.fields)})"
+        return f"{owner} {self.lowest:g}..{self.highest:g}{fields}"
+
+
+def motion_speeds(params: RouteParams, motion: str | None) -> MotionSpeeds:
+    """The steady speeds the search of ``params`` follows: the filter's motion model ``motion`` (a
+    name of :data:`MOTION_MODELS`; the range and the fields that set it come from the core's
+    registry of models: the central 80 % of the model's speed, ``vmin .. vmax`` uniform for the
+    window model, the speed prior over its planes for the speed model; any speed for odometry),
+    or SeqSLAM's trajectories (``motion`` None: every speed of ``vmin .. vmax`` is searched)."""
+    if motion is None:
+        return MotionSpeeds("SeqSLAM", params.vmin, params.vmax, ("vmin", "vmax"))
+    core = params.core_filter_params()
+    core.motion = motion
+    lowest, highest, fields = _core.route_motion_speeds(core)
+    named = tuple(_PARAMS_FIELDS[field] for field in fields) or None
+    return MotionSpeeds(f"{motion} motion model", float(lowest), float(highest), named)
+
 
 #: Preset name -> parameters.
 PRESETS = {

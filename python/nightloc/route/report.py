@@ -49,7 +49,7 @@ def method_summary(
     figures: list,
 ) -> dict:
     """One method's ``summary.json``: the traverses (their roots), sizes, the method's own
-    parameters, the motion model and why, the preparation, timings (s), the ground truth and,
+    parameters, the motion model and why, the speed check, the preparation, timings (s), the ground truth and,
     with it, :func:`route_metrics`."""
     p = result.params
     summary = {
@@ -62,6 +62,7 @@ def method_summary(
         "method_params": p.method_params(),  # the settings this method uses (no other method's)
         "motion_model": result.motion,
         "motion_model_because": result.motion_note or None,
+        "speed_check": None if result.speed_check is None else result.speed_check.as_dict(),
         "preparation": None
         if preparation is None
         else {field: getattr(preparation, field) for field in preparation.__dataclass_fields__},
