@@ -455,7 +455,7 @@ def test_bad_motion_inputs_are_named():
     ):
         with pytest.raises(ValueError, match=words):
             route.RouteParams(**change)
-    with pytest.raises(ValueError, match="filter_motion must be one of window, speed, odometry"):
+    with pytest.raises(ValueError, match=f"filter_motion must be one of '{route.MOTION_MODELS[0]}', "):
         route.RouteParams(filter_motion="teleport")
     with pytest.raises(ValueError, match="use fewer speed planes or cells"):
         route.RouteFilter(2_000_000, dataclasses.replace(SPEED, filter_speed_cells=64, filter_speed_step=0.01))

@@ -47,17 +47,25 @@ from .._validate import (
     MAX_GRID_CELLS,
     MAX_SEQUENCE_CELLS,
     StreamGuard,
-    metres,
     same_image_size,
     thread_count,
     uint8_array,
 )
 from ..config import params_section
+from ..schema import Range, own_field
 from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, match, rotational_sad, shift_table
 from ..motion.odometry import Motion, NoiseModel, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
 from .day_scale import learned_mask, on_day_scale
-from .grid_filter import MOTION_NONE, FilterParams, FilterState, GridFilter, MotionCode, motion_code
+from .grid_filter import (
+    GRID_FILTER_SETTINGS,
+    MOTION_NONE,
+    FilterParams,
+    FilterState,
+    GridFilter,
+    MotionCode,
+    motion_code,
+)
 from .heatmap import HeatMapper
 from .sequence import cumulative_offsets
 
@@ -90,28 +98,23 @@ class LocalizationParams:
             when finding the second-best place; the filter's confidence is the belief within it.
     """
 
-    grid_width: int = 100
-    grid_height: int = 100
-    margin: float = 0.25
-    seq_len: int = 7
+    grid_width: int = own_field(100, unit="cells", range=Range(2, math.inf))
+    grid_height: int = own_field(100, unit="cells", range=Range(2, math.inf))
+    margin: float = own_field(0.25, unit="m", range=Range(0, math.inf))
+    seq_len: int = own_field(7, unit="frames", range=Range(1, MAX_SEQ_LEN))
     interpolation: bool = True
     outside: Literal["lowest", "nearest"] = "lowest"
     inversion: Literal["range", "zscore", "negate"] = "range"
-    confidence_radius: float = 1.0
+    confidence_radius: float = GRID_FILTER_SETTINGS.field("confidence_radius")
 
     def validate(self) -> None:
-        """Checks ranges (called on construction); raises ValueError naming the field."""
-        for name in ("grid_width", "grid_height"):
-            if getattr(self, name) < 2:
-                raise ValueError(f"{name} must be >= 2 cells, got {getattr(self, name)}")
+        """The rules between fields (each field's range is checked on construction, from the
+        table): the grid's and the sequence's size."""
         if self.grid_width * self.grid_height > MAX_GRID_CELLS:
             raise ValueError(
                 f"grid of {self.grid_width}x{self.grid_height} cells is too large (at most {MAX_GRID_CELLS} cells, "
                 f"MAX_GRID_CELLS)"
             )
-        metres(self.margin, "margin", minimum=0.0)
-        if not 1 <= self.seq_len <= MAX_SEQ_LEN:
-            raise ValueError(f"seq_len must be 1..{MAX_SEQ_LEN} frames, got {self.seq_len}")
         cells = self.seq_len * self.grid_height * (self.grid_width + 1)  # the sequence's padded float32 maps
         if cells > MAX_SEQUENCE_CELLS:
             raise ValueError(
@@ -119,7 +122,6 @@ class LocalizationParams:
                 f"cells, more than {MAX_SEQUENCE_CELLS} (MAX_SEQUENCE_CELLS, 512 MiB); shorten the sequence or "
                 f"coarsen the grid"
             )
-        metres(self.confidence_radius, "confidence_radius", minimum=0.0)
 
 
 @dataclass(frozen=True)
