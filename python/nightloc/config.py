@@ -455,16 +455,18 @@ class SettingsLayers:
     def __init__(self) -> None:
         self._layers: list[tuple[str, dict[str, dict[str, Any]]]] = []
 
-    def add(self, source: str, tables: Mapping[str, Mapping[str, Any]], *, below: bool = False) -> SettingsLayers:
-        """Adds ``tables`` (section -> key -> value) from ``source`` (words such as ``"--params
-        tuned.toml"``), above the others (or below them: ``below``). Raises NightlocError naming
-        ``source`` for an unknown table or key or a bad value."""
+    def add(
+        self, source: str, tables: Mapping[str, Mapping[str, Any]], *, below: bool = False, where: str | None = None
+    ) -> SettingsLayers:
+        """Adds ``tables`` (section -> key -> value) from ``source`` (words such as ``"the map
+        garden.map"``), above the others (or below them: ``below``). Raises NightlocError naming
+        ``where`` (default ``source``) for an unknown table or key or a bad value."""
         checked: dict[str, dict[str, Any]] = {}
         for section, table in tables.items():
             cls = _SECTIONS.get(section)
             if cls is None:
-                raise NightlocError(f"{source}: unknown table [{section}]")
-            params_from_dict(cls, table, where=source)
+                raise NightlocError(f"{where or source}: unknown table [{section}]")
+            params_from_dict(cls, table, where=where or source)
             checked[section] = dict(table)
         if below:
             self._layers.insert(0, (source, checked))
@@ -482,7 +484,7 @@ class SettingsLayers:
         """``--set`` assignments, each its own source (``--set SECTION.KEY=VALUE``), in order."""
         for text in assignments or ():
             section, key, value = parse_assignment(text)
-            self.add(f"--set {text}", {section: {key: value}})
+            self.add("--set", {section: {key: value}}, where=f"--set {text}")
         return self
 
     def table(self, section: str) -> dict[str, Any]:
@@ -516,21 +518,22 @@ class SettingsLayers:
         return self.get(cls) if self.given(_section_of(cls)) else None
 
     def report(self, sections: Iterable[str]) -> list[str]:
-        """Lines saying where the settings of ``sections`` came from: per source, the keys it gives
-        (those equal to the default only when a source other than the lowest gives them)."""
-        lines = []
+        """Lines saying where the settings of ``sections`` came from, one per source: ``"--set:
+        [filter] uniform_floor = 0.05, heading_bins = 24"``, the keys whose value it gives (the
+        lowest source's only where they differ from the defaults)."""
         lowest = self._layers[0][0] if self._layers else None
-        for source, tables in self._layers:
-            items = []
-            for section in sections:
-                cls = _SECTIONS[section]
-                defaults = params_to_dict(cls())
-                for key, value in tables.get(section, {}).items():
-                    if self.origin(section, key) != source:
-                        continue  # a later source overrides it
-                    if source == lowest and defaults.get(key) == value:
-                        continue
-                    items.append(f"[{section}] {key} = {value_text(value)}")
-            if items:
-                lines.append(f"{source}: " + ", ".join(items))
-        return lines
+        given: dict[str, dict[str, list[str]]] = {}  # source -> section -> "key = value"
+        for section in sections:
+            defaults = params_to_dict(_SECTIONS[section]())
+            for key in self.table(section):
+                source = self.origin(section, key)
+                value = self.table(section)[key]
+                if source is None or (source == lowest and defaults.get(key) == value):
+                    continue
+                given.setdefault(source, {}).setdefault(section, []).append(f"{key} = {value_text(value)}")
+        order = list(dict.fromkeys(source for source, _ in self._layers))  # lowest first
+        return [
+            f"{source}: " + "; ".join(f"[{section}] {', '.join(items)}" for section, items in given[source].items())
+            for source in order
+            if source in given
+        ]

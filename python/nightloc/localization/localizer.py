@@ -183,19 +183,29 @@ class Localizer:
 
     Args:
         ref_map: the :class:`~nightloc.ReferenceMap` (prepared day images with poses).
-        params: :class:`LocalizationParams` (grid, margin, interpolation, ...; default: the
-            paper's values).
+        params: :class:`LocalizationParams` (grid, margin, interpolation, ...); None (default):
+            the map's (:attr:`~nightloc.ReferenceMap.settings`, what ``nightloc build-map --params``
+            stored; a map without: the paper's values).
         method: ``"filter"`` (default, the grid Bayes filter) or ``"paper"`` (the paper's sum of
             the last ``seq_len`` heat maps, unchanged).
         odometry_noise: the filter's odometry noise per frame: a Table III model number (0-3) or
             a :class:`NoiseModel` (metres on the step length, radians on the turn or step
             direction). Default 1 (0.1 m, 0.02 rad).
-        filter_params: :class:`~nightloc.localization.grid_filter.FilterParams` of the filter.
+        filter_params: :class:`~nightloc.localization.grid_filter.FilterParams` of the filter;
+            None (default): the map's, as ``params``.
         threads: matching threads (default 1: one core per frame, the robot's budget).
         **overrides: fields of ``params`` or ``filter_params`` to replace, e.g.
             ``grid_width=80, likelihood_gain=2.5``; ``seq_len`` only with ``method="paper"``.
 
     The grid, triangulation and interpolation weights are computed here, once.
+
+    **The map's settings.** A map keeps the ``[localization]`` and ``[filter]`` settings it was
+    built with (``nightloc build-map --params``), and its file carries the filter's tables made
+    with them. ``Localizer(ref_map)`` runs those settings, as ``nightloc localize``, the ROS 2 node
+    and the firmware (``nightloc_replay``) do: one filter on one map. A ``params`` or
+    ``filter_params`` given replaces the map's section as a whole (a ``FilterParams()`` is the
+    defaults, whatever the map says); ``**overrides`` change single fields of the map's (or the
+    given) settings.
 
     A localizer is one stream of frames: :meth:`update` from two threads at once raises
     RuntimeError (the order of the frames would be a race); use one localizer per thread (they
@@ -218,10 +228,11 @@ class Localizer:
             raise TypeError(f"ref_map must be a nightloc.ReferenceMap, got {type(ref_map).__name__}")
         if method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-        params = LocalizationParams() if params is None else params
+        stored = ref_map.settings  # the settings the map was built with (checked when it was made)
+        params = LocalizationParams(**stored.get("localization", {})) if params is None else params
         if not isinstance(params, LocalizationParams):
             raise TypeError(f"params must be a LocalizationParams, got {type(params).__name__}")
-        filter_params = FilterParams() if filter_params is None else filter_params
+        filter_params = FilterParams(**stored.get("filter", {})) if filter_params is None else filter_params
         if not isinstance(filter_params, FilterParams):
             raise TypeError(f"filter_params must be a FilterParams, got {type(filter_params).__name__}")
         if overrides:
