@@ -412,7 +412,6 @@ void register_localization(py::module_& m) {
         m, "GridFilterSettings",
         "The grid filter's settings with the core's defaults (nightloc/grid_filter.hpp); setting a field checks its "
         "kind and range.");
-    m.attr("LEARNED_ADVANTAGE") = nightloc::kLearnedAdvantage;
     const nightloc::OdometryNoise& wheel = nightloc::kWheelOdometryNoise;
     m.attr("WHEEL_ODOMETRY_NOISE") =
         py::make_tuple(wheel.distance_std, wheel.heading_std, wheel.distance_per_metre, wheel.heading_per_radian);

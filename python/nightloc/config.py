@@ -65,6 +65,7 @@ __all__ = [
     "read_params_tables",
     "registered_sections",
     "save_params",
+    "toml_value",
 ]
 
 T = TypeVar("T")
@@ -283,6 +284,12 @@ def _toml_string(text: str) -> str:
         else:
             out.append(char)
     return '"' + "".join(out) + '"'
+
+
+def toml_value(value: Any) -> str:
+    """``value`` as a TOML value (what a parameter file or ``--set`` writes): ``0.015``, ``24``,
+    ``true``, ``"global"``, ``[8, 8]``."""
+    return _toml_value(value)
 
 
 def _toml_value(value: Any) -> str:

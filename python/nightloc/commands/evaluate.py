@@ -11,12 +11,10 @@ by ``nightloc build-map``; QUERY is a traverse folder with poses (the ground tru
 folder OUT as one set (:func:`nightloc.io.atomic.output_set`: complete or unchanged; a second run
 into OUT at the same time refuses; files in OUT that nightloc did not write are kept):
 
-* ``OUT/errors.csv``: one row per query frame and configuration, columns
-  ``query,image,seq_len,noise_model,interpolation,repeat,x_est,y_est,x_true,y_true,error_m,ref_index,method``
-  (``method`` paper or filter; the filter's ``seq_len`` is the number of frames seen so far;
+* ``OUT/errors.csv``: one row per query frame and configuration, the columns of
+  :data:`~nightloc.localization.evaluation.ERRORS_COLUMNS` (``method`` paper or filter; the filter's ``seq_len`` is the number of frames seen so far;
   ``noise_model`` -1 with ``--odometry log``);
-* ``OUT/summary.csv``:
-  ``seq_len,noise_model,interpolation,n,median_m,mean_m,p90_m,p95_m,share_over_1m,longest_run_over_1m,method``
+* ``OUT/summary.csv``: the columns of :data:`~nightloc.localization.evaluation.SUMMARY_COLUMNS`
   (the filter's rows summarize all its frames, seq_len 0; n, median, mean and p90 over every frame,
   the tail -- p95, the share of frames over 1 m, the longest run of such frames in one draw -- over
   the frames from the 10th on);

@@ -3,7 +3,7 @@ route, with the route filter (default) or SeqSLAM.
 
     nightloc route REFERENCE QUERY --out OUT [--method filter|seqslam|seqslam,filter]
                    [--preset openseqslam] [--ds 10] [--vmin 0.8 --vmax 1.2] [--mode centred|causal]
-                   [--motion window|speed|odometry]
+                   [--motion MODEL]
                    [--tolerance 2] [--ground-truth auto|names|frames|positions|none]
 
 REFERENCE and QUERY are traverse folders (``images/`` with an optional ``poses.csv``, or a

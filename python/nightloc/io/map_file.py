@@ -35,6 +35,7 @@ from typing import Any, Union
 
 import numpy as np
 
+from .. import _core
 from .._core import __version__
 from .._validate import MAX_MAP_EXPANSION as _MAX_MAP_EXPANSION
 from ..errors import MapFormatError
@@ -57,10 +58,12 @@ __all__ = [
 
 #: The ``format`` string in every map file's header.
 MAP_FORMAT = "nightloc-reference-map"
-#: The newest map format version this nightloc reads and the one it writes.
-MAP_FORMAT_VERSION = 4
-#: The version a map without learned nights is written as (what older firmware reads).
-DAY_MAP_FORMAT_VERSION = 3
+#: The newest map format version this nightloc reads and the one it writes (the core's
+#: ``kMapFormatVersion``, nightloc/map_file.hpp: the firmware's reader reads the same).
+MAP_FORMAT_VERSION: int = _core.MAP_FORMAT_VERSION
+#: The version a map without learned nights is written as (what older firmware reads; the core's
+#: ``kDayMapFormatVersion``).
+DAY_MAP_FORMAT_VERSION: int = _core.DAY_MAP_FORMAT_VERSION
 #: Where a map's poses came from: a survey (``poses.csv``), the robot's wheel odometry alone, or
 #: the teach run's pose graph (odometry corrected by the images; :mod:`nightloc.mapping`).
 POSE_SOURCES = ("surveyed", "dead-reckoned", "optimised")

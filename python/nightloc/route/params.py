@@ -37,6 +37,7 @@ __all__ = [
     "DEFAULT_SHIFT_WINDOWS",
     "DISTANCE_MOTIONS",
     "MOTION_MODELS",
+    "ODOMETRY_MOTION",
     "PRESETS",
     "RouteParams",
     "default_preparation",
@@ -50,6 +51,9 @@ MOTION_MODELS: tuple[str, ...] = tuple(_core.route_motion_names())
 #: The models that move by the distance travelled (the registry's ``needs_distances``): they run
 #: only where both traverses carry odometry.
 DISTANCE_MOTIONS: frozenset[str] = frozenset(m["name"] for m in _core.route_motion_models() if m["needs_distances"])
+#: The model route mode runs when both traverses carry odometry and the parameters name none of
+#: :data:`DISTANCE_MOTIONS`: the registry's first.
+ODOMETRY_MOTION: str = next(name for name in MOTION_MODELS if name in DISTANCE_MOTIONS)
 
 #: The core's tables of the route filter's parameters and of SeqSLAM's search (nightloc/route_filter.hpp,
 #: nightloc/seqslam.hpp): the one place the defaults, ranges, units and docs of the fields
@@ -121,11 +125,10 @@ class RouteParams:
         filter_min_texture: a prepared query frame whose mean absolute deviation from its own
             mean is below this many grey levels carries proportionally less evidence (a flat
             frame: none, the belief is only predicted); 0 disables the weight.
-        filter_motion: the filter's motion model (:data:`MOTION_MODELS`): ``"speed"`` (a belief
-            over position x speed that follows a speed that changes), ``"window"`` (a speed drawn
-            afresh from ``vmin .. vmax`` every frame) or ``"odometry"`` (moved by the distance
-            travelled; needs odometry in both traverses). Route mode runs the odometry model
-            whenever both traverses carry odometry unless told not to
+        filter_motion: the filter's motion model, a name of :data:`MOTION_MODELS` (the models are
+            described in docs/route_mode.md; those of :data:`DISTANCE_MOTIONS` move by the distance
+            travelled and need odometry in both traverses). Route mode runs
+            :data:`ODOMETRY_MOTION` whenever both traverses carry odometry unless told not to
             (:func:`nightloc.route.odometry.motion_plan`).
         filter_speed_min, filter_speed_max, filter_speed_step: the speed model's planes,
             references per query frame (a negative speed: reversing).
