@@ -57,7 +57,12 @@ class _Messages:
             pixels = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
         else:
             bgr = frame if frame.ndim == 3 else cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR)
-            channel = {"b": bgr[:, :, 0], "g": bgr[:, :, 1], "r": bgr[:, :, 2], "a": np.full(bgr.shape[:2], 255, np.uint8)}
+            channel = {
+                "b": bgr[:, :, 0],
+                "g": bgr[:, :, 1],
+                "r": bgr[:, :, 2],
+                "a": np.full(bgr.shape[:2], 255, np.uint8),
+            }
             pixels = np.stack([channel[c] for c in layout.order], axis=2)
         if layout.bits == 16:
             pixels = (pixels.astype(np.uint16) * 257).astype(">u2" if bigendian else "<u2")

@@ -30,10 +30,10 @@ from nightloc.config import SettingsLayers, parse_assignment, registered_section
 from nightloc.errors import NightlocError
 from nightloc.schema import Range, core_names, docstring_entries, settings_schema, value_text
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tools"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
 import settings_tables
 
+ROOT = Path(__file__).resolve().parents[1]
 CORE_CLASSES = (_core.GridFilterSettings, _core.PrepareSettings, _core.RouteFilterParams, _core.TrajectoryParams)
 SECTIONS = sorted(registered_sections())
 
@@ -137,7 +137,7 @@ def test_a_value_out_of_range_is_refused_in_the_tables_words(section, tmp_path):
         if value is None:
             continue
         words = f"{setting.name} must be {setting.range_text}, got {value_text(value)}"
-        with pytest.raises(ValueError) as error:
+        with pytest.raises(ValueError, match=re.escape(words)) as error:
             cls(**{setting.name: value})
         assert str(error.value) == words
         # a parameter file and --set: the same words after where they come from
@@ -271,6 +271,8 @@ def test_the_docs_tables_state_the_schema_defaults(page, section, header):
             continue  # not a field of the table (the localizer's odometry_noise)
         values = [_number(v) for v in default_cell.split(",")] if len(names) > 1 else [_number(default_cell)]
         for name, value in zip(names, values, strict=True):
-            assert value == defaults[name], f"{page}: {name} is documented as {value!r}, the schema's is {defaults[name]!r}"
+            assert value == defaults[name], (
+                f"{page}: {name} is documented as {value!r}, the schema's is {defaults[name]!r}"
+            )
             checked += 1
     assert checked >= 10

@@ -82,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.check:
         return 0 if PAGE.read_text(encoding="utf-8") == text else 1
     PAGE.write_text(text, encoding="utf-8")
-    print(f"wrote {PAGE}")
+    sys.stdout.write(f"wrote {PAGE}\n")
     return 0
 
 

@@ -29,7 +29,7 @@ void nightloc::glue::register_setting_error(py::module_& m) {
 PYBIND11_MODULE(_core, m) {
     m.doc() =
         "nightloc's compiled core: preparation, rotation-invariant SAD, heat maps, route mode (private; use nightloc)";
-    m.attr("__version__") = NIGHTLOC_VERSION;  // the project's version, from the build (pyproject.toml)
+    m.attr("__version__") = NIGHTLOC_VERSION;   // the project's version, from the build (pyproject.toml)
     nightloc::glue::register_setting_error(m);  // first: every register_* may raise it
     register_preparation(m);
     register_matching(m);

@@ -7,8 +7,8 @@
 #include <utility>
 #include <vector>
 
-#include "glue.hpp"
 #include "common/simd_paths.hpp"
+#include "glue.hpp"
 #include "matching/avx512_variant.hpp"
 #include "nightloc/sad.hpp"
 #include "nightloc/simd.hpp"
@@ -168,9 +168,9 @@ void register_matching(py::module_& m) {
                 row["supported"] = nightloc::simd_backend_supported(entry.backend);
                 row["alignment"] = path != nullptr ? py::object(py::int_(path->alignment)) : py::object(py::none());
                 row["all_shift_kernel"] = path != nullptr && path->sad_all_shifts != nullptr;
-                row["float_kernels"] =
-                    path != nullptr ? py::object(py::str(kFloatWidths[static_cast<int>(path->float_kernels)]))
-                                    : py::object(py::none());
+                row["float_kernels"] = path != nullptr
+                                           ? py::object(py::str(kFloatWidths[static_cast<int>(path->float_kernels)]))
+                                           : py::object(py::none());
                 paths.append(row);
             }
             return paths;

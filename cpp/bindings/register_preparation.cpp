@@ -7,9 +7,9 @@
 #include <type_traits>
 
 #include "glue.hpp"
-#include "settings_glue.hpp"
 #include "nightloc/normalize.hpp"
 #include "nightloc/prepare.hpp"
+#include "settings_glue.hpp"
 
 namespace {
 

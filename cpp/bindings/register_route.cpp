@@ -11,10 +11,10 @@
 #include <vector>
 
 #include "glue.hpp"
-#include "settings_glue.hpp"
 #include "nightloc/route_filter.hpp"
 #include "nightloc/sad.hpp"
 #include "nightloc/seqslam.hpp"
+#include "settings_glue.hpp"
 
 namespace {
 

@@ -131,7 +131,9 @@ void test_errors_name_the_setting() {
     CHECK_THROWS(nightloc::set_setting(prepare, "radius", 3e9), SettingError);  // beyond an int
     CHECK_THROWS(nightloc::set_setting(prepare, "equalize", 7), SettingError);
     CHECK_THROWS(nightloc::set_setting(prepare, "wrap", 0.5), SettingError);
-    nightloc::set_setting(prepare, "equalize", nightloc::choice_value(nightloc::find_setting<nightloc::PrepareSettings>("equalize")->info, "none"));
+    nightloc::set_setting(
+        prepare, "equalize",
+        nightloc::choice_value(nightloc::find_setting<nightloc::PrepareSettings>("equalize")->info, "none"));
     CHECK(prepare.equalize == nightloc::Equalization::none);
     nightloc::TrajectoryParams t;
     t.vmin = 0;

@@ -58,10 +58,10 @@ __all__ = [
     "dumps_toml",
     "load_params",
     "load_params_file",
-    "parse_assignment",
     "params_from_dict",
     "params_section",
     "params_to_dict",
+    "parse_assignment",
     "read_params_tables",
     "registered_sections",
     "save_params",
@@ -349,7 +349,9 @@ def load_params_file(path: str | os.PathLike[str]) -> dict[str, Any]:
     an unknown table or key, or a bad value.
     """
     file = Path(path)
-    return {key: params_from_dict(_SECTIONS[key], table, where=str(file)) for key, table in read_params_tables(file).items()}
+    return {
+        key: params_from_dict(_SECTIONS[key], table, where=str(file)) for key, table in read_params_tables(file).items()
+    }
 
 
 def read_params_tables(path: str | os.PathLike[str]) -> dict[str, dict[str, Any]]:
@@ -442,7 +444,7 @@ def parse_assignment(text: str) -> tuple[str, str, Any]:
     except tomllib.TOMLDecodeError:
         if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_.-]*", raw):
             raise NightlocError(
-                f"--set {text}: {raw!r} is not a TOML value (numbers, true/false, \"text\", [lists]) or a bare word"
+                f'--set {text}: {raw!r} is not a TOML value (numbers, true/false, "text", [lists]) or a bare word'
             ) from None
         value = raw
     if section not in _SECTIONS:

@@ -244,7 +244,7 @@ def core_field(table: CoreTable, name: str) -> Any:
     return dataclasses.field(default=table.rows[name].default, metadata={_KEY: _CoreRef(table.name, name)})
 
 
-def own_field(default: Any, *, unit: str = "", range: Range | None = None, doc: str | None = None) -> Any:  # noqa: A002
+def own_field(default: Any, *, unit: str = "", range: Range | None = None, doc: str | None = None) -> Any:
     """A dataclass field of Python's own: its ``default``, ``unit`` and ``range`` (numbers); its
     doc the class docstring's line for it unless ``doc`` is given."""
     return dataclasses.field(default=default, metadata={_KEY: _Own(unit, range, doc)})

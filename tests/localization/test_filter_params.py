@@ -64,7 +64,10 @@ def test_core_settings_is_the_conversion():
         ({"negligible": 1.0}, r"^negligible must be in \[0, 1\), got 1$"),
         ({"settle_frames": 2000}, r"^settle_frames must be an integer in \[0, 1000\] frames, got 2000$"),
         ({"score_cap": -0.5}, r"^score_cap must be a finite number >= 0, got -0.5$"),
-        ({"lookalike_places": 1.5}, r"^lookalike_places must be 0 \(never tempered\) or a finite number >= 2, got 1.5$"),
+        (
+            {"lookalike_places": 1.5},
+            r"^lookalike_places must be 0 \(never tempered\) or a finite number >= 2, got 1.5$",
+        ),
         ({"likelihood_gain": float("inf")}, r"^likelihood_gain must be a finite number >= 0, got inf$"),
         ({"heading_bins": -1}, r"^heading_bins must be an integer in \[0, 4096\] .*, got -1$"),
         ({"field_of_view": 400.0}, r"^field_of_view must be in \(0, 360\] degrees, got 400$"),

@@ -57,7 +57,11 @@ def test_bad_settings_are_refused_by_name():
 def test_the_localizer_runs_the_maps_settings():
     ref_map = _map(filter={"uniform_floor": 0.05, "likelihood_gain": 2.0}, localization={"grid_width": 20})
     loc = nightloc.Localizer(ref_map)
-    assert (loc.filter_params.uniform_floor, loc.filter_params.likelihood_gain, loc.params.grid_width) == (0.05, 2.0, 20)
+    assert (loc.filter_params.uniform_floor, loc.filter_params.likelihood_gain, loc.params.grid_width) == (
+        0.05,
+        2.0,
+        20,
+    )
     assert loc.grid_filter.settings.uniform_floor == 0.05
     # keyword overrides change single fields of the map's
     loc = nightloc.Localizer(ref_map, likelihood_gain=2.5)
@@ -69,7 +73,7 @@ def test_the_localizer_runs_the_maps_settings():
 
 def test_a_map_without_stored_settings_loads_with_the_defaults(tmp_path):
     path = _map(filter={"uniform_floor": 0.05}).save(tmp_path / "m.map")
-    file, header, arrays = read_map_file(path)
+    _, header, arrays = read_map_file(path)
     del header["localizer"]["filter"], header["localizer"]["localization"]  # as maps written before they were read
     write_map_file(tmp_path / "old.map", header, arrays, overwrite=False)
     old = nightloc.ReferenceMap.load(tmp_path / "old.map")
@@ -129,4 +133,6 @@ def test_build_map_keeps_params_and_set_and_localize_runs_them(tmp_path, capsys)
     np.testing.assert_allclose(_trajectory(tmp_path / "b" / "trajectory.csv"), api, atol=5e-5)
     # --set errors are the parameter file's
     assert main([*run, "--out", str(tmp_path / "c"), "--set", "filter.uniform_floor=1.5"]) == 2
-    assert "--set filter.uniform_floor=1.5: [filter] uniform_floor must be in [0, 1), got 1.5" in capsys.readouterr().err
+    assert (
+        "--set filter.uniform_floor=1.5: [filter] uniform_floor must be in [0, 1), got 1.5" in capsys.readouterr().err
+    )

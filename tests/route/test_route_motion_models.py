@@ -65,8 +65,8 @@ def test_oracle_model_agrees_with_the_core(motion):
 def test_one_name_table():
     """The core's names are RouteParams', each reaches the core as itself, the oracle has a model
     for each, and the registry's needs_distances is what the oracle's model needs."""
-    assert MOTION_MODELS == tuple(_core.route_motion_names())
-    assert MOTION_MODELS == tuple(m["name"] for m in _core.route_motion_models())
+    assert tuple(_core.route_motion_names()) == MOTION_MODELS
+    assert tuple(m["name"] for m in _core.route_motion_models()) == MOTION_MODELS
     assert set(ro.MOTIONS) == set(MOTION_MODELS)
     core = _core.RouteFilterParams()
     for name in MOTION_MODELS:

@@ -24,9 +24,9 @@ struct SimdBackendName {
 /// Every path the library knows (compiled into this build or not), slowest first per
 /// architecture.
 inline constexpr SimdBackendName kSimdBackendNames[] = {
-    {SimdBackend::scalar, "scalar", "any"},          {SimdBackend::sse2, "sse2", "x86-64"},
-    {SimdBackend::avx2, "avx2", "x86-64"},           {SimdBackend::avx512bw, "avx512bw", "x86-64"},
-    {SimdBackend::neon, "neon", "aarch64"},          {SimdBackend::neon_dotprod, "neon-dotprod", "aarch64"},
+    {SimdBackend::scalar, "scalar", "any"}, {SimdBackend::sse2, "sse2", "x86-64"},
+    {SimdBackend::avx2, "avx2", "x86-64"},  {SimdBackend::avx512bw, "avx512bw", "x86-64"},
+    {SimdBackend::neon, "neon", "aarch64"}, {SimdBackend::neon_dotprod, "neon-dotprod", "aarch64"},
 };
 
 /// Lower-case name of a path (see kSimdBackendNames).

@@ -78,7 +78,9 @@ std::string range_text(const SettingInfo& info) {
     }
     std::string text;
     if (info.kind == SettingKind::real) {
-        text = low && high ? body : std::string(r.infinite ? "a number" : "a finite number") + (body.empty() ? "" : " ") + body;
+        text = low && high
+                   ? body
+                   : std::string(r.infinite ? "a number" : "a finite number") + (body.empty() ? "" : " ") + body;
     } else {
         text = "an integer" + (body.empty() ? std::string() : " " + body);
     }
@@ -164,9 +166,9 @@ void throw_kind_error(const SettingInfo& info, double value, double lowest, doub
                                                   ? "must be a non-negative integer, got " + got
                                                   : "= " + got + " is too small for the core");
             }
-            throw SettingError(info.name,
-                               std::string("must be ") + (info.kind == SettingKind::count ? "a non-negative " : "an ") +
-                                   "integer, got " + got);
+            throw SettingError(info.name, std::string("must be ") +
+                                              (info.kind == SettingKind::count ? "a non-negative " : "an ") +
+                                              "integer, got " + got);
         case SettingKind::flag:
             throw SettingError(info.name, "must be true or false, got " + got);
         default:

@@ -34,8 +34,8 @@ std::vector<SettingField<S>> make_fields() {
                                          kNonNegative}),
         setting<&S::position_floor>({"position_floor", K::real, "m",
                                      "blur per prediction added in quadrature (grid and model error)", kNonNegative}),
-        setting<&S::heading_floor>({"heading_floor", K::real, "rad",
-                                    "heading blur per prediction added in quadrature", kNonNegative}),
+        setting<&S::heading_floor>(
+            {"heading_floor", K::real, "rad", "heading blur per prediction added in quadrature", kNonNegative}),
         setting<&S::uniform_floor>({"uniform_floor", K::real, "",
                                     "share of the belief spread uniformly at each prediction (a kidnapped robot is "
                                     "found again)",

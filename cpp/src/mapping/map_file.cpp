@@ -244,7 +244,8 @@ void read_tables(Reader& r, const Json& header, MapFile& m) {
     for (const auto& [name, value] : settings.object) {
         if (value.type != Json::Type::number) r.fail("the localizer setting '" + name + "' is not a number");
         if (find_setting<GridFilterSettings>(name) == nullptr) {
-            r.fail("unknown grid filter setting '" + name + "' (a map written by a newer nightloc? update the firmware)");
+            r.fail("unknown grid filter setting '" + name +
+                   "' (a map written by a newer nightloc? update the firmware)");
         }
         try {
             set_setting(t.settings, name, value.number);
@@ -292,7 +293,8 @@ PrepareSettings MapPreparation::settings(std::size_t frame_height, std::size_t f
         *out[i] = crop_fraction[i] ? static_cast<std::size_t>(std::nearbyint(crop[i] * static_cast<double>(sides[i])))
                                    : static_cast<std::size_t>(crop[i]);
     }
-    s.equalize = static_cast<Equalization>(static_cast<int>(choice_value(find_setting<PrepareSettings>("equalize")->info, equalize)));
+    s.equalize = static_cast<Equalization>(
+        static_cast<int>(choice_value(find_setting<PrepareSettings>("equalize")->info, equalize)));
     s.width = width;
     s.height = height;
     s.patch_normalize = patch_normalize;

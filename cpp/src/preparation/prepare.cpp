@@ -432,11 +432,13 @@ std::vector<SettingField<PrepareSettings>> make_fields() {
                                SettingRange{}, &equalization_name}),
         setting<&S::width>({"width", K::count, "pixels", "columns of the prepared image (Rx)", kSize}),
         setting<&S::height>({"height", K::count, "pixels", "rows of the prepared image (Ry)", kSize}),
-        setting<&S::patch_normalize>({"patch_normalize", K::flag, "", "patch normalization (eq. 1) after downsampling"}),
+        setting<&S::patch_normalize>(
+            {"patch_normalize", K::flag, "", "patch normalization (eq. 1) after downsampling"}),
         setting<&S::radius>({"radius", K::integer, "pixels", "patch-normalization window radius P",
                              SettingRange{0, kMaxPatchRadius, false, false, false, kNone, ""}}),
         setting<&S::wrap>({"wrap", K::flag, "", "the window wraps horizontally (360-degree panoramas)"}),
-        setting<&S::scale>({"scale", K::real, "", "quantization gain of patch normalization (grey levels per "
+        setting<&S::scale>({"scale", K::real, "",
+                            "quantization gain of patch normalization (grey levels per "
                             "standard deviation)",
                             SettingRange{0, kInf, true, false, false, kNone, ""}}),
     };

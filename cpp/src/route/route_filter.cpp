@@ -126,8 +126,8 @@ std::vector<SettingField<RouteFilterParams>> make_fields() {
                            SettingRange{0, 1000, false, false, false, kNone, ""}}),
         setting<&S::backward>({"backward", K::real, "", "probability per frame of stepping one reference back",
                                SettingRange{0, 1, false, true, false, kNone, ""}}),
-        setting<&S::floor>({"floor", K::real, "", "share of the belief spread uniformly over the route per frame",
-                            kProbability}),
+        setting<&S::floor>(
+            {"floor", K::real, "", "share of the belief spread uniformly over the route per frame", kProbability}),
         setting<&S::sharpness>({"sharpness", K::real, "",
                                 "lambda of the likelihood, per standard deviation of the frame's row",
                                 SettingRange{0, kInf, false, false, false, kNone, ""}}),
@@ -138,8 +138,8 @@ std::vector<SettingField<RouteFilterParams>> make_fields() {
         setting<&S::window>({"window", K::count, "references",
                              "confidence = the belief's mass within +-window references of the best",
                              SettingRange{0, kInf, false, false, false, kNone, ""}}),
-        setting<&S::motion>({"motion", K::choice, "", "the motion model (route_motion_names())", SettingRange{},
-                             &route_motion_choice}),
+        setting<&S::motion>(
+            {"motion", K::choice, "", "the motion model (route_motion_names())", SettingRange{}, &route_motion_choice}),
         setting<&S::speed_min>({"speed_min", K::real, kSpeed, "slowest speed plane of the speed model",
                                 SettingRange{-1000, 1000, false, false, false, kNone, ""}}),
         setting<&S::speed_max>({"speed_max", K::real, kSpeed, "fastest speed plane (>= speed_min)",
@@ -153,8 +153,8 @@ std::vector<SettingField<RouteFilterParams>> make_fields() {
                                    SettingRange{0, kInf, false, false, false, kNone, ""}}),
         setting<&S::speed_tau>({"speed_tau", K::real, "frames", "frames for a speed to relax towards 1 (inf: no pull)",
                                 SettingRange{0, kInf, true, false, true, kNone, ""}}),
-        setting<&S::speed_cells>({"speed_cells", K::count, "", "position cells per reference of the speed model",
-                                  kCells}),
+        setting<&S::speed_cells>(
+            {"speed_cells", K::count, "", "position cells per reference of the speed model", kCells}),
         setting<&S::odometry_noise>({"odometry_noise", K::real, "",
                                      "relative standard deviation of an odometry advance",
                                      SettingRange{0, 10, false, false, false, kNone, ""}}),
@@ -164,8 +164,8 @@ std::vector<SettingField<RouteFilterParams>> make_fields() {
         setting<&S::odometry_novelty>({"odometry_novelty", K::real, "references",
                                        "travel for a frame's full evidence (0: always full)",
                                        SettingRange{0, 1000, false, false, false, kNone, ""}}),
-        setting<&S::odometry_cells>({"odometry_cells", K::count, "",
-                                     "position cells per reference of the odometry model", kCells}),
+        setting<&S::odometry_cells>(
+            {"odometry_cells", K::count, "", "position cells per reference of the odometry model", kCells}),
     };
 }
 
@@ -184,8 +184,8 @@ static_assert(sizeof(std::size_t) != 8 || sizeof(RouteFilterParams) == 21 * 8,
 void validate(const RouteFilterParams& p) {
     check_ranges(p);
     if (!(p.vmax >= p.vmin)) {
-        throw SettingError("vmax", "must be >= vmin (" + setting_value_text(p.vmin) + "), got " +
-                                       setting_value_text(p.vmax));
+        throw SettingError("vmax",
+                           "must be >= vmin (" + setting_value_text(p.vmin) + "), got " + setting_value_text(p.vmax));
     }
     if (!(p.speed_max >= p.speed_min)) {
         throw SettingError("speed_max", "must be >= speed_min (" + setting_value_text(p.speed_min) + "), got " +
@@ -197,9 +197,10 @@ void validate(const RouteFilterParams& p) {
                                              " speed planes from speed_min to speed_max; widen it");
     }
     if (!(p.speed_jitter * static_cast<double>(p.speed_cells) <= 2000.0)) {
-        throw SettingError("speed_jitter", "x speed_cells must be at most 2000 cells (each plane's kernel spans twice "
-                                           "that), got " +
-                                               setting_value_text(p.speed_jitter * static_cast<double>(p.speed_cells)));
+        throw SettingError("speed_jitter",
+                           "x speed_cells must be at most 2000 cells (each plane's kernel spans twice "
+                           "that), got " +
+                               setting_value_text(p.speed_jitter * static_cast<double>(p.speed_cells)));
     }
     if (!(p.speed_change <= 50.0 * p.speed_step)) {
         throw SettingError("speed_change", "must be at most 50 x speed_step (" +

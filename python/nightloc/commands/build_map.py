@@ -181,9 +181,7 @@ def _describe(
     )
 
 
-def _teach(
-    args: argparse.Namespace, traverse, params: PreparationParams, camera_said_by: str | None, settings
-) -> int:
+def _teach(args: argparse.Namespace, traverse, params: PreparationParams, camera_said_by: str | None, settings) -> int:
     from ..mapping import TeachParams, TeachWarning, absolute_trajectory_error, rigid_fit, teach_run
     from ..mapping.factors import require_gtsam
 

@@ -12,8 +12,9 @@ folder OUT as one set (:func:`nightloc.io.atomic.output_set`: complete or unchan
 into OUT at the same time refuses; files in OUT that nightloc did not write are kept):
 
 * ``OUT/errors.csv``: one row per query frame and configuration, the columns of
-  :data:`~nightloc.localization.evaluation.ERRORS_COLUMNS` (``method`` paper or filter; the filter's ``seq_len`` is the number of frames seen so far;
-  ``noise_model`` -1 with ``--odometry log``);
+  :data:`~nightloc.localization.evaluation.ERRORS_COLUMNS` (``method`` paper or filter; the
+  filter's ``seq_len`` is the number of frames seen so far; ``noise_model`` -1 with ``--odometry
+  log``);
 * ``OUT/summary.csv``: the columns of :data:`~nightloc.localization.evaluation.SUMMARY_COLUMNS`
   (the filter's rows summarize all its frames, seq_len 0; n, median, mean and p90 over every frame,
   the tail -- p95, the share of frames over 1 m, the longest run of such frames in one draw -- over

@@ -64,6 +64,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..config import SettingsLayers
 from ..errors import DatasetError
 from ..experience.learning import LearningParams
 from ..figures import add_figure_format_option
@@ -183,7 +184,7 @@ def parse_formats(text: str) -> list[str]:
     return formats
 
 
-def _load_map(path: Path, preparation, camera: str | None, params_file: Path | None, bag: dict) -> ReferenceMap:
+def _load_map(path: Path, preparation, camera: str | None, params_file: SettingsLayers, bag: dict) -> ReferenceMap:
     if not os.path.lexists(path):
         raise DatasetError(
             f"map {path} does not exist (a map file from nightloc build-map or a reference traverse folder)"

@@ -164,7 +164,9 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"map {args.map} is not a map file (nightloc build-map writes one)")
     ref_map = load_reference(args.map, params.section(PreparationParams))
     params.add(f"the map {args.map}", ref_map.settings, below=True)  # --params and --set win key by key
-    filter_params = filter_params_with_window(params.get(FilterParams), window, ref_map.camera, ref_map.images.shape[1:])
+    filter_params = filter_params_with_window(
+        params.get(FilterParams), window, ref_map.camera, ref_map.images.shape[1:]
+    )
     localizer = Localizer(
         ref_map,
         params.get(LocalizationParams),

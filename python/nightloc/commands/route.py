@@ -27,8 +27,9 @@ at the same time refuses; files in OUT that nightloc did not write are kept):
 
 The filter's motion model: ``--motion NAME`` names the one that runs (a name of
 :data:`nightloc.route.params.MOTION_MODELS`; a model that moves by the distance travelled,
-:data:`~nightloc.route.params.DISTANCE_MOTIONS`, needs odometry in both traverses). Without it (``--odometry auto``): when both traverses carry odometry
-(``odometry.csv``, a bag's odometry, or poses) the filter predicts by the distance travelled
+:data:`~nightloc.route.params.DISTANCE_MOTIONS`, needs odometry in both traverses). Without it
+(``--odometry auto``): when both traverses carry odometry (``odometry.csv``, a bag's odometry, or
+poses) the filter predicts by the distance travelled
 (:mod:`nightloc.route.odometry`); otherwise, or with ``--odometry none``, it runs the
 parameters' ``filter_motion`` (TOML ``[route] filter_motion``, default the speed model). The
 printed line and ``summary.json`` say which ran and why (e.g. odometry in one traverse only).

@@ -77,6 +77,7 @@ TF_TYPE = "tf2_msgs/msg/TFMessage"
 TF_PARENTS = ("odom",)
 TF_CHILDREN = ("base_link", "base_footprint")
 
+
 class ImageEncoding(NamedTuple):
     """How a ``sensor_msgs/Image`` encoding lays out a pixel: its channels in order (``"mono"``,
     ``"bgr"``, ``"rgb"``, ``"bgra"``, ``"rgba"``) and the bits of each (8 or 16)."""

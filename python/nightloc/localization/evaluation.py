@@ -88,6 +88,7 @@ if TYPE_CHECKING:
 
 PathLike = Union[str, "os.PathLike[str]"]
 
+
 def _metres(value: float) -> str:
     return f"{float(value):.4f}"
 

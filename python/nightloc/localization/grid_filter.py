@@ -37,8 +37,8 @@ import numpy as np
 
 from .. import _core
 from ..config import params_section
-from ..schema import CoreTable, Range, core_names, own_field
 from ..motion.odometry import MapDisplacement, NoiseModel, RobotMotion, noise_model, wrap_angle
+from ..schema import CoreTable, Range, core_names, own_field
 from .heatmap import HeatMapper
 
 __all__ = ["MOTION_NONE", "MOTION_UNKNOWN", "FilterParams", "FilterState", "GridFilter", "table_window"]

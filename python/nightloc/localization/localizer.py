@@ -52,10 +52,10 @@ from .._validate import (
     uint8_array,
 )
 from ..config import params_section
-from ..schema import Range, own_field
 from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, match, rotational_sad, shift_table
 from ..motion.odometry import Motion, NoiseModel, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
+from ..schema import Range, own_field
 from .day_scale import learned_mask, on_day_scale
 from .grid_filter import (
     GRID_FILTER_SETTINGS,

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from typing import Literal
 
 from ..config import params_section
-from ..schema import Range, own_field
 from ..motion.wheel_noise import WheelNoise
+from ..schema import Range, own_field
 from .warping import WarpParams
 
 __all__ = ["TeachParams"]

@@ -32,9 +32,9 @@ from ..io.atomic import output_set, write_text
 from ..io.traverse import save_traverse
 from ..progress import progress
 from .dataset import SYNTH_WHEEL_NOISE
-from .sensor import MAX_DARKNESS
 from .geometry import Cylinder, Solid, box
 from .routes import CAMERA_HEIGHT, Drive, RouteScene, path_length, render_drive
+from .sensor import MAX_DARKNESS
 from .textures import TextureLibrary, fbm, jitter_colour, value_noise
 from .world import GroundMap, World
 
