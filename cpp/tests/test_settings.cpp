@@ -45,9 +45,19 @@ void check_table(std::size_t expected_fields) {
             case SettingKind::choice:
                 other = before == 0 ? 1 : 0;
                 break;
-            default:
-                other = nightloc::in_range(field.info, before + 1) ? before + 1 : before - 1;
+            default: {
+                const double r_max = field.info.range.max, r_min = field.info.range.min;
+                const double candidates[] = {before + 1, before - 1, std::floor((before + r_max) / 2),
+                                             (before + r_max) / 2, (before + r_min) / 2};
+                for (const double candidate : candidates) {
+                    if (candidate != before && std::isfinite(candidate) && nightloc::in_range(field.info, candidate) &&
+                        (field.info.kind == SettingKind::real || candidate == std::floor(candidate))) {
+                        other = candidate;
+                        break;
+                    }
+                }
                 break;
+            }
         }
         CHECK(other != before);
         nightloc::set_setting(s, field.info.name, other);
