@@ -14,7 +14,7 @@ import pytest
 
 import nightloc
 from nightloc.cli import main
-from nightloc.io.map_file import array_checksum, read_map_file, write_map_file
+from nightloc.io.map_file import read_map_file, write_map_file
 
 from synth_support import default_synth_data
 
@@ -74,14 +74,22 @@ def test_the_localizer_runs_the_maps_settings():
 def test_a_map_without_stored_settings_loads_with_the_defaults(tmp_path):
     path = _map(filter={"uniform_floor": 0.05}).save(tmp_path / "m.map")
     _, header, arrays = read_map_file(path)
-    del header["localizer"]["filter"], header["localizer"]["localization"]  # as maps written before they were read
+    kept = dict(header["localizer"])
+    # a changed setting is refused, as a changed array is
+    header["localizer"]["filter"]["uniform_floor"] = 0.06
+    write_map_file(tmp_path / "damaged.map", header, arrays, overwrite=False)
+    with pytest.raises(nightloc.MapFormatError, match="checksum of the localizer's settings does not match"):
+        nightloc.ReferenceMap.load(tmp_path / "damaged.map")
+    header["localizer"] = kept
+    # as maps written before they were read: the records and their checksum absent
+    for key in ("filter", "localization", "settings_checksum"):
+        del header["localizer"][key]
     write_map_file(tmp_path / "old.map", header, arrays, overwrite=False)
     old = nightloc.ReferenceMap.load(tmp_path / "old.map")
     assert old.settings == {}
     assert nightloc.Localizer(old).filter_params == nightloc.FilterParams()
     # settings this nightloc does not know are named, with the version that wrote them
     header["localizer"]["filter"] = {"uniform_floor": 0.05, "new_knob": 1}
-    header["checksums"]["images"] = array_checksum(arrays["images"])
     write_map_file(tmp_path / "newer.map", header, arrays, overwrite=False)
     with pytest.raises(nightloc.MapFormatError, match=r"unknown key 'new_knob' in \[filter\].*written by nightloc"):
         nightloc.ReferenceMap.load(tmp_path / "newer.map")

@@ -50,9 +50,11 @@ __all__ = [
     "MAP_FORMAT_VERSION",
     "MAX_MAP_EXPANSION",
     "POSE_SOURCES",
+    "SETTINGS_CHECKSUM",
     "array_checksum",
     "check_map_version",
     "read_map_file",
+    "settings_checksum",
     "write_map_file",
 ]
 
@@ -74,6 +76,19 @@ POSE_SOURCES = ("surveyed", "dead-reckoned", "optimised")
 MAX_MAP_EXPANSION = _MAX_MAP_EXPANSION
 
 PathLike = Union[str, "os.PathLike[str]"]
+
+
+#: The key of the header's ``localizer`` table holding :func:`settings_checksum` of the settings
+#: the map keeps (its ``localization`` and ``filter`` tables): a damaged byte there is refused, as
+#: in an array. Maps written before it lack it (nothing to check).
+SETTINGS_CHECKSUM = "settings_checksum"
+
+
+def settings_checksum(localizer: dict[str, Any], sections: tuple[str, ...]) -> str:
+    """The SHA-256 (hex) of the ``sections`` of the header's ``localizer`` table as canonical JSON
+    (sorted keys; a missing section as null)."""
+    chosen = {name: localizer.get(name) for name in sections}
+    return hashlib.sha256(json.dumps(chosen, sort_keys=True).encode("ascii")).hexdigest()
 
 
 def array_checksum(array: np.ndarray) -> str:

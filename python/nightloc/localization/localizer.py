@@ -44,9 +44,11 @@ import numpy as np
 
 from .. import _core
 from .._validate import (
+    MAX_COORDINATE_M,
     MAX_GRID_CELLS,
     MAX_SEQUENCE_CELLS,
     StreamGuard,
+    metres,
     same_image_size,
     thread_count,
     uint8_array,
@@ -100,7 +102,7 @@ class LocalizationParams:
 
     grid_width: int = own_field(100, unit="cells", range=Range(2, math.inf))
     grid_height: int = own_field(100, unit="cells", range=Range(2, math.inf))
-    margin: float = own_field(0.25, unit="m", range=Range(0, math.inf))
+    margin: float = own_field(0.25, unit="m", range=Range(0, MAX_COORDINATE_M, max_open=True))
     seq_len: int = own_field(7, unit="frames", range=Range(1, MAX_SEQ_LEN))
     interpolation: bool = True
     outside: Literal["lowest", "nearest"] = "lowest"
@@ -109,7 +111,9 @@ class LocalizationParams:
 
     def validate(self) -> None:
         """The rules between fields (each field's range is checked on construction, from the
-        table): the grid's and the sequence's size."""
+        table): the grid's and the sequence's size, and the radius below MAX_COORDINATE_M (the
+        core's table bounds it by 0 only)."""
+        metres(self.confidence_radius, "confidence_radius", minimum=0.0)
         if self.grid_width * self.grid_height > MAX_GRID_CELLS:
             raise ValueError(
                 f"grid of {self.grid_width}x{self.grid_height} cells is too large (at most {MAX_GRID_CELLS} cells, "

@@ -35,8 +35,10 @@ from ..io.map_file import (
     MAP_FORMAT_VERSION,
     MAX_MAP_EXPANSION,
     POSE_SOURCES,
+    SETTINGS_CHECKSUM,
     check_map_version,
     read_map_file,
+    settings_checksum,
     write_map_file,
 )
 from ..io.map_file import array_checksum as _sha256
@@ -105,6 +107,13 @@ def _checked_settings(settings: Any) -> dict[str, dict[str, Any]]:
         params_from_dict(classes[section], table, where="the map's settings")  # a ValueError naming the key
         tables[section] = dict(table)
     return tables
+
+
+def _effective(settings: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Every key of :data:`LOCALIZER_SECTIONS` with the value the tables give it (a key left out:
+    its default): maps that keep the same settings compare equal however they spell them."""
+    classes = registered_sections()
+    return {s: params_to_dict(params_from_dict(classes[s], settings.get(s, {}))) for s in LOCALIZER_SECTIONS}
 
 
 def _frozen(array: np.ndarray) -> np.ndarray:
@@ -380,7 +389,7 @@ class ReferenceMap:
             and np.array_equal(self._positions, other._positions)
             and same_headings
             and self._appearances == other._appearances
-            and self._settings == other._settings
+            and _effective(self._settings) == _effective(other._settings)
         )
 
     __hash__ = None  # type: ignore[assignment]
@@ -501,6 +510,7 @@ class ReferenceMap:
         if _localizer_tables is None:
             raise RuntimeError("the localization stage is not loaded: import nightloc before saving a map")
         localizer, tables = _localizer_tables(self)
+        localizer = {**localizer, SETTINGS_CHECKSUM: settings_checksum(localizer, LOCALIZER_SECTIONS)}
         arrays = {"images": self._images, "positions": self._positions}
         if self._headings is not None:
             arrays["headings"] = self._headings
@@ -605,6 +615,11 @@ class ReferenceMap:
                 f"{file}: the header's camera {camera!r} contradicts its parameters (wrap = {map_params.wrap}): corrupt"
             )
         localizer = header.get("localizer")
+        if isinstance(localizer, dict) and SETTINGS_CHECKSUM in localizer:
+            if settings_checksum(localizer, LOCALIZER_SECTIONS) != localizer[SETTINGS_CHECKSUM]:
+                raise MapFormatError(
+                    f"{file}: checksum of the localizer's settings does not match (the file is corrupt)"
+                )
         stored = (
             {s: localizer[s] for s in LOCALIZER_SECTIONS if isinstance(localizer.get(s), dict)}
             if isinstance(localizer, dict)
