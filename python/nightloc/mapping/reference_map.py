@@ -615,11 +615,9 @@ class ReferenceMap:
                 f"{file}: the header's camera {camera!r} contradicts its parameters (wrap = {map_params.wrap}): corrupt"
             )
         localizer = header.get("localizer")
-        if isinstance(localizer, dict) and SETTINGS_CHECKSUM in localizer:
-            if settings_checksum(localizer, LOCALIZER_SECTIONS) != localizer[SETTINGS_CHECKSUM]:
-                raise MapFormatError(
-                    f"{file}: checksum of the localizer's settings does not match (the file is corrupt)"
-                )
+        sealed = isinstance(localizer, dict) and SETTINGS_CHECKSUM in localizer
+        if sealed and settings_checksum(localizer, LOCALIZER_SECTIONS) != localizer[SETTINGS_CHECKSUM]:
+            raise MapFormatError(f"{file}: checksum of the localizer's settings does not match (the file is corrupt)")
         stored = (
             {s: localizer[s] for s in LOCALIZER_SECTIONS if isinstance(localizer.get(s), dict)}
             if isinstance(localizer, dict)
