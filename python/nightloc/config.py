@@ -102,7 +102,7 @@ def params_section(name: str) -> Callable[[type[T]], type[T]]:
         hints = typing.get_type_hints(cls)
         fields = {field.name: hints[field.name] for field in dataclasses.fields(cls)}
         dataclass_init = cls.__init__
-        table: list = []  # the schema, made at the first instance (its core tables are loaded by then)
+        table = settings_schema(cls)  # the rows each value is checked against
 
         @functools.wraps(dataclass_init)
         def __init__(self: Any, *args: Any, **kwargs: Any) -> None:
@@ -110,8 +110,6 @@ def params_section(name: str) -> Callable[[type[T]], type[T]]:
             for field_name, hint in fields.items():
                 value = _coerce(getattr(self, field_name), hint, f"{cls.__name__}.{field_name}")
                 object.__setattr__(self, field_name, value)
-            if not table:
-                table.extend(settings_schema(cls))
             for setting in table:
                 problem = setting.problem(getattr(self, setting.name))
                 if problem is not None:

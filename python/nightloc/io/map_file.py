@@ -79,8 +79,8 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 
 #: The key of the header's ``localizer`` table holding :func:`settings_checksum` of the settings
-#: the map keeps (its ``localization`` and ``filter`` tables): a damaged byte there is refused, as
-#: in an array. Maps written before it lack it (nothing to check).
+#: the map keeps (its ``localization`` and ``filter`` tables and the core's ``settings``): a damaged
+#: byte there is refused by Python, as in an array. Maps written before it lack it (nothing to check).
 SETTINGS_CHECKSUM = "settings_checksum"
 
 

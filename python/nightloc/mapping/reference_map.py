@@ -65,6 +65,9 @@ PathLike = Union[str, "os.PathLike[str]"]
 #: The parameter tables a map keeps with it (:attr:`ReferenceMap.settings`): the localizer's, which
 #: its tables are made with (``[preparation]`` is the map's :attr:`ReferenceMap.params`).
 LOCALIZER_SECTIONS = ("localization", "filter")
+#: The header's ``localizer`` records its settings checksum seals: the tables above and the core's
+#: settings made from them (what the firmware runs).
+_SEALED = (*LOCALIZER_SECTIONS, "settings")
 
 #: The default localizer's header section and arrays for a map (``(ref_map) -> (header, arrays)``):
 #: :func:`nightloc.localization.filter_tables.filter_tables`, given by :func:`set_localizer_tables`.
@@ -510,7 +513,7 @@ class ReferenceMap:
         if _localizer_tables is None:
             raise RuntimeError("the localization stage is not loaded: import nightloc before saving a map")
         localizer, tables = _localizer_tables(self)
-        localizer = {**localizer, SETTINGS_CHECKSUM: settings_checksum(localizer, LOCALIZER_SECTIONS)}
+        localizer = {**localizer, SETTINGS_CHECKSUM: settings_checksum(localizer, _SEALED)}
         arrays = {"images": self._images, "positions": self._positions}
         if self._headings is not None:
             arrays["headings"] = self._headings
@@ -616,7 +619,7 @@ class ReferenceMap:
             )
         localizer = header.get("localizer")
         sealed = isinstance(localizer, dict) and SETTINGS_CHECKSUM in localizer
-        if sealed and settings_checksum(localizer, LOCALIZER_SECTIONS) != localizer[SETTINGS_CHECKSUM]:
+        if sealed and settings_checksum(localizer, _SEALED) != localizer[SETTINGS_CHECKSUM]:
             raise MapFormatError(f"{file}: checksum of the localizer's settings does not match (the file is corrupt)")
         stored = (
             {s: localizer[s] for s in LOCALIZER_SECTIONS if isinstance(localizer.get(s), dict)}
