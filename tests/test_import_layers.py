@@ -5,7 +5,8 @@ Each module belongs to a *stage*: its first name under ``nightloc`` (``nightloc.
 ``io``, ``nightloc.config`` is the stage ``config``). The allowed layering, lowest first (a stage
 imports only stages of lower layers; stages of one layer do not import each other):
 
-    _core, errors, _validate, progress     the foundation: compiled core, errors, checks, progress
+    _core, errors, _validate, progress,    the foundation: compiled core, errors, checks, progress,
+    schema                                 the settings tables
     io                                     files: images, poses, videos, bags, traverses, map files
     config                                 TOML parameter files
     preparation
@@ -40,7 +41,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "python" / "nightloc"
 
 #: The layers, lowest first.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("_core", "errors", "_validate", "progress"),
+    ("_core", "errors", "_validate", "progress", "schema"),
     ("io",),
     ("config",),
     ("preparation",),

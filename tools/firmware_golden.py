@@ -57,17 +57,25 @@ def night_drive(frames: int = 12) -> tuple[np.ndarray, np.ndarray]:
     return positions, (headings + math.pi) % (2 * math.pi) - math.pi
 
 
-def build_map(world: SynthScene, folder: Path) -> Path:
+def build_map(world: SynthScene, folder: Path, params_file: Path | None = None) -> Path:
     """The map file of the day lattice, written to ``folder/map.npz`` (a forward camera's map for
-    the forward scene: ``PreparationParams(wrap=False)``)."""
+    the forward scene: ``PreparationParams(wrap=False)``); with ``params_file``, by ``nightloc
+    build-map DAY MAP --params params_file`` (the settings the map keeps)."""
     xs, ys = np.meshgrid(np.arange(0.5, 7.0, 1.0), np.arange(0.5, 5.0, 1.0))
     positions = np.column_stack([xs.ravel(), ys.ravel()])
     headings = np.random.default_rng(3).uniform(-math.pi, math.pi, len(positions))
     frames = [_view(world, world.frame("day", x, y, h)) for (x, y), h in zip(positions, headings)]
     day = nightloc.save_traverse(folder / "day", frames, positions, headings)
     forward = world.camera == FORWARD_CAMERA
-    params = nightloc.PreparationParams(wrap=not forward)
-    path = nightloc.ReferenceMap.build(day, params).save(folder / "map.npz")
+    if params_file is not None:
+        path = folder / "map.npz"
+        camera = "forward" if forward else "panoramic"
+        arguments = ["build-map", str(day.root), str(path), "--params", str(params_file), "--camera", camera]
+        if nightloc_main(arguments) != 0:
+            raise RuntimeError("nightloc build-map failed")
+    else:
+        params = nightloc.PreparationParams(wrap=not forward)
+        path = nightloc.ReferenceMap.build(day, params).save(folder / "map.npz")
     shutil.rmtree(day.root)
     return path
 

@@ -356,7 +356,7 @@ void test_errors_leave_the_belief() {
     bad_noise.distance_per_metre = -0.1;
     CHECK_THROWS(GridFilter(m.map, bad_noise), std::invalid_argument);
     CHECK_THROWS(filter.set_noise(0.1, 0.02, 0.0, std::numeric_limits<double>::quiet_NaN()), std::invalid_argument);
-    set_grid_filter_setting(bad_noise, "heading_per_radian", 0.25);
+    set_setting(bad_noise, "heading_per_radian", 0.25);
     CHECK(bad_noise.heading_per_radian == 0.25);
     GridFilterMap no_weights = m.map;
     no_weights.weights = nullptr;

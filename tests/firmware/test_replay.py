@@ -135,6 +135,37 @@ def test_replay_equals_localize(replay, world, map_file, tmp_path, colour, robot
         assert np.isfinite(actual[:, 2]).all()
 
 
+def test_a_tuned_map_replays_as_localize(replay, world, map_file, tmp_path):
+    """build-map --params with [filter] and [localization]: the map keeps them, its tables are
+    made with them, and nightloc_replay, localize and the API run them alike."""
+    tuned = tmp_path / "tuned.toml"
+    tuned.write_text(
+        "[filter]\nuniform_floor = 0.05\nheading_bins = 24\nlikelihood_gain = 2.5\n"
+        "[localization]\ngrid_width = 60\ngrid_height = 40\n"
+    )
+    tuned_map = firmware_golden.build_map(world, tmp_path, params_file=tuned)
+    with np.load(tuned_map) as archive:
+        tables = json.loads(archive["header"].tobytes())["localizer"]
+    # what the firmware reads: the core's settings and the grid, as the file says them
+    assert (tables["settings"]["uniform_floor"], tables["settings"]["heading_bins"]) == (0.05, 24)
+    assert tables["settings"]["likelihood_gain"] == 2.5
+    assert (tables["grid"]["width"], tables["grid"]["height"]) == (60, 40)
+    assert nightloc.ReferenceMap.load(tuned_map).settings["filter"]["uniform_floor"] == 0.05
+    log = firmware_golden.write_log(world, tmp_path / "log")
+    done = run_replay(replay, tuned_map, log, tmp_path / "replay.csv")
+    assert done.returncode == 0, done.stderr
+    actual = read_rows(tmp_path / "replay.csv")[1]
+    expected = read_rows(firmware_golden.localize(tuned_map, log, tmp_path / "run"))[1]
+    assert_same_trajectory(actual, expected, TOLERANCE)
+    api = np.array(
+        [(e.x, e.y, e.heading, e.confidence, e.credible_radius) for e in firmware_golden.api_trajectory(tuned_map, log)]
+    )
+    assert_same_trajectory(actual, api, 1e-8)
+    # the settings make a difference: the default map's trajectory is another
+    assert run_replay(replay, map_file, log, tmp_path / "default.csv").returncode == 0
+    assert np.abs(read_rows(tmp_path / "default.csv")[1] - actual).max() > 1e-3
+
+
 def test_replay_equals_localize_for_a_forward_camera(replay, tmp_path):
     """A forward camera's map (no wrap, one shift): heading bins from the column window."""
     forward = firmware_golden.scene(forward=True)

@@ -788,7 +788,7 @@ ROUTE = [
     ),
     ("RouteParams ds 1", lambda ws: route.RouteParams(ds=1), ValueError, "ds"),
     ("RouteParams vmin NaN", lambda ws: route.RouteParams(vmin=float("nan")), ValueError, "vmin"),
-    ("RouteParams vmin > vmax", lambda ws: route.RouteParams(vmin=2.0, vmax=1.0), ValueError, "must not exceed"),
+    ("RouteParams vmin > vmax", lambda ws: route.RouteParams(vmin=2.0, vmax=1.0), ValueError, "vmax must be >= vmin"),
     ("RouteParams ds 10**9", lambda ws: route.RouteParams(ds=10**9), ValueError, "ds"),
     (
         "match_prepared one ref",

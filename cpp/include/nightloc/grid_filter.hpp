@@ -77,7 +77,6 @@
 // sums in double with a fixed number of lanes.
 #pragma once
 
-#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -87,6 +86,7 @@
 
 #include "nightloc/heatmap.hpp"
 #include "nightloc/sad.hpp"
+#include "nightloc/settings.hpp"
 
 namespace nightloc {
 namespace detail {
@@ -119,8 +119,9 @@ using LineVector = std::vector<T, LineAllocator<T>>;
 }  // namespace detail
 
 /// The filter's tunables (python: nightloc.localization.FilterParams, where they are documented,
-/// takes its defaults from here). Every field is listed by name in grid_filter_setting_fields();
-/// validate() checks the ranges.
+/// takes its defaults from here). Every field has its row in setting_fields<GridFilterSettings>()
+/// (name, unit, range, doc; cpp/src/localization/grid_filter_settings.cpp); validate() checks the
+/// ranges.
 struct GridFilterSettings {
     std::size_t heading_bins = 0;     ///< B; 0 = one per image column (map.columns); 1 = position only
     double likelihood_gain = 3.0;     ///< kappa: lambda = kappa / (median - min of the frame's scores)
@@ -343,31 +344,13 @@ private:
     mutable std::vector<RingCell> ring_;
 };
 
-/// One named field of GridFilterSettings: a real number or a count (exactly one member is set).
-struct GridFilterSettingField {
-    const char* name;
-    double GridFilterSettings::* real;
-    std::size_t GridFilterSettings::* count;
-};
+/// The settings' table (nightloc/settings.hpp), in declaration order: the names map files store
+/// (nightloc/map_file.hpp), the Python class nightloc._core.GridFilterSettings binds and
+/// nightloc.FilterParams reads its defaults from.
+template <>
+const std::vector<SettingField<GridFilterSettings>>& setting_fields<GridFilterSettings>();
 
-/// Fields of GridFilterSettings.
-inline constexpr std::size_t kGridFilterSettingCount = 17;
-static_assert(sizeof(std::size_t) != 8 || sizeof(GridFilterSettings) == kGridFilterSettingCount * 8,
-              "every field of GridFilterSettings needs its line in grid_filter_setting_fields()");
-
-/// The one table of the settings' names, in declaration order: the names map files store
-/// (nightloc/map_file.hpp) and the Python class nightloc._core.GridFilterSettings binds.
-const std::array<GridFilterSettingField, kGridFilterSettingCount>& grid_filter_setting_fields() noexcept;
-
-/// Throws std::invalid_argument naming the first setting out of its range and the range.
+/// Throws SettingError naming the first setting out of its range (the table's ranges).
 void validate(const GridFilterSettings& settings);
-
-/// Sets one setting by its name in grid_filter_setting_fields(). Throws std::invalid_argument for
-/// an unknown name, a value that is not finite, or a count (heading_bins, estimate_window,
-/// settle_frames) that is not a non-negative integer; the range is validate()'s.
-void set_grid_filter_setting(GridFilterSettings& settings, const std::string& name, double value);
-
-/// The value of one setting (a count as a double).
-double grid_filter_setting(const GridFilterSettings& settings, const GridFilterSettingField& field) noexcept;
 
 }  // namespace nightloc

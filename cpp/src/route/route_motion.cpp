@@ -28,15 +28,24 @@ constexpr RouteMotionEntry kRouteMotions[] = {
     {RouteMotion::kOdometry, "odometry", &make_odometry_motion, true, nullptr},
 };
 
+constexpr bool in_enum_order() noexcept {
+    for (std::size_t i = 0; i < sizeof kRouteMotions / sizeof kRouteMotions[0]; ++i)
+        if (static_cast<std::size_t>(kRouteMotions[i].motion) != i) return false;
+    return true;
+}
+static_assert(in_enum_order(), "the registry's lines follow RouteMotion's values (a model's value is its index)");
+
 const RouteMotionEntry* find_entry(RouteMotion motion) noexcept {
     for (const RouteMotionEntry& entry : kRouteMotions)
         if (entry.motion == motion) return &entry;
     return nullptr;
 }
 
+// "'window', 'speed', 'odometry'": the names as a setting's choices are worded.
 std::string name_list() {
     std::string names;
-    for (const RouteMotionEntry& entry : kRouteMotions) names += (names.empty() ? "" : ", ") + std::string(entry.name);
+    for (const RouteMotionEntry& entry : kRouteMotions)
+        names += (names.empty() ? "'" : ", '") + std::string(entry.name) + "'";
     return names;
 }
 
@@ -138,7 +147,7 @@ const char* route_motion_name(RouteMotion motion) {
 RouteMotion route_motion_from_name(const std::string& name) {
     for (const route_detail::RouteMotionEntry& entry : route_detail::kRouteMotions)
         if (name == entry.name) return entry.motion;
-    throw std::invalid_argument("motion must be one of " + route_detail::name_list() + ", got '" + name + "'");
+    throw SettingError("motion", "must be one of " + route_detail::name_list() + ", got '" + name + "'");
 }
 
 std::vector<std::string> route_motion_names() {
@@ -161,6 +170,18 @@ RouteMotionSpeeds route_motion_speeds(const RouteFilterParams& params) {
         return any;
     }
     return entry->speeds(params);
+}
+
+const char* route_motion_choice(std::size_t index) noexcept {
+    constexpr std::size_t count = sizeof route_detail::kRouteMotions / sizeof route_detail::kRouteMotions[0];
+    return index < count ? route_detail::kRouteMotions[index].name : nullptr;
+}
+
+bool route_motion_needs_distances(RouteMotion motion) {
+    const route_detail::RouteMotionEntry* entry = route_detail::find_entry(motion);
+    route_detail::require(entry != nullptr, "motion must be one of " + route_detail::name_list() + ", got " +
+                                                std::to_string(static_cast<std::int32_t>(motion)));
+    return entry->needs_distances;
 }
 
 }  // namespace nightloc

@@ -2,7 +2,8 @@
 
     nightloc localize MAP_OR_REFERENCE LOG --out OUT [--format csv|tum|mcap|csv,tum,mcap] [--min-confidence C]
                       [--odometry FILE|none] [--survey DAY]
-                      [--odometry-noise wheel|1|DIST,HEADING] [--params FILE.toml] [--camera panoramic|forward]
+                      [--odometry-noise wheel|1|DIST,HEADING] [--params FILE.toml] [--set SECTION.KEY=VALUE]
+                      [--camera panoramic|forward]
                       [--shift-window COLUMNS,ROWS] [--image-topic T] [--odometry-topic T] [--pose-topic T]
                       [--sync-tolerance S] [--threads N] [--no-figures] [--learn NEW_MAP [--overwrite]]
 
@@ -16,7 +17,9 @@ robot's frame, metres and radians) or ``image,dx,dy`` (map frame), optionally wi
 ``timestamp`` column (seconds); ``--odometry none`` localizes without odometry (every motion
 unknown). Each frame goes through the grid Bayes filter (:class:`nightloc.Localizer`,
 ``--odometry-noise`` its noise model: by default ``wheel``, the step-scaled model, for wheel
-odometry, and Table III model 1 for map-frame steps).
+odometry, and Table III model 1 for map-frame steps). The filter runs the ``[localization]`` and
+``[filter]`` settings the map keeps (``nightloc build-map --params``), each key replaced where
+``--params`` or ``--set`` gives it; the command prints which settings came from where.
 
 Writes, each file atomically:
 
@@ -61,8 +64,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import load_params_file
+from ..config import SettingsLayers
 from ..errors import DatasetError
+from ..experience.learning import LearningParams
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set
 from ..io.trajectory import (
@@ -76,15 +80,18 @@ from ..io.trajectory import (
 )
 from ..io.traverse import Traverse, load_traverse
 from ..localization.evaluation import map_alignment
+from ..localization.grid_filter import FilterParams
 from ..localization.localizer import LocalizationParams, Localizer
 from ..localization.tail import FIRST_FRAME, tail_metrics
-from ..mapping.reference_map import ReferenceMap
+from ..mapping.reference_map import LOCALIZER_SECTIONS, ReferenceMap
 from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, log_noise_model
 from ..node.runner import FrameLocalizer
+from ..preparation.params import PreparationParams
 from .options import (
     add_bag_options,
     add_camera_option,
     add_learn_options,
+    add_params_options,
     add_shift_window_option,
     bag_options,
     check_learn_target,
@@ -93,6 +100,8 @@ from .options import (
     log_odometry,
     parse_noise,
     parse_shift_window,
+    read_settings,
+    settings_line,
 )
 from .wording import duration, refuse_map_as_traverse
 
@@ -136,7 +145,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "metres and radians, or 'wheel' (4 %% of each step's length, 0.02 rad per step; default: "
         "'wheel' for wheel odometry (forward,left,turn), 1 (0.1 m, 0.02 rad) for map-frame steps)",
     )
-    parser.add_argument("--params", type=Path, help="TOML file with [localization], [filter] and/or [preparation]")
+    add_params_options(
+        parser,
+        "[localization], [filter] (over the map's own: build-map --params), [preparation] (the map's, checked) and "
+        "[learning] (--learn)",
+    )
     add_camera_option(
         parser, "The log's camera: it must be the map's (a reference folder is prepared for it; default panoramic)."
     )
@@ -171,7 +184,7 @@ def parse_formats(text: str) -> list[str]:
     return formats
 
 
-def _load_map(path: Path, preparation, camera: str | None, params_file: Path | None, bag: dict) -> ReferenceMap:
+def _load_map(path: Path, preparation, camera: str | None, params_file: SettingsLayers, bag: dict) -> ReferenceMap:
     if not os.path.lexists(path):
         raise DatasetError(
             f"map {path} does not exist (a map file from nightloc build-map or a reference traverse folder)"
@@ -259,8 +272,7 @@ def run(args: argparse.Namespace) -> int:
     if args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
     window = parse_shift_window(args.shift_window)
-    sections = load_params_file(args.params) if args.params is not None else {}
-    params = sections.get("localization", LocalizationParams())
+    settings = read_settings(args)
     inputs = (
         args.map,
         args.log,
@@ -292,7 +304,9 @@ def run(args: argparse.Namespace) -> int:
         odometry = log_odometry(log, args.odometry, "localize without odometry: --odometry none")
     if noise is None:
         noise = log_noise_model(odometry)
-    ref_map = _load_map(args.map, sections.get("preparation"), args.camera, args.params, bag_options(args))
+    ref_map = _load_map(args.map, settings.section(PreparationParams), args.camera, settings, bag_options(args))
+    settings.add(f"the map {args.map}", ref_map.settings, below=True)  # --params and --set win key by key
+    params = settings.get(LocalizationParams)
     ref_map.check_frames(log.read(0).shape, f"the log {log.root}", args.camera)
     if "tum" in formats and ref_map.headings is None:
         raise DatasetError(
@@ -300,7 +314,9 @@ def run(args: argparse.Namespace) -> int:
             f"lack them): use --format csv"
         )
     truth, alignment_note = _truth_in_map_frame(log, ref_map, args.survey)
-    filter_params = filter_params_with_window(sections.get("filter"), window, ref_map.camera, ref_map.images.shape[1:])
+    filter_params = filter_params_with_window(
+        settings.get(FilterParams), window, ref_map.camera, ref_map.images.shape[1:]
+    )
     localizer = Localizer(ref_map, params, odometry_noise=noise, filter_params=filter_params, threads=args.threads)
     # Checked and locked before the work; the files appear together at the end, or not at all.
     with output_set(args.out, command="localize", inputs=inputs, parents=True) as out:
@@ -362,8 +378,9 @@ def run(args: argparse.Namespace) -> int:
             )
             written.append(figure.name)
         if args.learn is not None:
-            learned, report = runner.learned_map(str(args.log), sections.get("learning"))
+            learned, report = runner.learned_map(str(args.log), settings.section(LearningParams))
             learned.save(args.learn, overwrite=args.overwrite)
+    print(settings_line(settings, LOCALIZER_SECTIONS))
     print(
         f"{len(estimates)} frames of {log.root} localized against {len(ref_map)} references in {duration(seconds)} "
         f"({duration(seconds / max(len(estimates), 1))} per frame)"

@@ -25,22 +25,28 @@ import sys
 import threading
 from pathlib import Path
 
-from ..config import load_params_file
 from ..errors import MissingDependencyError
+from ..experience.learning import LearningParams
 from ..io.atomic import check_output_path
 from ..io.bag import DEFAULT_SYNC_TOLERANCE_S
+from ..localization.grid_filter import FilterParams
 from ..localization.localizer import LocalizationParams, Localizer
+from ..mapping.reference_map import LOCALIZER_SECTIONS
 from ..motion.odometry import WHEEL_ODOMETRY_NOISE
 from ..node.conventions import DEFAULT_FRAMES, TOPICS
 from ..node.runner import DEFAULT_CONVERGED_CONFIDENCE, FrameLocalizer
+from ..preparation.params import PreparationParams
 from .options import (
     add_learn_options,
+    add_params_options,
     add_shift_window_option,
     check_learn_target,
     filter_params_with_window,
     load_reference,
     parse_noise,
     parse_shift_window,
+    read_settings,
+    settings_line,
 )
 
 __all__ = ["register", "run"]
@@ -98,7 +104,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument("--belief-rate", type=float, default=1.0, help="belief grids per second (default 1; 0: none)")
     parser.add_argument("--domain-id", type=int, default=None, help="the DDS domain (default $ROS_DOMAIN_ID, else 0)")
-    parser.add_argument("--params", type=Path, help="TOML file with [localization], [filter], [learning]")
+    add_params_options(parser, "[localization], [filter] (over the map's own: build-map --params), [learning]")
     add_shift_window_option(parser, "the filter's translation window, as for nightloc localize")
     parser.add_argument("--threads", type=int, default=1, help="matching threads (default 1)")
     add_learn_options(parser)
@@ -144,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
     covariance_noise = args.odometry_noise.strip().lower() == "covariance"
     noise = WHEEL_ODOMETRY_NOISE if covariance_noise else parse_noise(args.odometry_noise)
     window = parse_shift_window(args.shift_window)
-    sections = load_params_file(args.params) if args.params is not None else {}
+    params = read_settings(args)
     inputs = (args.map, args.params)
     if args.learn is not None:
         check_learn_target(args.learn, args.map, None, inputs, args.overwrite)
@@ -156,15 +162,19 @@ def run(args: argparse.Namespace) -> int:
         check_output_path(args.record, folder=True, overwrite=False, inputs=inputs)
     if not args.map.is_file():
         raise ValueError(f"map {args.map} is not a map file (nightloc build-map writes one)")
-    ref_map = load_reference(args.map, sections.get("preparation"))
-    filter_params = filter_params_with_window(sections.get("filter"), window, ref_map.camera, ref_map.images.shape[1:])
+    ref_map = load_reference(args.map, params.section(PreparationParams))
+    params.add(f"the map {args.map}", ref_map.settings, below=True)  # --params and --set win key by key
+    filter_params = filter_params_with_window(
+        params.get(FilterParams), window, ref_map.camera, ref_map.images.shape[1:]
+    )
     localizer = Localizer(
         ref_map,
-        sections.get("localization", LocalizationParams()),
+        params.get(LocalizationParams),
         odometry_noise=noise,
         filter_params=filter_params,
         threads=args.threads,
     )
+    _log(settings_line(params, LOCALIZER_SECTIONS))
     runner = FrameLocalizer(localizer, learn=args.learn is not None, converged_confidence=args.converged_confidence)
     odometry = "topic"
     topic_names = {spec.role: getattr(args, f"{spec.role}_topic") for spec in TOPICS}
@@ -242,7 +252,7 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.learn is not None:
         learned, report = runner.learned_map(
-            f"ROS 2 graph, {settings.topic('image')} (domain {domain})", sections.get("learning")
+            f"ROS 2 graph, {settings.topic('image')} (domain {domain})", params.section(LearningParams)
         )
         learned.save(args.learn, overwrite=args.overwrite)
         unchanged = " (the map unchanged)" if learned is ref_map else ""

@@ -10,7 +10,9 @@
 * ``--odometry-noise``: a Table III model or ``DIST,HEADING`` (localize, evaluate);
 * ``--seed`` and ``--repeats``: the noise draws (evaluate, demo);
 * ``REFERENCE``: a traverse to build a map from, or a map file (localize, evaluate);
-* ``--odometry FILE``: a log's odometry, or its own (localize, export-log).
+* ``--odometry FILE``: a log's odometry, or its own (localize, export-log);
+* ``--params FILE`` and ``--set SECTION.KEY=VALUE``: parameter tables, a file's and single keys
+  on top of it (every command that takes parameters; :class:`nightloc.config.SettingsLayers`).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from .._validate import MAX_REPEATS
+from ..config import SettingsLayers
 from ..errors import DatasetError
 from ..io.atomic import check_output_path
 from ..io.bag import DEFAULT_SYNC_TOLERANCE_S
@@ -41,6 +44,7 @@ __all__ = [
     "add_bag_options",
     "add_camera_option",
     "add_learn_options",
+    "add_params_options",
     "add_shift_window_option",
     "bag_options",
     "check_draw_options",
@@ -52,6 +56,8 @@ __all__ = [
     "parse_noise",
     "parse_shift_window",
     "preparation_for_camera",
+    "read_settings",
+    "settings_line",
     "traverse_camera",
 ]
 
@@ -94,6 +100,34 @@ def bag_options(args: argparse.Namespace) -> dict[str, Any]:
     return options
 
 
+# --- --params FILE, --set SECTION.KEY=VALUE
+
+
+def add_params_options(parser: argparse.ArgumentParser, tables: str) -> None:
+    """Adds ``--params FILE`` (``tables``: the TOML tables the command reads, in words) and
+    ``--set SECTION.KEY=VALUE`` (repeatable; over the file's)."""
+    parser.add_argument("--params", type=Path, help=f"TOML file with {tables}")
+    parser.add_argument(
+        "--set",
+        action="append",
+        metavar="SECTION.KEY=VALUE",
+        dest="settings",
+        help="one parameter, over --params' (repeatable; VALUE as in TOML, e.g. --set filter.uniform_floor=0.05)",
+    )
+
+
+def read_settings(args: argparse.Namespace) -> SettingsLayers:
+    """``--params``' tables, then each ``--set`` (checked as a parameter file is: the same errors)."""
+    return SettingsLayers().add_file(args.params).add_assignments(getattr(args, "settings", None))
+
+
+def settings_line(layers: SettingsLayers, sections: tuple[str, ...], lead: str = "settings") -> str:
+    """``"settings: SOURCE: [filter] key = value, ...; ...; the rest the defaults"``: where the
+    settings of ``sections`` that are not the defaults came from."""
+    found = layers.report(sections)
+    return f"{lead}: " + ("; ".join(found) + "; the rest the defaults" if found else "the defaults")
+
+
 # --- --camera panoramic|forward
 
 
@@ -107,28 +141,41 @@ def add_camera_option(parser: argparse.ArgumentParser, what: str) -> None:
     )
 
 
-def file_wrap(params_file: Path | str | None) -> bool | None:
-    """The ``wrap`` that ``params_file``'s ``[preparation]`` table sets, or None (no file, no
-    table, no key). The file has been read and checked already."""
+def file_wrap(params_file: Path | str | SettingsLayers | None) -> bool | None:
+    """The ``wrap`` that ``params_file``'s ``[preparation]`` table sets (a file, or the
+    ``--params``/``--set`` settings), or None (no file, no table, no key). The file has been read
+    and checked already."""
+    said = _wrap_said(params_file)
+    return None if said is None else said[0]
+
+
+def _wrap_said(params_file: Path | str | SettingsLayers | None) -> tuple[bool, str] | None:
+    """The ``[preparation]`` ``wrap`` set and who sets it, or None."""
     if params_file is None:
         return None
+    if isinstance(params_file, SettingsLayers):
+        value = params_file.table("preparation").get("wrap")
+        source = params_file.origin("preparation", "wrap")
+        return (value, str(source)) if isinstance(value, bool) else None
     document = tomllib.loads(Path(params_file).read_text(encoding="utf-8-sig"))
     table = document.get("preparation")
     value = table.get("wrap") if isinstance(table, dict) else None
-    return value if isinstance(value, bool) else None
+    return (value, str(params_file)) if isinstance(value, bool) else None
 
 
 def preparation_for_camera(
-    preparation: PreparationParams | None, camera: str | None, params_file: Path | str | None
+    preparation: PreparationParams | None, camera: str | None, params_file: Path | str | SettingsLayers | None
 ) -> PreparationParams | None:
-    """The preparation of ``--params`` set for ``--camera`` (None when neither says anything)."""
+    """The preparation of ``--params`` (and ``--set``) set for ``--camera`` (None when neither says
+    anything)."""
     if camera is None:
         return preparation
-    return params_for_camera(preparation, camera, file_wrap(params_file), str(params_file or ""))
+    said = _wrap_said(params_file)
+    return params_for_camera(preparation, camera, None if said is None else said[0], "" if said is None else said[1])
 
 
 def traverse_camera(
-    traverse: Traverse, camera: str | None, params_file: Path | str | None
+    traverse: Traverse, camera: str | None, params_file: Path | str | SettingsLayers | None
 ) -> tuple[str | None, str | None]:
     """The camera to prepare ``traverse`` for, and who says so: ``--camera`` (``camera``), the
     ``wrap`` of ``params_file``'s ``[preparation]`` table, or the camera that the traverse's
@@ -139,12 +186,13 @@ def traverse_camera(
     both (the two options are checked against each other by :func:`preparation_for_camera`), as
     are frames too narrow for a panorama that would be prepared as one
     (:func:`~nightloc.preparation.camera.check_panorama_shape`): the camera is never guessed."""
-    wrap = file_wrap(params_file)
+    wrap_said = _wrap_said(params_file)
     said: list[tuple[str, str]] = []
     if camera is not None:
         said.append((camera, f"--camera {camera}"))
-    if wrap is not None:
-        said.append(("panoramic" if wrap else "forward", f"{params_file} ([preparation] wrap = {str(wrap).lower()})"))
+    if wrap_said is not None:
+        wrap, source = wrap_said
+        said.append(("panoramic" if wrap else "forward", f"{source} ([preparation] wrap = {str(wrap).lower()})"))
     record = None if traverse.is_bag or traverse.is_video else recorded_camera(traverse.root)
     if record is not None and record.camera in CAMERAS:
         for name, who in said:
@@ -261,7 +309,7 @@ def load_reference(
     path: Path,
     preparation: PreparationParams | None,
     camera: str | None = None,
-    params_file: Path | None = None,
+    params_file: Path | SettingsLayers | None = None,
     bag: dict | None = None,
 ) -> ReferenceMap:
     """The map of a reference traverse (a folder or a bag; prepared for ``camera`` when given),

@@ -3,7 +3,7 @@ route, with the route filter (default) or SeqSLAM.
 
     nightloc route REFERENCE QUERY --out OUT [--method filter|seqslam|seqslam,filter]
                    [--preset openseqslam] [--ds 10] [--vmin 0.8 --vmax 1.2] [--mode centred|causal]
-                   [--motion window|speed|odometry]
+                   [--motion MODEL]
                    [--tolerance 2] [--ground-truth auto|names|frames|positions|none]
 
 REFERENCE and QUERY are traverse folders (``images/`` with an optional ``poses.csv``, or a
@@ -25,10 +25,11 @@ at the same time refuses; files in OUT that nightloc did not write are kept):
   ``correspondence.png`` (the paper's Figure 23), and for the filter ``filter_confidence.png``,
   unless ``--no-figures``; ``--figure-format pdf|svg`` writes them as PDF or SVG instead.
 
-The filter's motion model: ``--motion window|speed|odometry`` names the one that runs (the
-names of :data:`nightloc.route.params.MOTION_MODELS`; odometry needs odometry in both
-traverses). Without it (``--odometry auto``): when both traverses carry odometry
-(``odometry.csv``, a bag's odometry, or poses) the filter predicts by the distance travelled
+The filter's motion model: ``--motion NAME`` names the one that runs (a name of
+:data:`nightloc.route.params.MOTION_MODELS`; a model that moves by the distance travelled,
+:data:`~nightloc.route.params.DISTANCE_MOTIONS`, needs odometry in both traverses). Without it
+(``--odometry auto``): when both traverses carry odometry (``odometry.csv``, a bag's odometry, or
+poses) the filter predicts by the distance travelled
 (:mod:`nightloc.route.odometry`); otherwise, or with ``--odometry none``, it runs the
 parameters' ``filter_motion`` (TOML ``[route] filter_motion``, default the speed model). The
 printed line and ``summary.json`` say which ran and why (e.g. odometry in one traverse only).
@@ -67,7 +68,7 @@ import time
 from pathlib import Path
 
 from .._validate import thread_count
-from ..config import load_params_file
+from ..errors import NightlocError
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set, write_text
 from ..io.route_csv import matches_csv, pr_csv
@@ -84,17 +85,19 @@ from ..route.ground_truth import (
     ground_truth_for,
 )
 from ..route.odometry import carried_odometry, motion_plan
-from ..route.params import MOTION_MODELS, PRESETS, RouteParams, resolve_params
+from ..route.params import DISTANCE_MOTIONS, MOTION_MODELS, PRESETS, RouteParams, resolve_params
 from ..route.pipeline import RouteResult, match_difference, route_difference_matrix
 from ..route.preparation import RoutePreparer
 from ..route.report import COMPARED, comparison_summary, method_summary, motion_line, summary_json
 from .options import (
     add_bag_options,
     add_camera_option,
+    add_params_options,
     add_shift_window_option,
     bag_options,
     parse_shift_window,
     preparation_for_camera,
+    read_settings,
 )
 from .wording import duration, in_option_words, refuse_map_as_traverse
 
@@ -121,7 +124,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="filter (causal Bayes filter, the nightloc preset's default), seqslam (the openseqslam preset's), "
         "or a comma-separated list such as seqslam,filter to compare them in one run",
     )
-    parser.add_argument("--params", help="TOML file with [route] and/or [preparation] tables")
+    add_params_options(parser, "[route] and/or [preparation] tables")
     parser.add_argument("--ds", type=int, help="sequence length in frames (OpenSeqSLAM default 10)")
     parser.add_argument("--vmin", type=float, help="slowest speed, reference frames per query frame (0.8)")
     parser.add_argument("--vmax", type=float, help="fastest speed (1.2)")
@@ -152,8 +155,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--motion",
         type=motion_model,
         metavar="{" + ",".join(MOTION_MODELS) + "}",
-        help="the filter's motion model: " + ", ".join(MOTION_MODELS) + " (odometry needs it in both traverses); "
-        "default: odometry when both traverses carry it, else the parameters' filter_motion (speed)",
+        help="the filter's motion model: "
+        + ", ".join(MOTION_MODELS)
+        + f" ({', '.join(sorted(DISTANCE_MOTIONS))}: by the distance travelled, which needs odometry in both "
+        "traverses); default: that when both traverses carry odometry, else the parameters' filter_motion",
     )
     parser.add_argument(
         "--odometry",
@@ -191,7 +196,7 @@ def uses_odometry(args: argparse.Namespace) -> bool:
     (odometry or not); without it, ``--odometry`` (auto: when both traverses carry odometry)."""
     if args.motion is None:
         return args.odometry != "none"
-    wanted = args.motion == "odometry"
+    wanted = args.motion in DISTANCE_MOTIONS
     if args.odometry is not None and (args.odometry == "auto") != wanted:
         raise ValueError(
             f"--motion {args.motion} contradicts --odometry {args.odometry}; give --motion alone (it names the model "
@@ -224,15 +229,14 @@ def route_params_from_args(args: argparse.Namespace) -> tuple:
     """(RouteParams, PreparationParams or None) from --params, --preset and the overrides."""
     route_params: RouteParams | None = None
     preparation: PreparationParams | None = None
-    if args.params:
-        tables = load_params_file(args.params)
-        route_params = tables.get("route")
-        preparation = tables.get("preparation")
+    settings = read_settings(args)
+    route_params = settings.section(RouteParams)
+    preparation = settings.section(PreparationParams)
     if args.camera is not None:
         if args.circular_shifts and args.camera == "forward":
             raise ValueError("--circular-shifts (a panoramic camera's search) contradicts --camera forward")
         args.circular_shifts = args.camera == "panoramic"
-        preparation = preparation_for_camera(preparation, args.camera, args.params)
+        preparation = preparation_for_camera(preparation, args.camera, settings)
     if args.preset is not None:
         if route_params is not None:
             raise ValueError(f"give --preset or a [route] table in {args.params}, not both")
@@ -314,8 +318,8 @@ def run(args: argparse.Namespace) -> int:
         methods = methods_from_args(args, params)
         per_method = [resolve_params(params, method=method) for method in methods]
     except ValueError as error:  # raised by the parameter classes in their field names
-        if args.params is not None and str(error).startswith(str(args.params)):
-            raise  # about the file's keys, in its words
+        if isinstance(error, NightlocError):
+            raise  # about the keys of --params or --set, in their words
         raise in_option_words(error, _OPTIONS) from None
     if args.dask is not None:
         require_cluster(args.dask)

@@ -519,6 +519,7 @@ def learn(
         pose_source=ref_map.pose_source,
         covariances=None if covs is None else np.concatenate(covs),
         appearances=appearances,
+        settings=ref_map.settings,
     )
     first = int(np.flatnonzero(trusted)[0])
     report = LearningReport(

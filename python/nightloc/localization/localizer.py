@@ -44,6 +44,7 @@ import numpy as np
 
 from .. import _core
 from .._validate import (
+    MAX_COORDINATE_M,
     MAX_GRID_CELLS,
     MAX_SEQUENCE_CELLS,
     StreamGuard,
@@ -56,8 +57,17 @@ from ..config import params_section
 from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, match, rotational_sad, shift_table
 from ..motion.odometry import Motion, NoiseModel, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
+from ..schema import Range, own_field
 from .day_scale import learned_mask, on_day_scale
-from .grid_filter import MOTION_NONE, FilterParams, FilterState, GridFilter, MotionCode, motion_code
+from .grid_filter import (
+    GRID_FILTER_SETTINGS,
+    MOTION_NONE,
+    FilterParams,
+    FilterState,
+    GridFilter,
+    MotionCode,
+    motion_code,
+)
 from .heatmap import HeatMapper
 from .sequence import cumulative_offsets
 
@@ -90,28 +100,25 @@ class LocalizationParams:
             when finding the second-best place; the filter's confidence is the belief within it.
     """
 
-    grid_width: int = 100
-    grid_height: int = 100
-    margin: float = 0.25
-    seq_len: int = 7
+    grid_width: int = own_field(100, unit="cells", range=Range(2, math.inf))
+    grid_height: int = own_field(100, unit="cells", range=Range(2, math.inf))
+    margin: float = own_field(0.25, unit="m", range=Range(0, MAX_COORDINATE_M, max_open=True))
+    seq_len: int = own_field(7, unit="frames", range=Range(1, MAX_SEQ_LEN))
     interpolation: bool = True
     outside: Literal["lowest", "nearest"] = "lowest"
     inversion: Literal["range", "zscore", "negate"] = "range"
-    confidence_radius: float = 1.0
+    confidence_radius: float = GRID_FILTER_SETTINGS.field("confidence_radius")
 
     def validate(self) -> None:
-        """Checks ranges (called on construction); raises ValueError naming the field."""
-        for name in ("grid_width", "grid_height"):
-            if getattr(self, name) < 2:
-                raise ValueError(f"{name} must be >= 2 cells, got {getattr(self, name)}")
+        """The rules between fields (each field's range is checked on construction, from the
+        table): the grid's and the sequence's size, and the radius below MAX_COORDINATE_M (the
+        core's table bounds it by 0 only)."""
+        metres(self.confidence_radius, "confidence_radius", minimum=0.0)
         if self.grid_width * self.grid_height > MAX_GRID_CELLS:
             raise ValueError(
                 f"grid of {self.grid_width}x{self.grid_height} cells is too large (at most {MAX_GRID_CELLS} cells, "
                 f"MAX_GRID_CELLS)"
             )
-        metres(self.margin, "margin", minimum=0.0)
-        if not 1 <= self.seq_len <= MAX_SEQ_LEN:
-            raise ValueError(f"seq_len must be 1..{MAX_SEQ_LEN} frames, got {self.seq_len}")
         cells = self.seq_len * self.grid_height * (self.grid_width + 1)  # the sequence's padded float32 maps
         if cells > MAX_SEQUENCE_CELLS:
             raise ValueError(
@@ -119,7 +126,6 @@ class LocalizationParams:
                 f"cells, more than {MAX_SEQUENCE_CELLS} (MAX_SEQUENCE_CELLS, 512 MiB); shorten the sequence or "
                 f"coarsen the grid"
             )
-        metres(self.confidence_radius, "confidence_radius", minimum=0.0)
 
 
 @dataclass(frozen=True)
@@ -181,19 +187,29 @@ class Localizer:
 
     Args:
         ref_map: the :class:`~nightloc.ReferenceMap` (prepared day images with poses).
-        params: :class:`LocalizationParams` (grid, margin, interpolation, ...; default: the
-            paper's values).
+        params: :class:`LocalizationParams` (grid, margin, interpolation, ...); None (default):
+            the map's (:attr:`~nightloc.ReferenceMap.settings`, what ``nightloc build-map --params``
+            stored; a map without: the paper's values).
         method: ``"filter"`` (default, the grid Bayes filter) or ``"paper"`` (the paper's sum of
             the last ``seq_len`` heat maps, unchanged).
         odometry_noise: the filter's odometry noise per frame: a Table III model number (0-3) or
             a :class:`NoiseModel` (metres on the step length, radians on the turn or step
             direction). Default 1 (0.1 m, 0.02 rad).
-        filter_params: :class:`~nightloc.localization.grid_filter.FilterParams` of the filter.
+        filter_params: :class:`~nightloc.localization.grid_filter.FilterParams` of the filter;
+            None (default): the map's, as ``params``.
         threads: matching threads (default 1: one core per frame, the robot's budget).
         **overrides: fields of ``params`` or ``filter_params`` to replace, e.g.
             ``grid_width=80, likelihood_gain=2.5``; ``seq_len`` only with ``method="paper"``.
 
     The grid, triangulation and interpolation weights are computed here, once.
+
+    **The map's settings.** A map keeps the ``[localization]`` and ``[filter]`` settings it was
+    built with (``nightloc build-map --params``), and its file carries the filter's tables made
+    with them. ``Localizer(ref_map)`` runs those settings, as ``nightloc localize``, the ROS 2 node
+    and the firmware (``nightloc_replay``) do: one filter on one map. A ``params`` or
+    ``filter_params`` given replaces the map's section as a whole (a ``FilterParams()`` is the
+    defaults, whatever the map says); ``**overrides`` change single fields of the map's (or the
+    given) settings.
 
     A localizer is one stream of frames: :meth:`update` from two threads at once raises
     RuntimeError (the order of the frames would be a race); use one localizer per thread (they
@@ -216,10 +232,11 @@ class Localizer:
             raise TypeError(f"ref_map must be a nightloc.ReferenceMap, got {type(ref_map).__name__}")
         if method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-        params = LocalizationParams() if params is None else params
+        stored = ref_map.settings  # the settings the map was built with (checked when it was made)
+        params = LocalizationParams(**stored.get("localization", {})) if params is None else params
         if not isinstance(params, LocalizationParams):
             raise TypeError(f"params must be a LocalizationParams, got {type(params).__name__}")
-        filter_params = FilterParams() if filter_params is None else filter_params
+        filter_params = FilterParams(**stored.get("filter", {})) if filter_params is None else filter_params
         if not isinstance(filter_params, FilterParams):
             raise TypeError(f"filter_params must be a FilterParams, got {type(filter_params).__name__}")
         if overrides:

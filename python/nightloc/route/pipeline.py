@@ -78,8 +78,8 @@ class RouteResult:
             reference; None for SeqSLAM.
         weights: filter only, ``(n_query,)`` float64 evidence weight of each query frame (its
             texture), or None.
-        motion: filter only: the motion model that ran, ``"window"``, ``"speed"`` or
-            ``"odometry"``; None for SeqSLAM.
+        motion: filter only: the motion model that ran (a name of
+            :data:`~nightloc.route.params.MOTION_MODELS`); None for SeqSLAM.
         speed: filter only, ``(n_query,)`` float64 references per query frame: the speed
             model's mean speed, the odometry model's mean advance; NaN for the window model.
         motion_note: why that motion model ran (e.g. odometry in one traverse only), or "".

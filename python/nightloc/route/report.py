@@ -10,6 +10,7 @@ import numpy as np
 
 from ..preparation.params import PreparationParams
 from .evaluation import GroundTruth, RouteEvaluation
+from .params import DISTANCE_MOTIONS
 from .pipeline import RouteResult
 
 __all__ = ["COMPARED", "comparison_summary", "method_summary", "motion_line", "route_metrics", "summary_json"]
@@ -103,7 +104,7 @@ def summary_json(summary: dict) -> str:
 def motion_line(result: RouteResult) -> str:
     """The filter's motion model for the printed line, with the reason when odometry was not used."""
     words = result.motion_words()
-    if result.motion == "odometry":
+    if result.motion in DISTANCE_MOTIONS:
         return f"{words} ({result.motion_note})"
     if result.motion_note and "neither" not in result.motion_note:
         return f"{words}: {result.motion_note}"

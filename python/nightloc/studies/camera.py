@@ -49,7 +49,7 @@ from ..progress import progress
 from ..synth.dataset import SynthScene
 from ..synth.paths import plan_traverses
 from ..synth.render import render_radiance
-from ..synth.sensor import FULL_WELL, READ_NOISE, capture
+from ..synth.sensor import FULL_WELL, MAX_DARKNESS, READ_NOISE, capture
 from ..synth.world import ALL_WORLDS
 
 __all__ = [
@@ -104,7 +104,7 @@ class Sensor:
 #: Matching resolutions (width, height): 72 to 4 608 pixels; the paper's 48 x 24 among them.
 DEFAULT_SIZES: tuple[tuple[int, int], ...] = ((12, 6), (16, 8), (24, 12), (32, 16), (48, 24), (64, 32), (96, 48))
 #: Night darkness levels (0 = night lighting exposed like day; each step of 1: 100x fewer photons).
-DEFAULT_DARKNESS_LEVELS: tuple[float, ...] = (0.0, 1.0, 1.5, 2.0, 2.5, 3.0)
+DEFAULT_DARKNESS_LEVELS: tuple[float, ...] = (0.0, 1.0, 1.5, 2.0, 2.5, MAX_DARKNESS)
 #: Pixels from a small phone pixel to a large full-frame one (1, 2, 4 and 8 um), with typical read
 #: noise at high gain (a large low-light sensor reads out with fewer electrons of noise).
 DEFAULT_SENSORS: tuple[Sensor, ...] = (
@@ -121,7 +121,7 @@ class StudySettings:
 
     Attributes:
         sizes: matching resolutions ``(width, height)`` in pixels.
-        darkness: night darkness levels in [0, 3].
+        darkness: night darkness levels in [0, :data:`~nightloc.synth.sensor.MAX_DARKNESS`].
         sensors: the pixels compared.
         draws: independent draws of sensor noise and odometry noise per cell.
         seed: the world's seed (textures, sun, paths) and of every noise draw.
@@ -152,8 +152,10 @@ class StudySettings:
                 )
         object.__setattr__(self, "sizes", tuple(sorted(sizes, key=lambda s: (s[0] * s[1], s))))
         levels = tuple(sorted({float(d) for d in self.darkness}))
-        if not levels or any(not (math.isfinite(d) and 0.0 <= d <= 3.0) for d in levels):
-            raise ValueError(f"darkness levels must be numbers in [0, 3], at least one, got {self.darkness!r}")
+        if not levels or any(not (math.isfinite(d) and 0.0 <= d <= MAX_DARKNESS) for d in levels):
+            raise ValueError(
+                f"darkness levels must be numbers in [0, {MAX_DARKNESS:g}], at least one, got {self.darkness!r}"
+            )
         object.__setattr__(self, "darkness", levels)
         if not self.sensors or not all(isinstance(s, Sensor) for s in self.sensors):
             raise ValueError("sensors must be at least one Sensor")
