@@ -222,3 +222,43 @@ def test_a_map_pickled_before_experience_maps_unpickles_as_a_day_map():
     old.__setstate__(state)
     assert old.appearances is None and old == day
     assert pickle.loads(pickle.dumps(day)) == day
+
+
+def test_the_backward_run_is_the_filter_over_the_reversed_drive():
+    from nightloc.experience.learning import backward_estimates
+    from nightloc.motion.odometry import true_robot_motions
+
+    day = _day_map()
+    path = np.array([[0.0, 0.0], [0.6, 0.2], [1.2, 0.5], [1.9, 0.9], [2.4, 1.4], [2.9, 2.0], [3.0, 2.0]])
+    headings = np.arctan2(*np.diff(path, axis=0, prepend=[[-1.0, 0.0]]).T[::-1])
+    nearest = [int(np.argmin(np.hypot(*(day.positions - p).T))) for p in path]
+    images = day.images[nearest]
+    motions = true_robot_motions(path, headings)
+    back = backward_estimates(nightloc.Localizer(day, odometry_noise=1), images, motions)
+    # the same filter driven along the path reversed, with that drive's own true motions
+    reverse = nightloc.Localizer(day, odometry_noise=1)
+    reversed_motions = true_robot_motions(path[::-1], headings[::-1])
+    direct = [reverse.update(images[::-1][k], reversed_motions[k] if k else None) for k in range(len(path))][::-1]
+    for a, b in zip(back, direct, strict=True):
+        assert (a.x, a.y, a.confidence) == pytest.approx((b.x, b.y, b.confidence), abs=1e-6)
+
+
+def test_a_night_is_trusted_both_ways_unless_the_runs_disagree():
+    from nightloc.experience.learning import trust_night
+
+    day = _day_map()
+    params = LearningParams(settled_frames=3)
+    night = _night(day, day.images[:8], [(1.0, 1.0)] * 8)
+    unsure = _estimate(1.0, 1.0, confidence=0.2, radius=3.0)
+    sure = _estimate(1.0, 1.0)
+    forward = [unsure] * 3 + [sure] * 5  # the forward run settles at frame 5 (three in a row)
+    backward = [sure] * 8
+    backward[6] = _estimate(3.0, 2.0)  # confident, 2.2 m from the forward run's estimate
+    one_way = dataclasses.replace(night, estimates=tuple(forward))
+    assert trust_night(one_way, params, agree=1.0)[0].tolist() == [False] * 5 + [True] * 3
+    both = dataclasses.replace(night, estimates=tuple(forward), backward=tuple(backward))
+    trusted, chosen = trust_night(both, params, agree=1.0)
+    # frames 0-2: trusted by the backward run alone (it settled going backwards); frame 6: the two
+    # runs are both confident and 2.2 m apart; frames 4-5 and 7 are trusted by both
+    assert trusted.tolist() == [True, True, True, True, True, True, False, True]
+    assert chosen[0] is backward[0] and chosen[7] is forward[7]

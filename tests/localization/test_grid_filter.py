@@ -115,28 +115,36 @@ def test_core_equals_the_numpy_oracle_on_random_maps_and_motions(seed, noise):
 @pytest.mark.sanitize
 @pytest.mark.parametrize("seed", [0, 1])
 def test_core_equals_the_numpy_oracle_on_an_experience_map(seed):
-    # learned references (appearances at their places' positions) whose scores run lower than the
-    # day ones, as a night frame's do against night looks: the core brings them onto the day scale
+    # learned references whose scores run lower than the day ones, as a night frame's do against
+    # night looks: two looks at one place, looks taken at other headings than the day images', and
+    # a look learned in a gap (no day image at its position); the core moves their evidence onto
+    # their places' day references
     from nightloc.io.appearances import Appearances, LearnedNight
 
     rng = np.random.default_rng(seed)
     day = _random_map(rng, n=9)
     looks = rng.choice(9, 5, replace=False)
-    night = np.r_[np.zeros(9, np.int32), np.ones(5, np.int32)]
+    looks = np.r_[looks, looks[0]]  # two looks at one place
+    gap = np.array([[day.positions[:, 0].max() + 1.0, day.positions[:, 1].mean()]])
+    n_learned = len(looks) + 1
+    night = np.r_[np.zeros(9, np.int32), np.ones(n_learned, np.int32)]
     appearances = Appearances(
-        night=night, confidence=np.where(night > 0, 0.9, 0.0), time=np.zeros(14), matches=np.zeros(14, np.int64),
-        nights=(LearnedNight(1, "night1", "2026-01-01T00:00:00Z", 5, 5, 5, 0, 0),),
+        night=night, confidence=np.where(night > 0, 0.9, 0.0), time=np.zeros(len(night)),
+        matches=np.zeros(len(night), np.int64),
+        nights=(LearnedNight(1, "night1", "2026-01-01T00:00:00Z", 5, 5, 5, 1, 0),),
     )  # fmt: skip
+    turned = rng.uniform(-0.3, 0.3, len(looks))  # the learning night's headings, not the day's
     ref_map = nightloc.ReferenceMap(
-        np.concatenate([day.images, day.images[looks]]),
-        np.concatenate([day.positions, day.positions[looks]]),
-        np.concatenate([day.headings, day.headings[looks]]),
+        np.concatenate([day.images, day.images[looks], day.images[:1]]),
+        np.concatenate([day.positions, day.positions[looks], gap]),
+        np.concatenate([day.headings, wrap_angle(day.headings[looks] + turned), [0.2]]),
         params=day.params,
         appearances=appearances,
     )
     loc = Localizer(ref_map, odometry_noise=1, grid_width=30, grid_height=24)
     np.testing.assert_array_equal(loc._filter.learned, night > 0)
     oracle = _oracle(loc)
+    assert (oracle.proxy[9:-1] == looks).all() and oracle.proxy[-1] == -1
     for k, motion in enumerate(MOTIONS):
         table = rng.uniform(15, 25, (len(ref_map), 16)).astype(np.float32)
         table[9:] *= 0.4  # night looks: lower scores everywhere

@@ -176,15 +176,19 @@ def test_lanterns_house_lamps_furniture_playhouse_and_the_removed_bench():
                 w.check_camera_positions(plan.positions)
 
 
-def test_the_other_garden_is_this_one_turned_about_the_mapped_area():
+def test_the_other_garden_is_this_one_mirrored_about_the_mapped_area():
     world = build_world("garden", 0)
     other = other_garden("garden", 0)
-    x0, y0, x1, y1 = world.mapped_area
+    x0, _, x1, _ = world.mapped_area
     assert other.mapped_area == world.mapped_area
     birdbath = next(o for o in other.objects if isinstance(o, Cylinder) and o.radius == 0.3)
-    assert birdbath.center == pytest.approx((x0 + x1 - 2.3, y0 + y1 - 3.85))
-    assert other.lights["porch_lamp"].position[:2] == pytest.approx((x0 + x1 - 5.2, y0 + y1 - 6.5))
+    assert birdbath.center == pytest.approx((x0 + x1 - 2.3, 3.85))
+    assert other.lights["porch_lamp"].position[:2] == pytest.approx((x0 + x1 - 5.2, 6.5))
+    shed = [o for o in other.objects if o.material == "shed"]  # the shed: now in the south-west corner
+    assert shed and shed[0].footprint[:, 0].max() < 0.0
     assert not np.array_equal(other.ground.values, world.ground.values)
+    for plan in season_drives("garden", 0, replace(_night(), night=1, test_drive=True)):
+        other.check_camera_positions(plan.positions)
 
 
 def test_a_rendered_season_records_every_night_and_its_bad_nights(tmp_path):

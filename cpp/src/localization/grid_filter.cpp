@@ -272,12 +272,30 @@ void GridFilter::set_learned(std::vector<std::uint8_t> learned) {
     }
     map_.learned = std::move(learned);
     two_kinds_ = count > 0 && count < n;
+    headings_ = map_.ref_headings;
+    proxy_.assign(two_kinds_ ? n : 0, -1);
+    if (!two_kinds_) return;
+    std::vector<std::vector<std::size_t>> day_refs(places_);
+    for (std::size_t d = 0; d < n; ++d)
+        if (map_.learned[d] == 0) day_refs[static_cast<std::size_t>(map_.place_of_ref[d])].push_back(d);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (map_.learned[i] == 0) continue;
+        // the day reference of the place nearest in heading (ties: the first)
+        double nearest = std::numeric_limits<double>::infinity();
+        for (const std::size_t d : day_refs[static_cast<std::size_t>(map_.place_of_ref[i])]) {
+            const double gap = headings_.empty() ? 0.0 : std::fabs(wrap(map_.ref_headings[d] - map_.ref_headings[i]));
+            if (gap < nearest) {
+                nearest = gap;
+                proxy_[i] = static_cast<std::int32_t>(d);
+            }
+        }
+        if (proxy_[i] >= 0 && !headings_.empty()) headings_[i] = map_.ref_headings[static_cast<std::size_t>(proxy_[i])];
+    }
 }
 
 void GridFilter::scale_learned() {
-    // the frame's learned scores onto the day references' scale (GridFilterMap::learned): times
-    // the ratio of the two kinds' median minimum scores, then a look's lead over its place's
-    // best day reference tempered (table_ and mins_ hold the frame's scores)
+    // the frame's learned references as evidence about their day references (GridFilterMap::learned);
+    // table_, mins_ and best_shifts_ hold the frame's scores
     const std::size_t n = n_refs(), S = n_shifts();
     sorted_.clear();
     for (std::size_t i = 0; i < n; ++i)
@@ -289,23 +307,43 @@ void GridFilter::scale_learned() {
     const double night = median_of(sorted_);
     if (!(day > 0 && night > 0)) return;  // a frame that equals references: no scale to bring
     const double ratio = day / night;
+    // (1) on the day scale; a learned reference's best minimum to its day reference
     const float inf = std::numeric_limits<float>::infinity();
-    day_best_.assign(places_, inf);
-    for (std::size_t i = 0; i < n; ++i) {
-        float& best = day_best_[static_cast<std::size_t>(map_.place_of_ref[i])];
-        if (map_.learned[i] == 0) best = std::min(best, mins_[i]);
-    }
+    evidence_.assign(n, inf);
     for (std::size_t i = 0; i < n; ++i) {
         if (map_.learned[i] == 0) continue;
-        float* row = table_.data() + i * S;
+        const auto scaled = static_cast<float>(static_cast<double>(mins_[i]) * ratio);
+        if (proxy_[i] >= 0) {
+            float& best = evidence_[static_cast<std::size_t>(proxy_[i])];
+            best = std::min(best, scaled);
+            continue;
+        }
+        float* row = table_.data() + i * S;  // a place learned in a gap: scaled only
         for (std::size_t j = 0; j < S; ++j) row[j] = static_cast<float>(static_cast<double>(row[j]) * ratio);
-        mins_[i] = static_cast<float>(static_cast<double>(mins_[i]) * ratio);
-        // only kLearnedAdvantage of the look's lead over its place's day image counts
-        const float best = day_best_[static_cast<std::size_t>(map_.place_of_ref[i])];
-        if (!(best < inf) || !(mins_[i] < best)) continue;
-        const double lift = (1.0 - kLearnedAdvantage) * (static_cast<double>(best) - static_cast<double>(mins_[i]));
-        for (std::size_t j = 0; j < S; ++j) row[j] = static_cast<float>(static_cast<double>(row[j]) + lift);
-        mins_[i] = static_cast<float>(static_cast<double>(mins_[i]) + lift);
+        mins_[i] = scaled;
+    }
+    // (2) each day reference with learned ones moved by their evidence against the typical one's
+    sorted_.clear();
+    for (std::size_t d = 0; d < n; ++d)
+        if (evidence_[d] < inf) sorted_.push_back(evidence_[d]);
+    if (sorted_.empty()) return;
+    const double neutral = median_of(sorted_);
+    for (std::size_t d = 0; d < n; ++d) {
+        if (!(evidence_[d] < inf)) continue;
+        const double move = static_cast<double>(evidence_[d]) - neutral;
+        float* row = table_.data() + d * S;
+        for (std::size_t j = 0; j < S; ++j) row[j] = static_cast<float>(static_cast<double>(row[j]) + move);
+        mins_[d] = static_cast<float>(static_cast<double>(mins_[d]) + move);
+    }
+    // (3) a learned reference scores as its day reference
+    for (std::size_t i = 0; i < n; ++i) {
+        if (map_.learned[i] == 0 || proxy_[i] < 0) continue;
+        const auto d = static_cast<std::size_t>(proxy_[i]);
+        std::copy(table_.begin() + static_cast<std::ptrdiff_t>(d * S),
+                  table_.begin() + static_cast<std::ptrdiff_t>((d + 1) * S),
+                  table_.begin() + static_cast<std::ptrdiff_t>(i * S));
+        mins_[i] = mins_[d];
+        best_shifts_[i] = best_shifts_[d];
     }
 }
 
@@ -653,7 +691,7 @@ void GridFilter::update_image(const std::uint8_t* query, const std::uint8_t* ref
 
 double GridFilter::shift_of_bin0(std::size_t i, double W) const {
     // the fractional column shift of heading bin 0 for reference i, reduced to [0, W)
-    double c = (offset_ - map_.ref_headings[i]) * W / kTwoPi;
+    double c = (offset_ - headings_[i]) * W / kTwoPi;
     c -= W * std::floor(c / W);
     if (!(c < W) || c < 0) c = 0.0;  // rounding at the ends of the range
     return c;
@@ -751,7 +789,7 @@ void GridFilter::update(const float* table) {
                 const float* row = table + i * S;
                 float* ps = place_scores_.data() + static_cast<std::size_t>(row_of_ref_[i]) * B;
                 for (std::size_t b = 0; b < bins_; ++b) {
-                    const double dx = wrap(offset_ + step * static_cast<double>(b) - map_.ref_headings[i]) * per_radian;
+                    const double dx = wrap(offset_ + step * static_cast<double>(b) - headings_[i]) * per_radian;
                     if (!(std::fabs(dx) <= c)) continue;  // not in view from this heading
                     const double x = dx + c;              // in [0, 2 c]
                     const auto j0 = std::min(static_cast<std::size_t>(x), last);
@@ -1143,7 +1181,8 @@ std::size_t GridFilter::memory_bytes() const noexcept {
     add(sums_table_), add(table_), add(mins_), add(sorted_), add(bin_high_), add(place_scores_), add(log_lik_);
     add(row_of_ref_), add(ref_c0_), add(ref_fraction_), add(row_y_), add(first_of_place_);
     add(empty_places_), add(bin_max_), add(best_shifts_), add(xs_), add(dx2_), add(hist_), add(ring_);
-    add(map_.place_of_ref), add(map_.ref_headings), add(map_.shifts), add(map_.learned), add(day_best_);
+    add(map_.place_of_ref), add(map_.ref_headings), add(map_.shifts), add(map_.learned), add(proxy_), add(headings_),
+        add(evidence_);
     return bytes;
 }
 

@@ -58,10 +58,19 @@ from ..io.appearances import Appearances, LearnedNight
 from ..localization.localizer import Estimate, Localizer
 from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import match
-from ..motion.odometry import wrap_angle
+from ..motion.odometry import as_motion, reverse_motion, wrap_angle
 from ..preparation.params import PreparationParams
 
-__all__ = ["LearningParams", "LearningReport", "LocalizedNight", "learn", "localize_night", "trusted_frames"]
+__all__ = [
+    "LearningParams",
+    "LearningReport",
+    "LocalizedNight",
+    "backward_estimates",
+    "learn",
+    "localize_night",
+    "trust_night",
+    "trusted_frames",
+]
 
 #: The place spacing assumed for a map of a single place (metres).
 _SINGLE_PLACE_SPACING = 1.0
@@ -130,6 +139,8 @@ class LocalizedNight:
         source: the log (a path), for the map's history.
         map_fingerprint: :attr:`ReferenceMap.fingerprint` of the map it was localized against.
         params: the preparation parameters of ``images``.
+        backward: the M estimates of the same filter run over the night backwards (last frame
+            first, each motion reversed), in frame order; None when only the forward run was made.
     """
 
     images: np.ndarray
@@ -140,6 +151,7 @@ class LocalizedNight:
     source: str
     map_fingerprint: str
     params: PreparationParams
+    backward: tuple[Estimate, ...] | None = None
 
     def __len__(self) -> int:
         return len(self.estimates)
@@ -154,6 +166,7 @@ def localize_night(
     names: Sequence[str] | None = None,
     timestamps: Sequence[float] | np.ndarray | None = None,
     source: str = "",
+    backward: bool = True,
 ) -> LocalizedNight:
     """Runs the grid filter over a night's frames, keeping what :func:`learn` needs.
 
@@ -164,6 +177,9 @@ def localize_night(
         localizer: a filter :class:`Localizer` over ``ref_map`` (default ``Localizer(ref_map)``);
             it is reset first.
         names, timestamps, source: the log's frame names, times (seconds) and path.
+        backward: also run the filter over the night backwards (:func:`backward_estimates`), so
+            that the frames before the forward run settled can be learned too, and a frame the
+            two runs place apart is not (:func:`trust_night`).
     """
     loc = Localizer(ref_map) if localizer is None else localizer
     if loc.ref_map is not ref_map and loc.ref_map != ref_map:
@@ -189,8 +205,10 @@ def localize_night(
     if times is not None and times.shape != (m,):
         raise ValueError(f"timestamps must be ({m},) seconds, got shape {times.shape}")
     shape = (0, ref_map.params.height, ref_map.params.width)
+    prepared = np.stack(images) if images else np.zeros(shape, np.uint8)
+    motions = [None] * m if odometry is None else [odometry[k] for k in range(m)]
     return LocalizedNight(
-        np.stack(images) if images else np.zeros(shape, np.uint8),
+        prepared,
         tuple(estimates),
         np.asarray(medians, dtype=np.float64),
         tuple(names),
@@ -198,29 +216,69 @@ def localize_night(
         str(source),
         ref_map.fingerprint,
         ref_map.params,
+        backward_estimates(loc, prepared, motions) if backward and m > 1 else None,
     )
+
+
+def backward_estimates(localizer: Localizer, images: np.ndarray, odometry: Sequence[object]) -> tuple[Estimate, ...]:
+    """The filter run over a night backwards: prepared ``images`` ``(M, Ry, Rx)`` from the last to
+    the first, each fed the reverse of the motion that led to the next frame
+    (:func:`~nightloc.motion.odometry.reverse_motion`); the M estimates in frame order. The
+    localizer is reset first."""
+    localizer.reset()
+    out: list[Estimate] = []
+    for k in range(len(images) - 1, -1, -1):
+        table = localizer.score_table(images[k], prepared=True)
+        motion = None if k + 1 == len(images) else reverse_motion(as_motion(odometry[k + 1]))
+        out.append(localizer.update_table(table, motion))
+    return tuple(out[::-1])
 
 
 def trusted_frames(estimates: Sequence[Estimate], params: LearningParams) -> np.ndarray:
     """``(M,)`` bool: the frames learned from (confident, tight, after the belief settled)."""
-    good = np.array(
-        [
-            math.isfinite(e.confidence)
-            and e.confidence >= params.min_confidence
-            and math.isfinite(e.credible_radius)
-            and e.credible_radius <= params.max_credible_radius
-            and math.isfinite(e.x)
-            and math.isfinite(e.y)
-            for e in estimates
-        ],
-        dtype=bool,
-    )
+    good = np.array([_confident(e, params) for e in estimates], dtype=bool)
     run = 0
     trusted = np.zeros_like(good)
     for k, ok in enumerate(good):
         run = run + 1 if ok else 0
         trusted[k] = run >= params.settled_frames
     return trusted
+
+
+def _confident(estimate: Estimate, params: LearningParams) -> bool:
+    return (
+        math.isfinite(estimate.confidence)
+        and estimate.confidence >= params.min_confidence
+        and math.isfinite(estimate.credible_radius)
+        and estimate.credible_radius <= params.max_credible_radius
+        and math.isfinite(estimate.x)
+        and math.isfinite(estimate.y)
+    )
+
+
+def trust_night(night: LocalizedNight, params: LearningParams, agree: float) -> tuple[np.ndarray, tuple[Estimate, ...]]:
+    """The frames learned from, ``(M,)`` bool, and the estimate each is learned at.
+
+    A frame is trusted by a run (:func:`trusted_frames`; the backward run's settled frames count
+    backwards in time) and then learned at that run's estimate (both trusting it: the tighter one),
+    unless a run confident there (its confidence and credible radius within the thresholds) places
+    it more than ``agree`` metres away: the two runs then disagree (a robot carried off, a
+    look-alike), and neither is taken.
+    """
+    runs = [night.estimates] if night.backward is None else [night.estimates, night.backward]
+    trusted = [trusted_frames(night.estimates, params)]
+    if night.backward is not None:
+        trusted.append(trusted_frames(night.backward[::-1], params)[::-1])
+    chosen: list[Estimate] = []
+    keep = np.zeros(len(night), dtype=bool)
+    for k in range(len(night)):
+        candidates = [run[k] for run, ok in zip(runs, trusted, strict=True) if ok[k]]
+        best = min(candidates, key=lambda e: e.credible_radius) if candidates else night.estimates[k]
+        chosen.append(best)
+        keep[k] = bool(candidates) and all(
+            math.hypot(run[k].x - best.x, run[k].y - best.y) <= agree for run in runs if _confident(run[k], params)
+        )
+    return keep, tuple(chosen)
 
 
 @dataclass(frozen=True)
@@ -320,15 +378,15 @@ def learn(
         raise TypeError(f"params must be a LearningParams, got {type(params).__name__}")
     _check_night(ref_map, night)
     record = ref_map.appearances or Appearances.day(len(ref_map), ref_map.fingerprint)
-    trusted = trusted_frames(night.estimates, params)
+    spacing = place_spacing(ref_map.positions[record.night == 0])
+    attach, gap = params.attach_fraction * spacing, params.gap_fraction * spacing
+    trusted, estimates = trust_night(night, params, gap)
     places, place_of_ref = _places(ref_map.positions)
     n_places = len(places)
     if not trusted.any():
         report = LearningReport(0, len(night), 0, None, 0, 0, 0, 0, 0, n_places, len(ref_map))
         return ref_map, report
     number = len(record.nights) + 1
-    spacing = place_spacing(ref_map.positions[record.night == 0])
-    attach, gap = params.attach_fraction * spacing, params.gap_fraction * spacing
     forward = not ref_map.params.wrap and ref_map.headings is not None
     tolerance = math.radians(params.heading_tolerance)
     headings = ref_map.headings
@@ -355,10 +413,10 @@ def learn(
     new_places: list[int] = []  # frames that became new places
     attached: dict[tuple[int, float], list[int]] = {}
     for k in np.flatnonzero(trusted):
-        e = night.estimates[k]
+        e = estimates[k]
         distance, place = tree.query((e.x, e.y))
         if new_places:
-            new_xy = np.array([(night.estimates[f].x, night.estimates[f].y) for f in new_places])
+            new_xy = np.array([(estimates[f].x, estimates[f].y) for f in new_places])
             nearest_new = float(np.min(np.hypot(*(new_xy - (e.x, e.y)).T)))
             if nearest_new < distance:
                 if nearest_new >= gap:
@@ -378,7 +436,7 @@ def learn(
     for target, frames in attached.items():
         refs = view_refs(target)
         spot = places[target[0]]
-        candidate = min(frames, key=lambda f: (_distance(night.estimates[f], spot), -night.estimates[f].confidence))
+        candidate = min(frames, key=lambda f: (_distance(estimates[f], spot), -estimates[f].confidence))
         seen, best_of_candidate = False, -1
         for f in frames:
             result = match(night.images[f], ref_map.images[refs], shifts=shifts, threads=1)
@@ -413,7 +471,7 @@ def learn(
     new_night, new_conf, new_time = [], [], []
 
     def add(frame: int, position: np.ndarray, heading: float, covariance: np.ndarray | None) -> None:
-        e = night.estimates[frame]
+        e = estimates[frame]
         images.append(night.images[frame][None])
         positions.append(np.asarray(position, dtype=np.float64)[None])
         if heads is not None:
@@ -430,12 +488,12 @@ def learn(
         new_time.append(math.nan if night.timestamps is None else float(night.timestamps[frame]))
 
     for view, f, best in learned:
-        e = night.estimates[f]
+        e = estimates[f]
         heading = view[1] if forward else _frame_heading(e, ref_map, night, f, best)
         cov = None if ref_map.covariances is None else ref_map.covariances[best]
         add(f, ref_map.positions[best], heading, cov)
     for f in new_places:
-        e = night.estimates[f]
+        e = estimates[f]
         best = int(match(night.images[f], ref_map.images, shifts=shifts, threads=1).index)
         heading = e.heading if math.isfinite(e.heading) else _frame_heading(e, ref_map, night, f, best)
         cov = None

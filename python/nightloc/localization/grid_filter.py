@@ -218,8 +218,8 @@ class GridFilter:
         params: :class:`FilterParams`.
         noise: the odometry noise per step (a Table III model number or a NoiseModel).
         confidence_radius: metres; confidence = belief within it.
-        learned: ``(N,)`` uint8, 1 for a reference learned on a night (its scores are brought onto
-            the day references' scale per frame, :mod:`nightloc.localization.day_scale`), or None.
+        learned: ``(N,)`` uint8, 1 for a reference learned on a night (evidence about its day
+            reference per frame, :mod:`nightloc.localization.day_scale`), or None.
     """
 
     def __init__(

@@ -56,7 +56,7 @@ from ..config import params_section
 from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, match, rotational_sad, shift_table
 from ..motion.odometry import Motion, NoiseModel, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
-from .day_scale import learned_mask, on_day_scale
+from .day_scale import learned_mask, learned_proxies, on_day_scale
 from .grid_filter import MOTION_NONE, FilterParams, FilterState, GridFilter, MotionCode, motion_code
 from .heatmap import HeatMapper
 from .sequence import cumulative_offsets
@@ -251,7 +251,12 @@ class Localizer:
             confidence_radius=params.confidence_radius,
         )
         self._shifts = ref_map.params.shifts
-        self._learned = learned_mask(ref_map)  # experience maps: learned scores on the day scale
+        self._learned = learned_mask(ref_map)  # experience maps: learned looks as evidence about day images
+        self._proxies = (
+            None
+            if self._learned is None
+            else learned_proxies(self._learned, self.mapper.place_of_ref, ref_map.headings)
+        )
         self._prepared_shape = (ref_map.params.height, ref_map.params.width)
         if method == "filter":
             self._filter: GridFilter | None = self._new_filter(odometry_noise)
@@ -545,7 +550,7 @@ class Localizer:
                 "robot-frame odometry (RobotMotion) needs a heading estimate, and there is none: the reference "
                 "map has no headings; pass map-frame displacements (MapDisplacement or (dx, dy)) instead"
             )
-        scores = on_day_scale(result.scores, self._learned, self.mapper.place_of_ref)  # learned looks: day scale
+        scores = on_day_scale(result.scores, self._learned, self._proxies)  # learned looks: evidence
         values, fill = self.mapper.place_excess(scores)  # checks the scores before any state changes
         if isinstance(motion, RobotMotion) and math.isfinite(self._heading):
             predicted = self._heading + motion.turn

@@ -18,7 +18,7 @@ drive on the other path, before learning. The day map alone localizes the same d
 same odometry. Per night, map and drive a :class:`NightRecord`: the tail of the errors from the
 10th frame (:func:`~nightloc.localization.tail.tail_metrics`), the time per frame (preparation,
 matching and the filter's update, one thread), what learning added, evicted and found known,
-the learned appearances used (the best-scoring reference of a frame), how many additions were
+the learned appearances used (a trusted frame's best match at its place), how many additions were
 *wrong* (stored more than 1 m from where their frame was taken; every addition of a covered night
 or a night in another garden), and the map's size (places, references, learned ones, bytes of
 its file). :func:`write_csv` writes the records, :func:`season_summary` sums them up.
@@ -43,7 +43,7 @@ import numpy as np
 from ..experience.learning import LearningParams, LearningReport, LocalizedNight, learn, localize_night
 from ..io.atomic import atomic_file
 from ..io.traverse import Traverse, load_traverse
-from ..localization.localizer import Estimate, Localizer
+from ..localization.localizer import Localizer
 from ..localization.tail import LOST_M, TailMetrics, tail_metrics
 from ..mapping.reference_map import ReferenceMap
 from ..motion.odometry import Motion, simulate_robot_odometry, traverse_odometry
@@ -107,8 +107,9 @@ class NightRecord:
         frames, median_m, p95_m, share_over_1m, longest_run_over_1m: the errors' tail (from the
             10th frame; NaN on a night in another garden, whose truth is not this map's frame).
         ms_per_frame: preparation, matching and the filter's update per frame, milliseconds.
-        used: learned appearances that were a frame's best-scoring reference tonight;
-            ``used_share``: the share of frames whose best reference was learned.
+        used: learned appearances that tonight's learning found the best match at their place
+            for one of its trusted frames (``learn`` rows of the learned map; 0 elsewhere);
+            ``used_share``: their share of the map's learned appearances.
         trusted, added, new_places, evicted, known, wrong: what learning tonight did (``learn``
             rows of the learned map; 0 elsewhere): frames trusted, appearances added to places,
             new places, appearances evicted, places that knew tonight's look; additions stored more
@@ -205,15 +206,14 @@ def _localize(
     return night, 1000.0 * (time.perf_counter() - start) / max(len(frames), 1)
 
 
-def _usage(ref_map: ReferenceMap, estimates: Sequence[Estimate]) -> tuple[int, float]:
-    """Learned appearances that were a frame's best reference, and the share of such frames."""
-    appearances = ref_map.appearances
-    if appearances is None or not estimates:
-        return 0, 0.0
-    learned = np.asarray(appearances.night) > 0
-    best = np.array([e.best_ref for e in estimates])
-    hits = best[(best >= 0) & learned[np.maximum(best, 0)]]
-    return len(np.unique(hits)), float(len(hits) / len(estimates))
+def _usage(before: ReferenceMap, after: ReferenceMap) -> int:
+    """Learned appearances of ``before`` that tonight's learning found the best match at their
+    place for one of its trusted frames (their match count grew)."""
+    if before.appearances is None or after.appearances is None:
+        return 0
+    grown = dict(zip(after.names, after.appearances.matches, strict=True))
+    learned = np.flatnonzero(np.asarray(before.appearances.night) > 0)
+    return sum(int(grown.get(before.names[i], 0) > before.appearances.matches[i]) for i in learned)
 
 
 def _wrong(before: ReferenceMap, after: ReferenceMap, report: LearningReport, log: Traverse, bad: str) -> int:
@@ -304,7 +304,13 @@ def _one_night(
                 continue
             new_map, report = learn(chain.map, run, settings.learning)
             learned = _record(base, "learned", run, log, ms, chain.map, chain.map_bytes, report)
-            yield dataclasses.replace(learned, wrong=_wrong(chain.map, new_map, report, log, bad))
+            used = _usage(chain.map, new_map)
+            yield dataclasses.replace(
+                learned,
+                wrong=_wrong(chain.map, new_map, report, log, bad),
+                used=used,
+                used_share=used / max(learned.learned_references, 1),
+            )
             if new_map is not chain.map:
                 chain.map, chain.map_bytes = _file_size(new_map, folder)
             say(
@@ -331,7 +337,6 @@ def _record(
     else:
         xy = np.array([[e.x, e.y] for e in run.estimates])
         tail = tail_metrics(np.hypot(*(xy - truth).T))
-    used, share = _usage(ref_map, run.estimates)
     appearances = ref_map.appearances
     learned = 0 if appearances is None else int(np.sum(np.asarray(appearances.night) > 0))
     return NightRecord(
@@ -343,8 +348,8 @@ def _record(
         share_over_1m=tail.share_over_1m,
         longest_run_over_1m=tail.longest_run_over_1m,
         ms_per_frame=ms,
-        used=used,
-        used_share=share,
+        used=0,
+        used_share=0.0,
         trusted=0 if report is None else report.trusted,
         added=0 if report is None else report.appearances,
         new_places=0 if report is None else report.places,

@@ -37,8 +37,7 @@ Bad nights (``bad``, :data:`BAD_NIGHTS`) replace a night's re-drive: ``covered``
 covered: :data:`COVERED_TRANSMISSION` of the light reaches the sensor, nearly black noisy
 frames), ``kidnapped`` (the robot carried halfway along its path at half-time; its wheel odometry
 shows no motion for the carry) and ``other_garden`` (the night driven in another garden: the world
-built from another seed and turned by 180 degrees about the mapped area's centre,
-:func:`other_garden`).
+built from another seed and mirrored, :func:`other_garden`).
 """
 
 from __future__ import annotations
@@ -459,31 +458,33 @@ def _piece(kind: str, x: float, y: float, facing: float) -> list[Solid]:
 
 def other_garden(world: str, seed: int) -> World:
     """Another garden for an ``other_garden`` night: ``world`` built from ``seed +
-    OTHER_GARDEN_SEED`` (other textures, another sun) and turned by 180 degrees about its mapped
-    area's centre (the house, the shed and the trees where this garden has none); the same mapped
-    area, so the robot's usual drive fits it."""
+    OTHER_GARDEN_SEED`` (other textures, another sun) and mirrored about its mapped area's middle
+    (x -> x0 + x1 - x: the house, the shed and the trees on the other side, every view a mirror
+    image no turn of this garden's matches); the same mapped area, so the robot's usual drive fits
+    it."""
     base = build_world(world, int(seed) + OTHER_GARDEN_SEED)
-    x0, y0, x1, y1 = base.mapped_area
-    cx, cy = x0 + x1, y0 + y1  # p -> (cx, cy) - p turns by 180 degrees about the centre
+    x0, _, x1, _ = base.mapped_area
+    cx = x0 + x1  # x -> cx - x mirrors about the middle
 
-    def turned(solid: Solid) -> Solid:
+    def mirrored(solid: Solid) -> Solid:
         if isinstance(solid, Cylinder):
-            return replace(solid, center=(cx - solid.center[0], cy - solid.center[1]))
-        return replace(solid, footprint=np.array([cx, cy]) - solid.footprint)
+            return replace(solid, center=(cx - solid.center[0], solid.center[1]))
+        footprint = solid.footprint[::-1].copy()  # a mirror turns the vertices clockwise: reverse them
+        footprint[:, 0] = cx - footprint[:, 0]
+        return replace(solid, footprint=footprint)
 
     g = base.ground
-    rows, cols = g.values.shape[:2]
-    flip = (slice(None, None, -1), slice(None, None, -1))
+    cols = g.values.shape[1]
     ground = GroundMap(
-        np.ascontiguousarray(g.values[flip]),
+        np.ascontiguousarray(g.values[:, ::-1]),
         cx - (g.x0 + cols / g.pixels_per_metre),
-        cy - (g.y0 + rows / g.pixels_per_metre),
+        g.y0,
         g.pixels_per_metre,
-        None if g.lawn is None else np.ascontiguousarray(g.lawn[flip]),
-        None if g.stripes is None else np.ascontiguousarray(g.stripes[flip]),
+        None if g.lawn is None else np.ascontiguousarray(g.lawn[:, ::-1]),
+        None if g.stripes is None else np.ascontiguousarray(g.stripes[:, ::-1]),
     )
     lights = {
-        name: replace(light, position=(cx - light.position[0], cy - light.position[1], light.position[2]))
+        name: replace(light, position=(cx - light.position[0], light.position[1], light.position[2]))
         for name, light in base.lights.items()
     }
-    return replace(base, objects=[turned(o) for o in base.objects], ground=ground, lights=lights)
+    return replace(base, objects=[mirrored(o) for o in base.objects], ground=ground, lights=lights)
