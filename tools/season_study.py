@@ -16,6 +16,7 @@ and the tables from a CSV written before.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 import time
@@ -23,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from nightloc.experience.learning import LearningParams
 from nightloc.figures.season import season_figure
 from nightloc.studies.season import NightRecord, SeasonSettings, read_csv, run_season, season_summary, write_csv
 
@@ -80,6 +82,20 @@ def summary_table(records: list[NightRecord]) -> None:
         )
 
 
+def learning_params(items: list[str]) -> LearningParams | None:
+    """LearningParams with ``name=value`` overrides (None: the defaults)."""
+    if not items:
+        return None
+    fields = {f.name: f.type for f in dataclasses.fields(LearningParams)}
+    overrides: dict[str, object] = {}
+    for item in items:
+        name, _, value = item.partition("=")
+        if name not in fields:
+            raise SystemExit(f"--learn-param: unknown field {name!r}; LearningParams has {', '.join(fields)}")
+        overrides[name] = int(value) if fields[name] in ("int", int) else float(value)
+    return LearningParams(**overrides)  # type: ignore[arg-type]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dataset", type=Path, nargs="?", help="a season dataset (nightloc synth --season N)")
@@ -91,6 +107,7 @@ def main() -> None:
     parser.add_argument("--figure", type=Path, default=None, help="draw the curves here (.png, .pdf, .svg)")
     parser.add_argument("--log", type=Path, default=None, help="append a progress line per night and chain here")
     parser.add_argument("--from-csv", type=Path, default=None, help="tables and figure from this CSV instead")
+    parser.add_argument("--learn-param", action="append", default=[], help="a LearningParams field, e.g. novelty=0.4")
     args = parser.parse_args()
     if args.from_csv is not None:
         records = read_csv(args.from_csv)
@@ -101,6 +118,7 @@ def main() -> None:
             odometry=("wheel", "robot3") if args.quick else tuple(k.strip() for k in args.odometry.split(",")),
             draws=1 if args.quick else args.draws,
             nights=6 if args.quick and args.nights is None else args.nights,
+            learning=learning_params(args.learn_param),
         )
         start = time.perf_counter()
 

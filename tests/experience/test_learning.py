@@ -234,7 +234,8 @@ def test_the_backward_run_is_the_filter_over_the_reversed_drive():
     nearest = [int(np.argmin(np.hypot(*(day.positions - p).T))) for p in path]
     images = day.images[nearest]
     motions = true_robot_motions(path, headings)
-    back = backward_estimates(nightloc.Localizer(day, odometry_noise=1), images, motions)
+    back, predicted = backward_estimates(nightloc.Localizer(day, odometry_noise=1), images, motions)
+    assert predicted[-1] is None and all(b.shape == (100, 100) for b in predicted[:-1])
     # the same filter driven along the path reversed, with that drive's own true motions
     reverse = nightloc.Localizer(day, odometry_noise=1)
     reversed_motions = true_robot_motions(path[::-1], headings[::-1])

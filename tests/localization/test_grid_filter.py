@@ -156,6 +156,29 @@ def test_core_equals_the_numpy_oracle_on_an_experience_map(seed):
         assert estimate.score == pytest.approx(float(oracle.mins.min()), rel=1e-6)
 
 
+def test_the_estimate_of_a_given_belief_is_the_oracles():
+    # a smoother's product of two runs' beliefs, estimated as the filter estimates its own
+    rng = np.random.default_rng(7)
+    ref_map = _random_map(rng, n=10)
+    loc = Localizer(ref_map, odometry_noise=1, grid_width=30, grid_height=24)
+    oracle = _oracle(loc)
+    for k, motion in enumerate(MOTIONS[:3]):
+        loc.update_table(rng.uniform(10, 20, (10, 16)).astype(np.float32), motion if k else None)
+    belief = loc.belief * rng.uniform(0.5, 1.5, loc.belief.shape)  # any positive scale
+    estimate = loc.estimate_belief(belief * 3.0)
+    oracle.pose, oracle.p = False, (belief / belief.sum())[None]
+    x, y, _, _, radius, confidence, _, _ = oracle.estimate()
+    assert (estimate.x, estimate.y) == pytest.approx((x, y), abs=1e-4)
+    assert estimate.credible_radius == pytest.approx(radius, abs=1e-6)
+    assert estimate.confidence == pytest.approx(confidence, abs=1e-5)
+    assert estimate.best_ref == -1 and math.isnan(estimate.score)
+    np.testing.assert_allclose(loc.belief, belief / belief.sum(), rtol=1e-5)  # the filter now holds it
+    with pytest.raises(ValueError, match="grid_height, grid_width"):
+        loc.estimate_belief(belief[:5])
+    with pytest.raises(ValueError, match="non-negative"):
+        loc.estimate_belief(-belief)
+
+
 def test_step_scaled_noise_is_the_constant_noise_of_each_step():
     # wheel odometry's step-scaled model blurs a step as the constant model of that step's size:
     # distance_per_metre |(forward, left)| and heading_per_radian |turn| in quadrature

@@ -44,6 +44,7 @@ enter a map.
 
 from __future__ import annotations
 
+import copy
 import datetime as dt
 import math
 from collections.abc import Iterable, Sequence
@@ -68,6 +69,7 @@ __all__ = [
     "backward_estimates",
     "learn",
     "localize_night",
+    "smoothed_estimates",
     "trust_night",
     "trusted_frames",
 ]
@@ -141,6 +143,9 @@ class LocalizedNight:
         params: the preparation parameters of ``images``.
         backward: the M estimates of the same filter run over the night backwards (last frame
             first, each motion reversed), in frame order; None when only the forward run was made.
+        smoothed: the M estimates of the product of the two runs' beliefs (each frame's forward
+            belief times the backward run's prediction of it: what the whole night says of it);
+            None without the backward run.
     """
 
     images: np.ndarray
@@ -152,6 +157,7 @@ class LocalizedNight:
     map_fingerprint: str
     params: PreparationParams
     backward: tuple[Estimate, ...] | None = None
+    smoothed: tuple[Estimate, ...] | None = None
 
     def __len__(self) -> int:
         return len(self.estimates)
@@ -188,7 +194,7 @@ def localize_night(
         raise ValueError("learning needs the grid filter's confidence: a Localizer with method='filter'")
     loc.reset()
     preparer = ref_map.preparer
-    images, estimates, medians = [], [], []
+    images, estimates, medians, beliefs = [], [], [], []
     for k, frame in enumerate(frames):
         prepared = preparer.prepare(frame)
         table = loc.score_table(prepared, prepared=True)
@@ -196,6 +202,8 @@ def localize_night(
         estimates.append(loc.update_table(table, motion))
         images.append(prepared)
         medians.append(float(np.median(table.min(axis=1))))
+        if backward:
+            beliefs.append(loc.belief)
     m = len(estimates)
     if names is None:
         names = [f"{k:06d}" for k in range(m)]
@@ -207,6 +215,10 @@ def localize_night(
     shape = (0, ref_map.params.height, ref_map.params.width)
     prepared = np.stack(images) if images else np.zeros(shape, np.uint8)
     motions = [None] * m if odometry is None else [odometry[k] for k in range(m)]
+    back, smoothed = None, None
+    if backward and m > 1:
+        back, predicted = backward_estimates(loc, prepared, motions)
+        smoothed = smoothed_estimates(loc, beliefs, predicted)
     return LocalizedNight(
         prepared,
         tuple(estimates),
@@ -216,22 +228,46 @@ def localize_night(
         str(source),
         ref_map.fingerprint,
         ref_map.params,
-        backward_estimates(loc, prepared, motions) if backward and m > 1 else None,
+        back,
+        smoothed,
     )
 
 
-def backward_estimates(localizer: Localizer, images: np.ndarray, odometry: Sequence[object]) -> tuple[Estimate, ...]:
+def backward_estimates(
+    localizer: Localizer, images: np.ndarray, odometry: Sequence[object]
+) -> tuple[tuple[Estimate, ...], list[np.ndarray | None]]:
     """The filter run over a night backwards: prepared ``images`` ``(M, Ry, Rx)`` from the last to
     the first, each fed the reverse of the motion that led to the next frame
-    (:func:`~nightloc.motion.odometry.reverse_motion`); the M estimates in frame order. The
-    localizer is reset first."""
+    (:func:`~nightloc.motion.odometry.reverse_motion`). Returns the M estimates and, per frame, the
+    run's position belief predicted to it before its own frame (None for the last frame: no
+    prediction), both in frame order. The localizer is reset first."""
     localizer.reset()
     out: list[Estimate] = []
+    predicted: list[np.ndarray | None] = []
     for k in range(len(images) - 1, -1, -1):
         table = localizer.score_table(images[k], prepared=True)
         motion = None if k + 1 == len(images) else reverse_motion(as_motion(odometry[k + 1]))
+        if motion is None:
+            predicted.append(None)
+        else:
+            ahead = copy.copy(localizer)
+            ahead.predict(motion)
+            predicted.append(ahead.belief)
         out.append(localizer.update_table(table, motion))
-    return tuple(out[::-1])
+    return tuple(out[::-1]), predicted[::-1]
+
+
+def smoothed_estimates(
+    localizer: Localizer, forward: Sequence[np.ndarray], predicted: Sequence[np.ndarray | None]
+) -> tuple[Estimate, ...]:
+    """Per frame the estimate of its forward belief times the backward run's prediction of it
+    (the night's evidence before and after the frame, the frame's own once): the two-filter
+    smoother, over position. ``localizer``'s belief is replaced (it ends at the first frame's)."""
+    out = []
+    for belief, ahead in zip(forward, predicted, strict=True):
+        product = belief if ahead is None else belief * ahead
+        out.append(localizer.estimate_belief(product if product.sum() > 0 else belief))
+    return tuple(out)
 
 
 def trusted_frames(estimates: Sequence[Estimate], params: LearningParams) -> np.ndarray:
@@ -259,23 +295,29 @@ def _confident(estimate: Estimate, params: LearningParams) -> bool:
 def trust_night(night: LocalizedNight, params: LearningParams, agree: float) -> tuple[np.ndarray, tuple[Estimate, ...]]:
     """The frames learned from, ``(M,)`` bool, and the estimate each is learned at.
 
-    A frame is trusted by a run (:func:`trusted_frames`; the backward run's settled frames count
-    backwards in time) and then learned at that run's estimate (both trusting it: the tighter one),
-    unless a run confident there (its confidence and credible radius within the thresholds) places
-    it more than ``agree`` metres away: the two runs then disagree (a robot carried off, a
-    look-alike), and neither is taken.
+    A frame is trusted by a run: the forward run, the backward run or their product (the
+    smoother), each settled as :func:`trusted_frames` says (the backward run's settled frames count
+    backwards in time). It is learned at the smoother's estimate if that trusts it, else at the
+    tighter of the two runs'; unless the forward or the backward run, confident there (confidence
+    and credible radius within the thresholds), places it more than ``agree`` metres away: the
+    runs then disagree (a robot carried off, a look-alike), and nothing is taken.
     """
     runs = [night.estimates] if night.backward is None else [night.estimates, night.backward]
     trusted = [trusted_frames(night.estimates, params)]
     if night.backward is not None:
         trusted.append(trusted_frames(night.backward[::-1], params)[::-1])
+    smoothed = night.smoothed
+    by_smoother = np.zeros(len(night), dtype=bool) if smoothed is None else trusted_frames(smoothed, params)
     chosen: list[Estimate] = []
     keep = np.zeros(len(night), dtype=bool)
     for k in range(len(night)):
         candidates = [run[k] for run, ok in zip(runs, trusted, strict=True) if ok[k]]
-        best = min(candidates, key=lambda e: e.credible_radius) if candidates else night.estimates[k]
+        if smoothed is not None and by_smoother[k]:
+            best = smoothed[k]
+        else:
+            best = min(candidates, key=lambda e: e.credible_radius) if candidates else night.estimates[k]
         chosen.append(best)
-        keep[k] = bool(candidates) and all(
+        keep[k] = (bool(candidates) or bool(by_smoother[k])) and all(
             math.hypot(run[k].x - best.x, run[k].y - best.y) <= agree for run in runs if _confident(run[k], params)
         )
     return keep, tuple(chosen)

@@ -320,6 +320,12 @@ class GridFilter:
         self.core.predict(*motion)
         return _state(self.core.estimate(), None, None)
 
+    def estimate_belief(self, marginal: np.ndarray) -> FilterState:
+        """The belief replaced by ``marginal`` ``(grid_height, grid_width)`` float32 summing to 1
+        (position mode) and its estimate."""
+        self.core.set_belief(marginal[np.newaxis], False, 0.0)
+        return _state(self.core.estimate(), None, None)
+
     def marginal(self) -> np.ndarray:
         """``(grid_height, grid_width)`` float64: the belief summed over heading (sums to 1)."""
         return self.core.marginal()

@@ -468,6 +468,22 @@ class Localizer:
             state = flt.predict(motion_code(motion))
             return self._filter_estimate(state, return_heatmap, frame=False)
 
+    def estimate_belief(self, belief: np.ndarray) -> Estimate:
+        """Replaces the filter's belief by the position belief ``belief`` ``(grid_height,
+        grid_width)`` (non-negative, any positive sum; the heading forgotten) and returns its
+        estimate as :meth:`predict` reports one (``best_ref`` -1, ``score`` NaN): e.g. of the
+        product of a forward and a backward run's beliefs (a smoother)."""
+        flt = self._require_filter("estimate_belief")
+        b = np.asarray(belief, dtype=np.float64)
+        if b.shape != self.mapper.grid.shape:
+            raise ValueError(f"belief must be {self.mapper.grid.shape} (grid_height, grid_width), got shape {b.shape}")
+        total = float(b.sum())
+        if not (np.all(np.isfinite(b)) and np.all(b >= 0) and total > 0):
+            raise ValueError("belief must be finite, non-negative and not all zero")
+        with self._guard("estimate_belief"):
+            state = flt.estimate_belief(np.ascontiguousarray(b / total, dtype=np.float32))
+            return self._filter_estimate(state, False, frame=False)
+
     def _motion(self, odometry: object) -> MotionCode:
         motion = as_motion(odometry)
         if self._frames == 0:
