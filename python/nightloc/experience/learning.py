@@ -45,9 +45,10 @@ enter a map.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import datetime as dt
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -63,9 +64,11 @@ from ..motion.odometry import as_motion, reverse_motion, wrap_angle
 from ..preparation.params import PreparationParams
 
 __all__ = [
+    "RETENTION_POLICIES",
     "LearningParams",
     "LearningReport",
     "LocalizedNight",
+    "RetentionPolicy",
     "backward_estimates",
     "learn",
     "localize_night",
@@ -76,6 +79,45 @@ __all__ = [
 
 #: The place spacing assumed for a map of a single place (metres).
 _SINGLE_PLACE_SPACING = 1.0
+
+
+@dataclass(frozen=True)
+class RetentionPolicy:
+    """Which learned appearances of a place view go first when a night's new look would exceed
+    the cap: :meth:`order` sorts them, the first goes first. ``key`` maps an appearance (its
+    record ``Appearances``, its matches so far, tonight's night number, its index) to a sort key."""
+
+    name: str
+    description: str
+    key: Callable[[Appearances, np.ndarray, int, int], tuple]
+
+    def order(self, refs: Sequence[int], record: Appearances, matches: np.ndarray, night: int) -> list[int]:
+        """``refs`` (learned appearances' indices), the first to go first."""
+        return sorted(refs, key=lambda r: self.key(record, matches, night, r))
+
+
+#: The retention policies by name (:attr:`LearningParams.retention`; the sweep in
+#: docs/experience_maps.md chose the default).
+RETENTION_POLICIES: dict[str, RetentionPolicy] = {
+    policy.name: policy
+    for policy in (
+        RetentionPolicy(
+            "usage",
+            "the fewest matches (ties: the oldest night, the lowest confidence)",
+            lambda rec, m, night, r: (int(m[r]), int(rec.night[r]), float(rec.confidence[r]), r),
+        ),
+        RetentionPolicy(
+            "recency",
+            "the oldest night learned (ties: the fewest matches)",
+            lambda rec, m, night, r: (int(rec.night[r]), int(m[r]), r),
+        ),
+        RetentionPolicy(
+            "usage_rate",
+            "the fewest matches per night since learned (ties: the oldest night)",
+            lambda rec, m, night, r: (int(m[r]) / max(night - int(rec.night[r]), 1), int(rec.night[r]), r),
+        ),
+    )
+}
 
 
 @params_section("learning")
@@ -98,6 +140,13 @@ class LearningParams:
             the best of its appearances scores above this fraction of the frame's median score
             over the map (0: always, a large value: never).
         max_learned: learned appearances kept per place view (>= 1).
+        retention: which learned appearance of a full place view goes for a new one, a name of
+            :data:`RETENTION_POLICIES`.
+        max_look_ratio: a night is not learned when its trusted frames match their places'
+            learned appearances no better than this fraction of their median score over all
+            learned appearances (the median over the frames): it does not look like this map's
+            nights (another garden). Checked once the map has learned appearances at the places
+            of at least ``settled_frames`` of the night's frames.
     """
 
     min_confidence: float = 0.8
@@ -108,6 +157,8 @@ class LearningParams:
     heading_tolerance: float = 45.0
     novelty: float = 0.5
     max_learned: int = 3
+    retention: str = "usage"
+    max_look_ratio: float = 0.85
 
     def validate(self) -> None:
         if not 0.0 <= self.min_confidence <= 1.0:
@@ -126,6 +177,10 @@ class LearningParams:
             raise ValueError(f"novelty must be a finite number >= 0, got {self.novelty}")
         if self.max_learned < 1:
             raise ValueError(f"max_learned must be >= 1, got {self.max_learned}")
+        if self.retention not in RETENTION_POLICIES:
+            raise ValueError(f"retention must be one of {', '.join(RETENTION_POLICIES)}, got {self.retention!r}")
+        if not (self.max_look_ratio > 0 and math.isfinite(self.max_look_ratio)):
+            raise ValueError(f"max_look_ratio must be a positive number, got {self.max_look_ratio}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,6 +201,8 @@ class LocalizedNight:
         smoothed: the M estimates of the product of the two runs' beliefs (each frame's forward
             belief times the backward run's prediction of it: what the whole night says of it);
             None without the backward run.
+        learned_medians: ``(M,)`` each frame's median over the map's learned appearances of its
+            minimum score (the scale a learned look's match is judged on), or None (a day map).
     """
 
     images: np.ndarray
@@ -158,6 +215,7 @@ class LocalizedNight:
     params: PreparationParams
     backward: tuple[Estimate, ...] | None = None
     smoothed: tuple[Estimate, ...] | None = None
+    learned_medians: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.estimates)
@@ -194,14 +252,18 @@ def localize_night(
         raise ValueError("learning needs the grid filter's confidence: a Localizer with method='filter'")
     loc.reset()
     preparer = ref_map.preparer
-    images, estimates, medians, beliefs = [], [], [], []
+    images, estimates, medians, beliefs, look_medians = [], [], [], [], []
+    looks = None if ref_map.appearances is None else np.asarray(ref_map.appearances.night) > 0
     for k, frame in enumerate(frames):
         prepared = preparer.prepare(frame)
         table = loc.score_table(prepared, prepared=True)
         motion = None if odometry is None else odometry[k]
         estimates.append(loc.update_table(table, motion))
         images.append(prepared)
-        medians.append(float(np.median(table.min(axis=1))))
+        mins = table.min(axis=1)
+        medians.append(float(np.median(mins)))
+        if looks is not None and looks.any():
+            look_medians.append(float(np.median(mins[looks])))
         if backward:
             beliefs.append(loc.belief)
     m = len(estimates)
@@ -230,6 +292,7 @@ def localize_night(
         ref_map.params,
         back,
         smoothed,
+        np.asarray(look_medians, dtype=np.float64) if look_medians else None,
     )
 
 
@@ -336,6 +399,7 @@ class LearningReport:
         appearances: appearances added to places; ``places``: new places; ``evicted``: learned
             appearances evicted by the cap.
         places_before: places of the map before learning; ``references``: references after.
+        refused: why the night was not learned although frames were trusted ("" when it was).
     """
 
     night: int
@@ -349,6 +413,7 @@ class LearningReport:
     evicted: int
     places_before: int
     references: int
+    refused: str = ""
 
     @property
     def growth(self) -> float:
@@ -357,6 +422,8 @@ class LearningReport:
 
     def line(self) -> str:
         """One line for a person."""
+        if self.refused:
+            return f"learned nothing: {self.refused}"
         if self.first_trusted is None:
             return (
                 f"learned nothing: the localizer never settled on a confident pose in {self.frames} frames "
@@ -475,8 +542,10 @@ def learn(
     learned: list[tuple[tuple[int, float], int, int]] = []  # (view, frame, best appearance)
     known = 0
     shifts = ref_map.params.shifts
+    look_ratios: list[float] = []  # per frame: its place's best learned look against the typical one
     for target, frames in attached.items():
         refs = view_refs(target)
+        looks = record.night[refs] > 0
         spot = places[target[0]]
         candidate = min(frames, key=lambda f: (_distance(estimates[f], spot), -estimates[f].confidence))
         seen, best_of_candidate = False, -1
@@ -484,23 +553,34 @@ def learn(
             result = match(night.images[f], ref_map.images[refs], shifts=shifts, threads=1)
             matches[refs[result.index]] += 1
             seen |= bool(result.score <= params.novelty * night.score_medians[f])
+            if looks.any() and night.learned_medians is not None:
+                look_ratios.append(float(result.scores[looks].min() / night.learned_medians[f]))
             if f == candidate:
                 best_of_candidate = int(refs[result.index])
         if seen:
             known += 1  # the place has a look like tonight's already
         else:
             learned.append((target, candidate, best_of_candidate))
+    ratio = float(np.median(look_ratios)) if len(look_ratios) >= params.settled_frames else math.nan
+    if ratio > params.max_look_ratio:  # not this map's nights: learn nothing
+        reason = (
+            f"its frames match their places' learned appearances at {ratio:.2f} of the typical one's score "
+            f"(more than [learning] max_look_ratio {params.max_look_ratio:g}): not a night of this map's places "
+            f"(another garden?)"
+        )
+        refused = LearningReport(0, len(night), int(trusted.sum()), None, 0, 0, 0, 0, 0, n_places, len(ref_map))
+        return ref_map, dataclasses.replace(refused, refused=reason)
 
-    # the cap: evict the least useful learned appearances of each view that would overflow
+    # the cap: the retention policy's first learned appearances of each view that would overflow go
     night_of = record.night
+    policy = RETENTION_POLICIES[params.retention]
     evict: list[int] = []
     for view, _, _ in learned:
         refs = view_refs(view)
         old = [int(r) for r in refs if night_of[r] > 0]
         excess = len(old) + 1 - params.max_learned
         if excess > 0:
-            order = sorted(old, key=lambda r: (matches[r], night_of[r], record.confidence[r], r))
-            evict.extend(order[:excess])
+            evict.extend(policy.order(old, record, matches, number)[:excess])
     keep = np.setdiff1d(np.arange(len(ref_map)), np.asarray(evict, dtype=np.int64))
 
     images = [ref_map.images[keep]]
