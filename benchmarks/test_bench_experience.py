@@ -1,13 +1,14 @@
 """Per-frame cost of an experience map beside its day map (target: at most 2x the day map's).
 
-A lawn like the large garden's: 901 places 0.5 m apart on a 25 x 15 m mowing pattern (the day
-map), and the same map after a season of nights at its bound: three learned appearances at every
-place (3 604 references, the most the retention rule keeps; docs/experience_maps.md). One thread,
+A lawn of 1 421 places 0.5 m apart (25 x 15 m; the day map), and the same map after a season of
+nights at its bound: two learned appearances at every place (4 263 references, the most the
+retention rule keeps, ``LearningParams.max_learned``; docs/experience_maps.md), of which the
+localizer matches per frame those nearest its belief, as many as the day references. One thread,
 the 100 x 100 grid, 48 heading bins, wheel odometry with noise model 1, a prepared frame per
 update (matching against every reference and the filter's update: one call into the core), the
 belief settled on the robot's track. The garden's size (24 places, 96 references) in a second
-group. Each benchmark checks that the experience map's learned looks are evidence about their day
-images: a frame equal to a learned look localizes at its place.
+group (72 references). Each benchmark checks that the experience map's learned looks are evidence
+about their day images: a frame equal to a learned look localizes at its place.
 
     python -m pytest benchmarks/test_bench_experience.py --benchmark-only --benchmark-columns=min,median
 """
@@ -21,7 +22,7 @@ import nightloc
 from nightloc.io.appearances import Appearances, LearnedNight
 
 MOTION = nightloc.RobotMotion(0.5, 0.0, 0.0)
-LEARNED_PER_PLACE = 3
+LEARNED_PER_PLACE = 2
 LAWNS = {"lawn": (25.0, 15.0, 0.5), "garden": (7.0, 5.0, 1.2)}
 
 
@@ -37,7 +38,9 @@ def _maps(name: str) -> tuple[nightloc.ReferenceMap, nightloc.ReferenceMap]:
     headings = rng.uniform(-np.pi, np.pi, n)
     day = nightloc.ReferenceMap(images[:n], positions, headings)
     night = np.repeat(np.arange(1 + LEARNED_PER_PLACE, dtype=np.int32), n)
-    nights = tuple(LearnedNight(k, f"night{k}", "2026-01-01T00:00:00Z", n, n, n, 0, 0) for k in (1, 2, 3))
+    nights = tuple(
+        LearnedNight(k, f"night{k}", "2026-01-01T00:00:00Z", n, n, n, 0, 0) for k in range(1, LEARNED_PER_PLACE + 1)
+    )
     appearances = Appearances(
         night, np.where(night > 0, 0.9, 0.0), np.zeros(len(night)), np.zeros(len(night), np.int64), nights,
         day.fingerprint,

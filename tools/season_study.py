@@ -92,7 +92,8 @@ def learning_params(items: list[str]) -> LearningParams | None:
         name, _, value = item.partition("=")
         if name not in fields:
             raise SystemExit(f"--learn-param: unknown field {name!r}; LearningParams has {', '.join(fields)}")
-        overrides[name] = int(value) if fields[name] in ("int", int) else float(value)
+        kind = str(fields[name])
+        overrides[name] = int(value) if kind == "int" else value if kind == "str" else float(value)
     return LearningParams(**overrides)  # type: ignore[arg-type]
 
 

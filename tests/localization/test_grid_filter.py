@@ -156,6 +156,54 @@ def test_core_equals_the_numpy_oracle_on_an_experience_map(seed):
         assert estimate.score == pytest.approx(float(oracle.mins.min()), rel=1e-6)
 
 
+@pytest.mark.sanitize
+def test_core_equals_the_numpy_oracle_recalling_the_looks_near_the_belief():
+    # three looks at each of 8 places of a 9-place map: 24 looks, more than the 9 day references,
+    # so each frame recalls the 9 looks nearest the last belief's peak
+    from nightloc.io.appearances import Appearances, LearnedNight
+
+    rng = np.random.default_rng(3)
+    day = _random_map(rng, n=9)
+    looks = np.repeat(np.arange(8), 3)
+    night = np.r_[np.zeros(9, np.int32), np.ones(len(looks), np.int32)]
+    appearances = Appearances(
+        night=night, confidence=np.where(night > 0, 0.9, 0.0), time=np.zeros(len(night)),
+        matches=np.zeros(len(night), np.int64),
+        nights=(LearnedNight(1, "night1", "2026-01-01T00:00:00Z", 24, 24, 24, 0, 0),),
+    )  # fmt: skip
+    ref_map = nightloc.ReferenceMap(
+        np.concatenate([day.images, day.images[looks]]),
+        np.concatenate([day.positions, day.positions[looks]]),
+        np.concatenate([day.headings, day.headings[looks] + rng.uniform(-0.2, 0.2, len(looks))]),
+        params=day.params,
+        appearances=appearances,
+    )
+    loc = Localizer(ref_map, odometry_noise=1, grid_width=30, grid_height=24)
+    oracle = _oracle(loc)
+    recalls = []
+    for k, motion in enumerate(MOTIONS):
+        table = rng.uniform(15, 25, (len(ref_map), 16)).astype(np.float32)
+        table[1] -= 8.0  # the day image of place 1 matches: the belief peaks there
+        table[9:] *= rng.uniform(0.3, 0.5, (len(looks), 1)).astype(np.float32)
+        if k:
+            _apply(oracle, motion)
+        recalls.append(oracle.recalled())
+        estimate = loc.update_table(table, motion if k else None)
+        oracle.update(table)
+        _check_against_oracle(loc, oracle, estimate)
+    assert all(r.sum() == 9 + 9 for r in recalls)  # the day references and 9 of the 24 looks
+    assert len({tuple(r) for r in recalls}) > 1  # the recall followed the belief
+    # update_image matches only the recalled references and scores the rest as their day
+    # references: the same estimate as the whole table gives
+    image = rng.integers(0, 256, (8, 16), dtype=np.uint8)
+    a, b = copy.copy(loc), copy.copy(loc)
+    from_image = a.update(image, MOTIONS[1])
+    from_table = b.update_table(b.score_table(image, prepared=True), MOTIONS[1])
+    assert (from_image.x, from_image.y, from_image.confidence) == pytest.approx(
+        (from_table.x, from_table.y, from_table.confidence), abs=1e-9
+    )
+
+
 def test_the_estimate_of_a_given_belief_is_the_oracles():
     # a smoother's product of two runs' beliefs, estimated as the filter estimates its own
     rng = np.random.default_rng(7)

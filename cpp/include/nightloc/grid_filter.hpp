@@ -170,7 +170,13 @@ struct GridFilterMap {
     /// a learned reference then scores as its day reference, at that reference's heading (the day
     /// images keep the geometry between places and the headings; a night look taken at one pose
     /// with a heading the learning night estimated cannot pull the estimate); a learned reference
-    /// in a gap keeps (1).
+    /// in a gap keeps (1). Recall: per frame at most as many learned references with a day
+    /// reference as the map has day references are matched and bring evidence: half of them those
+    /// whose place lies nearest the peak of the last frame's belief (the grid's centre after
+    /// reset(); ties: the first), the other half in turn (in index order, a window moving on
+    /// every frame, so a lost robot meets every look within a few frames); the others score as
+    /// their day references too, and update_image does not match them (the time per frame stays
+    /// within about twice the day map's however many looks the map holds).
     std::vector<std::uint8_t> learned;
 };
 
@@ -272,6 +278,8 @@ private:
         double shift_x, shift_y, sigma_x, sigma_y;
     };
     void to_position();
+    void choose_recall();
+    void update_recalled(const float* table);
     void scale_learned();
     void to_pose();
     // A prediction is pending until the next update (fused with it) or materialize(): per bin of
@@ -329,6 +337,13 @@ private:
     std::vector<std::int32_t> proxy_;           // per learned reference its day reference, else -1
     std::vector<double> headings_;              // per reference the heading the table is read at
     std::vector<float> evidence_;               // per day reference its learned ones' best score (scratch)
+    std::size_t day_refs_ = 0;                  // references of the day map (the recall's budget)
+    std::vector<std::size_t> place_cell_;       // per place the cell of its largest weight
+    std::size_t recall_cell_ = 0;               // the last frame's belief peak (the recall's centre)
+    std::vector<std::uint8_t> recalled_;        // per reference: scored this frame (learned: recalled)
+    std::vector<std::size_t> recall_order_;     // learned references with a day reference (scratch)
+    std::vector<std::size_t> matched_;          // references update_image matches (scratch)
+    std::vector<std::uint8_t> gathered_;        // their images, one after the other (scratch)
     std::vector<std::int32_t> empty_places_;    // places no reference stands at (take the bin's highest score)
     std::vector<float> bin_max_;                // each bin's largest value after the last measurement (pose mode)
     mutable bool bin_max_valid_ = false;        // false once the belief changed otherwise (see negligible)

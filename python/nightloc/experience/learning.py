@@ -31,9 +31,12 @@ What is learned (:class:`LearningParams`, TOML ``[learning]``):
 * **Usefulness.** Every trusted frame that belongs to a place counts one match for the place's
   appearance that scored best against it (:attr:`~nightloc.io.appearances.Appearances.matches`).
 * **A cap per place.** A place view holds at most ``max_learned`` learned appearances; beyond,
-  the least useful learned one goes: the fewest matches, ties the oldest night, then the lowest
-  confidence. The day map's references (survey or teach run) are never evicted, nor the
-  appearance just learned.
+  the retention policy (``retention``, :data:`RETENTION_POLICIES`) says which goes: by default
+  the least useful one (the fewest matches, ties the oldest night, then the lowest confidence).
+  The day map's references (survey or teach run) are never evicted, nor the appearance just
+  learned. With the localizer's recall (``GridFilterMap::learned``: per frame only the looks
+  nearest the belief, as many as the day references, are matched) memory and time per frame stay
+  bounded however long the season.
 * **Provenance.** Each reference records its night (0: the day map), confidence, time and match
   count (:class:`~nightloc.io.appearances.Appearances`); the map's header lists the nights learned.
 
@@ -156,7 +159,7 @@ class LearningParams:
     gap_fraction: float = 1.0
     heading_tolerance: float = 45.0
     novelty: float = 0.5
-    max_learned: int = 3
+    max_learned: int = 2
     retention: str = "usage"
     max_look_ratio: float = 0.85
 
