@@ -363,10 +363,11 @@ def trust_night(night: LocalizedNight, params: LearningParams, agree: float) -> 
 
     A frame is trusted by a run: the forward run, the backward run or their product (the
     smoother), each settled as :func:`trusted_frames` says (the backward run's settled frames count
-    backwards in time). It is learned at the smoother's estimate if that trusts it, else at the
-    tighter of the two runs'; unless the forward or the backward run, confident there (confidence
-    and credible radius within the thresholds), places it more than ``agree`` metres away: the
-    runs then disagree (a robot carried off, a look-alike), and nothing is taken.
+    backwards in time). It is learned at the smoother's position (with the tighter run's heading)
+    if that trusts it, else at the tighter trusting run's estimate; unless the forward or the
+    backward run, confident there (confidence and credible radius within the thresholds), places
+    it more than ``agree`` metres away: the runs then disagree (a robot carried off, a
+    look-alike), and nothing is taken.
     """
     runs = [night.estimates] if night.backward is None else [night.estimates, night.backward]
     trusted = [trusted_frames(night.estimates, params)]
@@ -378,10 +379,10 @@ def trust_night(night: LocalizedNight, params: LearningParams, agree: float) -> 
     keep = np.zeros(len(night), dtype=bool)
     for k in range(len(night)):
         candidates = [run[k] for run, ok in zip(runs, trusted, strict=True) if ok[k]]
-        if smoothed is not None and by_smoother[k]:
-            best = smoothed[k]
-        else:
-            best = min(candidates, key=lambda e: e.credible_radius) if candidates else night.estimates[k]
+        tightest = min(candidates or [run[k] for run in runs], key=lambda e: e.credible_radius)
+        best = tightest
+        if smoothed is not None and by_smoother[k]:  # the smoother's position, a run's heading
+            best = dataclasses.replace(smoothed[k], heading=tightest.heading)
         chosen.append(best)
         keep[k] = (bool(candidates) or bool(by_smoother[k])) and all(
             math.hypot(run[k].x - best.x, run[k].y - best.y) <= agree for run in runs if _confident(run[k], params)
