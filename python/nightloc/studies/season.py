@@ -384,8 +384,10 @@ def read_csv(path: PathLike) -> list[NightRecord]:
 
 def season_summary(records: Sequence[NightRecord], first_test_night: int = 3, last: int = 10) -> dict[str, dict]:
     """Per odometry kind, the study's figures beside the targets: over the test drives from
-    ``first_test_night`` on (good nights), the learned map's worst excess of its median over the
-    day map's (m), its worst p95 beside the day map's, its worst share over 1 m (and the day map's);
+    ``first_test_night`` on (good nights), each night's median over the draws of the learned
+    map's median, p95 and share over 1 m beside the day map's: the worst excess of the median
+    and of the p95 (m), the worst share (and the day map's at that night, and its worst); ``*_draws``: the worst
+    excess of a single draw (the spread); the nights where the learned map's share exceeds 1 %;
     per chain (``growth``) the references after the last night, the day map's, and the places the
     ``last`` nights added, as new places and as net references (added + new places - evicted),
     each a share of the final places; the time per frame against the day map's (the median of the
@@ -415,16 +417,34 @@ def season_summary(records: Sequence[NightRecord], first_test_night: int = 3, la
                 }
             )
         ms = [(r.ms_per_frame, d.ms_per_frame) for d, r in _pairs([r for r in rows if r.drive == "learn"])]
+        nights = sorted({r.night for r in tests})
+        per_night = {n: _over_draws([pair for pair in pairs if pair[1].night == n]) for n in nights}
+        worst_share = max(nights, key=lambda n: per_night[n]["share"][1], default=None)
         out[kind] = {
-            "median_excess_m": max((r.median_m - d.median_m for d, r in pairs), default=math.nan),
-            "p95_excess_m": max((r.p95_m - d.p95_m for d, r in pairs), default=math.nan),
-            "share_over_1m": max((r.share_over_1m for _, r in pairs), default=math.nan),
-            "day_share_over_1m": max((d.share_over_1m for d, _ in pairs), default=math.nan),
+            "median_excess_m": max((v["median"][1] - v["median"][0] for v in per_night.values()), default=math.nan),
+            "p95_excess_m": max((v["p95"][1] - v["p95"][0] for v in per_night.values()), default=math.nan),
+            "share_over_1m": math.nan if worst_share is None else per_night[worst_share]["share"][1],
+            "day_share_over_1m": math.nan if worst_share is None else per_night[worst_share]["share"][0],
+            "day_worst_share_over_1m": max((v["share"][0] for v in per_night.values()), default=math.nan),
+            "nights_over_1pct": [n for n in nights if per_night[n]["share"][1] > 0.01],
+            "median_excess_draws_m": max((r.median_m - d.median_m for d, r in pairs), default=math.nan),
+            "p95_excess_draws_m": max((r.p95_m - d.p95_m for d, r in pairs), default=math.nan),
             "growth": growth,
             "time_ratio": float(np.median([a / b for a, b in ms])) if ms else math.nan,
             "wrong": sum(r.wrong for r in learn_rows),
         }
     return out
+
+
+def _over_draws(pairs: Sequence[tuple[NightRecord, NightRecord]]) -> dict[str, tuple[float, float]]:
+    """(day map's, learned map's) median over the draws of a night's median, p95 and share."""
+
+    def both(field: str) -> tuple[float, float]:
+        day = [getattr(d, field) for d, _ in pairs]
+        learned = [getattr(r, field) for _, r in pairs]
+        return float(np.median(day)), float(np.median(learned))
+
+    return {"median": both("median_m"), "p95": both("p95_m"), "share": both("share_over_1m")}
 
 
 def _pairs(rows: Sequence[NightRecord]) -> list[tuple[NightRecord, NightRecord]]:
