@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 from nightloc import route
+from nightloc.route.params import DISTANCE_MOTIONS
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import oracle
@@ -192,21 +193,25 @@ def _small_route(n=150):
     return matrix, np.ones(n), np.arange(float(n))
 
 
-@pytest.mark.parametrize("motion", ["speed", "odometry"])
+#: The models that keep a belief over cells (the window model's is the references' own).
+CELL_MODELS = [name for name in route.MOTION_MODELS if name != "window"]
+
+
+@pytest.mark.parametrize("motion", CELL_MODELS)
 def test_filter_motion_oracle(benchmark, motion):
-    """The numpy oracle of the speed and odometry models (tests/route_oracle.py), 150 x 150."""
+    """The numpy oracle of the models over cells (tests/route_oracle.py), 150 x 150."""
     matrix, steps, distances = _small_route()
     benchmark.group = f"route filter {motion} model, 150 x 150"
     params = route.RouteParams(filter_motion="speed")
-    extra = (steps, distances) if motion == "odometry" else (None, None)
+    extra = (steps, distances) if motion in DISTANCE_MOTIONS else (None, None)
     benchmark.pedantic(ro.route_filter_planes, args=(matrix, params, None, *extra), rounds=1)
 
 
-@pytest.mark.parametrize("motion", ["speed", "odometry"])
+@pytest.mark.parametrize("motion", CELL_MODELS)
 def test_filter_motion_core(benchmark, motion):
-    """The core's speed and odometry models, 150 x 150, one thread."""
+    """The core's models over cells, 150 x 150, one thread."""
     matrix, steps, distances = _small_route()
     benchmark.group = f"route filter {motion} model, 150 x 150"
     params = route.RouteParams(filter_motion="speed")
-    kwargs = {"advances": steps, "reference_distances": distances} if motion == "odometry" else {}
+    kwargs = {"advances": steps, "reference_distances": distances} if motion in DISTANCE_MOTIONS else {}
     benchmark.pedantic(route.route_filter, args=(matrix, params, None, 1), kwargs=kwargs, rounds=5)

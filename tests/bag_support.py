@@ -18,6 +18,8 @@ from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
+from nightloc.io.bag import IMAGE_ENCODINGS
+
 NS = 1_000_000_000
 
 
@@ -47,17 +49,23 @@ class _Messages:
         return self.store.serialize_cdr(message, msgtype)
 
     def image(self, ns: int, frame: np.ndarray, encoding: str, padding: int = 0, bigendian: bool = False):
-        if encoding == "bgr8":
-            pixels = frame
-        elif encoding == "rgb8":
-            pixels = frame[:, :, ::-1]
-        elif encoding == "mono8":
+        """A sensor_msgs/Image of a BGR (or grey) uint8 frame in ``encoding`` (any of
+        nightloc.io.bag.IMAGE_ENCODINGS, laid out by its channel order and bits: 16 bits hold v * 257,
+        an alpha channel 255s)."""
+        layout = IMAGE_ENCODINGS[encoding.lower()]
+        if layout.order == "mono":
             pixels = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
-        elif encoding == "mono16":
-            grey = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
-            pixels = (grey.astype(np.uint16) * 257).astype(">u2" if bigendian else "<u2")
         else:
-            raise ValueError(encoding)
+            bgr = frame if frame.ndim == 3 else cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR)
+            channel = {
+                "b": bgr[:, :, 0],
+                "g": bgr[:, :, 1],
+                "r": bgr[:, :, 2],
+                "a": np.full(bgr.shape[:2], 255, np.uint8),
+            }
+            pixels = np.stack([channel[c] for c in layout.order], axis=2)
+        if layout.bits == 16:
+            pixels = (pixels.astype(np.uint16) * 257).astype(">u2" if bigendian else "<u2")
         pixels = np.ascontiguousarray(pixels)
         height, width = pixels.shape[:2]
         row = pixels.reshape(height, -1).view(np.uint8)

@@ -376,7 +376,7 @@ class OracleFilter:
 
     # ------------------------------------------------------------------ estimate
     def estimate(self):
-        """(x, y, heading, cov (2, 2), credible_radius, confidence, cell, flat)."""
+        """(x, y, heading, cov (2, 2), credible_radius, confidence, cell, flat, heading_var)."""
         m = self.p.sum(0)
         total = m.sum()
         xs = self.x0 + self.dx * np.arange(self.wd)
@@ -409,7 +409,7 @@ class OracleFilter:
         k = min(int(np.searchsorted(cum, self.s["credibility"] * total)), len(d) - 1)
         radius = float(d[order[k]])
         confidence = float(m.ravel()[d <= self.s["confidence_radius"]].sum() / total)
-        heading = math.nan
+        heading = heading_var = math.nan
         if self.pose:
             hist = self.p[:, j0:j1, i0:i1].sum(axis=(1, 2))
             top = int(np.argmax(hist))
@@ -418,7 +418,11 @@ class OracleFilter:
             ss = sum(hist[b] * math.sin(self.offset + step * b) for b in idx)
             cc = sum(hist[b] * math.cos(self.offset + step * b) for b in idx)
             heading = math.atan2(ss, cc)
-        return x, y, heading, cov, radius, confidence, cell, bool(flat)
+            mass = self.p.sum(axis=(1, 2))  # the whole belief's heading histogram
+            theta = self.offset + step * np.arange(self.bins)
+            mean = math.atan2((mass * np.sin(theta)).sum(), (mass * np.cos(theta)).sum())
+            heading_var = float((mass * np.angle(np.exp(1j * (theta - mean))) ** 2).sum() / mass.sum())
+        return x, y, heading, cov, radius, confidence, cell, bool(flat), heading_var
 
     def marginal(self) -> np.ndarray:
         m = self.p.sum(0)

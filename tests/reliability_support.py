@@ -120,8 +120,3 @@ class Workspace:
         with open(path, "wb") as stream:
             np.savez(stream, **members)
         return path
-
-
-def reliability_section() -> str:
-    """The reliability guide, docs/reliability.md (it states the case counts the tests check)."""
-    return (Path(__file__).resolve().parents[1] / "docs" / "reliability.md").read_text(encoding="utf-8")

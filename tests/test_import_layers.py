@@ -5,7 +5,8 @@ Each module belongs to a *stage*: its first name under ``nightloc`` (``nightloc.
 ``io``, ``nightloc.config`` is the stage ``config``). The allowed layering, lowest first (a stage
 imports only stages of lower layers; stages of one layer do not import each other):
 
-    _core, errors, _validate, progress     the foundation: compiled core, errors, checks, progress
+    _core, errors, _validate, progress,    the foundation: compiled core, errors, checks, progress,
+    schema                                 the settings tables
     io                                     files: images, poses, videos, bags, traverses, map files
     config                                 TOML parameter files
     preparation
@@ -13,6 +14,8 @@ imports only stages of lower layers; stages of one layer do not import each othe
     motion                                 odometry and wheel noise, shared by the stages above
     mapping                                the reference map and the teach run
     localization, route
+    experience                             experience maps
+    node                                   the live ROS 2 node: messages, conventions, recordings
     synth
     studies
     figures
@@ -38,7 +41,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "python" / "nightloc"
 
 #: The layers, lowest first.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("_core", "errors", "_validate", "progress"),
+    ("_core", "errors", "_validate", "progress", "schema"),
     ("io",),
     ("config",),
     ("preparation",),
@@ -47,6 +50,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("mapping",),
     ("localization", "route"),
     ("experience",),
+    ("node",),
     ("synth",),
     ("studies",),
     ("figures",),

@@ -34,7 +34,7 @@ import numpy as np
 import nightloc
 from nightloc.experience.learning import LearningParams, learn, localize_night
 from nightloc.localization.evaluation import EvaluationSettings, match_traverse, simulated_odometry
-from nightloc.localization.tail import tail_metrics
+from nightloc.localization.tail import TailMetrics, tail_metrics
 from nightloc.synth.dataset import SYNTH_WHEEL_NOISE, SynthScene
 from nightloc.synth.paths import TraversePlan, plan_traverses, wrap_angle
 
@@ -150,6 +150,10 @@ def evaluate(ref_map, query: Path, draws: int) -> dict[str, dict[str, list]]:
     return out
 
 
+#: The tail's numbers in a table's cells, in order: TailMetrics' fields but the count.
+TAIL_CELLS = tuple(f.name for f in dataclasses.fields(TailMetrics) if f.name != "n")
+
+
 def cell(tails, what: str = "median_m") -> str:
     values = np.array([getattr(t, what) for t in tails], dtype=float)
     if what == "share_over_1m":
@@ -160,7 +164,7 @@ def cell(tails, what: str = "median_m") -> str:
 
 
 def tail_cells(tails) -> str:
-    return " | ".join(cell(tails, w) for w in ("median_m", "p95_m", "share_over_1m", "longest_run_over_1m"))
+    return " | ".join(cell(tails, w) for w in TAIL_CELLS)
 
 
 def study_world(label: str, cache: Path, draws: int, params: LearningParams) -> None:

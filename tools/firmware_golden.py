@@ -4,7 +4,8 @@ Renders a 7 x 5 lattice of day panoramas of the synthetic garden (1 m apart, 96 
 headings varied) into a map file (``nightloc build-map``'s format), and a night drive of 12 frames
 through it with wheel odometry (the true motions with a little noise) as a log of PGM (grey) or
 PPM (colour) frames with ``odometry.csv``: what ``nightloc_replay MAP LOG OUT.csv`` reads.
-``python tools/firmware_golden.py cpp/tests/data/replay`` writes ``map.npz``, ``log/`` and
+``python tools/firmware_golden.py cpp/tests/data/replay`` writes ``map.npz``, ``log/`` (and
+``log_png/``, the same frames as PNG files, what the replay reads where it has libpng) and
 ``expected.csv`` there: the trajectory of ``nightloc.Localizer(map)`` on the log at full precision
 (checked against ``nightloc localize``'s trajectory.csv, which rounds to 0.1 mm): the C++ ctest
 ``nightloc_replay_golden_matches_python`` compares the replay with it (within 1e-4). Rerun it
@@ -56,17 +57,25 @@ def night_drive(frames: int = 12) -> tuple[np.ndarray, np.ndarray]:
     return positions, (headings + math.pi) % (2 * math.pi) - math.pi
 
 
-def build_map(world: SynthScene, folder: Path) -> Path:
+def build_map(world: SynthScene, folder: Path, params_file: Path | None = None) -> Path:
     """The map file of the day lattice, written to ``folder/map.npz`` (a forward camera's map for
-    the forward scene: ``PreparationParams(wrap=False)``)."""
+    the forward scene: ``PreparationParams(wrap=False)``); with ``params_file``, by ``nightloc
+    build-map DAY MAP --params params_file`` (the settings the map keeps)."""
     xs, ys = np.meshgrid(np.arange(0.5, 7.0, 1.0), np.arange(0.5, 5.0, 1.0))
     positions = np.column_stack([xs.ravel(), ys.ravel()])
     headings = np.random.default_rng(3).uniform(-math.pi, math.pi, len(positions))
     frames = [_view(world, world.frame("day", x, y, h)) for (x, y), h in zip(positions, headings)]
     day = nightloc.save_traverse(folder / "day", frames, positions, headings)
     forward = world.camera == FORWARD_CAMERA
-    params = nightloc.PreparationParams(wrap=not forward)
-    path = nightloc.ReferenceMap.build(day, params).save(folder / "map.npz")
+    if params_file is not None:
+        path = folder / "map.npz"
+        camera = "forward" if forward else "panoramic"
+        arguments = ["build-map", str(day.root), str(path), "--params", str(params_file), "--camera", camera]
+        if nightloc_main(arguments) != 0:
+            raise RuntimeError("nightloc build-map failed")
+    else:
+        params = nightloc.PreparationParams(wrap=not forward)
+        path = nightloc.ReferenceMap.build(day, params).save(folder / "map.npz")
     shutil.rmtree(day.root)
     return path
 
@@ -92,6 +101,19 @@ def write_log(world: SynthScene, folder: Path, *, colour: bool = False, robot_od
     return nightloc.save_traverse(
         folder, frames, positions, headings, odometry=odometry, image_format=image_format
     ).root
+
+
+def png_copy(log: Path, target: Path) -> Path:
+    """``log`` with its frames as PNG files (the same pixels) and its odometry rows renamed to match."""
+    (target / "images").mkdir(parents=True)
+    odometry = (log / "odometry.csv").read_text()
+    for frame in sorted((log / "images").iterdir(), key=lambda p: p.name):
+        png = frame.with_suffix(".png").name
+        if not cv2.imwrite(str(target / "images" / png), cv2.imread(str(frame), cv2.IMREAD_UNCHANGED)):
+            raise RuntimeError(f"OpenCV could not write {png}")
+        odometry = odometry.replace(frame.name, png)
+    (target / "odometry.csv").write_text(odometry)
+    return target
 
 
 def localize(map_file: Path, log: Path, out: Path) -> Path:
@@ -125,7 +147,8 @@ def write_expected(path: Path, names: list[str], estimates: list[nightloc.Estima
 def main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(
         prog="python tools/firmware_golden.py",
-        description="Writes map.npz, log/ and expected.csv (the firmware replay's golden data) into OUT_FOLDER.",
+        description="Writes map.npz, log/, log_png/ and expected.csv (the firmware replay's golden data) into "
+        "OUT_FOLDER.",
     )
     parser.add_argument("out_folder", type=Path, help="where to write them (e.g. cpp/tests/data/replay)")
     target = parser.parse_args(argv).out_folder
@@ -143,7 +166,8 @@ def main(argv: list[str]) -> int:
             raise RuntimeError("nightloc localize and nightloc.Localizer disagree")
         names = sorted(p.name for p in (log / "images").iterdir())
         write_expected(work / "expected.csv", names, estimates)
-        for name in ("map.npz", "log", "expected.csv"):
+        png_copy(log, work / "log_png")
+        for name in ("map.npz", "log", "log_png", "expected.csv"):
             old = target / name
             if old.is_dir():
                 shutil.rmtree(old)
@@ -151,8 +175,9 @@ def main(argv: list[str]) -> int:
                 old.unlink()
         shutil.copy(map_file, target / "map.npz")
         shutil.copytree(log, target / "log")
+        shutil.copytree(work / "log_png", target / "log_png")
         shutil.copy(work / "expected.csv", target / "expected.csv")
-    sys.stdout.write(f"wrote {target}/map.npz, log/ and expected.csv\n")
+    sys.stdout.write(f"wrote {target}/map.npz, log/, log_png/ and expected.csv\n")
     return 0
 
 

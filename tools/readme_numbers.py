@@ -116,7 +116,8 @@ def filter_blocks(folders) -> list[str]:
         f"{cell('living_room', 'robot', 0, 'filter')} m (exact) and {cell('garden', 'robot', 3, 'filter')} / "
         f"{cell('living_room', 'robot', 3, 'filter')} m (noise model 3), where the paper's 10-frame sequences err "
         f"{cell('garden', 'robot', 0, 'paper')} / {cell('living_room', 'robot', 0, 'paper')} m and "
-        f"{cell('garden', 'robot', 3, 'paper')} / {cell('living_room', 'robot', 3, 'paper')} m"
+        f"{cell('garden', 'robot', 3, 'paper')} / {cell('living_room', 'robot', 3, 'paper')} m (medians of three "
+        f"noise draws"
     )
     return ["\n".join(lines), sentence, intro]
 

@@ -21,6 +21,16 @@ and an 8-frame reverse at half speed; 180-degree forward crops of the panoramas)
 Each configuration (``--set`` fields of ``[route]`` on top of the defaults, one per ``--grid``
 combination) prints one markdown row per case: best F1 / recall at 100 % precision, median over
 the phases (and draws) with the range, ground truth +-2 frames.
+
+``--ratios 0.3,0.45,...`` runs the speed-ratio study instead (the speed check's sweep): queries
+at a constant ratio of reference frames per query frame -- the real pairs resampled, the
+synthetic route rendered at that speed -- and the traverse pairs given with ``--pair-dir
+NAME=REFERENCE,QUERY`` (e.g. the garden's day reference and its night re-drive, the rendered
+creek; ground truth by position, +-3 m). Each prints one row: the ratio the speed check measures
+without odometry, whether it warns for the default model, and best F1 / recall at 100 % precision
+of the default speed model, the window model, the speed model with wider planes (0.25-4; also
+with a looser prior) and the check's advice (the window model over 0.8-1.2 times the measured
+ratio).
 """
 
 from __future__ import annotations
@@ -255,6 +265,97 @@ def synthetic_cases(synthetic: SyntheticRoute, draws: int) -> dict:
     return cases
 
 
+# --------------------------------------------------------------------------------------------
+# the speed-ratio study
+
+#: The study's configurations: name -> [route] changes (the advice is added per case).
+RATIO_CONFIGS = {
+    "default (speed model)": {},
+    "window model": {"filter_motion": "window"},
+    "speed planes 0.25-4": {"filter_speed_min": 0.25, "filter_speed_max": 4.0},
+    "speed planes 0.25-4, loose prior": {
+        "filter_speed_min": 0.25,
+        "filter_speed_max": 4.0,
+        "filter_speed_change": 0.1,
+        "filter_speed_tau": 6.0,
+    },
+}
+
+
+def evaluate_truth(params: route.RouteParams, enhanced, weights, truth: route.GroundTruth) -> tuple:
+    """(best F1, recall at 100 % precision) of the filter against a ground truth."""
+    refs, confidence, _ = route.route_filter(np.ascontiguousarray(enhanced), params, weights)
+    result = route.evaluate_matches(refs, 1.0 - confidence, truth)
+    return result.best_f1, result.recall_at_100
+
+
+def ratio_row(name: str, base: route.RouteParams, enhanced, weights, truth: route.GroundTruth) -> str:
+    """One markdown row of the study: measured ratio, the default's warning, each configuration."""
+    from nightloc.route.speed_check import StretchSampler, check_speed
+
+    sampler = StretchSampler(len(enhanced))
+    sampler.take(0, enhanced, copy=False)
+    check = check_speed(base, base.filter_motion, sampler.rows())
+    measured = "-" if check.ratio is None else f"{check.ratio.median:.2f}"
+    cells = [name, measured, "no" if check.fits else "**yes**"]
+    for changes in RATIO_CONFIGS.values():
+        f1, r100 = evaluate_truth(dataclasses.replace(base, **changes), enhanced, weights, truth)
+        cells.append(f"{f1:.3f} / {r100:.3f}")
+    if check.ratio is not None:
+        low, high = 0.8 * check.ratio.median, 1.2 * check.ratio.median
+        advised = dataclasses.replace(base, filter_motion="window", vmin=low, vmax=high)
+        f1, r100 = evaluate_truth(advised, enhanced, weights, truth)
+        cells.append(f"{f1:.3f} / {r100:.3f}")
+    else:
+        cells.append("-")
+    return "| " + " | ".join(cells) + " |"
+
+
+def traverse_case(reference: Path, query: Path, params: route.RouteParams) -> tuple:
+    """(enhanced, weights, ground truth by position +-3 m) of two traverse folders with poses."""
+    ref_traverse, query_traverse = nightloc.load_traverse(reference), nightloc.load_traverse(query)
+    preparer = route.RoutePreparer(params)
+    enhanced, weights = enhanced_pair(preparer(ref_traverse), preparer(query_traverse), params)
+    truth = route.GroundTruth.from_positions(query_traverse.positions, ref_traverse.positions, 3.0)
+    return enhanced, weights, truth
+
+
+def ratio_study(args, base: route.RouteParams, cache: Path | None, data: Path) -> None:
+    ratios = [float(v) for v in args.ratios.split(",")]
+    emit(
+        "| case | measured ratio | default warns | "
+        + " | ".join(RATIO_CONFIGS)
+        + " | advised: window 0.8-1.2 x measured |"
+    )
+    emit("| --- " * (4 + len(RATIO_CONFIGS)) + "|")
+    for item in args.pair_dir:
+        name, folders = item.split("=", 1)
+        reference, query = folders.split(",")
+        emit(ratio_row(name, base, *traverse_case(Path(reference), Path(query), base)))
+    wanted = args.cases.split(",")
+    for name, reference, query in (
+        ("gp", "gardens_point/day_right", "gardens_point/night_right"),
+        ("nordland", "nordland/summer", "nordland/winter"),
+    ):
+        if name not in wanted or not (data / reference).is_dir():
+            continue
+        enhanced, weights = real_pair(data, reference, query, base, cache)
+        n = enhanced.shape[1]
+        for ratio in ratios:
+            index = np.rint(np.arange(0.0, n - 1, ratio)).astype(np.int64)
+            truth = route.GroundTruth.from_frames(len(index), n, TOLERANCE, index)
+            emit(ratio_row(f"{name} x {ratio:g}", base, enhanced[index], weights[index], truth))
+    if "synthetic" in wanted:
+        synthetic = SyntheticRoute(base, cache)
+        for ratio in ratios:
+            positions = np.arange(2.0, synthetic.n_refs - 1.5, ratio)
+            queries = synthetic._images("night", positions * SYNTH_SPACING, f"ratio-{ratio:g}")
+            enhanced, weights = enhanced_pair(synthetic.refs, queries, base)
+            truth_refs = np.rint(positions).astype(np.int64)
+            truth = route.GroundTruth.from_frames(len(positions), synthetic.n_refs, TOLERANCE, truth_refs)
+            emit(ratio_row(f"synthetic x {ratio:g}", base, enhanced, weights, truth))
+
+
 def parse_value(text: str) -> object:
     """A ``--set`` / ``--grid`` value: int, float (inf), a tuple ``8:2`` or a string."""
     if ":" in text:
@@ -282,10 +383,17 @@ def main() -> None:
     parser.add_argument("--only", help="comma-separated words: run the cases whose name holds one")
     parser.add_argument("--set", action="append", default=[], help="FIELD=VALUE of [route] for every row")
     parser.add_argument("--grid", action="append", default=[], help="FIELD=V1,V2,... swept (product of all grids)")
+    parser.add_argument("--ratios", help="run the speed-ratio study at these constant ratios (e.g. 0.3,0.45,1,2)")
+    parser.add_argument(
+        "--pair-dir", action="append", default=[], help="NAME=REFERENCE,QUERY traverse folders with poses (study)"
+    )
     args = parser.parse_args()
     base = route.RouteParams(**{k: parse_value(v) for k, v in (item.split("=", 1) for item in args.set)})
     cache = Path(args.cache) if args.cache else None
     data = Path(args.data)
+    if args.ratios:
+        ratio_study(args, base, cache, data)
+        return
     pairs: dict[str, dict] = {}
     wanted = args.cases.split(",")
     for name, reference, query in (

@@ -1,10 +1,12 @@
-// Binary PNM (P5/P6) reading for nightloc_replay (pnm.hpp).
-#include "pnm.hpp"
+// Binary PNM (P5/P6) reading for nightloc_replay (frame_files.hpp).
+#include "frame_files.hpp"
 
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <memory>
+#include <stdexcept>
+#include <string>
 
 namespace nightloc_app {
 
@@ -40,7 +42,7 @@ std::size_t header_number(std::FILE* f, const std::string& path, const char* wha
 
 }  // namespace
 
-void read_pnm(const std::string& path, PnmImage& image) {
+void read_pnm(const std::string& path, FrameImage& image) {
     std::unique_ptr<std::FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
     if (!file) throw std::runtime_error(path + ": cannot be opened: " + std::strerror(errno));
     std::FILE* f = file.get();
@@ -64,6 +66,10 @@ void read_pnm(const std::string& path, PnmImage& image) {
     if (maxval != 255) {
         throw std::runtime_error(path + ": PNM maxval " + std::to_string(maxval) +
                                  "; 8-bit frames with maxval 255 are expected");
+    }
+    if (image.width * image.height > kMaxFramePixels) {
+        throw std::runtime_error(path + ": a " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+                                 " image is larger than a camera frame can be");
     }
     const std::size_t bytes = image.width * image.height * image.channels;
     image.pixels.resize(bytes);

@@ -11,6 +11,8 @@
 #include "glue.hpp"
 #include "nightloc/grid_filter.hpp"
 #include "nightloc/heatmap.hpp"
+#include "nightloc/localizer.hpp"
+#include "settings_glue.hpp"
 
 namespace {
 
@@ -388,7 +390,7 @@ private:
 
     static py::tuple estimate_tuple(const nightloc::GridEstimate& e) {
         return py::make_tuple(e.x, e.y, e.heading, e.cov_xx, e.cov_xy, e.cov_yy, e.credible_radius, e.confidence,
-                              e.cell, e.flat);
+                              e.cell, e.flat, e.heading_var);
     }
 
     py::tuple result(const nightloc::GridEstimate& e) const {
@@ -403,77 +405,16 @@ private:
     nightloc::GridFilter filter_;
 };
 
-// The settings as a Python class whose attributes are the fields of the one name table
-// (nightloc::grid_filter_setting_fields()); a value is set as the map reader sets it.
-void register_grid_filter_settings(py::module_& m) {
-    using nightloc::GridFilterSettings;
-    py::class_<GridFilterSettings> settings(
-        m, "GridFilterSettings",
-        "The grid filter's settings with the core's defaults (nightloc/grid_filter.hpp); validate() checks ranges.");
-    settings.def(py::init<>());
-    for (const nightloc::GridFilterSettingField& field : nightloc::grid_filter_setting_fields()) {
-        const std::string name = field.name;
-        if (field.real != nullptr) {
-            settings.def_property(
-                field.name, [member = field.real](const GridFilterSettings& s) { return s.*member; },
-                [name](GridFilterSettings& s, double value) { nightloc::set_grid_filter_setting(s, name, value); });
-        } else {
-            settings.def_property(
-                field.name, [member = field.count](const GridFilterSettings& s) { return s.*member; },
-                [name](GridFilterSettings& s, double value) { nightloc::set_grid_filter_setting(s, name, value); });
-        }
-    }
-    settings
-        .def(
-            "validate", [](const GridFilterSettings& s) { nightloc::validate(s); },
-            "ValueError naming the first setting out of its range, and the range.")
-        .def(
-            "to_dict",
-            [](const GridFilterSettings& s) {
-                py::dict out;
-                for (const nightloc::GridFilterSettingField& field : nightloc::grid_filter_setting_fields()) {
-                    if (field.real != nullptr)
-                        out[field.name] = s.*field.real;
-                    else
-                        out[field.name] = s.*field.count;
-                }
-                return out;
-            },
-            "name -> value of every setting, in the table's order (counts as int).")
-        .def(py::pickle(
-            [](const GridFilterSettings& s) {
-                py::tuple state(nightloc::kGridFilterSettingCount);
-                std::size_t k = 0;
-                for (const nightloc::GridFilterSettingField& field : nightloc::grid_filter_setting_fields())
-                    state[k++] = nightloc::grid_filter_setting(s, field);
-                return state;
-            },
-            [](const py::tuple& state) {
-                if (state.size() != nightloc::kGridFilterSettingCount)
-                    throw py::value_error("invalid GridFilterSettings state");
-                GridFilterSettings s;
-                std::size_t k = 0;
-                for (const nightloc::GridFilterSettingField& field : nightloc::grid_filter_setting_fields())
-                    nightloc::set_grid_filter_setting(s, field.name, state[k++].cast<double>());
-                return s;
-            }))
-        .def("__repr__", [](const GridFilterSettings& s) {
-            std::string text = "GridFilterSettings(";
-            const char* separator = "";
-            for (const nightloc::GridFilterSettingField& field : nightloc::grid_filter_setting_fields()) {
-                const py::object value = field.real != nullptr ? py::object(py::float_(s.*field.real))
-                                                               : py::object(py::int_(s.*field.count));
-                text += separator + std::string(field.name) + "=" + std::string(py::repr(value));
-                separator = ", ";
-            }
-            return text + ")";
-        });
-}
-
 }  // namespace
 
 void register_localization(py::module_& m) {
-    register_grid_filter_settings(m);
+    nightloc::glue::bind_settings<nightloc::GridFilterSettings>(
+        m, "GridFilterSettings",
+        "The grid filter's settings with the core's defaults (nightloc/grid_filter.hpp); setting a field checks its "
+        "kind and range.");
+    const nightloc::OdometryNoise& wheel = nightloc::kWheelOdometryNoise;
+    m.attr("WHEEL_ODOMETRY_NOISE") =
+        py::make_tuple(wheel.distance_std, wheel.heading_std, wheel.distance_per_metre, wheel.heading_per_radian);
     py::class_<GridFilterPy>(m, "GridFilter",
                              "The grid Bayes filter over position x heading (nightloc/grid_filter.hpp).")
         .def(py::init<Weights, double, double, double, double, const py::array&, const py::object&, std::size_t,

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "glue.hpp"
+#include "nightloc/map_file.hpp"
 #include "nightloc/warp.hpp"
 
 namespace {
@@ -85,6 +86,8 @@ py::array_t<double> warp_costs(const py::array& images_in, const py::array& stac
 }  // namespace
 
 void register_mapping(py::module_& m) {
+    m.attr("MAP_FORMAT_VERSION") = nightloc::kMapFormatVersion;
+    m.attr("DAY_MAP_FORMAT_VERSION") = nightloc::kDayMapFormatVersion;
     m.def("warp_costs", &warp_costs, py::arg("images"), py::arg("stacks"), py::arg("row_begin"), py::arg("row_end"),
           py::arg("level"), py::arg("sign"), py::arg("pairs"), py::arg("first_direction"), py::arg("n_directions"),
           py::arg("first_shift"), py::arg("n_shifts"), py::arg("threads") = 1,

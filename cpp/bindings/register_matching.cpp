@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "common/simd_paths.hpp"
 #include "glue.hpp"
 #include "matching/avx512_variant.hpp"
 #include "nightloc/sad.hpp"
@@ -153,6 +154,30 @@ void register_matching(py::module_& m) {
     std::vector<std::string> all_names;
     for (const auto& entry : nightloc::kSimdBackendNames) all_names.emplace_back(entry.name);
     m.attr("ALL_SIMD_BACKENDS") = py::tuple(py::cast(all_names));
+    m.def(
+        "simd_paths",
+        [] {
+            static const char* const kFloatWidths[] = {"scalar", "baseline", "avx2", "avx512"};
+            py::list paths;
+            for (const auto& entry : nightloc::kSimdBackendNames) {
+                const nightloc::detail::SimdPath* path = nightloc::detail::find_simd_path(entry.backend);
+                py::dict row;
+                row["name"] = entry.name;
+                row["architecture"] = entry.architecture;
+                row["compiled"] = path != nullptr;
+                row["supported"] = nightloc::simd_backend_supported(entry.backend);
+                row["alignment"] = path != nullptr ? py::object(py::int_(path->alignment)) : py::object(py::none());
+                row["all_shift_kernel"] = path != nullptr && path->sad_all_shifts != nullptr;
+                row["float_kernels"] = path != nullptr
+                                           ? py::object(py::str(kFloatWidths[static_cast<int>(path->float_kernels)]))
+                                           : py::object(py::none());
+                paths.append(row);
+            }
+            return paths;
+        },
+        "The SIMD path registry, every path the library knows in kSimdBackendNames' order: name, architecture, "
+        "compiled (into this build), supported (by this CPU), and for a compiled path its alignment, whether it has "
+        "an all-shift SAD kernel and its float kernels' width.");
     m.def(
         "simd_backend", [] { return std::string(nightloc::simd_backend_name(nightloc::active_simd_backend())); },
         "Name of the SIMD path the kernels use now.");

@@ -9,6 +9,7 @@
 #include "glue.hpp"
 #include "nightloc/normalize.hpp"
 #include "nightloc/prepare.hpp"
+#include "settings_glue.hpp"
 
 namespace {
 
@@ -49,26 +50,6 @@ nightloc::PixelOrder order_from_name(const std::string& name) {
     if (name == "bgra") return nightloc::PixelOrder::bgra;
     if (name == "rgba") return nightloc::PixelOrder::rgba;
     throw py::value_error("unknown pixel order '" + name + "'; expected grey, bgr, rgb, bgra or rgba");
-}
-
-// Equalization by the names of nightloc.PreparationParams.equalize.
-nightloc::Equalization equalization_from_name(const std::string& name) {
-    if (name == "global") return nightloc::Equalization::global;
-    if (name == "none") return nightloc::Equalization::none;
-    if (name == "clahe") return nightloc::Equalization::clahe;
-    throw py::value_error("equalize must be 'global', 'clahe' or 'none', got '" + name + "'");
-}
-
-const char* equalization_name(nightloc::Equalization equalize) {
-    switch (equalize) {
-        case nightloc::Equalization::none:
-            return "none";
-        case nightloc::Equalization::global:
-            return "global";
-        case nightloc::Equalization::clahe:
-            return "clahe";
-    }
-    return "unknown";
 }
 
 const char* method_name(nightloc::DownsampleMethod method) {
@@ -124,63 +105,13 @@ py::array prepare_frame(const py::array& frame, const std::string& order_name, n
     return std::move(out);
 }
 
-// An integer field set from any Python int: one outside the field's type is a ValueError naming
-// the field (not pybind11's TypeError); the range is validate()'s.
-template <class T>
-void integer_property(py::class_<nightloc::PrepareSettings>& cls, const char* name,
-                      T nightloc::PrepareSettings::* member) {
-    cls.def_property(
-        name, [member](const nightloc::PrepareSettings& s) { return s.*member; },
-        [member, field = std::string(name)](nightloc::PrepareSettings& s, const py::int_& value) {
-            int overflow = 0;
-            const long long v = PyLong_AsLongLongAndOverflow(value.ptr(), &overflow);
-            if (overflow == 0 && v == -1 && PyErr_Occurred()) throw py::error_already_set();
-            const bool negative = overflow < 0 || (overflow == 0 && v < 0);
-            if (std::is_unsigned_v<T> && negative) {
-                throw py::value_error(field + " must be a non-negative integer, got " + std::string(py::str(value)));
-            }
-            const bool too_large =
-                overflow > 0 || (!negative && static_cast<unsigned long long>(v) >
-                                                  static_cast<unsigned long long>(std::numeric_limits<T>::max()));
-            const bool too_small =
-                negative && (overflow < 0 || v < static_cast<long long>(std::numeric_limits<T>::min()));
-            if (too_large || too_small) {
-                throw py::value_error(field + " = " + std::string(py::str(value)) + " is too " +
-                                      (too_large ? "large" : "small") + " for the core");
-            }
-            s.*member = static_cast<T>(v);
-        });
-}
-
-void register_prepare_settings(py::module_& m) {
-    using nightloc::PrepareSettings;
-    py::class_<PrepareSettings> settings(
-        m, "PrepareSettings",
-        "What prepare_frame does, with the core's defaults (nightloc/prepare.hpp); validate() checks ranges.");
-    settings.def(py::init<>());
-    integer_property<std::size_t>(settings, "crop_top", &PrepareSettings::crop_top);
-    integer_property<std::size_t>(settings, "crop_bottom", &PrepareSettings::crop_bottom);
-    integer_property<std::size_t>(settings, "crop_left", &PrepareSettings::crop_left);
-    integer_property<std::size_t>(settings, "crop_right", &PrepareSettings::crop_right);
-    settings.def_property(
-        "equalize", [](const PrepareSettings& s) { return std::string(equalization_name(s.equalize)); },
-        [](PrepareSettings& s, const std::string& name) { s.equalize = equalization_from_name(name); },
-        "'global', 'clahe' (OpenCV's: prepare_frame refuses it) or 'none'.");
-    integer_property<std::size_t>(settings, "width", &PrepareSettings::width);
-    integer_property<std::size_t>(settings, "height", &PrepareSettings::height);
-    integer_property<int>(settings, "radius", &PrepareSettings::radius);
-    settings.def_readwrite("normalize", &PrepareSettings::normalize)
-        .def_readwrite("wrap", &PrepareSettings::wrap)
-        .def_readwrite("scale", &PrepareSettings::scale)
-        .def(
-            "validate", [](const PrepareSettings& s) { nightloc::validate(s); },
-            "ValueError naming the first setting out of its range, and the range.");
-}
-
 }  // namespace
 
 void register_preparation(py::module_& m) {
-    register_prepare_settings(m);
+    nightloc::glue::bind_settings<nightloc::PrepareSettings>(
+        m, "PrepareSettings",
+        "What prepare_frame does, with the core's defaults (nightloc/prepare.hpp); setting a field checks its kind "
+        "and range, validate() the rest.");
     m.attr("DEFAULT_PATCH_SCALE") = nightloc::kDefaultPatchScale;
     m.attr("MAX_PATCH_RADIUS") = nightloc::kMaxPatchRadius;
     m.def("patch_normalize", &patch_normalize, py::arg("images"), py::arg("radius"), py::arg("wrap"), py::arg("scale"));

@@ -14,6 +14,7 @@
 #include "nightloc/route_filter.hpp"
 #include "nightloc/sad.hpp"
 #include "nightloc/seqslam.hpp"
+#include "settings_glue.hpp"
 
 namespace {
 
@@ -52,11 +53,7 @@ nightloc::TrajectoryPlan plan_from(int ds, double vmin, double vmax, int uniquen
     params.vmax = vmax;
     params.uniqueness_radius = uniqueness_radius;
     params.mode = causal ? nightloc::TrajectoryMode::kCausal : nightloc::TrajectoryMode::kCentred;
-    try {
-        return nightloc::make_trajectory_plan(params);
-    } catch (const std::invalid_argument& error) {
-        throw py::value_error(error.what());
-    }
+    return nightloc::make_trajectory_plan(params);  // SettingError, std::invalid_argument -> ValueError
 }
 
 py::tuple enhance_contrast(const py::array& d_in, int radius, const std::string& offset_name, int threads,
@@ -332,37 +329,12 @@ py::tuple filter_frame(nightloc::RouteFilter& filter, const py::array& image_in,
 }
 
 void register_route_filter(py::module_& m) {
-    py::class_<nightloc::RouteFilterParams>(m, "RouteFilterParams",
-                                            "Parameters of the route filter (nightloc/route_filter.hpp).")
-        .def(py::init<>())
-        .def_readwrite("vmin", &nightloc::RouteFilterParams::vmin)
-        .def_readwrite("vmax", &nightloc::RouteFilterParams::vmax)
-        .def_readwrite("backward", &nightloc::RouteFilterParams::backward)
-        .def_readwrite("floor", &nightloc::RouteFilterParams::floor)
-        .def_readwrite("sharpness", &nightloc::RouteFilterParams::sharpness)
-        .def_readwrite("clip", &nightloc::RouteFilterParams::clip)
-        .def_readwrite("leave", &nightloc::RouteFilterParams::leave)
-        .def_readwrite("rejoin", &nightloc::RouteFilterParams::rejoin)
-        .def_readwrite("window", &nightloc::RouteFilterParams::window)
-        .def_property(
-            "motion",
-            [](const nightloc::RouteFilterParams& p) { return std::string(nightloc::route_motion_name(p.motion)); },
-            [](nightloc::RouteFilterParams& p, const std::string& name) {
-                p.motion = nightloc::route_motion_from_name(name);  // std::invalid_argument -> ValueError
-            },
-            "The motion model by name (route_motion_names()).")
-        .def_readwrite("speed_min", &nightloc::RouteFilterParams::speed_min)
-        .def_readwrite("speed_max", &nightloc::RouteFilterParams::speed_max)
-        .def_readwrite("speed_step", &nightloc::RouteFilterParams::speed_step)
-        .def_readwrite("speed_jitter", &nightloc::RouteFilterParams::speed_jitter)
-        .def_readwrite("speed_change", &nightloc::RouteFilterParams::speed_change)
-        .def_readwrite("speed_tau", &nightloc::RouteFilterParams::speed_tau)
-        .def_readwrite("speed_cells", &nightloc::RouteFilterParams::speed_cells)
-        .def_readwrite("odometry_noise", &nightloc::RouteFilterParams::odometry_noise)
-        .def_readwrite("odometry_jitter", &nightloc::RouteFilterParams::odometry_jitter)
-        .def_readwrite("odometry_novelty", &nightloc::RouteFilterParams::odometry_novelty)
-        .def_readwrite("odometry_cells", &nightloc::RouteFilterParams::odometry_cells)
-        .def("validate", [](const nightloc::RouteFilterParams& p) { nightloc::validate(p); });
+    nightloc::glue::bind_settings<nightloc::RouteFilterParams>(
+        m, "RouteFilterParams",
+        "Parameters of the route filter (nightloc/route_filter.hpp); setting a field checks its kind and range.");
+    nightloc::glue::bind_settings<nightloc::TrajectoryParams>(
+        m, "TrajectoryParams",
+        "Parameters of SeqSLAM's trajectory search (nightloc/seqslam.hpp); setting a field checks its kind and range.");
 
     py::class_<nightloc::RouteFilter>(m, "RouteFilter", "The route filter's state and per-frame step.")
         .def(py::init(&make_filter), py::arg("n_refs"), py::arg("params"),
@@ -453,6 +425,30 @@ void register_route_filter(py::module_& m) {
         py::arg("vmin"), py::arg("vmax"), py::arg("backward"), "The prediction kernel: (first advance, weights).");
     m.def("route_motion_names", &nightloc::route_motion_names,
           "The route filter's motion models by name, in the order of the C++ RouteMotion enum.");
+    m.def(
+        "route_motion_speeds",
+        [](const nightloc::RouteFilterParams& p) {
+            const nightloc::RouteMotionSpeeds s = nightloc::route_motion_speeds(p);
+            return py::make_tuple(s.lowest, s.highest, s.fields);
+        },
+        py::arg("params"),
+        "The steady speeds params.motion follows, references per query frame: (lowest, highest, the "
+        "RouteFilterParams fields that set them); (-inf, inf, []) for a model that moves by the distance travelled.");
+    m.def(
+        "route_motion_models",
+        []() {
+            py::list models;
+            for (const std::string& name : nightloc::route_motion_names()) {
+                const nightloc::RouteMotion motion = nightloc::route_motion_from_name(name);
+                py::dict model;
+                model["name"] = name;
+                model["needs_distances"] = nightloc::route_motion_needs_distances(motion);
+                models.append(model);
+            }
+            return models;
+        },
+        "The motion models' registry, in RouteMotion order: {name, needs_distances (moves by the distance "
+        "travelled)} each.");
     m.def("texture_weights", &texture_weights, py::arg("images"), py::arg("min_texture"),
           "Evidence weight min(1, mean absolute deviation / min_texture) of each prepared image.");
 }

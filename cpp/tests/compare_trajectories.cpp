@@ -1,8 +1,9 @@
 // nightloc_compare_trajectories ACTUAL.csv EXPECTED.csv TOLERANCE: exit 0 when two trajectory CSVs
-// (image,x,y,heading,confidence,credible_radius, other columns ignored) list the same images in the
-// same order and every x, y, confidence and credible_radius agree within TOLERANCE and every heading
-// within TOLERANCE radians around the circle (nan only with nan); else the differences are printed
-// and the exit status is 1. Used by ctest to compare nightloc_replay with Python's trajectory.
+// (image,x,y,heading,confidence,credible_radius, other columns ignored) list the same frames in the
+// same order (their names without the suffix: a log and its copy in another image format) and every
+// x, y, confidence and credible_radius agree within TOLERANCE and every heading within TOLERANCE
+// radians around the circle (nan only with nan); else the differences are printed and the exit
+// status is 1. Used by ctest to compare nightloc_replay with Python's trajectory.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -72,7 +73,7 @@ int main(int argc, char** argv) {
             const std::string& vb = b.rows[r].at(static_cast<std::size_t>(cb));
             bool same = true;
             if (std::string(name) == "image") {
-                same = va == vb;
+                same = va.substr(0, va.rfind('.')) == vb.substr(0, vb.rfind('.'));
             } else {
                 const double x = std::strtod(va.c_str(), nullptr), y = std::strtod(vb.c_str(), nullptr);
                 double d = std::fabs(x - y);

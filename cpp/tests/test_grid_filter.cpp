@@ -200,7 +200,7 @@ bool same_estimate(const GridEstimate& a, const GridEstimate& b) {
     auto same = [](double x, double y) { return x == y || (std::isnan(x) && std::isnan(y)); };
     return same(a.x, b.x) && same(a.y, b.y) && same(a.heading, b.heading) && a.cov_xx == b.cov_xx &&
            a.cov_xy == b.cov_xy && a.cov_yy == b.cov_yy && a.credible_radius == b.credible_radius &&
-           a.confidence == b.confidence && a.cell == b.cell && a.flat == b.flat;
+           a.confidence == b.confidence && a.cell == b.cell && a.flat == b.flat && same(a.heading_var, b.heading_var);
 }
 
 void check_paths_identical(const char* name, const SmallMap& m, const GridFilterSettings& settings, bool settle) {
@@ -356,7 +356,7 @@ void test_errors_leave_the_belief() {
     bad_noise.distance_per_metre = -0.1;
     CHECK_THROWS(GridFilter(m.map, bad_noise), std::invalid_argument);
     CHECK_THROWS(filter.set_noise(0.1, 0.02, 0.0, std::numeric_limits<double>::quiet_NaN()), std::invalid_argument);
-    set_grid_filter_setting(bad_noise, "heading_per_radian", 0.25);
+    set_setting(bad_noise, "heading_per_radian", 0.25);
     CHECK(bad_noise.heading_per_radian == 0.25);
     GridFilterMap no_weights = m.map;
     no_weights.weights = nullptr;

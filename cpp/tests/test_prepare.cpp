@@ -115,7 +115,7 @@ PrepareSettings settings_for(std::size_t oh, std::size_t ow, Equalization eq, bo
     s.height = oh;
     s.width = ow;
     s.equalize = eq;
-    s.normalize = normalize;
+    s.patch_normalize = normalize;
     return s;
 }
 
@@ -216,7 +216,7 @@ void test_patch_normalization_and_crop() {
     s.crop_right = 1;
     s.radius = 3;
     s.scale = 20.0;
-    s.normalize = false;
+    s.patch_normalize = false;
     const FrameView view{frame.data(), h, w, w * 3, PixelOrder::bgr};
     const Bytes small = run(view, s, ws);
     // the crop equals a frame that starts at the crop
@@ -224,7 +224,7 @@ void test_patch_normalization_and_crop() {
     PrepareSettings uncropped = s;
     uncropped.crop_top = uncropped.crop_bottom = uncropped.crop_left = uncropped.crop_right = 0;
     CHECK(run(cropped, uncropped, ws) == small);
-    s.normalize = true;
+    s.patch_normalize = true;
     const Bytes prepared = run(view, s, ws);
     Bytes expected(small.size());
     nightloc::patch_normalize(small.data(), expected.data(), 1, 24, 48, 3, true, 20.0);

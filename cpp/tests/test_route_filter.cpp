@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -455,10 +456,41 @@ void test_motion_names() {
     try {
         nightloc::route_motion_from_name("teleport");
     } catch (const std::invalid_argument& error) {
-        named_choices = std::string(error.what()).find("window, speed, odometry") != std::string::npos;
+        named_choices = true;  // every name of the table, quoted
+        for (const std::string& name : names)
+            named_choices = named_choices && std::string(error.what()).find("'" + name + "'") != std::string::npos;
     }
     CHECK(named_choices);
     CHECK_THROWS(nightloc::route_motion_name(static_cast<nightloc::RouteMotion>(-1)), std::invalid_argument);
+    // Each model's steady speeds come from its own fields; odometry follows any speed.
+    nightloc::RouteFilterParams p;
+    p.vmin = 0.7;
+    p.vmax = 1.3;
+    p.motion = nightloc::RouteMotion::kWindow;
+    nightloc::RouteMotionSpeeds speeds = nightloc::route_motion_speeds(p);
+    // the central 80 % of a speed uniform in 0.7 .. 1.3
+    CHECK(std::fabs(speeds.lowest - 0.76) < 1e-12 && std::fabs(speeds.highest - 1.24) < 1e-12 &&
+          speeds.fields == (std::vector<std::string>{"vmin", "vmax"}));
+    // The speed model: the planes of the central 80 % of its prior (the defaults: 0.9 .. 1.1; the
+    // planes 0.5 .. 0.7 and 1.3 .. 1.5 get none of the stationary mass, 0.8 and 1.2 6 % each).
+    p = nightloc::RouteFilterParams();
+    p.motion = nightloc::RouteMotion::kSpeed;
+    speeds = nightloc::route_motion_speeds(p);
+    const nightloc::SpeedChain chain = nightloc::speed_chain(p);
+    double inside = 0.0;
+    for (std::size_t s = 0; s < chain.speeds.size(); ++s)
+        if (chain.speeds[s] >= speeds.lowest - 1e-9 && chain.speeds[s] <= speeds.highest + 1e-9)
+            inside += chain.prior[s];
+    CHECK(std::fabs(speeds.lowest - 0.9) < 1e-9 && std::fabs(speeds.highest - 1.1) < 1e-9 && inside >= 0.8);
+    CHECK(speeds.fields.size() == 4 && speeds.fields[0] == "speed_min");
+    p.speed_tau = std::numeric_limits<double>::infinity();  // no pull: a uniform prior over 11 planes
+    speeds = nightloc::route_motion_speeds(p);
+    CHECK(std::fabs(speeds.lowest - 0.6) < 1e-9 && std::fabs(speeds.highest - 1.4) < 1e-9);
+    p.motion = nightloc::RouteMotion::kOdometry;
+    speeds = nightloc::route_motion_speeds(p);
+    CHECK(std::isinf(speeds.lowest) && speeds.lowest < 0 && std::isinf(speeds.highest) && speeds.fields.empty());
+    p.motion = static_cast<nightloc::RouteMotion>(7);
+    CHECK_THROWS(nightloc::route_motion_speeds(p), std::invalid_argument);
 }
 
 }  // namespace

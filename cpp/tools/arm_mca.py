@@ -167,10 +167,10 @@ def main() -> int:
         with open(plain_src, "w") as f:
             f.write(PLAIN_LOOP)
         shipped = {
-            "scalar": compile_to_asm(args.cxx, os.path.join(CPP, "src", "sad_scalar.cpp"), SHIPPED_FLAGS, tmp, "scalar"),
-            "neon": compile_to_asm(args.cxx, os.path.join(CPP, "src", "sad_neon.cpp"), SHIPPED_FLAGS, tmp, "neon"),
+            "scalar": compile_to_asm(args.cxx, os.path.join(ROOT, "cpp/src/matching/sad_scalar.cpp"), SHIPPED_FLAGS, tmp, "scalar"),
+            "neon": compile_to_asm(args.cxx, os.path.join(ROOT, "cpp/src/matching/arm/sad_neon.cpp"), SHIPPED_FLAGS, tmp, "neon"),
             "neon-dotprod": compile_to_asm(
-                args.cxx, os.path.join(CPP, "src", "sad_neon_dotprod.cpp"), SHIPPED_FLAGS, tmp, "dotprod"
+                args.cxx, os.path.join(ROOT, "cpp/src/matching/arm/sad_neon_dotprod.cpp"), SHIPPED_FLAGS, tmp, "dotprod"
             ),
         }
         rows = ["scalar (as shipped)", "plain C++ loop, -O3 -mcpu=<CPU>", "neon (as shipped)", "neon-dotprod (as shipped)"]

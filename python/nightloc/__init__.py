@@ -40,11 +40,13 @@ from .matching import (
     simd_backend,
     use_simd_backend,
 )
+from .motion.odometry import WHEEL_ODOMETRY_NOISE
 from .preparation import DEFAULT_PATCH_SCALE, PreparationParams, Preparer, block_normalize, patch_normalize, prepare
 from .route import RouteLocalizer, RouteParams
 
 __all__ = [
     "DEFAULT_PATCH_SCALE",
+    "WHEEL_ODOMETRY_NOISE",
     "DatasetError",
     "DatasetWarning",
     "Estimate",

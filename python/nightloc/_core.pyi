@@ -1,17 +1,30 @@
 """Type stubs of nightloc's compiled core (private: use the functions in ``nightloc``)."""
 
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
 DEFAULT_PATCH_SCALE: float
+WHEEL_ODOMETRY_NOISE: tuple[float, float, float, float]
+MAP_FORMAT_VERSION: int
+DAY_MAP_FORMAT_VERSION: int
 MAX_IMAGE_PIXELS: int
 MAX_PATCH_RADIUS: int
 MAX_TRAJECTORY_PLAN_ENTRIES: float
 ALL_SIMD_BACKENDS: tuple[str, ...]
 
+# The settings schema (cpp/bindings/settings_glue.hpp, nightloc/settings.hpp; use nightloc.schema).
+# Each settings class below has one attribute per row of its table, in the table's order
+# (tests/test_settings_schema.py checks these lines against the tables).
+class SettingError(ValueError):
+    setting: str
+    requirement: str
+
+_SettingsRow = dict[str, Any]
+
+def simd_paths() -> list[dict[str, Any]]: ...
 def simd_backend() -> str: ...
 def best_simd_backend() -> str: ...
 def available_simd_backends() -> list[str]: ...
@@ -112,6 +125,21 @@ class RouteFilterParams:
     odometry_cells: int
     def __init__(self) -> None: ...
     def validate(self) -> None: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    @staticmethod
+    def fields() -> list[_SettingsRow]: ...
+
+class TrajectoryParams:
+    ds: int
+    vmin: float
+    vmax: float
+    uniqueness_radius: int
+    mode: Literal["centred", "causal"]
+    def __init__(self) -> None: ...
+    def validate(self) -> None: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    @staticmethod
+    def fields() -> list[_SettingsRow]: ...
 
 _FilterRun = tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]
 
@@ -171,6 +199,8 @@ def speed_chain(
 def odometry_spread(advance: float, spacing: float, params: RouteFilterParams) -> npt.NDArray[np.float64]: ...
 def motion_kernel(vmin: float, vmax: float, backward: float) -> tuple[int, npt.NDArray[np.float64]]: ...
 def route_motion_names() -> list[str]: ...
+def route_motion_speeds(params: RouteFilterParams) -> tuple[float, float, list[str]]: ...
+def route_motion_models() -> list[dict[str, Any]]: ...
 def texture_weights(images: npt.NDArray[np.uint8], min_texture: float) -> npt.NDArray[np.float64]: ...
 
 # Frame preparation (cpp/bindings/register_preparation.cpp; use nightloc.prepare)
@@ -182,15 +212,18 @@ class PrepareSettings:
     crop_bottom: int
     crop_left: int
     crop_right: int
-    equalize: Literal["global", "clahe", "none"]
+    equalize: Literal["none", "global", "clahe"]
     width: int
     height: int
-    normalize: bool
+    patch_normalize: bool
     radius: int
     wrap: bool
     scale: float
     def __init__(self) -> None: ...
     def validate(self) -> None: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    @staticmethod
+    def fields() -> list[_SettingsRow]: ...
 
 def prepare_frame(frame: npt.NDArray[np.uint8], order: str, settings: PrepareSettings) -> npt.NDArray[np.uint8]: ...
 def downsample_method(in_height: int, in_width: int, out_height: int, out_width: int) -> str: ...
@@ -225,8 +258,8 @@ class HeatWeights:
     def places(self) -> int: ...
     def interpolate(self, values: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]: ...
 
-# (x, y, heading, cov_xx, cov_xy, cov_yy, credible_radius, confidence, cell, flat)
-_GridEstimate = tuple[float, float, float, float, float, float, float, float, int, bool]
+# (x, y, heading, cov_xx, cov_xy, cov_yy, credible_radius, confidence, cell, flat, heading_var)
+_GridEstimate = tuple[float, float, float, float, float, float, float, float, int, bool, float]
 
 class GridFilterSettings:
     """The grid filter's settings with the core's defaults (nightloc/grid_filter.hpp); setting a
@@ -251,7 +284,9 @@ class GridFilterSettings:
     lookalike_places: float
     def __init__(self) -> None: ...
     def validate(self) -> None: ...
-    def to_dict(self) -> dict[str, float | int]: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    @staticmethod
+    def fields() -> list[_SettingsRow]: ...
 
 class GridFilter:
     """The grid Bayes filter (nightloc/grid_filter.hpp). Motion kinds: 0 none, 1 unknown,

@@ -29,7 +29,9 @@ COMMAND_MODULES = (
     "nightloc.commands.synth",
     "nightloc.commands.evaluate",
     "nightloc.commands.localize",
+    "nightloc.commands.export_log",
     "nightloc.commands.camera_study",
+    "nightloc.commands.node",
 )
 
 

@@ -10,8 +10,12 @@ parameter file holds one table per class::
     equalize = "clahe"
     crop = [0, 0.1, 0, 0]     # top, bottom, left, right: ints are pixels, floats fractions
 
-Missing keys keep their defaults; unknown tables or keys are an error naming them. Other modules
-add their own classes the same way::
+Missing keys keep their defaults; unknown tables or keys are an error naming them. Each field's
+type, default, range, unit and doc are its class's table (:mod:`nightloc.schema`): a value out of
+its range is an error in the table's words. On the command line, ``--set SECTION.KEY=VALUE`` gives
+one key the same way (:func:`parse_assignment`, VALUE read as TOML), and :class:`SettingsLayers`
+stacks the sources (defaults, a map's stored settings, ``--params``, ``--set``), saying which key
+came from where. Other modules add their own classes the same way::
 
     @params_section("localization")
     @dataclass(frozen=True)
@@ -47,16 +51,21 @@ from ._validate import MAX_PARAMS_FILE_BYTES
 from .errors import NightlocError
 from .io.atomic import write_text
 from .io.files import open_regular
+from .schema import settings_schema, value_text
 
 __all__ = [
+    "SettingsLayers",
     "dumps_toml",
     "load_params",
     "load_params_file",
     "params_from_dict",
     "params_section",
     "params_to_dict",
+    "parse_assignment",
+    "read_params_tables",
     "registered_sections",
     "save_params",
+    "toml_value",
 ]
 
 T = TypeVar("T")
@@ -75,7 +84,9 @@ def params_section(name: str) -> Callable[[type[T]], type[T]]:
     Apply it above ``@dataclass(frozen=True)``. It wraps ``__init__`` (so also
     ``dataclasses.replace``): after the dataclass's own initialization, every field is
     type-checked and normalized (numpy scalars to Python, lists to tuples, ints to floats for
-    float fields), then the class's ``validate()`` runs when it has one.
+    float fields) and checked against its range in the class's table
+    (:func:`nightloc.schema.settings_schema`: ValueError ``"NAME must be RANGE, got VALUE"``), then
+    the class's ``validate()`` runs when it has one (the rules between fields).
     """
     if not re.fullmatch(r"[A-Za-z0-9_-]+", name):
         raise ValueError(f"section name {name!r} must be a bare TOML key (letters, digits, _ and -)")
@@ -91,6 +102,7 @@ def params_section(name: str) -> Callable[[type[T]], type[T]]:
         hints = typing.get_type_hints(cls)
         fields = {field.name: hints[field.name] for field in dataclasses.fields(cls)}
         dataclass_init = cls.__init__
+        table = settings_schema(cls)  # the rows each value is checked against
 
         @functools.wraps(dataclass_init)
         def __init__(self: Any, *args: Any, **kwargs: Any) -> None:
@@ -98,6 +110,10 @@ def params_section(name: str) -> Callable[[type[T]], type[T]]:
             for field_name, hint in fields.items():
                 value = _coerce(getattr(self, field_name), hint, f"{cls.__name__}.{field_name}")
                 object.__setattr__(self, field_name, value)
+            for setting in table:
+                problem = setting.problem(getattr(self, setting.name))
+                if problem is not None:
+                    raise ValueError(f"{setting.name} {problem}")
             validate = getattr(self, "validate", None)
             if callable(validate):
                 validate()
@@ -268,6 +284,12 @@ def _toml_string(text: str) -> str:
     return '"' + "".join(out) + '"'
 
 
+def toml_value(value: Any) -> str:
+    """``value`` as a TOML value (what a parameter file or ``--set`` writes): ``0.015``, ``24``,
+    ``true``, ``"global"``, ``[8, 8]``."""
+    return _toml_value(value)
+
+
 def _toml_value(value: Any) -> str:
     if isinstance(value, (bool, np.bool_)):
         return "true" if value else "false"
@@ -325,6 +347,15 @@ def load_params_file(path: str | os.PathLike[str]) -> dict[str, Any]:
     an unknown table or key, or a bad value.
     """
     file = Path(path)
+    return {
+        key: params_from_dict(_SECTIONS[key], table, where=str(file)) for key, table in read_params_tables(file).items()
+    }
+
+
+def read_params_tables(path: str | os.PathLike[str]) -> dict[str, dict[str, Any]]:
+    """The tables of a parameter file as written (section -> key -> value), each checked as
+    :func:`load_params_file` checks it (the same errors)."""
+    file = Path(path)
     try:
         with open_regular(file, "parameter file", NightlocError) as stream:  # a FIFO must not block
             data = stream.read(MAX_PARAMS_FILE_BYTES + 1)
@@ -341,7 +372,7 @@ def load_params_file(path: str | os.PathLike[str]) -> dict[str, Any]:
         raise NightlocError(f"parameter file {file} is not UTF-8 text (byte {error.start})") from None
     except tomllib.TOMLDecodeError as error:
         raise NightlocError(f"parameter file {file} is not valid TOML: {error}") from None
-    result: dict[str, Any] = {}
+    result: dict[str, dict[str, Any]] = {}
     for key, value in document.items():
         cls = _SECTIONS.get(key)
         if cls is None:
@@ -352,7 +383,8 @@ def load_params_file(path: str | os.PathLike[str]) -> dict[str, Any]:
                 f"{file}: unknown {'table [' + key + ']' if isinstance(value, dict) else 'key ' + repr(key)}; "
                 f"known tables: {', '.join('[' + name + ']' for name in sorted(_SECTIONS))}"
             )
-        result[key] = params_from_dict(cls, value, where=str(file))
+        params_from_dict(cls, value, where=str(file))  # every error now, naming the file
+        result[key] = dict(value)
     return result
 
 
@@ -386,3 +418,129 @@ def save_params(path: str | os.PathLike[str], params: Any | Iterable[Any], *, ov
             raise ValueError(f"two instances for table [{section}]")
         document[section] = params_to_dict(item)
     write_text(Path(path), dumps_toml(document, header="nightloc parameters"), overwrite=overwrite)
+
+
+# --------------------------------------------------------------------------------------------
+# the command line: --set SECTION.KEY=VALUE, and settings from several sources
+
+_ASSIGNMENT = re.compile(r"^\s*([A-Za-z0-9_-]+)\.([A-Za-z0-9_-]+)\s*=(.*)$", re.S)
+
+
+def parse_assignment(text: str) -> tuple[str, str, Any]:
+    """``"filter.uniform_floor=0.05"`` -> ``("filter", "uniform_floor", 0.05)``: VALUE is read as a
+    TOML value (``0.05``, ``24``, ``true``, ``"none"``, ``[0, 0.1, 0, 0]``), a bare word as a string
+    (``route.filter_motion=speed``). The section and key are checked with the value, by
+    :func:`params_from_dict` (the errors of a parameter file). Raises NightlocError."""
+    match = _ASSIGNMENT.match(str(text))
+    if match is None:
+        raise NightlocError(f"--set {text!r}: expected SECTION.KEY=VALUE, e.g. --set filter.uniform_floor=0.05")
+    section, key, raw = match.group(1), match.group(2), match.group(3).strip()
+    if not raw:
+        raise NightlocError(f"--set {text}: the value is missing (SECTION.KEY=VALUE)")
+    try:
+        value = tomllib.loads(f"value = {raw}")["value"]
+    except tomllib.TOMLDecodeError:
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_.-]*", raw):
+            raise NightlocError(
+                f'--set {text}: {raw!r} is not a TOML value (numbers, true/false, "text", [lists]) or a bare word'
+            ) from None
+        value = raw
+    if section not in _SECTIONS:
+        raise NightlocError(
+            f"--set {text}: unknown table [{section}]; known tables: "
+            f"{', '.join('[' + name + ']' for name in sorted(_SECTIONS))}"
+        )
+    return section, key, value
+
+
+class SettingsLayers:
+    """Parameter tables from several sources, a later source winning key by key: e.g. a map's
+    stored settings, then ``--params FILE``, then ``--set``. Each source's table is checked on its
+    own when added (the errors name the source); :meth:`get` builds the instance of a section from
+    its class's defaults and every source, and :meth:`origin` says which source gave a key."""
+
+    def __init__(self) -> None:
+        self._layers: list[tuple[str, dict[str, dict[str, Any]]]] = []
+
+    def add(
+        self, source: str, tables: Mapping[str, Mapping[str, Any]], *, below: bool = False, where: str | None = None
+    ) -> SettingsLayers:
+        """Adds ``tables`` (section -> key -> value) from ``source`` (words such as ``"the map
+        garden.map"``), above the others (or below them: ``below``). Raises NightlocError naming
+        ``where`` (default ``source``) for an unknown table or key or a bad value."""
+        checked: dict[str, dict[str, Any]] = {}
+        for section, table in tables.items():
+            cls = _SECTIONS.get(section)
+            if cls is None:
+                raise NightlocError(f"{where or source}: unknown table [{section}]")
+            params_from_dict(cls, table, where=where or source)
+            checked[section] = dict(table)
+        if below:
+            self._layers.insert(0, (source, checked))
+        else:
+            self._layers.append((source, checked))
+        return self
+
+    def add_file(self, path: str | os.PathLike[str] | None) -> SettingsLayers:
+        """The tables of a parameter file (nothing for None)."""
+        if path is not None:
+            self._layers.append((str(path), read_params_tables(path)))
+        return self
+
+    def add_assignments(self, assignments: Iterable[str] | None) -> SettingsLayers:
+        """``--set`` assignments, each its own source (``--set SECTION.KEY=VALUE``), in order."""
+        for text in assignments or ():
+            section, key, value = parse_assignment(text)
+            self.add("--set", {section: {key: value}}, where=f"--set {text}")
+        return self
+
+    def table(self, section: str) -> dict[str, Any]:
+        """The section's keys that any source sets, with the winning values."""
+        merged: dict[str, Any] = {}
+        for _, tables in self._layers:
+            merged.update(tables.get(section, {}))
+        return merged
+
+    def given(self, section: str) -> bool:
+        """Whether any source sets a key of ``section``."""
+        return any(section in tables for _, tables in self._layers)
+
+    def origin(self, section: str, key: str) -> str | None:
+        """The source whose value of ``section.key`` wins, or None (the default)."""
+        for source, tables in reversed(self._layers):
+            if key in tables.get(section, {}):
+                return source
+        return None
+
+    def get(self, cls: type[T]) -> T:
+        """The instance of the parameter class ``cls``: its defaults with every source's keys.
+        A combination the class refuses (e.g. ``vmin`` from one source above ``vmax`` from
+        another) is a NightlocError naming the sources."""
+        section = _section_of(cls)
+        sources = [source for source, tables in self._layers if section in tables]
+        return params_from_dict(cls, self.table(section), where=" and ".join(sources))
+
+    def section(self, cls: type[T]) -> T | None:
+        """:meth:`get` when any source sets a key of ``cls``'s section, else None."""
+        return self.get(cls) if self.given(_section_of(cls)) else None
+
+    def report(self, sections: Iterable[str]) -> list[str]:
+        """Lines saying where the settings of ``sections`` came from, one per source: ``"--set:
+        [filter] uniform_floor = 0.05, heading_bins = 24"``, the keys whose value it gives (the
+        lowest source's only where they differ from the defaults)."""
+        lowest = self._layers[0][0] if self._layers else None
+        given: dict[str, dict[str, list[str]]] = {}  # source -> section -> "key = value"
+        for section in sections:
+            defaults = params_to_dict(_SECTIONS[section]())
+            for key in self.table(section):
+                source = self.origin(section, key)
+                value = self.table(section)[key]
+                if source is None or (source == lowest and defaults.get(key) == value):
+                    continue
+                given.setdefault(source, {}).setdefault(section, []).append(f"{key} = {value_text(value)}")
+        order = list(dict.fromkeys(source for source, _ in self._layers))  # lowest first
+        return [
+            f"{source}: " + "; ".join(f"[{section}] {', '.join(items)}" for section, items in given[source].items())
+            for source in order
+            if source in given
+        ]

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import nightloc
-from bag_support import NS, stamp_ns, write_bag
 from nightloc.cli import main
 
+from bag_support import NS, stamp_ns, write_bag
 from synth_support import default_synth_data
 from video_support import write_video
 
@@ -210,6 +210,10 @@ def test_bag_errors_on_the_command_line(garden, tmp_path, capsys):
     assert main(["localize", str(garden["map"]), str(untimed), "--out", str(tmp_path / "o"), "--format", "tum"]) == 2
     err = capsys.readouterr().err
     assert "--format tum needs each frame's time" in err and "timestamp column" in err
+    assert main(["localize", str(garden["map"]), str(untimed), "--out", str(tmp_path / "o"), "--format", "mcap"]) == 2
+    err = capsys.readouterr().err
+    assert "--format mcap needs each frame's time" in err and "timestamp column" in err
+    assert not (tmp_path / "o").exists()  # nothing written
     assert main([*argv, "--format", "kml"]) == 2
     assert "--format" in capsys.readouterr().err
     # a bag as the map: it has no poses, but odometry: built by a teach run

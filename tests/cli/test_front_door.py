@@ -103,11 +103,54 @@ def test_build_map_camera_forward_builds_a_forward_map_and_stores_the_camera(ws,
     with np.load(target) as archive:
         header = json.loads(archive["header"].tobytes())
     assert header["camera"] == "forward" and header["frame_size"] == [64, 48]
-    # the default stays panoramic, and a map of forward-shaped frames built so says how to fix it
-    assert main(["build-map", str(ws.forward), str(tmp_path / "p.map")]) == 0
-    printed = capsys.readouterr().out
-    assert ReferenceMap.load(tmp_path / "p.map").camera == "panoramic"
-    assert "--camera forward" in printed
+
+
+def test_frames_too_narrow_for_a_panorama_are_never_prepared_as_one(ws, capsys, tmp_path):
+    # nothing says which camera: the default (panoramic) does not fit 4:3 frames, so the fix is named
+    err = _error(capsys, ["build-map", ws.forward, tmp_path / "p.map"])
+    assert "64x48" in err and "nothing says which camera" in err and "--camera forward" in err, err
+    # a panoramic camera named for them is refused too; so is a reference traverse prepared so
+    err = _error(capsys, ["build-map", ws.forward, tmp_path / "p.map", "--camera", "panoramic"])
+    assert "--camera panoramic says they are 360-degree panoramas" in err and "--camera forward" in err, err
+    err = _error(capsys, ["localize", ws.forward, ws.forward, "--out", tmp_path / "o"])
+    assert "nothing says which camera" in err, err
+    assert not (tmp_path / "p.map").exists() and not (tmp_path / "o").exists()
+
+
+def _synth_described(root, traverse, description: dict):
+    """A copy of ``traverse`` in ``root/<name>`` beside a ``dataset.json`` as nightloc synth writes it."""
+    root.mkdir()
+    shutil.copytree(traverse, root / "day_reference")
+    body = {"generator": "nightloc.synth", "traverses": {"day_reference": {"condition": "day"}}, **description}
+    (root / "dataset.json").write_text(json.dumps(body))
+    return root / "day_reference"
+
+
+@pytest.mark.parametrize("description", [{"view": "forward"}, {"camera": {"view": "forward", "width": 64}}])
+def test_build_map_takes_the_camera_that_the_dataset_records(ws, capsys, tmp_path, description):
+    day = _synth_described(tmp_path / "fwd", ws.forward, description)
+    assert main(["build-map", str(day), str(tmp_path / "f.map")]) == 0
+    assert f"camera forward (as {tmp_path / 'fwd' / 'dataset.json'} says)" in capsys.readouterr().out
+    assert ReferenceMap.load(tmp_path / "f.map").camera == "forward"
+    # an option that contradicts the record names both; one that agrees is accepted
+    err = _error(capsys, ["build-map", day, tmp_path / "p.map", "--camera", "panoramic"])
+    assert "--camera panoramic contradicts" in err and "dataset.json" in err and "records a forward camera" in err
+    params = tmp_path / "prep.toml"
+    params.write_text("[preparation]\nwrap = true\n")
+    err = _error(capsys, ["build-map", day, tmp_path / "p.map", "--params", params])
+    assert "wrap = true" in err and "records a forward camera" in err, err
+    assert main(["build-map", str(day), str(tmp_path / "g.map"), "--camera", "forward"]) == 0
+    # a description by another tool, or one not listing the traverse, records nothing
+    (tmp_path / "fwd" / "dataset.json").write_text(json.dumps({"view": "forward", "traverses": ["day_reference"]}))
+    assert "nothing says which camera" in _error(capsys, ["build-map", day, tmp_path / "p.map"])
+
+
+def test_a_camera_option_against_a_map_of_another_camera_is_named_as_the_cause(ws, capsys, tmp_path):
+    target = tmp_path / "f.map"
+    assert main(["build-map", str(ws.forward), str(target), "--camera", "forward"]) == 0
+    err = _error(capsys, ["localize", target, ws.forward, "--out", tmp_path / "o", "--camera", "panoramic"])
+    assert err.split("error: ")[1].startswith("--camera panoramic says that the log"), err
+    assert "drop --camera panoramic" in err and "forward camera's" in err, err
 
 
 def test_camera_and_a_parameter_file_that_contradict_each_other_are_refused(ws, capsys, tmp_path):
@@ -280,3 +323,16 @@ def test_info_help_describes_the_command():
     )
     body = " ".join(done.stdout.split("options:")[0].split())
     assert "SIMD paths" in body and "byte comparisons per second" in body, done.stdout
+
+
+def test_build_map_creates_the_maps_folder_and_removes_it_again_on_a_failure(ws, capsys, tmp_path):
+    target = tmp_path / "maps" / "nested" / "forward.map"
+    assert main(["build-map", str(ws.forward), str(target), "--camera", "forward"]) == 0
+    assert ReferenceMap.load(target).camera == "forward"
+    capsys.readouterr()
+    # a failure after the check (frames too narrow for the default panorama) leaves no folder behind
+    broken = nightloc.save_traverse(tmp_path / "broken", ws.forward_frames[:3], ws.positions[:3], ws.headings[:3])
+    (broken.root / "images" / broken.names[2]).write_bytes(b"not an image")
+    assert main(["build-map", str(broken.root), str(tmp_path / "new" / "x.map"), "--camera", "forward"]) == 2
+    assert broken.names[2] in capsys.readouterr().err
+    assert not (tmp_path / "new").exists()

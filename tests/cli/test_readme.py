@@ -10,6 +10,9 @@ from pathlib import Path
 
 import pytest
 
+from nightloc.cli import main
+from nightloc.synth import default_dataset
+
 from conftest import shared_data_dir
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -40,6 +43,25 @@ def test_readme_python_examples_run_as_written(tmp_path):
             [sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=600, check=False
         )
         assert done.returncode == 0, f"README.md python block {number} failed:\n{block}\n{done.stderr[-3000:]}"
+
+
+def test_readme_robot_loop_prints_what_nightloc_localize_prints(tmp_path):
+    """The README's robot loop and ``nightloc localize`` on the same shipped garden tell one story:
+    the same noise model, so the same last pose, to the printed digit."""
+    readme = (ROOT / "README.md").read_text()
+    loop = next(b for b in re.findall(r"```python\n(.*?)```", readme, flags=re.S) if "last frame" in b)
+    script = tmp_path / "robot_loop.py"
+    script.write_text(textwrap.dedent(loop))
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=600, check=True)
+    printed = [line for line in done.stdout.splitlines() if line.startswith("last frame: ")]
+    garden = default_dataset()["garden"]
+    assert main(["build-map", str(garden["day_reference"]), str(tmp_path / "garden.map")]) == 0
+    command = ["localize", str(tmp_path / "garden.map"), str(garden["night_query"]), "--out", str(tmp_path / "run")]
+    localized = subprocess.run(
+        [sys.executable, "-m", "nightloc", *command, "--no-figures"], capture_output=True, text=True, check=True
+    )
+    expected = [line for line in localized.stdout.splitlines() if line.startswith("last frame: ")]
+    assert len(printed) == 1 and printed == expected, (done.stdout, localized.stdout)
 
 
 def test_readme_links_resolve_inside_the_repository():

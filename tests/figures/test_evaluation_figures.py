@@ -4,6 +4,8 @@ is visible over the peak, and the chosen frame says why."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from matplotlib.text import Text
@@ -160,6 +162,23 @@ def _heat_scene():
     return ref_map, matches
 
 
+def test_the_sequence_panel_marks_the_sequences_reference_not_the_single_frames_best_match():
+    ref_map, matches = _heat_scene()
+    frame, far = 6, len(ref_map) - 1  # a look-alike far away wins the single frame only
+    scores = matches.results[frame].scores.copy()
+    scores[far] = scores.min() - 1
+    results = list(matches.results)
+    results[frame] = dataclasses.replace(results[frame], index=far, scores=scores)
+    matches = dataclasses.replace(matches, results=tuple(results))
+    sequence = replay(ref_map, matches, frame, 4)
+    assert sequence.ref_index != far  # the sequence is not fooled
+    fig = heatmap_figure(ref_map, matches, frame, seq_len=4)
+    single, fused = [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
+    for ax, reference in ((single, far), (fused, sequence.ref_index)):
+        line = _line(ax, "best reference")
+        assert (line.get_xdata()[0], line.get_ydata()[0]) == pytest.approx(tuple(ref_map.positions[reference]))
+
+
 def _pixels(fig) -> np.ndarray:
     """The figure rendered by Agg, ``(H, W, 3)`` RGB; the layout is frozen after the first draw
     (constrained layout moves things by a pixel or so on each draw)."""
@@ -190,9 +209,13 @@ def test_heat_map_panels_put_every_marker_at_its_data():
         np.testing.assert_array_equal(circles.get_offsets(), ref_map.positions)
         assert int(np.argmax(circles.get_sizes())) == result.index  # the best match has the largest circle
         assert np.all(np.diff(circles.get_sizes()[np.argsort(result.scores)]) <= 0)  # size falls with the score
+        # the single frame's best match; the sequence's reported reference (the one closest to its estimate)
+        best = result.index if est.frames == 1 else est.ref_index
+        nearest = int(np.argmin(np.hypot(*(ref_map.positions - (est.x, est.y)).T)))
+        assert est.frames == 1 or best == nearest
         for label, where in (
             ("truth", matches.positions[frame]),
-            ("best reference", ref_map.positions[result.index]),
+            ("best reference", ref_map.positions[best]),
             ("estimate", (est.x, est.y)),
         ):
             line = _line(ax, label)

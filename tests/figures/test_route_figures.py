@@ -11,7 +11,6 @@ import pytest
 import nightloc
 from nightloc import route
 from nightloc.figures.route import (
-    _reduced,
     correspondence_figure,
     difference_matrix_figure,
     pr_curve_figure,
@@ -53,18 +52,6 @@ def test_matches_are_dots_on_their_cells_coloured_by_correctness(matched):
     # without ground truth, one colour for every match
     [plain] = difference_matrix_figure(result).axes[0].collections
     np.testing.assert_array_equal(plain.get_offsets(), expected)
-
-
-def test_large_matrices_are_area_averaged_for_the_image():
-    rng = np.random.default_rng(1)
-    matrix = rng.random((1800, 2700), dtype=np.float32)
-    matrix[5, 7] = np.inf  # replaced by the finite maximum before averaging
-    reduced = _reduced(matrix, limit=900)
-    clean = matrix.copy()
-    clean[5, 7] = matrix[np.isfinite(matrix)].max()
-    np.testing.assert_allclose(reduced, clean.reshape(900, 2, 900, 3).mean(axis=(1, 3)), rtol=1e-5)
-    small = rng.random((40, 30), dtype=np.float32)
-    np.testing.assert_array_equal(_reduced(small, limit=900), small)
 
 
 def test_pr_curve_is_the_evaluation_curve_from_full_precision(matched):

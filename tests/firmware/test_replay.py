@@ -1,9 +1,10 @@
 """The firmware path: ``nightloc_replay MAP LOG OUT.csv`` (C++, no Python) equals ``nightloc
 localize`` and ``nightloc.Localizer`` on the same frames, and refuses bad input clearly.
 
-The program comes from ``$NIGHTLOC_REPLAY`` (CI builds the C++ project and names it), or is built
-here with CMake into a temporary folder; without CMake, a compiler or Eigen the tests skip, saying
-why. The data: a small synthetic garden map and night log (tools/firmware_golden.py).
+The program is the one ``pip install`` put beside this Python's ``nightloc`` script (built from the
+same core as the module), or ``$NIGHTLOC_REPLAY`` (e.g. a CMake build's). Tests of PNG frames check
+whichever the build does: read them as Python does, or refuse them naming both fixes. The data: a small
+synthetic garden map and night log (tools/firmware_golden.py), and a night ``nightloc synth`` wrote.
 """
 
 from __future__ import annotations
@@ -23,40 +24,49 @@ import numpy as np
 import pytest
 
 import nightloc
+from nightloc.cli import main as nightloc_main
+from nightloc.io.images import IMAGE_SUFFIXES
+from nightloc.io.trajectory import TRAJECTORY_HEADER
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
 import firmware_golden
 
 REPO = Path(__file__).resolve().parents[2]
 TOLERANCE = 1e-4  # metres and radians: the target of the firmware path
+PROGRAM = "nightloc_replay"
+
+
+def installed_replay() -> Path | None:
+    """``$NIGHTLOC_REPLAY``, else the program installed beside this interpreter's scripts, else
+    the one on PATH; None when there is none."""
+    named = os.environ.get("NIGHTLOC_REPLAY")
+    if named:
+        return Path(named).resolve()
+    beside = Path(sysconfig.get_path("scripts")) / PROGRAM
+    if beside.is_file():
+        return beside
+    found = shutil.which(PROGRAM)
+    return Path(found) if found else None
 
 
 @pytest.fixture(scope="session")
-def replay(tmp_path_factory) -> Path:
-    """The nightloc_replay program: $NIGHTLOC_REPLAY, or built here with CMake."""
-    named = os.environ.get("NIGHTLOC_REPLAY")
-    if named:
-        path = Path(named)
-        assert path.is_file() and os.access(path, os.X_OK), f"NIGHTLOC_REPLAY={named} is not an executable"
-        return path
-    cmake = shutil.which("cmake")
-    if cmake is None:
-        pytest.skip("cmake not found: cannot build nightloc_replay (or name it with NIGHTLOC_REPLAY)")
-    build = tmp_path_factory.mktemp("replay-build")
-    prefixes = [str(Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix")]
-    configure = subprocess.run(
-        [cmake, "-S", str(REPO / "cpp"), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
-         "-DNIGHTLOC_BUILD_TESTS=OFF", "-DNIGHTLOC_BUILD_EXAMPLES=OFF", f"-DCMAKE_PREFIX_PATH={';'.join(prefixes)}"],
-        capture_output=True, text=True, check=False,
-    )  # fmt: skip
-    if configure.returncode != 0:
-        pytest.skip(f"the C++ project does not configure here (no compiler or Eigen?): {configure.stderr[-400:]}")
-    built = subprocess.run(
-        [cmake, "--build", str(build), "--target", "nightloc_replay", "-j", "2"],
-        capture_output=True, text=True, check=False,
-    )  # fmt: skip
-    assert built.returncode == 0, built.stdout[-2000:] + built.stderr[-2000:]
-    return build / "nightloc_replay"
+def replay() -> Path:
+    """The nightloc_replay program (installed with the package, or named by $NIGHTLOC_REPLAY)."""
+    path = installed_replay()
+    assert path is not None, (
+        f"{PROGRAM} is not installed beside {sys.executable}: reinstall nightloc (pip install .), which builds it with "
+        f"the module, or name a build with NIGHTLOC_REPLAY=path/to/{PROGRAM}"
+    )
+    assert path.is_file() and os.access(path, os.X_OK), f"{path} is not an executable"
+    return path
+
+
+@pytest.fixture(scope="session")
+def reads_png(replay) -> bool:
+    """Whether this build reads PNG frames (libpng found when it was built), as its --help says."""
+    shown = subprocess.run([str(replay), "--help"], capture_output=True, text=True, check=True).stdout
+    assert "PNG frames: read (libpng " in shown or "PNG frames: not read (built without libpng" in shown, shown
+    return "PNG frames: read" in shown
 
 
 @pytest.fixture(scope="module")
@@ -69,8 +79,10 @@ def map_file(world, tmp_path_factory) -> Path:
     return firmware_golden.build_map(world, tmp_path_factory.mktemp("map"))
 
 
-def run_replay(replay: Path, *args: object) -> subprocess.CompletedProcess:
-    return subprocess.run([str(replay), *map(str, args)], capture_output=True, text=True, check=False, timeout=120)
+def run_replay(replay: Path, *args: object, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [str(replay), *map(str, args)], capture_output=True, text=True, check=False, timeout=120, cwd=cwd
+    )
 
 
 def read_rows(path: Path) -> tuple[list[str], np.ndarray]:
@@ -79,6 +91,11 @@ def read_rows(path: Path) -> tuple[list[str], np.ndarray]:
     names = [r["image"] for r in rows]
     columns = ("x", "y", "heading", "confidence", "credible_radius")
     return names, np.array([[float(r[c]) for c in columns] for r in rows])
+
+
+def read_column(path: Path, column: str) -> list[str]:
+    with open(path, newline="") as handle:
+        return [row[column] for row in csv.DictReader(handle)]
 
 
 def assert_same_trajectory(actual: np.ndarray, expected: np.ndarray, tolerance: float) -> None:
@@ -103,6 +120,10 @@ def test_replay_equals_localize(replay, world, map_file, tmp_path, colour, robot
     names, actual = read_rows(out)
     localized, expected = read_rows(firmware_golden.localize(map_file, log, tmp_path / "run"))
     assert names == localized == [f"{k:06d}.{'ppm' if colour else 'pgm'}" for k in range(12)]
+    with open(out) as handle:  # localize's columns, in its order
+        assert tuple(handle.readline().strip().split(",")) == TRAJECTORY_HEADER
+    assert read_column(out, "ref_index") == read_column(tmp_path / "run" / "trajectory.csv", "ref_index")
+    assert read_column(out, "timestamp") == ["nan"] * 12  # the log carries no times
     # the command rounds to 0.1 mm (heading 1e-5 rad): the target within that rounding
     assert_same_trajectory(actual, expected, TOLERANCE)
     # the API at full precision: the same arithmetic, so equal to the printed digits
@@ -112,6 +133,37 @@ def test_replay_equals_localize(replay, world, map_file, tmp_path, colour, robot
     assert_same_trajectory(actual, api, 1e-8)
     if not robot_odometry:  # map-frame odometry: position-only, the heading is the closest reference's
         assert np.isfinite(actual[:, 2]).all()
+
+
+def test_a_tuned_map_replays_as_localize(replay, world, map_file, tmp_path):
+    """build-map --params with [filter] and [localization]: the map keeps them, its tables are
+    made with them, and nightloc_replay, localize and the API run them alike."""
+    tuned = tmp_path / "tuned.toml"
+    tuned.write_text(
+        "[filter]\nuniform_floor = 0.05\nheading_bins = 24\nlikelihood_gain = 2.5\n"
+        "[localization]\ngrid_width = 60\ngrid_height = 40\n"
+    )
+    tuned_map = firmware_golden.build_map(world, tmp_path, params_file=tuned)
+    with np.load(tuned_map) as archive:
+        tables = json.loads(archive["header"].tobytes())["localizer"]
+    # what the firmware reads: the core's settings and the grid, as the file says them
+    assert (tables["settings"]["uniform_floor"], tables["settings"]["heading_bins"]) == (0.05, 24)
+    assert tables["settings"]["likelihood_gain"] == 2.5
+    assert (tables["grid"]["width"], tables["grid"]["height"]) == (60, 40)
+    assert nightloc.ReferenceMap.load(tuned_map).settings["filter"]["uniform_floor"] == 0.05
+    log = firmware_golden.write_log(world, tmp_path / "log")
+    done = run_replay(replay, tuned_map, log, tmp_path / "replay.csv")
+    assert done.returncode == 0, done.stderr
+    actual = read_rows(tmp_path / "replay.csv")[1]
+    expected = read_rows(firmware_golden.localize(tuned_map, log, tmp_path / "run"))[1]
+    assert_same_trajectory(actual, expected, TOLERANCE)
+    api = np.array(
+        [(e.x, e.y, e.heading, e.confidence, e.credible_radius) for e in firmware_golden.api_trajectory(tuned_map, log)]
+    )
+    assert_same_trajectory(actual, api, 1e-8)
+    # the settings make a difference: the default map's trajectory is another
+    assert run_replay(replay, map_file, log, tmp_path / "default.csv").returncode == 0
+    assert np.abs(read_rows(tmp_path / "default.csv")[1] - actual).max() > 1e-3
 
 
 def test_replay_equals_localize_for_a_forward_camera(replay, tmp_path):
@@ -282,7 +334,10 @@ def _edit_odometry(log: Path, line: int, text: str) -> None:
             lambda log: cv2.imwrite(str(log / "images" / "000004.pgm"), np.zeros((48, 96), np.uint16)),
             "16-bit PNM",
         ),
-        (lambda log: cv2.imwrite(str(log / "images" / "000004.png"), np.zeros((48, 96), np.uint8)), "000004.png"),
+        (
+            lambda log: cv2.imwrite(str(log / "images" / "000004.png"), np.zeros((48, 96), np.uint8)),
+            "has no row for image '000004.png'",
+        ),
         (
             lambda log: cv2.imwrite(str(log / "images" / "000004.pgm"), np.zeros((24, 48), np.uint8)),
             "000004.pgm: the frame is 48x24 pixels but the map was built from 96x48",
@@ -298,7 +353,7 @@ def _edit_odometry(log: Path, line: int, text: str) -> None:
         "truncated-frame",
         "ascii-pnm",
         "16-bit",
-        "png",
+        "extra-png-frame",
         "other-camera",
     ],
 )
@@ -317,5 +372,219 @@ def test_an_existing_output_is_kept_unless_overwrite(replay, map_file, log, tmp_
     assert done.returncode == 2 and "--overwrite" in done.stderr
     assert out.read_text() == "the user's file\n"
     done = run_replay(replay, "--overwrite", map_file, log, out)
-    assert done.returncode == 0 and out.read_text().startswith("image,x,y,heading,confidence,credible_radius\n")
+    assert done.returncode == 0 and out.read_text().startswith(",".join(TRAJECTORY_HEADER) + "\n")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]  # no temporary file left
+
+
+def test_help_documents_the_inputs_the_output_and_the_options(replay):
+    shown = subprocess.run([str(replay), "--help"], capture_output=True, text=True, check=True).stdout
+    for needed in (
+        "usage: nightloc_replay [--overwrite] MAP LOG OUT.csv",
+        "nightloc build-map",
+        "LOG/images/",
+        "natural name order",
+        "LOG/odometry.csv",
+        "image,forward,left,turn",
+        "image,dx,dy",
+        "timestamp column",
+        "nightloc export-log LOG NEW_LOG",
+        ",".join(TRAJECTORY_HEADER),  # the output's columns: localize's trajectory.csv
+        "--overwrite",
+        "-h, --help",
+        "exit status 2",
+    ):
+        assert needed in shown, needed
+    assert run_replay(replay, "--frames", "a", "b", "c").stderr.startswith("nightloc_replay: unknown option --frames")
+
+
+# --- a night as `nightloc synth` writes it (PNG frames, odometry.csv keyed by PNG name, times)
+
+
+@pytest.fixture(scope="module")
+def synth_night(tmp_path_factory) -> tuple[Path, Path, Path]:
+    """``(map, night log, localize's trajectory.csv)``: ``nightloc synth`` of the garden (96 x 48
+    panoramas), ``nightloc build-map`` of its day reference, ``nightloc localize`` of its night."""
+    root = tmp_path_factory.mktemp("synth")
+    assert nightloc_main(["synth", "--world", "garden", "--size", "96x48", "--out", str(root / "garden")]) == 0
+    map_file = root / "day.map"
+    assert nightloc_main(["build-map", str(root / "garden" / "day_reference"), str(map_file)]) == 0
+    night = root / "garden" / "night_query"
+    return map_file, night, firmware_golden.localize(map_file, night, root / "run")
+
+
+def assert_replays_localize(replayed: Path, localized: Path) -> None:
+    """The replay's trajectory is localize's: the same frames, every value within the target, the
+    same closest references and times."""
+    names, actual = read_rows(replayed)
+    expected_names, expected = read_rows(localized)
+    assert [Path(n).stem for n in names] == [Path(n).stem for n in expected_names]
+    assert_same_trajectory(actual, expected, TOLERANCE)
+    assert read_column(replayed, "ref_index") == read_column(localized, "ref_index")
+    times = [float(t) for t in read_column(replayed, "timestamp")]
+    assert times == [float(t) for t in read_column(localized, "timestamp")] and np.isfinite(times).all()
+
+
+def tree_state(folder: Path) -> dict[str, tuple[bytes, int]]:
+    """Every file under ``folder``: its bytes and modification time."""
+    return {
+        str(p.relative_to(folder)): (p.read_bytes(), p.stat().st_mtime_ns) for p in folder.rglob("*") if p.is_file()
+    }
+
+
+def test_a_synth_night_replays_unconverted_as_localize(replay, reads_png, synth_night, tmp_path):
+    map_file, night, localized = synth_night
+    out = tmp_path / "replay.csv"
+    done = run_replay(replay, map_file, night, out)
+    if reads_png:
+        assert done.returncode == 0, done.stderr
+        assert_replays_localize(out, localized)
+    else:  # a build without libpng (a fresh machine): the first frame named, and both ways to replay
+        assert done.returncode == 2 and not out.exists()
+        assert f"{night}/images/000000.png: this nightloc_replay was built without libpng" in done.stderr
+        assert f"nightloc export-log {night} NEW_LOG" in done.stderr and "libpng-dev" in done.stderr
+
+
+def test_a_synth_night_replays_as_localize_after_export_log(replay, synth_night, tmp_path, capsys):
+    map_file, night, localized = synth_night
+    before = tree_state(night)
+    exported = tmp_path / "firmware" / "night"  # its parent is created
+    assert nightloc_main(["export-log", str(night), str(exported)]) == 0
+    assert "41 PPM frames, odometry.csv with times, poses.csv" in capsys.readouterr().out
+    assert tree_state(night) == before  # the user's log is only read
+    out = tmp_path / "replay.csv"
+    done = run_replay(replay, map_file, exported, out)
+    assert done.returncode == 0, done.stderr
+    assert_replays_localize(out, localized)
+    # the exported log is still a log for Python: localize gives the same trajectory from it
+    again = firmware_golden.localize(map_file, exported, tmp_path / "run")
+    assert_same_trajectory(read_rows(again)[1], read_rows(localized)[1], 0.0)
+
+
+# --- errors: the first bad frame in frame order, the folder the user gave
+
+
+def renamed_frames(log: Path, suffix: str, encode=None) -> Path:
+    """Renames every frame of ``log`` (and its rows in odometry.csv and poses.csv) to ``suffix``;
+    ``encode(frame)`` -> the new file's bytes (default: the old bytes)."""
+    tables = {name: (log / name).read_text() for name in ("odometry.csv", "poses.csv")}
+    for frame in sorted((log / "images").iterdir()):
+        data = frame.read_bytes() if encode is None else encode(cv2.imread(str(frame), cv2.IMREAD_UNCHANGED))
+        frame.unlink()
+        frame.with_suffix(suffix).write_bytes(data)
+        tables = {name: text.replace(frame.name, frame.with_suffix(suffix).name) for name, text in tables.items()}
+    for name, text in tables.items():
+        (log / name).write_text(text)
+    return log
+
+
+def test_the_first_bad_frame_in_frame_order_and_the_folder_given_are_named(replay, world, map_file, tmp_path):
+    log = firmware_golden.write_log(world, tmp_path / "night")
+    renamed_frames(log, ".jpg", lambda frame: cv2.imencode(".jpg", frame)[1].tobytes())
+    done = run_replay(replay, map_file, "night", "out.csv", cwd=tmp_path)  # LOG as a relative path
+    assert done.returncode == 2 and not (tmp_path / "out.csv").exists()
+    # twelve JPEG frames: the message names the first one, whatever order the folder lists them in
+    assert done.stderr.startswith("nightloc_replay: night/images/000000.jpg: the firmware path reads"), done.stderr
+    assert "nightloc export-log night NEW_LOG" in done.stderr
+
+
+def test_frames_converted_without_their_rows_are_named_with_the_fix(replay, world, map_file, tmp_path):
+    log = firmware_golden.write_log(world, tmp_path / "night")
+    odometry = log / "odometry.csv"
+    odometry.write_text(odometry.read_text().replace(".pgm", ".png"))  # the rows of the PNG log it came from
+    done = run_replay(replay, map_file, log, tmp_path / "out.csv")
+    assert done.returncode == 2
+    assert "has no row for image '000000.pgm' (it lists '000000.png'" in done.stderr
+    assert "nightloc export-log converts both" in done.stderr
+
+
+def test_a_missing_output_folder_is_named(replay, map_file, log, tmp_path):
+    out = tmp_path / "fw" / "out.csv"
+    done = run_replay(replay, map_file, log, out)
+    assert done.returncode == 2 and not (tmp_path / "fw").exists()
+    assert f"the folder of {out}, {tmp_path / 'fw'}, does not exist" in done.stderr
+    assert ".tmp" not in done.stderr
+
+
+@pytest.mark.parametrize("suffix", sorted(IMAGE_SUFFIXES - {".pgm", ".ppm", ".pnm", ".png"}))
+def test_every_image_file_nightloc_reads_is_a_frame_here(replay, map_file, log, tmp_path, suffix):
+    """A frame in a format the firmware does not read is refused by name, never skipped."""
+    (log / "images" / "000005.pgm").rename(log / "images" / f"000005{suffix}")
+    _edit_odometry(log, 7, f"000005{suffix},0.3,0,0.1")
+    done = run_replay(replay, map_file, log, tmp_path / "out.csv")
+    assert done.returncode == 2
+    assert f"images/000005{suffix}: the firmware path reads PGM/PPM" in done.stderr, done.stderr
+
+
+# --- PNG frames of every kind: the pixels Python decodes (OpenCV), or the error naming the fix
+
+
+def png_bytes(pixels: np.ndarray, colour_type: int, depth: int = 8, palette: np.ndarray | None = None) -> bytes:
+    """A PNG file of ``pixels`` (rows of samples, channels last), written by hand (filter 0, no
+    interlace): an encoder independent of OpenCV and libpng."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    height, width = pixels.shape[:2]
+    if depth == 1:
+        rows = np.packbits(pixels.reshape(height, width) > 0, axis=1)
+    else:
+        rows = pixels.reshape(height, -1).astype(">u2" if depth == 16 else np.uint8).view(np.uint8)
+    raw = b"".join(b"\0" + row.tobytes() for row in rows)
+    header = struct.pack(">IIBBBBB", width, height, depth, colour_type, 0, 0, 0)
+    body = chunk(b"IHDR", header) + (chunk(b"PLTE", palette.astype(np.uint8).tobytes()) if palette is not None else b"")
+    return b"\x89PNG\r\n\x1a\n" + body + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
+
+
+def _palette(bgr: np.ndarray) -> bytes:
+    levels = np.round(bgr[..., ::-1].astype(np.float64) / 51).astype(np.uint8)  # 6 levels per RGB channel
+    index = (levels[..., 0] * 36 + levels[..., 1] * 6 + levels[..., 2]).astype(np.uint8)
+    palette = np.array([(r, g, b) for r in range(6) for g in range(6) for b in range(6)]) * 51
+    return png_bytes(index, 3, palette=palette)
+
+
+def _with_alpha(frame: np.ndarray) -> np.ndarray:
+    return np.dstack([frame, np.arange(frame[..., 0].size, dtype=np.uint8).reshape(frame.shape[:2])])
+
+
+PNG_KINDS = {  # a colour frame (BGR) -> the PNG file's bytes
+    "grey": lambda bgr: png_bytes(cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY), 0),
+    "rgb": lambda bgr: png_bytes(bgr[..., ::-1], 2),
+    "rgba": lambda bgr: png_bytes(_with_alpha(bgr[..., ::-1]), 6),
+    "grey-alpha": lambda bgr: png_bytes(_with_alpha(cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY)[..., None]), 4),
+    "palette": _palette,
+    "1-bit-grey": lambda bgr: png_bytes(cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY) > 100, 0, depth=1),
+}
+
+
+@pytest.mark.parametrize("kind", PNG_KINDS)
+def test_png_frames_of_every_kind_replay_as_python_reads_them(replay, reads_png, world, map_file, tmp_path, kind):
+    log = renamed_frames(firmware_golden.write_log(world, tmp_path / "log", colour=True), ".png", PNG_KINDS[kind])
+    out = tmp_path / "out.csv"
+    done = run_replay(replay, map_file, log, out)
+    if not reads_png:
+        assert done.returncode == 2 and f"{log}/images/000000.png: this nightloc_replay was built without libpng" in (
+            done.stderr
+        )
+        return
+    assert done.returncode == 0, done.stderr
+    api = np.array(
+        [(e.x, e.y, e.heading, e.confidence, e.credible_radius) for e in firmware_golden.api_trajectory(map_file, log)]
+    )
+    assert_same_trajectory(read_rows(out)[1], api, 1e-8)
+
+
+def test_a_16_bit_png_frame_is_refused_by_name(replay, reads_png, world, map_file, tmp_path):
+    log = firmware_golden.write_log(world, tmp_path / "log")
+    frame = cv2.imread(str(log / "images" / "000003.pgm"), cv2.IMREAD_UNCHANGED).astype(np.uint16) * 257
+    (log / "images" / "000003.pgm").unlink()
+    (log / "images" / "000003.png").write_bytes(png_bytes(frame, 0, depth=16))
+    _edit_odometry(log, 5, (log / "odometry.csv").read_text().splitlines()[4].replace(".pgm", ".png"))
+    done = run_replay(replay, map_file, log, tmp_path / "out.csv")
+    assert done.returncode == 2
+    expected = (
+        "a 16-bit PNG; the firmware path prepares 8-bit" if reads_png else "this nightloc_replay was built without"
+    )
+    assert f"{log}/images/000003.png: {expected}" in done.stderr, done.stderr

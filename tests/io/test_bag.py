@@ -16,9 +16,10 @@ import numpy as np
 import pytest
 
 import nightloc
-from bag_support import NS, stamp_ns, write_bag
 from nightloc.errors import DatasetError
+from nightloc.io.bag import IMAGE_ENCODINGS
 
+from bag_support import NS, stamp_ns, write_bag
 from reliability_support import random_frames
 
 T0 = 1_700_000_000.25  # seconds: stamps of the size a robot's clock gives
@@ -129,6 +130,24 @@ def test_image_encodings(tmp_path, frames, encoding, options):
     assert image.dtype == expected.dtype
     np.testing.assert_array_equal(image, expected)
     assert nightloc.prepare(image).shape == (24, 48)
+
+
+@pytest.mark.parametrize("encoding", sorted(IMAGE_ENCODINGS))
+def test_every_encoding_of_the_table_is_read_as_its_layout_says(tmp_path, frames, encoding):
+    """Each encoding the reader lists, written in its channel order and bits (an alpha channel,
+    16 bits as v * 257, big-endian too), reads back as the BGR or grey frame."""
+    layout = IMAGE_ENCODINGS[encoding]
+    grey = cv2.cvtColor(frames[1], cv2.COLOR_BGR2GRAY)
+    expected = grey if layout.order == "mono" else frames[1]
+    if layout.bits == 16:
+        expected = expected.astype(np.uint16) * 257
+    for bigendian in (False, True) if layout.bits == 16 else (False,):
+        folder = tmp_path / f"b{int(bigendian)}"
+        stamps = [stamp_ns(T0 + i) for i in range(3)]
+        bag = write_bag(folder, frames[:3], stamps, encoding=encoding.upper(), bigendian=bigendian, padding=2)
+        image = nightloc.load_traverse(bag).read(1)
+        assert image.dtype == expected.dtype
+        np.testing.assert_array_equal(image, expected)
 
 
 def test_compressed_images(tmp_path, frames):

@@ -70,7 +70,7 @@ def test_frozen_and_normalized():
         ({"radius": True}, TypeError, "radius must be int"),
         ({"equalize": "histogram"}, TypeError, "'global' or 'clahe' or 'none'"),
         ({"crop": (0, 0, 0)}, TypeError, "crop must be a list of 4 values"),
-        ({"width": 0}, ValueError, "width must be >= 1"),
+        ({"width": 0}, ValueError, "width must be an integer >= 1"),
         ({"radius": -1}, ValueError, "radius"),
         ({"scale": float("nan")}, ValueError, "scale"),
         ({"crop": (0, 1.5, 0, 0)}, ValueError, "write pixels as an integer"),
@@ -131,7 +131,7 @@ def test_none_is_left_out_and_missing_keys_default(tmp_path):
         ("[preparation]\ncrop = [0, 2.0, 0, 0]\n", ["crop bottom"]),
         ("[preparation]\nwidth = 48\nwidth = 49\n", ["not valid TOML"]),
         ("[preparation\n", ["not valid TOML"]),
-        ("[preparation]\nwidth = 0\n", ["width must be >= 1"]),
+        ("[preparation]\nwidth = 0\n", ["width must be an integer >= 1"]),
         ("preparation = 3\n", ["[preparation] must be a table"]),
     ],
 )

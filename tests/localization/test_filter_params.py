@@ -1,6 +1,6 @@
-"""The grid filter's parameters on their one path to the core: FilterParams takes the defaults of
-the core's GridFilterSettings, converts to it in one place (FilterParams.core_settings), and the
-core's validate() is the range check whose message is the Python error."""
+"""The grid filter's parameters on their one path to the core: FilterParams takes the defaults and
+ranges of the core's GridFilterSettings table, converts to it in one place
+(FilterParams.core_settings), and a value out of range is an error in the table's words."""
 
 from __future__ import annotations
 
@@ -55,19 +55,25 @@ def test_core_settings_is_the_conversion():
     ("change", "message"),
     [
         ({"uniform_floor": 1.5}, r"^uniform_floor must be in \[0, 1\), got 1.5$"),
-        ({"heading_bins": 5000}, r"^heading_bins must be 0 \(one per image column\) .. 4096, got 5000$"),
+        (
+            {"heading_bins": 5000},
+            r"^heading_bins must be an integer in \[0, 4096\] \(0: one per image column\), got 5000$",
+        ),
         ({"credibility": 0.0}, r"^credibility must be in \(0, 1\], got 0$"),
-        ({"estimate_window": 1001}, r"^estimate_window must be 0..1000 cells, got 1001$"),
+        ({"estimate_window": 1001}, r"^estimate_window must be an integer in \[0, 1000\] cells, got 1001$"),
         ({"negligible": 1.0}, r"^negligible must be in \[0, 1\), got 1$"),
-        ({"settle_frames": 2000}, r"^settle_frames must be 0..1000 frames, got 2000$"),
+        ({"settle_frames": 2000}, r"^settle_frames must be an integer in \[0, 1000\] frames, got 2000$"),
         ({"score_cap": -0.5}, r"^score_cap must be a finite number >= 0, got -0.5$"),
-        ({"lookalike_places": 1.5}, r"^lookalike_places must be 0 \(never tempered\) or >= 2, got 1.5$"),
-        ({"likelihood_gain": float("inf")}, r"'likelihood_gain' must be finite"),
-        ({"heading_bins": -1}, r"'heading_bins' must be a non-negative integer, got -1"),
-        ({"field_of_view": 400.0}, r"^field_of_view must be in \(0, 360\] degrees, got 400.0$"),
+        (
+            {"lookalike_places": 1.5},
+            r"^lookalike_places must be 0 \(never tempered\) or a finite number >= 2, got 1.5$",
+        ),
+        ({"likelihood_gain": float("inf")}, r"^likelihood_gain must be a finite number >= 0, got inf$"),
+        ({"heading_bins": -1}, r"^heading_bins must be an integer in \[0, 4096\] .*, got -1$"),
+        ({"field_of_view": 400.0}, r"^field_of_view must be in \(0, 360\] degrees, got 400$"),
     ],
 )
-def test_the_cores_range_check_is_the_python_error(change, message):
+def test_the_tables_range_check_is_the_python_error(change, message):
     with pytest.raises(ValueError, match=message):
         FilterParams(**change)
 
@@ -77,13 +83,13 @@ def test_the_bound_settings_check_each_value_and_its_range():
     settings.heading_bins = 24
     settings.position_floor = 0.1
     assert settings.heading_bins == 24 and settings.position_floor == 0.1
-    with pytest.raises(ValueError, match=r"'estimate_window' must be a non-negative integer, got 2\.5"):
+    with pytest.raises(_core.SettingError, match=r"^estimate_window must be a non-negative integer, got 2\.5$"):
         settings.estimate_window = 2.5
+    with pytest.raises(_core.SettingError, match=r"^uniform_floor must be in \[0, 1\), got 1$") as error:
+        settings.uniform_floor = 1.0  # the range is checked when set
+    assert (error.value.setting, error.value.requirement) == ("uniform_floor", "must be in [0, 1), got 1")
     with pytest.raises(AttributeError):
         settings.likelyhood_gain = 1.0  # type: ignore[attr-defined]
-    settings.uniform_floor = 1.0
-    with pytest.raises(ValueError, match=r"uniform_floor must be in \[0, 1\), got 1"):
-        settings.validate()
     copy = pickle.loads(pickle.dumps(settings))
     assert copy.to_dict() == settings.to_dict()
     assert repr(copy).startswith("GridFilterSettings(heading_bins=24, likelihood_gain=3.0,")

@@ -59,7 +59,7 @@ def _check_against_oracle(loc, oracle, estimate):
     want = oracle.p / oracle.p.sum()
     assert got.shape == want.shape
     assert np.abs(got - want).max() <= BELIEF_RTOL * want.max()
-    x, y, heading, cov, radius, confidence, _cell, _flat = oracle.estimate()
+    x, y, heading, cov, radius, confidence, _cell, _flat, heading_var = oracle.estimate()
     marginal = oracle.marginal().ravel()
     top2 = np.sort(marginal)[-2:]
     if top2[1] - top2[0] > 1e-3 * top2[1]:  # a clear peak: the same cell, the same refinement
@@ -70,6 +70,10 @@ def _check_against_oracle(loc, oracle, estimate):
         # the radius is a cell-centre distance: it may step to the next ring within rounding
         assert abs(estimate.credible_radius - radius) <= 1.5 * math.hypot(oracle.dx, oracle.dy)
     np.testing.assert_allclose(estimate.covariance, cov, rtol=1e-3, atol=1e-6)
+    if math.isfinite(heading_var):
+        assert estimate.heading_variance == pytest.approx(heading_var, rel=1e-3, abs=1e-6)
+    else:
+        assert math.isnan(estimate.heading_variance)
 
 
 MOTIONS = [
@@ -215,8 +219,9 @@ def test_the_estimate_of_a_given_belief_is_the_oracles():
     belief = loc.belief * rng.uniform(0.5, 1.5, loc.belief.shape)  # any positive scale
     estimate = loc.estimate_belief(belief * 3.0)
     oracle.pose, oracle.p = False, (belief / belief.sum())[None]
-    x, y, _, _, radius, confidence, _, _ = oracle.estimate()
+    x, y, _, _, radius, confidence, _, _, heading_var = oracle.estimate()
     assert (estimate.x, estimate.y) == pytest.approx((x, y), abs=1e-4)
+    assert estimate.heading_variance == pytest.approx(heading_var, nan_ok=True)
     assert estimate.credible_radius == pytest.approx(radius, abs=1e-6)
     assert estimate.confidence == pytest.approx(confidence, abs=1e-5)
     assert estimate.best_ref == -1 and math.isnan(estimate.score)

@@ -1,6 +1,6 @@
-"""Preparation parameters on their one path to the core: PreparationParams takes the defaults of
-the core's PrepareSettings, converts to it in one place (PreparationParams.core_settings), and the
-core's validate() is the range check whose message is the Python error."""
+"""Preparation parameters on their one path to the core: PreparationParams takes the defaults and
+ranges of the core's PrepareSettings table, converts to it in one place
+(PreparationParams.core_settings), and a value out of range is an error in the table's words."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ _CORE_NAMES = {
     "radius": "radius",
     "wrap": "wrap",
     "equalize": "equalize",
-    "patch_normalize": "normalize",
+    "patch_normalize": "patch_normalize",
     "scale": "scale",
 }
 
@@ -53,31 +53,31 @@ def test_core_settings_is_the_conversion():
         "radius": 3,
         "wrap": False,
         "equalize": "none",
-        "normalize": False,
+        "patch_normalize": False,
         "scale": 20.5,
     }
     assert (settings.crop_top, settings.crop_bottom, settings.crop_left, settings.crop_right) == (5, 0, 3, 0)
-    assert params.core_settings(patch_normalize=True).normalize is True
+    assert params.core_settings(patch_normalize=True).patch_normalize is True
     assert PreparationParams(equalize="clahe").core_settings().equalize == "clahe"
 
 
 @pytest.mark.parametrize(
     ("change", "message"),
     [
-        ({"width": 0}, r"^width must be >= 1 pixel, got 0$"),
-        ({"height": 0}, r"^height must be >= 1 pixel, got 0$"),
-        ({"width": -3}, r"^width must be a non-negative integer, got -3$"),
+        ({"width": 0}, r"^width must be an integer >= 1 pixels, got 0$"),
+        ({"height": 0}, r"^height must be an integer >= 1 pixels, got 0$"),
+        ({"width": -3}, r"^width must be an integer >= 1 pixels, got -3$"),
         ({"width": 8192, "height": 4096}, r"^width x height = 8192x4096 is too large: .* 16777216 pixels"),
-        ({"radius": 2000}, r"^radius must be in \[0, 1024\], got 2000$"),
-        ({"radius": -1}, r"^radius must be in \[0, 1024\], got -1$"),
-        ({"scale": float("nan")}, r"^scale must be a positive finite number, got nan$"),
-        ({"scale": -2.0}, r"^scale must be a positive finite number, got -2$"),
+        ({"radius": 2000}, r"^radius must be an integer in \[0, 1024\] pixels, got 2000$"),
+        ({"radius": -1}, r"^radius must be an integer in \[0, 1024\] pixels, got -1$"),
+        ({"scale": float("nan")}, r"^scale must be a finite number > 0, got nan$"),
+        ({"scale": -2.0}, r"^scale must be a finite number > 0, got -2$"),
         ({"width": 2**64}, r"^width = 18446744073709551616 is too large for the core$"),
-        ({"radius": 2**31}, r"^radius = 2147483648 is too large for the core$"),
-        ({"radius": -(2**31) - 1}, r"^radius = -2147483649 is too small for the core$"),
+        ({"radius": 2**31}, r"^radius must be an integer in \[0, 1024\] pixels, got 2147483648$"),
+        ({"radius": -(2**31) - 1}, r"^radius must be an integer in \[0, 1024\] pixels, got -2147483649$"),
     ],
 )
-def test_the_cores_range_check_is_the_python_error(change, message):
+def test_the_tables_range_check_is_the_python_error(change, message):
     with pytest.raises(ValueError, match=message):
         PreparationParams(**change)
 

@@ -264,15 +264,6 @@ def test_a_folder_name_that_is_not_utf8_works_end_to_end(ws, tmp_path, capsys):
     capsys.readouterr()
 
 
-def test_case_count_is_recorded_in_the_reliability_guide():
-    from reliability_support import reliability_section
-
-    # aliasing, odometry types, grey+alpha, masked calls, non-UTF-8, Localizer copies and threads,
-    # RouteLocalizer copies (two methods) and threads
-    count = 1 + len(NOT_ODOMETRY) + 1 + len(MASKED_CALLS) + 1 + 2 + 2 + 3
-    assert f"{count} API edges" in reliability_section()
-
-
 def _route_answers(localizer, frames):
     return [(u.ref, u.score) for u in (localizer.update(f, prepared=True) for f in frames)]
 

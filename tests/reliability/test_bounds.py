@@ -186,9 +186,3 @@ def test_bounds_are_documented_in_one_place():
     assert len(names) >= 9
     for name in names:
         assert f"``{name}``" in _validate.__doc__, name
-
-
-def test_case_count_is_recorded_in_the_readme():
-    from reliability_support import reliability_section
-
-    assert f"{len(REFUSED) + 5} sizes refused before any memory is taken" in reliability_section()

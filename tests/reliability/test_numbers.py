@@ -163,9 +163,3 @@ def test_a_damaged_cache_is_rebuilt(tmp_path, monkeypatch):
     frames = json.loads(good)["traverses"]["day_reference"]["frames"]
     assert frames == len(nightloc.load_traverse(again["garden"]["day_reference"]))
     assert sorted(p.name for p in tmp_path.iterdir()) == [first["garden"]["day_reference"].parents[1].name]
-
-
-def test_case_count_is_recorded_in_the_readme():
-    from reliability_support import reliability_section
-
-    assert f"{len(REFUSED)} numbers refused where they enter" in reliability_section()

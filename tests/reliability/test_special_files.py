@@ -189,9 +189,3 @@ def test_a_symbolic_link_to_a_regular_file_is_read(ws):
     os.symlink(ws.map_file, link)
     assert nightloc.ReferenceMap.load(link) == ws.map
     assert stat.S_ISLNK(os.lstat(link).st_mode)
-
-
-def test_case_count_is_recorded_in_the_readme():
-    from reliability_support import reliability_section
-
-    assert f"{len(CASES) + 4} non-regular files" in reliability_section()

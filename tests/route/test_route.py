@@ -183,7 +183,7 @@ def test_keep_difference_false_enhances_in_place():
     np.testing.assert_array_equal(kept.enhanced, lean.enhanced)
     np.testing.assert_array_equal(kept.refs, lean.refs)
     np.testing.assert_array_equal(kept.scores, lean.scores)
-    assert set(kept.timings) == {"difference", "enhancement", "search"}
+    assert set(kept.timings) == {"difference", "enhancement", "search", "speed_check"}
 
 
 def test_match_route_prepares_frames():

@@ -17,6 +17,7 @@ import nightloc
 from nightloc import _core, route
 from nightloc.cli import main
 from nightloc.route.odometry import motion_plan, route_odometry
+from nightloc.route.params import DISTANCE_MOTIONS, ODOMETRY_MOTION
 
 import route_oracle as ro
 
@@ -388,13 +389,13 @@ def _route_run(tmp_path, reference, query, name: str, *options: str) -> tuple[di
 def test_motion_option_chooses_the_model_and_the_toml_key_agrees(tmp_path, motion):
     """On traverses that both carry odometry, ``--motion NAME`` runs that model: its matches are
     the library's with ``filter_motion = NAME`` (odometry: with the traverses' odometry), and
-    the TOML key gives the same files (window and speed: with ``--odometry none``, as without it
-    odometry in both traverses runs the odometry model)."""
+    the TOML key gives the same files (a model that does not move by the distance travelled: with
+    ``--odometry none``, as without it odometry in both traverses runs the odometry model)."""
     reference, query, _ = _write_pair(tmp_path, True, True)
     summary, matches = _route_run(tmp_path, reference, query, "option", "--motion", motion)
     assert summary["motion_model"] == motion
     expected = route.match_route(
-        reference, query, route.RouteParams(filter_motion=motion), threads=1, odometry=motion == "odometry"
+        reference, query, route.RouteParams(filter_motion=motion), threads=1, odometry=motion in DISTANCE_MOTIONS
     )
     assert expected.motion == motion
     np.testing.assert_array_equal(matches[:, 0], expected.refs)
@@ -402,13 +403,13 @@ def test_motion_option_chooses_the_model_and_the_toml_key_agrees(tmp_path, motio
     np.testing.assert_array_equal(matches[:, 2], expected.off_route)
     config = tmp_path / f"{motion}.toml"
     config.write_text(f'[route]\nfilter_motion = "{motion}"\n')
-    odometry = [] if motion == "odometry" else ["--odometry", "none"]
+    odometry = [] if motion in DISTANCE_MOTIONS else ["--odometry", "none"]
     by_key, key_matches = _route_run(tmp_path, reference, query, "key", "--params", str(config), *odometry)
     assert by_key["motion_model"] == motion
     np.testing.assert_array_equal(key_matches, matches)
     # The models differ on this pair: each name ran its own.
-    if motion != "odometry":
-        _, by_odometry = _route_run(tmp_path, reference, query, "odometry", "--motion", "odometry")
+    if motion not in DISTANCE_MOTIONS:
+        _, by_odometry = _route_run(tmp_path, reference, query, "odometry", "--motion", ODOMETRY_MOTION)
         assert not np.array_equal(by_odometry, matches)
 
 
@@ -417,7 +418,7 @@ def test_motion_option_errors(tmp_path, capsys):
     args = ["route", str(reference.root), str(query.root), "--out", str(tmp_path / "out"), "--no-figures"]
     with pytest.raises(SystemExit):
         main([*args, "--motion", "teleport"])
-    assert "unknown motion model 'teleport'; choose one of window, speed, odometry" in capsys.readouterr().err
+    assert f"unknown motion model 'teleport'; choose one of {', '.join(route.MOTION_MODELS)}" in capsys.readouterr().err
     assert main([*args, "--motion", "odometry"]) == 2
     err = capsys.readouterr().err
     assert "the odometry motion model needs odometry in both traverses" in err
@@ -455,7 +456,7 @@ def test_bad_motion_inputs_are_named():
     ):
         with pytest.raises(ValueError, match=words):
             route.RouteParams(**change)
-    with pytest.raises(ValueError, match="filter_motion must be one of window, speed, odometry"):
+    with pytest.raises(ValueError, match=f"filter_motion must be one of '{route.MOTION_MODELS[0]}', "):
         route.RouteParams(filter_motion="teleport")
     with pytest.raises(ValueError, match="use fewer speed planes or cells"):
         route.RouteFilter(2_000_000, dataclasses.replace(SPEED, filter_speed_cells=64, filter_speed_step=0.01))

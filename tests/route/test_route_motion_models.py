@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from nightloc import _core, route
-from nightloc.route.params import MOTION_MODELS
+from nightloc.route.params import DISTANCE_MOTIONS, MOTION_MODELS
 
 import motion_golden
 import route_oracle as ro
@@ -46,7 +46,7 @@ def test_oracle_model_agrees_with_the_core(motion):
     """The oracle's per-model prediction with the shared floor and off-route step."""
     data = motion_golden.problem(21)
     params = route.RouteParams(filter_motion=motion)
-    odometry = motion == "odometry"
+    odometry = motion in DISTANCE_MOTIONS
     advances = data["advances"] if odometry else None
     distances = data["distances"] if odometry else None
     refs, confidence, off_route, speed, ran = route.route_filter_run(
@@ -63,21 +63,30 @@ def test_oracle_model_agrees_with_the_core(motion):
 
 
 def test_one_name_table():
-    """The core's names are RouteParams', each reaches the core as itself, and the oracle has a
-    model for each."""
-    assert MOTION_MODELS == tuple(_core.route_motion_names()) == ("window", "speed", "odometry")
+    """The core's names are RouteParams', each reaches the core as itself, the oracle has a model
+    for each, and the registry's needs_distances is what the oracle's model needs."""
+    assert tuple(_core.route_motion_names()) == MOTION_MODELS
+    assert tuple(m["name"] for m in _core.route_motion_models()) == MOTION_MODELS
     assert set(ro.MOTIONS) == set(MOTION_MODELS)
     core = _core.RouteFilterParams()
     for name in MOTION_MODELS:
         core.motion = name
         assert core.motion == name
         assert route.RouteParams(filter_motion=name).core_filter_params().motion == name
+        try:  # the oracle's model without the references' distances
+            ro.MOTIONS[name](route.RouteParams(filter_motion=name), 5)
+            needs = False
+        except (TypeError, ValueError, IndexError):  # it reads the distances
+            needs = True
+        assert (name in DISTANCE_MOTIONS) == needs, name
+    assert DISTANCE_MOTIONS  # the odometry model
 
 
 def test_an_unknown_model_names_the_choices():
-    with pytest.raises(ValueError, match="filter_motion must be one of window, speed, odometry, got 'teleport'"):
+    choices = ", ".join(f"'{name}'" for name in MOTION_MODELS)
+    with pytest.raises(ValueError, match=f"^filter_motion must be one of {choices}, got 'teleport'$"):
         route.RouteParams(filter_motion="teleport")
-    with pytest.raises(ValueError, match="one of window, speed, odometry"):
+    with pytest.raises(_core.SettingError, match=f"^motion must be one of {choices}, got 'teleport'$"):
         _core.RouteFilterParams().motion = "teleport"
 
 

@@ -68,13 +68,15 @@
 // (counted by their centres) no farther than it reaches `credibility`; confidence: the mass
 // within confidence_radius metres. Heading (pose mode): over the window's cells, the heading
 // histogram's first maximum bin, refined to the circular mean of the bins within 2 of it; NaN in
-// position mode. A flat marginal has no peak: the estimate is then the mean position.
+// position mode. Heading variance (pose mode): of the whole belief's heading histogram (each bin's
+// mass at its centre) about its circular mean, sum m_b wrap(theta_b - mean)^2 / sum m_b (rad^2, at
+// most pi^2; NaN in position mode). A flat marginal has no peak: the estimate is then the mean
+// position.
 //
 // Every SIMD path gives the same values: element-wise IEEE operations in a fixed order, no FMA,
 // sums in double with a fixed number of lanes.
 #pragma once
 
-#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -84,6 +86,7 @@
 
 #include "nightloc/heatmap.hpp"
 #include "nightloc/sad.hpp"
+#include "nightloc/settings.hpp"
 
 namespace nightloc {
 namespace detail {
@@ -116,8 +119,9 @@ using LineVector = std::vector<T, LineAllocator<T>>;
 }  // namespace detail
 
 /// The filter's tunables (python: nightloc.localization.FilterParams, where they are documented,
-/// takes its defaults from here). Every field is listed by name in grid_filter_setting_fields();
-/// validate() checks the ranges.
+/// takes its defaults from here). Every field has its row in setting_fields<GridFilterSettings>()
+/// (name, unit, range, doc; cpp/src/localization/grid_filter_settings.cpp); validate() checks the
+/// ranges.
 struct GridFilterSettings {
     std::size_t heading_bins = 0;     ///< B; 0 = one per image column (map.columns); 1 = position only
     double likelihood_gain = 3.0;     ///< kappa: lambda = kappa / (median - min of the frame's scores)
@@ -184,6 +188,7 @@ struct GridFilterMap {
 struct GridEstimate {
     double x = 0, y = 0;                        ///< metres
     double heading = 0;                         ///< radians in (-pi, pi]; NaN in position mode
+    double heading_var = 0;                     ///< rad^2, the belief's about its circular mean; NaN in position mode
     double cov_xx = 0, cov_xy = 0, cov_yy = 0;  ///< covariance of the marginal, m^2
     double credible_radius = 0;                 ///< metres
     double confidence = 0;                      ///< mass within confidence_radius of (x, y), 0..1
@@ -272,6 +277,8 @@ public:
     void set_belief(const float* belief, bool pose, double offset);
 
 private:
+    /// The heading variance of estimate() (pose mode, the belief materialized).
+    double heading_variance() const;
     /// One slice's pending motion: its source bin and the shift and blur, in cells.
     struct SliceMotion {
         std::size_t source;
@@ -348,38 +355,20 @@ private:
     std::vector<float> bin_max_;                // each bin's largest value after the last measurement (pose mode)
     mutable bool bin_max_valid_ = false;        // false once the belief changed otherwise (see negligible)
     std::vector<std::int32_t> best_shifts_;
-    mutable std::vector<double> xs_, dx2_, hist_;  // the estimate's scratch
+    mutable std::vector<double> xs_, dx2_, hist_, bin_mass_;  // the estimate's scratch
     struct RingCell {
         double d2, mass;  // squared distance (m^2) from the estimate, marginal mass
     };
     mutable std::vector<RingCell> ring_;
 };
 
-/// One named field of GridFilterSettings: a real number or a count (exactly one member is set).
-struct GridFilterSettingField {
-    const char* name;
-    double GridFilterSettings::* real;
-    std::size_t GridFilterSettings::* count;
-};
+/// The settings' table (nightloc/settings.hpp), in declaration order: the names map files store
+/// (nightloc/map_file.hpp), the Python class nightloc._core.GridFilterSettings binds and
+/// nightloc.FilterParams reads its defaults from.
+template <>
+const std::vector<SettingField<GridFilterSettings>>& setting_fields<GridFilterSettings>();
 
-/// Fields of GridFilterSettings.
-inline constexpr std::size_t kGridFilterSettingCount = 17;
-static_assert(sizeof(std::size_t) != 8 || sizeof(GridFilterSettings) == kGridFilterSettingCount * 8,
-              "every field of GridFilterSettings needs its line in grid_filter_setting_fields()");
-
-/// The one table of the settings' names, in declaration order: the names map files store
-/// (nightloc/map_file.hpp) and the Python class nightloc._core.GridFilterSettings binds.
-const std::array<GridFilterSettingField, kGridFilterSettingCount>& grid_filter_setting_fields() noexcept;
-
-/// Throws std::invalid_argument naming the first setting out of its range and the range.
+/// Throws SettingError naming the first setting out of its range (the table's ranges).
 void validate(const GridFilterSettings& settings);
-
-/// Sets one setting by its name in grid_filter_setting_fields(). Throws std::invalid_argument for
-/// an unknown name, a value that is not finite, or a count (heading_bins, estimate_window,
-/// settle_frames) that is not a non-negative integer; the range is validate()'s.
-void set_grid_filter_setting(GridFilterSettings& settings, const std::string& name, double value);
-
-/// The value of one setting (a count as a double).
-double grid_filter_setting(const GridFilterSettings& settings, const GridFilterSettingField& field) noexcept;
 
 }  // namespace nightloc

@@ -26,10 +26,14 @@
 
 namespace nightloc {
 
-/// The newest map format version this reader reads (python: nightloc.io.map_file.MAP_FORMAT_VERSION).
+/// The newest map format version, the one an experience map is written as (python reads it:
+/// nightloc.io.map_file.MAP_FORMAT_VERSION).
 inline constexpr int kMapFormatVersion = 4;
-/// The oldest: the first with the localizer's tables (python: DAY_MAP_FORMAT_VERSION).
-inline constexpr int kMinMapFormatVersion = 3;
+/// The version a map without learned nights is written as (python: DAY_MAP_FORMAT_VERSION): the
+/// first with the localizer's tables.
+inline constexpr int kDayMapFormatVersion = 3;
+/// The oldest version this reader reads: the first with the localizer's tables.
+inline constexpr int kMinMapFormatVersion = kDayMapFormatVersion;
 
 /// A map file that cannot be used: the message names the file and the problem.
 class MapFileError : public std::runtime_error {
@@ -37,16 +41,18 @@ public:
     using std::runtime_error::runtime_error;
 };
 
-/// How the map's images were prepared (python: nightloc.PreparationParams, stored in the map).
-/// Missing keys take PrepareSettings' defaults (Python's PreparationParams takes the same).
+/// How the map's images were prepared (python: nightloc.PreparationParams, stored in the map: the
+/// fields the core holds by the names of setting_fields<PrepareSettings>(), a missing one taking
+/// PrepareSettings' default, as Python's PreparationParams does; channel_order and crop, which
+/// every map holds).
 struct MapPreparation {
     std::size_t width = PrepareSettings{}.width, height = PrepareSettings{}.height;  ///< prepared image size, pixels
     int radius = PrepareSettings{}.radius;                                           ///< patch-normalization radius
     bool wrap = PrepareSettings{}.wrap;                                              ///< 360-degree panoramas
-    std::string equalize = "global";                                                 ///< "global", "clahe" or "none"
-    bool patch_normalize = PrepareSettings{}.normalize;
+    std::string equalize;  ///< "global", "clahe" or "none" (equalization_name)
+    bool patch_normalize = PrepareSettings{}.patch_normalize;
     double scale = PrepareSettings{}.scale;
-    std::string channel_order = "bgr";  ///< "bgr" or "rgb": the order the frames' pixels are given in
+    std::string channel_order;  ///< "bgr" or "rgb": the order the frames' pixels are given in
     /// crop (top, bottom, left, right): pixels, or fractions of the height / width when `fraction`
     double crop[4] = {0, 0, 0, 0};
     bool crop_fraction[4] = {false, false, false, false};

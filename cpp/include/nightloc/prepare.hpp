@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "nightloc/normalize.hpp"
+#include "nightloc/settings.hpp"
 
 namespace nightloc {
 
@@ -28,12 +29,16 @@ enum class PixelOrder : int { grey = 0, bgr = 1, rgb = 2, bgra = 3, rgba = 4 };
 /// Bytes per pixel of a layout (1, 3 or 4).
 std::size_t pixel_bytes(PixelOrder order) noexcept;
 
-/// Histogram equalization before downsampling.
+/// Histogram equalization before downsampling (the names: equalization_name).
 enum class Equalization : int {
     none = 0,    ///< grey levels unchanged
     global = 1,  ///< cv2.equalizeHist of the cropped grey frame
     clahe = 2,   ///< OpenCV's CLAHE: a valid setting that prepare_frame does not implement (it throws)
 };
+
+/// The name of Equalization value `index` ("none", "global", "clahe"), nullptr past the last: the
+/// names' one table (PrepareSettings::equalize's choices, Python's PreparationParams.equalize).
+const char* equalization_name(std::size_t index) noexcept;
 
 /// A borrowed 8-bit frame: `height` rows of `width` packed pixels, row r at data + r * row_stride.
 struct FrameView {
@@ -45,21 +50,27 @@ struct FrameView {
 };
 
 /// What prepare_frame does; the defaults are the paper's (Table II), and nightloc.PreparationParams
-/// takes its defaults from here. validate() checks the ranges.
+/// takes its defaults from here. Every field has its row in setting_fields<PrepareSettings>()
+/// (cpp/src/preparation/prepare.cpp); validate() checks the ranges.
 struct PrepareSettings {
     std::size_t crop_top = 0, crop_bottom = 0, crop_left = 0, crop_right = 0;  ///< pixels removed
     Equalization equalize = Equalization::global;
     std::size_t width = 48;             ///< output columns (Rx)
     std::size_t height = 24;            ///< output rows (Ry)
-    bool normalize = true;              ///< patch normalization (eq. 1) after downsampling
+    bool patch_normalize = true;        ///< patch normalization (eq. 1) after downsampling
     int radius = 4;                     ///< patch radius P (a (2P+1)^2 window)
     bool wrap = true;                   ///< window wraps horizontally (360-degree panoramas)
     double scale = kDefaultPatchScale;  ///< quantization gain of patch_normalize
 };
 
-/// Throws std::invalid_argument naming the first setting out of its range, and the range: an
-/// output size of zero or of more than kMaxImagePixels pixels (what the matcher takes), radius
-/// outside [0, kMaxPatchRadius], a scale that is not positive and finite, an unknown equalization.
+/// The settings' table (nightloc/settings.hpp), in declaration order.
+template <>
+const std::vector<SettingField<PrepareSettings>>& setting_fields<PrepareSettings>();
+
+/// Throws SettingError naming the first setting out of its range, and the range (the table's:
+/// an output size of zero, radius outside [0, kMaxPatchRadius], a scale that is not positive and
+/// finite, an unknown equalization), or an output of more than kMaxImagePixels pixels (what the
+/// matcher takes).
 void validate(const PrepareSettings& settings);
 
 /// Largest frame prepare_frame accepts, in pixels after cropping (2^31).

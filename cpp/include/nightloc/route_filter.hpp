@@ -58,6 +58,8 @@
 #include <string>
 #include <vector>
 
+#include "nightloc/settings.hpp"
+
 namespace nightloc {
 
 /// The motion model of the route filter (see the file comment).
@@ -76,12 +78,33 @@ const char* route_motion_name(RouteMotion motion);
 RouteMotion route_motion_from_name(const std::string& name);
 /// Whether `motion` names a model.
 bool route_motion_known(RouteMotion motion) noexcept;
+/// The name of the model of value `index`, nullptr past the last (the name table as
+/// RouteFilterParams::motion's choices).
+const char* route_motion_choice(std::size_t index) noexcept;
+/// Whether `motion` moves by the distance travelled (the reference distances and each frame's
+/// advance are its input); throws std::invalid_argument for a value that names no model.
+bool route_motion_needs_distances(RouteMotion motion);
+
+/// The steady speeds a motion model follows, references per query frame (lowest .. highest;
+/// -inf .. inf for a model that moves by the distance travelled), and the RouteFilterParams
+/// fields that set them: the central kRouteMotionSpeedMass of the model's speed distribution.
+/// The window model: of its speed, uniform in vmin .. vmax. The speed model: the planes that
+/// hold that share of its speed prior (the speed chain's stationary distribution; the other
+/// planes are reached only against the pull towards 1).
+inline constexpr double kRouteMotionSpeedMass = 0.8;
+struct RouteMotionSpeeds {
+    double lowest = 0.0;
+    double highest = 0.0;
+    std::vector<std::string> fields;
+};
 
 namespace route_detail {
 class RouteMotionModel;
 }
 
-/// Parameters of the route filter (see the file comment for where each enters).
+/// Parameters of the route filter (see the file comment for where each enters; python:
+/// nightloc.RouteParams' filter_* fields, vmin and vmax, take their defaults from here). Every field
+/// has its row in setting_fields<RouteFilterParams>() (cpp/src/route/route_filter.cpp).
 struct RouteFilterParams {
     double vmin = 0.8;       ///< slowest speed, references per query frame (>= 0)
     double vmax = 1.2;       ///< fastest speed (>= vmin, <= 1000)
@@ -106,8 +129,17 @@ struct RouteFilterParams {
     std::size_t odometry_cells = 4;  ///< position cells per reference of the odometry model, 1 .. 64
 };
 
-/// Throws std::invalid_argument naming the first parameter out of range.
+/// The parameters' table (nightloc/settings.hpp), in declaration order.
+template <>
+const std::vector<SettingField<RouteFilterParams>>& setting_fields<RouteFilterParams>();
+
+/// Throws SettingError naming the first parameter out of range (the table's ranges, then vmax >=
+/// vmin, speed_max >= speed_min, at most 1000 speed planes, speed_jitter x speed_cells <= 2000,
+/// speed_change <= 50 speed_step).
 void validate(const RouteFilterParams& params);
+
+/// The speeds params.motion follows under `params` (the registry's entry for that model).
+RouteMotionSpeeds route_motion_speeds(const RouteFilterParams& params);
 
 /// The prediction kernel: P(the reference advances by k) for k = first .. first+weights.size()-1.
 /// A speed v uniform in [vmin, vmax] and a sub-frame phase x uniform in [0, 1) advance the

@@ -16,6 +16,9 @@
 #include <cstdint>
 #include <vector>
 
+#include "nightloc/route_filter.hpp"
+#include "nightloc/settings.hpp"
+
 namespace nightloc {
 
 /// What enhance_contrast adds after the z-scores.
@@ -57,14 +60,27 @@ enum class TrajectoryMode {
 /// instead of gigabytes of allocation.
 inline constexpr double kMaxTrajectoryPlanEntries = 4194304.0;
 
-/// Parameters of the trajectory search (OpenSeqSLAM's names in brackets).
+/// The name of TrajectoryMode value `index` ("centred", "causal"), nullptr past the last.
+const char* trajectory_mode_name(std::size_t index) noexcept;
+
+/// Parameters of the trajectory search (OpenSeqSLAM's names in brackets; python: nightloc.RouteParams
+/// takes ds, uniqueness_radius and mode from here). The speed window is the route filter's (one
+/// default for both searches). Every field has its row in setting_fields<TrajectoryParams>().
 struct TrajectoryParams {
-    int ds = 10;                ///< sequence length [ds]; centred mode rounds it up to even
-    double vmin = 0.8;          ///< slowest speed, references per query frame [vmin]
-    double vmax = 1.2;          ///< fastest speed [vmax]
-    int uniqueness_radius = 5;  ///< second best excludes argmin +- this, inclusive [Rwindow/2]
+    int ds = 10;                             ///< sequence length [ds]; centred mode rounds it up to even
+    double vmin = RouteFilterParams{}.vmin;  ///< slowest speed, references per query frame [vmin]
+    double vmax = RouteFilterParams{}.vmax;  ///< fastest speed [vmax]
+    int uniqueness_radius = 5;               ///< second best excludes argmin +- this, inclusive [Rwindow/2]
     TrajectoryMode mode = TrajectoryMode::kCentred;
 };
+
+/// The parameters' table (nightloc/settings.hpp), in declaration order.
+template <>
+const std::vector<SettingField<TrajectoryParams>>& setting_fields<TrajectoryParams>();
+
+/// Throws SettingError naming the first parameter out of range (the table's ranges, then vmin <=
+/// vmax).
+void validate(const TrajectoryParams& params);
 
 /// The speeds searched and their row offsets, from TrajectoryParams.
 struct TrajectoryPlan {

@@ -13,17 +13,20 @@ namespace nightloc {
 
 enum class SimdBackend : int { scalar = 0, sse2 = 1, avx2 = 2, avx512bw = 3, neon = 4, neon_dotprod = 5 };
 
-/// A path and its name: the one place the names are written (the bindings and Python read them).
+/// A path, its name and the architecture it runs on: the one place they are written (the bindings
+/// and Python read them).
 struct SimdBackendName {
     SimdBackend backend;
     const char* name;
+    const char* architecture;  ///< "any" (the scalar reference), "x86-64" or "aarch64"
 };
 
 /// Every path the library knows (compiled into this build or not), slowest first per
-/// architecture: x86-64 (sse2, avx2, avx512bw) and AArch64 (neon, neon-dotprod).
+/// architecture.
 inline constexpr SimdBackendName kSimdBackendNames[] = {
-    {SimdBackend::scalar, "scalar"},     {SimdBackend::sse2, "sse2"}, {SimdBackend::avx2, "avx2"},
-    {SimdBackend::avx512bw, "avx512bw"}, {SimdBackend::neon, "neon"}, {SimdBackend::neon_dotprod, "neon-dotprod"},
+    {SimdBackend::scalar, "scalar", "any"}, {SimdBackend::sse2, "sse2", "x86-64"},
+    {SimdBackend::avx2, "avx2", "x86-64"},  {SimdBackend::avx512bw, "avx512bw", "x86-64"},
+    {SimdBackend::neon, "neon", "aarch64"}, {SimdBackend::neon_dotprod, "neon-dotprod", "aarch64"},
 };
 
 /// Lower-case name of a path (see kSimdBackendNames).

@@ -121,19 +121,17 @@ void reset_in_child() {
     g_pool = nullptr;
     g_pool_mutex.unlock();  // held by this thread since lock_before_fork
 }
+
+/// Registers the fork handlers when the library is loaded, before any thread of the core exists:
+/// registered lazily, a fork racing the first pooled call could copy g_pool_mutex (or the
+/// registration's own guard) held by another thread into the child, where it is never released.
+[[maybe_unused]] const bool g_fork_handlers_registered =
+    pthread_atfork(lock_before_fork, unlock_after_fork, reset_in_child) == 0;
 #endif
 
 WorkerPool* pool() {
     std::lock_guard<std::mutex> lock(g_pool_mutex);
-    if (g_pool == nullptr) {
-#ifdef NIGHTLOC_HAVE_ATFORK
-        static const bool registered = [] {
-            return pthread_atfork(lock_before_fork, unlock_after_fork, reset_in_child) == 0;
-        }();
-        (void)registered;
-#endif
-        g_pool = new WorkerPool();
-    }
+    if (g_pool == nullptr) g_pool = new WorkerPool();
     return g_pool;
 }
 

@@ -3,13 +3,13 @@
 // compilation of the float kernels), the vector alignment the SAD engine aligns bands to, and
 // whether it stages unaligned references. The dispatch code reads entries; it never switches on
 // a path. A new path is its enum value and name (nightloc/simd.hpp), its kernel file, one entry
-// in simd_paths.cpp and a build line (cpp/CMakeLists.txt).
+// in cpp/src/dispatch/simd_paths.cpp (the table) and a build line (cpp/CMakeLists.txt).
 #pragma once
 
 #include <cstddef>
 
 #include "common/arch.hpp"
-#include "matching/sad_kernels.hpp"
+#include "common/kernel_signatures.hpp"
 #include "nightloc/simd.hpp"
 
 namespace nightloc::detail {

@@ -1215,6 +1215,7 @@ GridEstimate GridFilter::estimate() const {
     // heading
     if (!pose_) {
         e.heading = std::numeric_limits<double>::quiet_NaN();
+        e.heading_var = std::numeric_limits<double>::quiet_NaN();
     } else {
         std::vector<double> h(bins_, 0.0);
         for (std::size_t b = 0; b < bins_; ++b) {
@@ -1237,8 +1238,32 @@ GridEstimate GridFilter::estimate() const {
             cc += h[b] * std::cos(theta);
         }
         e.heading = wrap(std::atan2(ss, cc));
+        e.heading_var = heading_variance();
     }
     return e;
+}
+
+double GridFilter::heading_variance() const {
+    const auto& k = detail::filter_kernels(active_simd_backend());
+    const double step = kTwoPi / static_cast<double>(bins_);
+    double total = 0, ss = 0, cc = 0;
+    bin_mass_.resize(bins_);
+    for (std::size_t b = 0; b < bins_; ++b) {
+        double lanes[detail::kSumLanes] = {};
+        k.sum(belief_.data() + b * cells_, cells_, lanes);
+        const double mass = detail::lane_total(lanes), theta = offset_ + step * static_cast<double>(b);
+        bin_mass_[b] = mass;
+        total += mass;
+        ss += mass * std::sin(theta);
+        cc += mass * std::cos(theta);
+    }
+    const double mean = std::atan2(ss, cc);
+    double spread = 0;
+    for (std::size_t b = 0; b < bins_; ++b) {
+        const double d = wrap(offset_ + step * static_cast<double>(b) - mean);
+        spread += bin_mass_[b] * d * d;
+    }
+    return spread / total;
 }
 
 std::size_t GridFilter::sparse_blocks() const noexcept {
@@ -1257,7 +1282,7 @@ std::size_t GridFilter::memory_bytes() const noexcept {
     add(row_buf_), add(zeros_), add(padded_), add(wide_a_), add(wide_b_), add(taps_x_), add(taps_y_), add(sums_);
     add(sums_table_), add(table_), add(mins_), add(sorted_), add(bin_high_), add(place_scores_), add(log_lik_);
     add(row_of_ref_), add(ref_c0_), add(ref_fraction_), add(row_y_), add(first_of_place_);
-    add(empty_places_), add(bin_max_), add(best_shifts_), add(xs_), add(dx2_), add(hist_), add(ring_);
+    add(empty_places_), add(bin_max_), add(bin_mass_), add(best_shifts_), add(xs_), add(dx2_), add(hist_), add(ring_);
     add(map_.place_of_ref), add(map_.ref_headings), add(map_.shifts), add(map_.learned), add(proxy_), add(headings_),
         add(evidence_), add(place_cell_), add(recalled_), add(recall_order_), add(matched_), add(gathered_);
     return bytes;

@@ -156,37 +156,53 @@ private:
     const Json* checksums_ = nullptr;
 };
 
+// The header's params (Python's PreparationParams, every field written): the fields the core holds
+// by the names of setting_fields<PrepareSettings>() (a missing one keeps PrepareSettings' default),
+// then channel_order and crop, which the core does not hold.
 MapPreparation preparation_of(const Reader& r, const Json& params) {
     const std::string where = "header's params";
     if (params.type != Json::Type::object) r.fail("the header's params are not a table");
-    MapPreparation p;
-    // missing keys take the defaults, as Python's params_from_dict does
-    if (params.find("width")) p.width = r.count(params, "width", where);
-    if (params.find("height")) p.height = r.count(params, "height", where);
-    if (params.find("radius")) p.radius = static_cast<int>(r.count(params, "radius", where));
-    if (params.find("wrap")) p.wrap = r.field(params, "wrap", Json::Type::boolean, where).boolean;
-    if (params.find("equalize")) p.equalize = r.field(params, "equalize", Json::Type::string, where).string;
-    if (params.find("patch_normalize")) {
-        p.patch_normalize = r.field(params, "patch_normalize", Json::Type::boolean, where).boolean;
-    }
-    if (params.find("scale")) p.scale = r.number(params, "scale", where);
-    if (params.find("channel_order")) {
-        p.channel_order = r.field(params, "channel_order", Json::Type::string, where).string;
-    }
-    if (p.equalize != "global" && p.equalize != "clahe" && p.equalize != "none") {
-        r.fail("unknown equalization '" + p.equalize + "'");
-    }
-    if (p.channel_order != "bgr" && p.channel_order != "rgb") r.fail("unknown channel_order '" + p.channel_order + "'");
-    if (const Json* crop = params.find("crop")) {
-        if (crop->type != Json::Type::array || crop->array.size() != 4) r.fail("the header's crop is not 4 numbers");
-        for (std::size_t i = 0; i < 4; ++i) {
-            const Json& c = crop->array[i];
-            if (c.type != Json::Type::number || !(c.number >= 0)) r.fail("the header's crop holds a bad value");
-            p.crop[i] = c.number;
-            p.crop_fraction[i] = !c.integer;
+    PrepareSettings core;
+    for (const SettingField<PrepareSettings>& field : setting_fields<PrepareSettings>()) {
+        const Json* value = params.find(field.info.name);
+        if (value == nullptr) continue;  // crop_* (the header holds crop), or a map without the key
+        double number = 0;
+        if (field.info.kind == SettingKind::flag) {
+            number = r.field(params, field.info.name, Json::Type::boolean, where).boolean ? 1 : 0;
+        } else if (field.info.kind == SettingKind::choice) {
+            const std::string& name = r.field(params, field.info.name, Json::Type::string, where).string;
+            try {
+                number = choice_value(field.info, name);
+            } catch (const SettingError& error) {
+                r.fail(std::string("the header's ") + error.what());
+            }
+        } else {
+            number = r.number(params, field.info.name, where);
+        }
+        try {
+            set_setting(core, field.info.name, number);
+        } catch (const SettingError& error) {
+            r.fail(std::string("the header's ") + error.what());
         }
     }
-    if (p.width < 1 || p.height < 1) r.fail("the header's image size is zero");
+    MapPreparation p;
+    p.width = core.width;
+    p.height = core.height;
+    p.radius = core.radius;
+    p.wrap = core.wrap;
+    p.equalize = equalization_name(static_cast<std::size_t>(core.equalize));
+    p.patch_normalize = core.patch_normalize;
+    p.scale = core.scale;
+    p.channel_order = r.field(params, "channel_order", Json::Type::string, where).string;
+    if (p.channel_order != "bgr" && p.channel_order != "rgb") r.fail("unknown channel_order '" + p.channel_order + "'");
+    const Json& crop = r.field(params, "crop", Json::Type::array, where);
+    if (crop.array.size() != 4) r.fail("the header's crop is not 4 numbers");
+    for (std::size_t i = 0; i < 4; ++i) {
+        const Json& c = crop.array[i];
+        if (c.type != Json::Type::number || !(c.number >= 0)) r.fail("the header's crop holds a bad value");
+        p.crop[i] = c.number;
+        p.crop_fraction[i] = !c.integer;
+    }
     return p;
 }
 
@@ -227,10 +243,14 @@ void read_tables(Reader& r, const Json& header, MapFile& m) {
     const Json& settings = r.field(*loc, "settings", Json::Type::object, where);
     for (const auto& [name, value] : settings.object) {
         if (value.type != Json::Type::number) r.fail("the localizer setting '" + name + "' is not a number");
+        if (find_setting<GridFilterSettings>(name) == nullptr) {
+            r.fail("unknown grid filter setting '" + name +
+                   "' (a map written by a newer nightloc? update the firmware)");
+        }
         try {
-            set_grid_filter_setting(t.settings, name, value.number);
-        } catch (const std::invalid_argument& error) {
-            r.fail(std::string(error.what()) + " (a map written by a newer nightloc? update the firmware)");
+            set_setting(t.settings, name, value.number);
+        } catch (const SettingError& error) {
+            r.fail(std::string("the localizer setting ") + error.what());
         }
     }
     const std::size_t cells = t.grid_width * t.grid_height;
@@ -273,10 +293,11 @@ PrepareSettings MapPreparation::settings(std::size_t frame_height, std::size_t f
         *out[i] = crop_fraction[i] ? static_cast<std::size_t>(std::nearbyint(crop[i] * static_cast<double>(sides[i])))
                                    : static_cast<std::size_t>(crop[i]);
     }
-    s.equalize = equalize == "none" ? Equalization::none : Equalization::global;
+    s.equalize = static_cast<Equalization>(
+        static_cast<int>(choice_value(find_setting<PrepareSettings>("equalize")->info, equalize)));
     s.width = width;
     s.height = height;
-    s.normalize = patch_normalize;
+    s.patch_normalize = patch_normalize;
     s.radius = radius;
     s.wrap = wrap;
     s.scale = scale;

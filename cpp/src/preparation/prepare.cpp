@@ -10,7 +10,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -409,25 +408,61 @@ void check_settings(const FrameView& frame, const PrepareSettings& s) {
 
 }  // namespace
 
+const char* equalization_name(std::size_t index) noexcept {
+    static const char* const kNames[] = {"none", "global", "clahe"};  // Equalization's values
+    return index < sizeof kNames / sizeof kNames[0] ? kNames[index] : nullptr;
+}
+
+namespace {
+
+std::vector<SettingField<PrepareSettings>> make_fields() {
+    using S = PrepareSettings;
+    using K = SettingKind;
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+    constexpr SettingRange kPixels{0, kInf, false, false, false, kNone, ""};
+    constexpr SettingRange kSize{1, kInf, false, false, false, kNone, ""};
+    return {
+        setting<&S::crop_top>({"crop_top", K::count, "pixels", "rows removed at the top", kPixels}),
+        setting<&S::crop_bottom>({"crop_bottom", K::count, "pixels", "rows removed at the bottom", kPixels}),
+        setting<&S::crop_left>({"crop_left", K::count, "pixels", "columns removed at the left", kPixels}),
+        setting<&S::crop_right>({"crop_right", K::count, "pixels", "columns removed at the right", kPixels}),
+        setting<&S::equalize>({"equalize", K::choice, "",
+                               "histogram equalization of the cropped grey frame (clahe: OpenCV's, not in the core)",
+                               SettingRange{}, &equalization_name}),
+        setting<&S::width>({"width", K::count, "pixels", "columns of the prepared image (Rx)", kSize}),
+        setting<&S::height>({"height", K::count, "pixels", "rows of the prepared image (Ry)", kSize}),
+        setting<&S::patch_normalize>(
+            {"patch_normalize", K::flag, "", "patch normalization (eq. 1) after downsampling"}),
+        setting<&S::radius>({"radius", K::integer, "pixels", "patch-normalization window radius P",
+                             SettingRange{0, kMaxPatchRadius, false, false, false, kNone, ""}}),
+        setting<&S::wrap>({"wrap", K::flag, "", "the window wraps horizontally (360-degree panoramas)"}),
+        setting<&S::scale>({"scale", K::real, "",
+                            "quantization gain of patch normalization (grey levels per "
+                            "standard deviation)",
+                            SettingRange{0, kInf, true, false, false, kNone, ""}}),
+    };
+}
+
+}  // namespace
+
+template <>
+const std::vector<SettingField<PrepareSettings>>& setting_fields<PrepareSettings>() {
+    static const std::vector<SettingField<PrepareSettings>> fields = make_fields();
+    return fields;
+}
+
+// Every field of PrepareSettings has its row (LP64: four crops, equalize padded, width, height,
+// patch_normalize packed with radius, wrap padded, scale).
+static_assert(sizeof(std::size_t) != 8 || sizeof(PrepareSettings) == 80,
+              "a field of PrepareSettings was added or removed: change its row in make_fields() and this size");
+
 void validate(const PrepareSettings& s) {
-    if (s.width == 0) throw std::invalid_argument("width must be >= 1 pixel, got 0");
-    if (s.height == 0) throw std::invalid_argument("height must be >= 1 pixel, got 0");
+    check_ranges(s);
     if (s.width > kMaxImagePixels / s.height) {
-        throw std::invalid_argument("width x height = " + std::to_string(s.width) + "x" + std::to_string(s.height) +
-                                    " is too large: prepared images hold at most " + std::to_string(kMaxImagePixels) +
-                                    " pixels (the paper uses 48x24)");
-    }
-    if (s.radius < 0 || s.radius > kMaxPatchRadius) {
-        throw std::invalid_argument("radius must be in [0, " + std::to_string(kMaxPatchRadius) + "], got " +
-                                    std::to_string(s.radius));
-    }
-    if (!(s.scale > 0.0) || !std::isfinite(s.scale)) {
-        std::ostringstream text;
-        text << "scale must be a positive finite number, got " << s.scale;
-        throw std::invalid_argument(text.str());
-    }
-    if (s.equalize != Equalization::none && s.equalize != Equalization::global && s.equalize != Equalization::clahe) {
-        throw std::invalid_argument("unknown equalization");
+        throw SettingError("width", "x height = " + std::to_string(s.width) + "x" + std::to_string(s.height) +
+                                        " is too large: prepared images hold at most " +
+                                        std::to_string(kMaxImagePixels) + " pixels (the paper uses 48x24)");
     }
 }
 
@@ -528,7 +563,7 @@ void prepare_frame(const FrameView& frame, const PrepareSettings& s, std::uint8_
             throw std::invalid_argument("prepare_frame only downsamples");  // checked above
     }
 
-    if (s.normalize) {
+    if (s.patch_normalize) {
         patch_normalize(small, out, 1, s.height, s.width, s.radius, s.wrap, s.scale);
     } else {
         std::copy(small, small + s.height * s.width, out);

@@ -27,8 +27,6 @@ namespace {
 using route_detail::require;
 using route_detail::sum_of;
 
-bool probability(double p) noexcept { return p >= 0.0 && p <= 1.0; }
-
 #if defined(__GNUC__) || defined(__clang__)
 #define NIGHTLOC_ALWAYS_INLINE __attribute__((always_inline))
 #else
@@ -112,49 +110,103 @@ NIGHTLOC_ALWAYS_INLINE inline double exp_nonpositive(double x) noexcept {
 
 }  // namespace
 
+namespace {
+
+std::vector<SettingField<RouteFilterParams>> make_fields() {
+    using S = RouteFilterParams;
+    using K = SettingKind;
+    constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+    constexpr SettingRange kProbability{0, 1, false, false, false, kNone, ""};
+    constexpr SettingRange kCells{1, static_cast<double>(kMaxCells), false, false, false, kNone, ""};
+    constexpr const char* kSpeed = "references per frame";
+    return {
+        setting<&S::vmin>({"vmin", K::real, kSpeed, "slowest speed (window model; SeqSLAM's too)",
+                           SettingRange{0, 1000, false, false, false, kNone, ""}}),
+        setting<&S::vmax>({"vmax", K::real, kSpeed, "fastest speed (>= vmin)",
+                           SettingRange{0, 1000, false, false, false, kNone, ""}}),
+        setting<&S::backward>({"backward", K::real, "", "probability per frame of stepping one reference back",
+                               SettingRange{0, 1, false, true, false, kNone, ""}}),
+        setting<&S::floor>(
+            {"floor", K::real, "", "share of the belief spread uniformly over the route per frame", kProbability}),
+        setting<&S::sharpness>({"sharpness", K::real, "",
+                                "lambda of the likelihood, per standard deviation of the frame's row",
+                                SettingRange{0, kInf, false, false, false, kNone, ""}}),
+        setting<&S::clip>({"clip", K::real, "", "z-scores above this are no evidence against a place",
+                           SettingRange{-kInf, kInf, true, false, true, kNone, ""}}),
+        setting<&S::leave>({"leave", K::real, "", "probability per frame of leaving the route", kProbability}),
+        setting<&S::rejoin>({"rejoin", K::real, "", "probability per frame of rejoining it (uniformly)", kProbability}),
+        setting<&S::window>({"window", K::count, "references",
+                             "confidence = the belief's mass within +-window references of the best",
+                             SettingRange{0, kInf, false, false, false, kNone, ""}}),
+        setting<&S::motion>(
+            {"motion", K::choice, "", "the motion model (route_motion_names())", SettingRange{}, &route_motion_choice}),
+        setting<&S::speed_min>({"speed_min", K::real, kSpeed, "slowest speed plane of the speed model",
+                                SettingRange{-1000, 1000, false, false, false, kNone, ""}}),
+        setting<&S::speed_max>({"speed_max", K::real, kSpeed, "fastest speed plane (>= speed_min)",
+                                SettingRange{-1000, 1000, false, false, false, kNone, ""}}),
+        setting<&S::speed_step>({"speed_step", K::real, kSpeed, "spacing of the speed planes",
+                                 SettingRange{0, kInf, true, false, false, kNone, ""}}),
+        setting<&S::speed_jitter>({"speed_jitter", K::real, kSpeed, "half-width of each plane's speed window",
+                                   SettingRange{0, 1000, false, false, false, kNone, ""}}),
+        setting<&S::speed_change>({"speed_change", K::real, kSpeed,
+                                   "standard deviation of the speed's change per frame (<= 50 speed_step)",
+                                   SettingRange{0, kInf, false, false, false, kNone, ""}}),
+        setting<&S::speed_tau>({"speed_tau", K::real, "frames", "frames for a speed to relax towards 1 (inf: no pull)",
+                                SettingRange{0, kInf, true, false, true, kNone, ""}}),
+        setting<&S::speed_cells>(
+            {"speed_cells", K::count, "", "position cells per reference of the speed model", kCells}),
+        setting<&S::odometry_noise>({"odometry_noise", K::real, "",
+                                     "relative standard deviation of an odometry advance",
+                                     SettingRange{0, 10, false, false, false, kNone, ""}}),
+        setting<&S::odometry_jitter>({"odometry_jitter", K::real, "references",
+                                      "extra position noise per frame of the odometry model",
+                                      SettingRange{0, 100, false, false, false, kNone, ""}}),
+        setting<&S::odometry_novelty>({"odometry_novelty", K::real, "references",
+                                       "travel for a frame's full evidence (0: always full)",
+                                       SettingRange{0, 1000, false, false, false, kNone, ""}}),
+        setting<&S::odometry_cells>(
+            {"odometry_cells", K::count, "", "position cells per reference of the odometry model", kCells}),
+    };
+}
+
+}  // namespace
+
+template <>
+const std::vector<SettingField<RouteFilterParams>>& setting_fields<RouteFilterParams>() {
+    static const std::vector<SettingField<RouteFilterParams>> fields = make_fields();
+    return fields;
+}
+
+// Every field of RouteFilterParams (eight bytes each, the 4-byte motion padded) has its row.
+static_assert(sizeof(std::size_t) != 8 || sizeof(RouteFilterParams) == 21 * 8,
+              "a field of RouteFilterParams was added or removed: change its row in make_fields() and this count");
+
 void validate(const RouteFilterParams& p) {
-    require(std::isfinite(p.vmin) && p.vmin >= 0.0 && p.vmin <= 1000.0,
-            "vmin must be a speed in [0, 1000] references per frame, got " + std::to_string(p.vmin));
-    require(std::isfinite(p.vmax) && p.vmax >= p.vmin && p.vmax <= 1000.0,
-            "vmax must be a speed in [vmin, 1000] references per frame, got " + std::to_string(p.vmax));
-    require(p.backward >= 0.0 && p.backward < 1.0,
-            "backward must be a probability in [0, 1), got " + std::to_string(p.backward));
-    require(probability(p.floor), "floor must be a probability in [0, 1], got " + std::to_string(p.floor));
-    require(std::isfinite(p.sharpness) && p.sharpness >= 0.0,
-            "sharpness must be a finite number >= 0, got " + std::to_string(p.sharpness));
-    require(!std::isnan(p.clip) && p.clip > -std::numeric_limits<double>::infinity(),
-            "clip must be a number or +inf, got " + std::to_string(p.clip));
-    require(probability(p.leave), "leave must be a probability in [0, 1], got " + std::to_string(p.leave));
-    require(probability(p.rejoin), "rejoin must be a probability in [0, 1], got " + std::to_string(p.rejoin));
-    if (!route_motion_known(p.motion)) (void)route_motion_name(p.motion);  // throws, naming the models
-    require(std::isfinite(p.speed_min) && p.speed_min >= -1000.0 && p.speed_min <= 1000.0,
-            "speed_min must be a speed in [-1000, 1000] references per frame, got " + std::to_string(p.speed_min));
-    require(std::isfinite(p.speed_max) && p.speed_max >= p.speed_min && p.speed_max <= 1000.0,
-            "speed_max must be a speed in [speed_min, 1000] references per frame, got " + std::to_string(p.speed_max));
-    require(std::isfinite(p.speed_step) && p.speed_step > 0.0,
-            "speed_step must be a speed > 0 references per frame, got " + std::to_string(p.speed_step));
-    require((p.speed_max - p.speed_min) / p.speed_step < static_cast<double>(kMaxSpeedPlanes),
-            "speed_min .. speed_max in steps of speed_step gives more than " + std::to_string(kMaxSpeedPlanes) +
-                " speed planes; widen speed_step");
-    require(std::isfinite(p.speed_jitter) && p.speed_jitter >= 0.0 && p.speed_jitter <= 1000.0,
-            "speed_jitter must be in [0, 1000] references per frame, got " + std::to_string(p.speed_jitter));
-    require(p.speed_jitter * static_cast<double>(p.speed_cells) <= 2000.0,
-            "speed_jitter x speed_cells must be at most 2000 cells (each plane's kernel spans twice that), got " +
-                std::to_string(p.speed_jitter * static_cast<double>(p.speed_cells)));
-    require(std::isfinite(p.speed_change) && p.speed_change >= 0.0 && p.speed_change <= 50.0 * p.speed_step,
-            "speed_change must be in [0, 50 * speed_step] references per frame, got " + std::to_string(p.speed_change));
-    require(p.speed_tau > 0.0,
-            "speed_tau must be > 0 frames (inf: no pull towards 1), got " + std::to_string(p.speed_tau));
-    require(p.speed_cells >= 1 && p.speed_cells <= kMaxCells,
-            "speed_cells must be 1 .. " + std::to_string(kMaxCells) + ", got " + std::to_string(p.speed_cells));
-    require(p.odometry_cells >= 1 && p.odometry_cells <= kMaxCells,
-            "odometry_cells must be 1 .. " + std::to_string(kMaxCells) + ", got " + std::to_string(p.odometry_cells));
-    require(std::isfinite(p.odometry_noise) && p.odometry_noise >= 0.0 && p.odometry_noise <= 10.0,
-            "odometry_noise must be a relative error in [0, 10], got " + std::to_string(p.odometry_noise));
-    require(std::isfinite(p.odometry_jitter) && p.odometry_jitter >= 0.0 && p.odometry_jitter <= 100.0,
-            "odometry_jitter must be in [0, 100] references, got " + std::to_string(p.odometry_jitter));
-    require(std::isfinite(p.odometry_novelty) && p.odometry_novelty >= 0.0 && p.odometry_novelty <= 1000.0,
-            "odometry_novelty must be in [0, 1000] references, got " + std::to_string(p.odometry_novelty));
+    check_ranges(p);
+    if (!(p.vmax >= p.vmin)) {
+        throw SettingError("vmax",
+                           "must be >= vmin (" + setting_value_text(p.vmin) + "), got " + setting_value_text(p.vmax));
+    }
+    if (!(p.speed_max >= p.speed_min)) {
+        throw SettingError("speed_max", "must be >= speed_min (" + setting_value_text(p.speed_min) + "), got " +
+                                            setting_value_text(p.speed_max));
+    }
+    if (!((p.speed_max - p.speed_min) / p.speed_step < static_cast<double>(kMaxSpeedPlanes))) {
+        throw SettingError("speed_step", "= " + setting_value_text(p.speed_step) + " gives more than " +
+                                             std::to_string(kMaxSpeedPlanes) +
+                                             " speed planes from speed_min to speed_max; widen it");
+    }
+    if (!(p.speed_jitter * static_cast<double>(p.speed_cells) <= 2000.0)) {
+        throw SettingError("speed_jitter",
+                           "x speed_cells must be at most 2000 cells (each plane's kernel spans twice "
+                           "that), got " +
+                               setting_value_text(p.speed_jitter * static_cast<double>(p.speed_cells)));
+    }
+    if (!(p.speed_change <= 50.0 * p.speed_step)) {
+        throw SettingError("speed_change", "must be at most 50 x speed_step (" +
+                                               setting_value_text(50.0 * p.speed_step) +
+                                               ") references per frame, got " + setting_value_text(p.speed_change));
+    }
 }
 
 RouteFilter::RouteFilter(std::size_t n_refs, const RouteFilterParams& params, const double* reference_distances)

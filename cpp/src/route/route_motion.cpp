@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <utility>
 
@@ -16,15 +17,23 @@ struct RouteMotionEntry {
     RouteMotion motion;
     const char* name;
     RouteMotionFactory make;
-    bool needs_distances;  // the model moves by the distance travelled
+    bool needs_distances;        // the model moves by the distance travelled
+    RouteMotionSpeedsOf speeds;  // its steady speeds (nullptr: it follows any speed)
 };
 
 // The registry: one line per model, in RouteMotion order.
 constexpr RouteMotionEntry kRouteMotions[] = {
-    {RouteMotion::kWindow, "window", &make_window_motion, false},
-    {RouteMotion::kSpeed, "speed", &make_speed_motion, false},
-    {RouteMotion::kOdometry, "odometry", &make_odometry_motion, true},
+    {RouteMotion::kWindow, "window", &make_window_motion, false, &window_motion_speeds},
+    {RouteMotion::kSpeed, "speed", &make_speed_motion, false, &speed_motion_speeds},
+    {RouteMotion::kOdometry, "odometry", &make_odometry_motion, true, nullptr},
 };
+
+constexpr bool in_enum_order() noexcept {
+    for (std::size_t i = 0; i < sizeof kRouteMotions / sizeof kRouteMotions[0]; ++i)
+        if (static_cast<std::size_t>(kRouteMotions[i].motion) != i) return false;
+    return true;
+}
+static_assert(in_enum_order(), "the registry's lines follow RouteMotion's values (a model's value is its index)");
 
 const RouteMotionEntry* find_entry(RouteMotion motion) noexcept {
     for (const RouteMotionEntry& entry : kRouteMotions)
@@ -32,9 +41,11 @@ const RouteMotionEntry* find_entry(RouteMotion motion) noexcept {
     return nullptr;
 }
 
+// "'window', 'speed', 'odometry'": the names as a setting's choices are worded.
 std::string name_list() {
     std::string names;
-    for (const RouteMotionEntry& entry : kRouteMotions) names += (names.empty() ? "" : ", ") + std::string(entry.name);
+    for (const RouteMotionEntry& entry : kRouteMotions)
+        names += (names.empty() ? "'" : ", '") + std::string(entry.name) + "'";
     return names;
 }
 
@@ -136,7 +147,7 @@ const char* route_motion_name(RouteMotion motion) {
 RouteMotion route_motion_from_name(const std::string& name) {
     for (const route_detail::RouteMotionEntry& entry : route_detail::kRouteMotions)
         if (name == entry.name) return entry.motion;
-    throw std::invalid_argument("motion must be one of " + route_detail::name_list() + ", got '" + name + "'");
+    throw SettingError("motion", "must be one of " + route_detail::name_list() + ", got '" + name + "'");
 }
 
 std::vector<std::string> route_motion_names() {
@@ -146,5 +157,31 @@ std::vector<std::string> route_motion_names() {
 }
 
 bool route_motion_known(RouteMotion motion) noexcept { return route_detail::find_entry(motion) != nullptr; }
+
+RouteMotionSpeeds route_motion_speeds(const RouteFilterParams& params) {
+    const route_detail::RouteMotionEntry* entry = route_detail::find_entry(params.motion);
+    route_detail::require(entry != nullptr, "motion must be one of " + route_detail::name_list() + ", got " +
+                                                std::to_string(static_cast<std::int32_t>(params.motion)));
+    validate(params);
+    if (entry->speeds == nullptr) {
+        RouteMotionSpeeds any;
+        any.lowest = -std::numeric_limits<double>::infinity();
+        any.highest = std::numeric_limits<double>::infinity();
+        return any;
+    }
+    return entry->speeds(params);
+}
+
+const char* route_motion_choice(std::size_t index) noexcept {
+    constexpr std::size_t count = sizeof route_detail::kRouteMotions / sizeof route_detail::kRouteMotions[0];
+    return index < count ? route_detail::kRouteMotions[index].name : nullptr;
+}
+
+bool route_motion_needs_distances(RouteMotion motion) {
+    const route_detail::RouteMotionEntry* entry = route_detail::find_entry(motion);
+    route_detail::require(entry != nullptr, "motion must be one of " + route_detail::name_list() + ", got " +
+                                                std::to_string(static_cast<std::int32_t>(motion)));
+    return entry->needs_distances;
+}
 
 }  // namespace nightloc

@@ -117,6 +117,12 @@ std::unique_ptr<RouteMotionModel> make_speed_motion(std::size_t n_refs, const Ro
 std::unique_ptr<RouteMotionModel> make_odometry_motion(std::size_t n_refs, const RouteFilterParams& params,
                                                        const double* reference_distances);
 
+/// A model's steady speeds under validated params (RouteMotionSpeeds), said by its unit.
+using RouteMotionSpeedsOf = RouteMotionSpeeds (*)(const RouteFilterParams& params);
+
+RouteMotionSpeeds window_motion_speeds(const RouteFilterParams& params);
+RouteMotionSpeeds speed_motion_speeds(const RouteFilterParams& params);
+
 /// The model params.motion names, made by its unit. Reference distances are the odometry
 /// model's input: given to another model, or missing for it, they throw
 /// std::invalid_argument.

@@ -130,6 +130,31 @@ private:
 
 }  // namespace
 
+RouteMotionSpeeds speed_motion_speeds(const RouteFilterParams& params) {
+    // The planes of the central kRouteMotionSpeedMass of the speed prior: from the first plane
+    // where the prior's cumulative mass exceeds the tail (10 %) to the first where it reaches 90 %.
+    const SpeedChain chain = speed_chain(params);
+    RouteMotionSpeeds speeds;
+    speeds.fields = {"speed_min", "speed_max", "speed_change", "speed_tau"};
+    const double tail = 0.5 * (1.0 - kRouteMotionSpeedMass);
+    double below = 0.0;
+    bool low_found = false;
+    speeds.lowest = chain.speeds.front();
+    speeds.highest = chain.speeds.back();
+    for (std::size_t s = 0; s < chain.speeds.size(); ++s) {
+        below += chain.prior[s];
+        if (!low_found && below > tail) {
+            speeds.lowest = chain.speeds[s];
+            low_found = true;
+        }
+        if (below >= 1.0 - tail - 1e-12) {
+            speeds.highest = chain.speeds[s];
+            break;
+        }
+    }
+    return speeds;
+}
+
 std::unique_ptr<RouteMotionModel> make_speed_motion(std::size_t n_refs, const RouteFilterParams& params,
                                                     const double* /*reference_distances*/) {
     return std::make_unique<SpeedMotion>(n_refs, params, speed_chain(params));

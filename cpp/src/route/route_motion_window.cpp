@@ -73,5 +73,14 @@ std::unique_ptr<RouteMotionModel> make_window_motion(std::size_t n_refs, const R
     return std::make_unique<WindowMotion>(n_refs, params);
 }
 
+RouteMotionSpeeds window_motion_speeds(const RouteFilterParams& params) {
+    RouteMotionSpeeds speeds;
+    const double margin = 0.5 * (1.0 - kRouteMotionSpeedMass) * (params.vmax - params.vmin);
+    speeds.lowest = params.vmin + margin;
+    speeds.highest = params.vmax - margin;
+    speeds.fields = {"vmin", "vmax"};
+    return speeds;
+}
+
 }  // namespace route_detail
 }  // namespace nightloc

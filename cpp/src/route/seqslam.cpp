@@ -164,17 +164,51 @@ std::size_t TrajectoryPlan::last_query(std::size_t n_queries) const noexcept {
     return n_queries > after ? n_queries - after : 0;
 }
 
+const char* trajectory_mode_name(std::size_t index) noexcept {
+    static const char* const kNames[] = {"centred", "causal"};  // TrajectoryMode's values
+    return index < sizeof kNames / sizeof kNames[0] ? kNames[index] : nullptr;
+}
+
+namespace {
+
+std::vector<SettingField<TrajectoryParams>> make_fields() {
+    using S = TrajectoryParams;
+    using K = SettingKind;
+    constexpr double kUnbounded = std::numeric_limits<double>::infinity();
+    constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+    constexpr SettingRange kSpeed{0, 1000, true, false, false, kNone, ""};
+    return {
+        setting<&S::ds>({"ds", K::integer, "frames", "sequence length (centred mode rounds it up to even)",
+                         SettingRange{2, 100000, false, false, false, kNone, ""}}),
+        setting<&S::vmin>({"vmin", K::real, "references per frame", "slowest speed", kSpeed}),
+        setting<&S::vmax>({"vmax", K::real, "references per frame", "fastest speed (>= vmin)", kSpeed}),
+        setting<&S::uniqueness_radius>({"uniqueness_radius", K::integer, "references",
+                                        "the second-best trajectory excludes anchors within this of the best",
+                                        SettingRange{0, kUnbounded, false, false, false, kNone, ""}}),
+        setting<&S::mode>({"mode", K::choice, "",
+                           "centred (OpenSeqSLAM: needs ds/2 future frames) or causal (ends at the query)",
+                           SettingRange{}, &trajectory_mode_name}),
+    };
+}
+
+}  // namespace
+
+template <>
+const std::vector<SettingField<TrajectoryParams>>& setting_fields<TrajectoryParams>() {
+    static const std::vector<SettingField<TrajectoryParams>> fields = make_fields();
+    return fields;
+}
+
+void validate(const TrajectoryParams& params) {
+    check_ranges(params);
+    if (!(params.vmin <= params.vmax)) {
+        throw SettingError("vmin", "(" + setting_value_text(params.vmin) + ") must not exceed vmax (" +
+                                       setting_value_text(params.vmax) + ")");
+    }
+}
+
 TrajectoryPlan make_trajectory_plan(const TrajectoryParams& params) {
-    if (params.ds < 2 || params.ds > 100000) {
-        throw std::invalid_argument("trajectory search: ds must be in [2, 100000], got " + std::to_string(params.ds));
-    }
-    if (!std::isfinite(params.vmin) || !std::isfinite(params.vmax) || params.vmin <= 0.0 || params.vmax > 1000.0 ||
-        params.vmin > params.vmax) {
-        throw std::invalid_argument("trajectory search: speeds must satisfy 0 < vmin <= vmax <= 1000");
-    }
-    if (params.uniqueness_radius < 0) {
-        throw std::invalid_argument("trajectory search: uniqueness_radius must be >= 0");
-    }
+    validate(params);
     TrajectoryPlan plan;
     plan.mode = params.mode;
     plan.uniqueness_radius = params.uniqueness_radius;

@@ -1,6 +1,10 @@
 """``nightloc build-map TRAVERSE OUT.map``: prepare a traverse into a reference map file.
 
-With ``poses.csv`` the map takes the surveyed poses. Without it, from the drive's wheel odometry
+With ``poses.csv`` the map takes the surveyed poses. ``--params`` (and ``--set``) give the
+``[preparation]`` the frames are prepared with and the ``[localization]`` and ``[filter]``
+settings the map keeps (:attr:`nightloc.ReferenceMap.settings`): its file carries the filter's
+tables made with them, and ``nightloc localize``, ``nightloc.Localizer(map)``, the node and the
+firmware run them. Without it, from the drive's wheel odometry
 (``odometry.csv``: ``image,forward,left,turn``) the map is a **teach run**
 (:func:`nightloc.mapping.teach_run`): dead reckoning corrected by a pose graph of the images'
 relative headings and revisits, in the drive's odometry frame. ``--evaluate-poses`` runs the
@@ -18,15 +22,25 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import load_params
 from ..errors import DatasetError
-from ..io.atomic import check_output_path
+from ..io.atomic import check_output_path, parent_folders
 from ..io.odometry_csv import ODOMETRY_FILE
 from ..io.traverse import Traverse, load_traverse
-from ..mapping.reference_map import ReferenceMap
+from ..localization.grid_filter import FilterParams
+from ..localization.localizer import LocalizationParams
+from ..mapping.reference_map import LOCALIZER_SECTIONS, ReferenceMap
 from ..preparation.camera import shape_camera
 from ..preparation.params import PreparationParams
-from .options import add_bag_options, add_camera_option, bag_options, preparation_for_camera
+from .options import (
+    add_bag_options,
+    add_camera_option,
+    add_params_options,
+    bag_options,
+    preparation_for_camera,
+    read_settings,
+    settings_line,
+    traverse_camera,
+)
 from .wording import duration
 
 
@@ -46,10 +60,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument("traverse", type=Path, help="traverse folder, a video file or a ROS bag")
     parser.add_argument("output", type=Path, help="map file to write (e.g. garden.map)")
-    parser.add_argument(
-        "--params",
-        type=Path,
-        help="TOML file with a [preparation] table (default: paper values) and, for a teach run, a [teach] table",
+    add_params_options(
+        parser,
+        "[preparation] (default: paper values), the [localization] and [filter] settings the map keeps, and for a "
+        "teach run [teach]",
     )
     add_camera_option(parser, "Stored in the map; default panoramic, or the wrap of --params.")
     parser.add_argument("--poses", type=Path, help="poses CSV (for a video: frame,x,y[,heading])")
@@ -81,10 +95,12 @@ def no_poses_error(traverse: Traverse) -> DatasetError:
 def run(args: argparse.Namespace) -> int:
     if args.frame_step < 1:
         raise ValueError(f"--frame-step must be >= 1, got {args.frame_step}")
-    params = load_params(args.params, PreparationParams) if args.params is not None else None
-    params = preparation_for_camera(params, args.camera, args.params) or PreparationParams()
+    settings = read_settings(args)
+    params = settings.section(PreparationParams)
     # names, times and poses only
     traverse = load_traverse(args.traverse, frame_step=args.frame_step, poses=args.poses, **bag_options(args))
+    camera, camera_said_by = traverse_camera(traverse, args.camera, settings)
+    params = preparation_for_camera(params, camera, settings) or PreparationParams()
     teach = args.evaluate_poses or not traverse.has_poses
     if args.evaluate_poses and not traverse.has_poses:
         where = "a pose topic (--pose-topic)" if traverse.is_bag else f"{args.traverse}/poses.csv"
@@ -97,24 +113,49 @@ def run(args: argparse.Namespace) -> int:
         has_odometry = not traverse.is_video and (Path(traverse.root) / ODOMETRY_FILE).is_file()
     if teach and not has_odometry:
         raise no_poses_error(traverse)
-    # Fail before preparing every frame: a folder, a missing parent, an existing map without
+    # Fail before preparing every frame: a folder, a parent that is a file, an existing map without
     # --overwrite, or a map that would land on or inside an input (a frame of the traverse).
-    check_output_path(args.output, overwrite=args.overwrite, inputs=(args.traverse, args.poses, args.params))
+    check_output_path(
+        args.output, overwrite=args.overwrite, inputs=(args.traverse, args.poses, args.params), parents=True
+    )
     if args.figure is not None:
         check_output_path(args.figure, overwrite=True, inputs=(args.traverse, args.poses, args.params, args.output))
-    if teach:
-        return _teach(args, traverse, params)
+    with parent_folders(args.output):  # maps/garden.map creates maps/ (removed again on a failure)
+        if teach:
+            return _teach(args, traverse, params, camera_said_by, settings)
+        return _survey(args, traverse, params, camera_said_by, settings)
+
+
+def _keep_settings(reference_map: ReferenceMap, settings) -> ReferenceMap:
+    """The map keeping the ``[localization]`` and ``[filter]`` settings of ``--params``/``--set``
+    (the sections they give)."""
+    return reference_map.with_settings(settings.section(LocalizationParams), settings.section(FilterParams))
+
+
+def _print_kept(settings) -> None:
+    print(settings_line(settings, LOCALIZER_SECTIONS, lead="localizer settings kept in the map"))
+
+
+def _survey(
+    args: argparse.Namespace, traverse: Traverse, params: PreparationParams, camera_said_by: str | None, settings
+) -> int:
     start = time.perf_counter()
-    reference_map = ReferenceMap.build(traverse, params)
+    reference_map = _keep_settings(ReferenceMap.build(traverse, params), settings)
     elapsed = time.perf_counter() - start
     written = reference_map.save(args.output, overwrite=args.overwrite)
-    _describe(args, reference_map, traverse.root, params, elapsed)
+    _describe(args, reference_map, traverse.root, params, elapsed, camera_said_by)
+    _print_kept(settings)
     print(f"wrote {written} ({written.stat().st_size / 1024:.1f} KiB)")
     return 0
 
 
 def _describe(
-    args: argparse.Namespace, reference_map: ReferenceMap, root: Path, params: PreparationParams, elapsed: float
+    args: argparse.Namespace,
+    reference_map: ReferenceMap,
+    root: Path,
+    params: PreparationParams,
+    elapsed: float,
+    camera_said_by: str | None,
 ) -> None:
     kind = "360-degree panoramas" if params.wrap else "forward camera"
     print(
@@ -132,19 +173,20 @@ def _describe(
             )
     extent_min = reference_map.positions.min(axis=0)
     extent_max = reference_map.positions.max(axis=0)
+    said_by = f" (as {camera_said_by} says)" if camera_said_by else " (the default)"
     print(
         f"positions span x {extent_min[0]:.2f}..{extent_max[0]:.2f} m, y {extent_min[1]:.2f}..{extent_max[1]:.2f} m; "
-        f"headings {'yes' if reference_map.headings is not None else 'no'}; camera {reference_map.camera}; "
+        f"headings {'yes' if reference_map.headings is not None else 'no'}; camera {reference_map.camera}{said_by}; "
         f"pose source {reference_map.pose_source}"
     )
 
 
-def _teach(args: argparse.Namespace, traverse, params: PreparationParams) -> int:
+def _teach(args: argparse.Namespace, traverse, params: PreparationParams, camera_said_by: str | None, settings) -> int:
     from ..mapping import TeachParams, TeachWarning, absolute_trajectory_error, rigid_fit, teach_run
     from ..mapping.factors import require_gtsam
 
     require_gtsam()  # one line naming the install command, before any work
-    teach = load_params(args.params, TeachParams) if args.params is not None else TeachParams()
+    teach = settings.get(TeachParams)
     if args.closed_loop:
         teach = dataclasses.replace(teach, closed_loop=True)
     source = ODOMETRY_FILE if traverse.bag_topics is None else f"the bag's {traverse.bag_topics['odometry']}"
@@ -154,8 +196,10 @@ def _teach(args: argparse.Namespace, traverse, params: PreparationParams) -> int
         reference_map, report = teach_run(traverse, params, teach)
     for warning in caught:
         print(f"warning: {warning.message}")
+    reference_map = _keep_settings(reference_map, settings)
     written = reference_map.save(args.output, overwrite=args.overwrite)
-    _describe(args, reference_map, traverse.root, params, report.seconds)
+    _describe(args, reference_map, traverse.root, params, report.seconds, camera_said_by)
+    _print_kept(settings)
     kinds = report.counts_by_kind()
     print(
         f"visual constraints: {report.accepted} accepted, {report.rejected} rejected "

@@ -25,6 +25,7 @@ from ..studies.camera import (
     sensors_from_text,
     sizes_from_text,
 )
+from ..synth.sensor import MAX_DARKNESS
 from ..synth.world import ALL_WORLDS
 
 #: The grid of ``--quick`` (for tests: two resolutions, two light levels, one sensor, one draw).
@@ -56,7 +57,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument(
         "--darkness",
         default=",".join(f"{d:g}" for d in DEFAULT_DARKNESS_LEVELS),
-        help="night darkness levels in [0, 3]; each step of 1 is 100x fewer photons (default "
+        help=f"night darkness levels in [0, {MAX_DARKNESS:g}]; each step of 1 is 100x fewer photons (default "
         f"{','.join(f'{d:g}' for d in DEFAULT_DARKNESS_LEVELS)})",
     )
     parser.add_argument(

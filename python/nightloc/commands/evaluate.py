@@ -11,12 +11,11 @@ by ``nightloc build-map``; QUERY is a traverse folder with poses (the ground tru
 folder OUT as one set (:func:`nightloc.io.atomic.output_set`: complete or unchanged; a second run
 into OUT at the same time refuses; files in OUT that nightloc did not write are kept):
 
-* ``OUT/errors.csv``: one row per query frame and configuration, columns
-  ``query,image,seq_len,noise_model,interpolation,repeat,x_est,y_est,x_true,y_true,error_m,ref_index,method``
-  (``method`` paper or filter; the filter's ``seq_len`` is the number of frames seen so far;
-  ``noise_model`` -1 with ``--odometry log``);
-* ``OUT/summary.csv``:
-  ``seq_len,noise_model,interpolation,n,median_m,mean_m,p90_m,p95_m,share_over_1m,longest_run_over_1m,method``
+* ``OUT/errors.csv``: one row per query frame and configuration, the columns of
+  :data:`~nightloc.localization.evaluation.ERRORS_COLUMNS` (``method`` paper or filter; the
+  filter's ``seq_len`` is the number of frames seen so far; ``noise_model`` -1 with ``--odometry
+  log``);
+* ``OUT/summary.csv``: the columns of :data:`~nightloc.localization.evaluation.SUMMARY_COLUMNS`
   (the filter's rows summarize all its frames, seq_len 0; n, median, mean and p90 over every frame,
   the tail -- p95, the share of frames over 1 m, the longest run of such frames in one draw -- over
   the frames from the 10th on);
@@ -43,7 +42,6 @@ import re
 import time
 from pathlib import Path
 
-from ..config import load_params_file
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set
 from ..io.traverse import load_traverse
@@ -55,10 +53,13 @@ from ..localization.evaluation import (
     map_alignment,
     match_traverse,
 )
+from ..localization.grid_filter import FilterParams
 from ..localization.localizer import MAX_SEQ_LEN, LocalizationParams
+from ..preparation.params import PreparationParams
 from .options import (
     add_bag_options,
     add_camera_option,
+    add_params_options,
     add_shift_window_option,
     bag_options,
     check_draw_options,
@@ -66,6 +67,7 @@ from .options import (
     load_reference,
     parse_noise,
     parse_shift_window,
+    read_settings,
 )
 from .wording import refuse_map_as_traverse
 
@@ -105,7 +107,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "standard deviations per frame in metres and radians, or 'wheel' (4 %% of each step's length, 0.02 rad per "
         "step; default: 'wheel' for wheel odometry (forward,left,turn), 1 for map-frame steps)",
     )
-    parser.add_argument("--params", type=Path, help="TOML file with [localization] and/or [preparation] tables")
+    add_params_options(
+        parser, "[localization], [filter] (over a map file's own: build-map --params) and/or [preparation]"
+    )
     add_camera_option(
         parser, "The query's camera: it must be the map's (a reference folder is prepared for it; default panoramic)."
     )
@@ -203,10 +207,8 @@ def run(args: argparse.Namespace) -> int:
         None if args.heatmap_frames is None else list(parse_int_list(args.heatmap_frames, "--heatmap-frames"))
     )
     window = parse_shift_window(args.shift_window)
-    sections = load_params_file(args.params) if args.params is not None else {}
-    localization = sections.get("localization", LocalizationParams())
-    filter_params = sections.get("filter")
-    preparation = sections.get("preparation")
+    params = read_settings(args)
+    preparation = params.section(PreparationParams)
     inputs = (args.reference, args.query, args.params, args.survey)
     check_output_path(args.out, folder=True, inputs=inputs, parents=True)  # a file in the way fails now
     refuse_map_as_traverse(args.query, "QUERY", "the reference comes first: nightloc evaluate REFERENCE QUERY")
@@ -221,9 +223,13 @@ def run(args: argparse.Namespace) -> int:
     # Checked and locked before the work; the files appear together at the end, or not at all.
     with output_set(args.out, command="evaluate", inputs=inputs, parents=True) as out:
         start = time.perf_counter()
-        ref_map = load_reference(args.reference, preparation, args.camera, args.params, bag)
+        ref_map = load_reference(args.reference, preparation, args.camera, params, bag)
         ref_map.check_frames(query.read(0).shape, f"the query {query.root}", args.camera)
-        filter_params = filter_params_with_window(filter_params, window, ref_map.camera, ref_map.images.shape[1:])
+        params.add(f"the map {args.reference}", ref_map.settings, below=True)  # a map file keeps its settings
+        localization = params.get(LocalizationParams)
+        filter_params = filter_params_with_window(
+            params.get(FilterParams), window, ref_map.camera, ref_map.images.shape[1:]
+        )
         matches = match_traverse(
             ref_map,
             query,

@@ -1,8 +1,9 @@
 """``nightloc localize``: a recorded night log (frames + odometry) turned into a trajectory.
 
-    nightloc localize MAP_OR_REFERENCE LOG --out OUT [--format csv|tum|csv,tum] [--min-confidence C]
+    nightloc localize MAP_OR_REFERENCE LOG --out OUT [--format csv|tum|mcap|csv,tum,mcap] [--min-confidence C]
                       [--odometry FILE|none] [--survey DAY]
-                      [--odometry-noise wheel|1|DIST,HEADING] [--params FILE.toml] [--camera panoramic|forward]
+                      [--odometry-noise wheel|1|DIST,HEADING] [--params FILE.toml] [--set SECTION.KEY=VALUE]
+                      [--camera panoramic|forward]
                       [--shift-window COLUMNS,ROWS] [--image-topic T] [--odometry-topic T] [--pose-topic T]
                       [--sync-tolerance S] [--threads N] [--no-figures] [--learn NEW_MAP [--overwrite]]
 
@@ -16,7 +17,9 @@ robot's frame, metres and radians) or ``image,dx,dy`` (map frame), optionally wi
 ``timestamp`` column (seconds); ``--odometry none`` localizes without odometry (every motion
 unknown). Each frame goes through the grid Bayes filter (:class:`nightloc.Localizer`,
 ``--odometry-noise`` its noise model: by default ``wheel``, the step-scaled model, for wheel
-odometry, and Table III model 1 for map-frame steps).
+odometry, and Table III model 1 for map-frame steps). The filter runs the ``[localization]`` and
+``[filter]`` settings the map keeps (``nightloc build-map --params``), each key replaced where
+``--params`` or ``--set`` gives it; the command prints which settings came from where.
 
 Writes, each file atomically:
 
@@ -29,6 +32,10 @@ Writes, each file atomically:
   beside it ``OUT/trajectory_confidence.csv``: ``timestamp,confidence,credible_radius``, one row
   per line of the TUM file. ``--min-confidence C`` keeps only the frames whose confidence is at
   least C in both (a cold start left out of ``evo``'s statistics); ``trajectory.csv`` keeps all;
+* ``OUT/trajectory_bag/`` (``--format mcap``): a ROS 2 bag (MCAP storage, :mod:`nightloc.node.record`)
+  of the pose with covariance, ``/tf`` (``map -> odom`` once converged and the log's ``odom ->
+  base_link``), the belief grid, the prepared image and the true pose, at the frames' times, for
+  Foxglove and ``ros2 bag play``; needs the frames' times;
 * ``OUT/trajectory.png`` (unless ``--no-figures``; ``--figure-format pdf|svg`` for another
   format): the references, the estimated path with its credible radius, and the true path when
   LOG has poses, with the error and the confidence per frame — then the command also prints the
@@ -52,17 +59,18 @@ NEW_MAP is then the map unchanged (the command says so).
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import time
 from pathlib import Path
 
 import numpy as np
 
-from ..config import load_params_file
+from ..config import SettingsLayers
 from ..errors import DatasetError
+from ..experience.learning import LearningParams
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set
-from ..io.odometry_csv import ODOMETRY_FILE
 from ..io.trajectory import (
     TRAJECTORY_FORMATS,
     TRAJECTORY_HEADER,
@@ -74,21 +82,28 @@ from ..io.trajectory import (
 )
 from ..io.traverse import Traverse, load_traverse
 from ..localization.evaluation import map_alignment
+from ..localization.grid_filter import FilterParams
 from ..localization.localizer import LocalizationParams, Localizer
 from ..localization.tail import FIRST_FRAME, tail_metrics
-from ..mapping.reference_map import ReferenceMap
-from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, log_noise_model, traverse_odometry
+from ..mapping.reference_map import LOCALIZER_SECTIONS, ReferenceMap
+from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, log_noise_model
+from ..node.runner import FrameLocalizer
+from ..preparation.params import PreparationParams
 from .options import (
     add_bag_options,
     add_camera_option,
     add_learn_options,
+    add_params_options,
     add_shift_window_option,
     bag_options,
     check_learn_target,
     filter_params_with_window,
     load_reference,
+    log_odometry,
     parse_noise,
     parse_shift_window,
+    read_settings,
+    settings_line,
 )
 from .wording import duration, refuse_map_as_traverse
 
@@ -111,7 +126,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--format",
         default="csv",
         help="csv (trajectory.csv, default), tum (trajectory.tum: timestamp x y z qx qy qz qw, as evo reads, and "
-        f"{TUM_CONFIDENCE_FILE}: timestamp,confidence,credible_radius per TUM line), or csv,tum",
+        f"{TUM_CONFIDENCE_FILE}: timestamp,confidence,credible_radius per TUM line), mcap (trajectory_bag/: a ROS 2 "
+        "MCAP bag of the pose with covariance, /tf, the belief, the prepared image and the truth, for Foxglove and "
+        "ros2 bag play), or several: csv,tum,mcap",
     )
     parser.add_argument(
         "--min-confidence",
@@ -130,7 +147,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "metres and radians, or 'wheel' (4 %% of each step's length, 0.02 rad per step; default: "
         "'wheel' for wheel odometry (forward,left,turn), 1 (0.1 m, 0.02 rad) for map-frame steps)",
     )
-    parser.add_argument("--params", type=Path, help="TOML file with [localization], [filter] and/or [preparation]")
+    add_params_options(
+        parser,
+        "[localization], [filter] (over the map's own: build-map --params), [preparation] (the map's, checked) and "
+        "[learning] (--learn)",
+    )
     add_camera_option(
         parser, "The log's camera: it must be the map's (a reference folder is prepared for it; default panoramic)."
     )
@@ -159,34 +180,18 @@ def parse_formats(text: str) -> list[str]:
     formats = list(dict.fromkeys(part.strip().lower() for part in str(text).split(",")))
     bad = [f for f in formats if f not in TRAJECTORY_FORMATS]
     if bad or not formats:
-        raise ValueError(f"--format: {bad[0] if bad else text!r} is not csv or tum (e.g. --format tum or csv,tum)")
+        raise ValueError(
+            f"--format: {bad[0] if bad else text!r} is not csv, tum or mcap (e.g. --format tum or csv,tum,mcap)"
+        )
     return formats
 
 
-def _load_map(path: Path, preparation, camera: str | None, params_file: Path | None, bag: dict) -> ReferenceMap:
+def _load_map(path: Path, preparation, camera: str | None, params_file: SettingsLayers, bag: dict) -> ReferenceMap:
     if not os.path.lexists(path):
         raise DatasetError(
             f"map {path} does not exist (a map file from nightloc build-map or a reference traverse folder)"
         )
     return load_reference(path, preparation, camera, params_file, bag)  # a FIFO, device or link loop is named
-
-
-def _log_odometry(log: Traverse, option: str | None) -> list:
-    """The log's odometry: ``--odometry FILE``, or the log's own (its ``odometry.csv``)."""
-    if option is None and log.is_bag:
-        return traverse_odometry(log)  # the bag's own odometry topic (or names what is missing)
-    if option is None and not log.is_video and not os.path.lexists(Path(log.root) / ODOMETRY_FILE):
-        raise DatasetError(
-            f"the log {log.root} has no {ODOMETRY_FILE} (its wheel odometry, one row per frame: "
-            f"image,forward,left,turn or image,dx,dy); name one with --odometry FILE, or localize without odometry: "
-            f"--odometry none"
-        )
-    try:
-        return traverse_odometry(log, None if option is None else Path(option))
-    except DatasetError as error:
-        if log.is_video and option is None:
-            raise DatasetError(f"{error}: --odometry FILE, or localize without odometry: --odometry none") from None
-        raise
 
 
 def _truth_in_map_frame(log: Traverse, ref_map: ReferenceMap, survey: Path | None) -> tuple[np.ndarray | None, str]:
@@ -220,6 +225,42 @@ def _noise_label(noise: object) -> str:
     return str(noise)
 
 
+class _BagOfTheNight:
+    """``--format mcap``: each localized frame into ``OUT/trajectory_bag`` (:mod:`nightloc.node.record`),
+    with the log's odometry as ``odom -> base_link`` and its true poses where it has them."""
+
+    def __init__(self, folder: Path, localizer: Localizer, log: Traverse, odometry: list, truth, note: str):
+        from ..node.record import NightRecorder, odometry_poses
+
+        self.recorder = NightRecorder(folder / TRAJECTORY_FORMATS["mcap"], localizer.grid, transform_tolerance=1.0)
+        self.localizer, self.log, self.truth = localizer, log, truth
+        self.odometry = odometry_poses(odometry)
+        self.headings = log.headings if not note else None  # a teach run's map: the truth's frame differs
+
+    def write(self, k: int, estimate, prepared: np.ndarray, converged: bool) -> None:
+        from ..node.conventions import stamp_of
+        from ..node.record import FrameRecord
+
+        assert self.log.timestamps is not None
+        truth = None
+        if self.truth is not None:
+            heading = float(self.headings[k]) if self.headings is not None else 0.0
+            truth = (float(self.truth[k][0]), float(self.truth[k][1]), heading if math.isfinite(heading) else 0.0)
+        record = FrameRecord(
+            stamp_of(float(self.log.timestamps[k])),
+            estimate,
+            self.odometry[k],
+            prepared,
+            self.localizer.belief,
+            truth,
+            converged,
+        )
+        self.recorder.write(record)
+
+    def close(self) -> None:
+        self.recorder.close()
+
+
 def run(args: argparse.Namespace) -> int:
     """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
     noise = None if args.odometry_noise is None else parse_noise(args.odometry_noise)
@@ -233,8 +274,7 @@ def run(args: argparse.Namespace) -> int:
     if args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
     window = parse_shift_window(args.shift_window)
-    sections = load_params_file(args.params) if args.params is not None else {}
-    params = sections.get("localization", LocalizationParams())
+    settings = read_settings(args)
     inputs = (
         args.map,
         args.log,
@@ -249,6 +289,11 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--overwrite replaces the --learn NEW_MAP: give --learn NEW_MAP too")
     refuse_map_as_traverse(args.log, "LOG", "the map comes first: nightloc localize MAP LOG --out OUT")
     log = load_traverse(args.log, **bag_options(args))
+    if "mcap" in formats and log.timestamps is None:
+        raise DatasetError(
+            f"--format mcap needs each frame's time, and the log {log.root} carries none: add a timestamp column "
+            f"(seconds) to its odometry.csv or poses.csv, or localize a bag or a video; --format csv needs none"
+        )
     if "tum" in formats and log.timestamps is None:
         raise DatasetError(
             f"--format tum needs each frame's time, and the log {log.root} carries none: add a timestamp column "
@@ -258,10 +303,12 @@ def run(args: argparse.Namespace) -> int:
     if no_odometry:
         odometry: list = [None] * len(log)
     else:
-        odometry = _log_odometry(log, args.odometry)
+        odometry = log_odometry(log, args.odometry, "localize without odometry: --odometry none")
     if noise is None:
         noise = log_noise_model(odometry)
-    ref_map = _load_map(args.map, sections.get("preparation"), args.camera, args.params, bag_options(args))
+    ref_map = _load_map(args.map, settings.section(PreparationParams), args.camera, settings, bag_options(args))
+    settings.add(f"the map {args.map}", ref_map.settings, below=True)  # --params and --set win key by key
+    params = settings.get(LocalizationParams)
     ref_map.check_frames(log.read(0).shape, f"the log {log.root}", args.camera)
     if "tum" in formats and ref_map.headings is None:
         raise DatasetError(
@@ -269,29 +316,29 @@ def run(args: argparse.Namespace) -> int:
             f"lack them): use --format csv"
         )
     truth, alignment_note = _truth_in_map_frame(log, ref_map, args.survey)
-    filter_params = filter_params_with_window(sections.get("filter"), window, ref_map.camera, ref_map.images.shape[1:])
+    filter_params = filter_params_with_window(
+        settings.get(FilterParams), window, ref_map.camera, ref_map.images.shape[1:]
+    )
     localizer = Localizer(ref_map, params, odometry_noise=noise, filter_params=filter_params, threads=args.threads)
     # Checked and locked before the work; the files appear together at the end, or not at all.
     with output_set(args.out, command="localize", inputs=inputs, parents=True) as out:
         start = time.perf_counter()
         frames = log.frames(progress_desc=f"localizing {log.root.name}")
-        if args.learn is None:
-            estimates = [localizer.update(frame, odometry[i]) for i, frame in frames]
-        else:
-            from ..experience.learning import localize_night
-
-            night = localize_night(
-                ref_map,
-                (frame for _, frame in frames),
-                odometry,
-                localizer,
-                names=log.names,
-                timestamps=log.timestamps,
-                source=str(args.log),
-            )
-            estimates = list(night.estimates)
+        runner = FrameLocalizer(localizer, learn=args.learn is not None)
+        recorder = (
+            _BagOfTheNight(out.path, localizer, log, odometry, truth, alignment_note) if "mcap" in formats else None
+        )
+        estimates = []
+        for i, frame in frames:
+            prepared = runner.prepare(frame)
+            time_s = math.nan if log.timestamps is None else float(log.timestamps[i])
+            estimates.append(runner.step(prepared, odometry[i], log.names[i], time_s))
+            if recorder is not None:
+                recorder.write(i, estimates[-1], prepared, runner.converged)
+        if recorder is not None:
+            recorder.close()
         seconds = time.perf_counter() - start
-        written = []
+        written = ["trajectory_bag/"] if recorder is not None else []
         if "csv" in formats:
             written.append(write_trajectory_csv(out / "trajectory.csv", log.names, estimates, log.timestamps).name)
         if "tum" in formats and log.timestamps is not None:
@@ -333,13 +380,17 @@ def run(args: argparse.Namespace) -> int:
             )
             written.append(figure.name)
         if args.learn is not None:
-            from ..experience.learning import learn
-
-            learned, report = learn(ref_map, night, sections.get("learning"))
+            learned, report = runner.learned_map(str(args.log), settings.section(LearningParams))
             learned.save(args.learn, overwrite=args.overwrite)
+    print(settings_line(settings, LOCALIZER_SECTIONS))
     print(
         f"{len(estimates)} frames of {log.root} localized against {len(ref_map)} references in {duration(seconds)} "
         f"({duration(seconds / max(len(estimates), 1))} per frame)"
+    )
+    last = estimates[-1]
+    print(
+        f"last frame: ({last.x:.2f}, {last.y:.2f}) m ± {last.credible_radius:.2f} m, heading {last.heading:.2f} rad, "
+        f"confidence {last.confidence:.2f}"
     )
     if "tum" in formats and args.min_confidence > 0:
         print(

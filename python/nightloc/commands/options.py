@@ -9,7 +9,10 @@
   commands (route) and the 2D filter's (localize, evaluate);
 * ``--odometry-noise``: a Table III model or ``DIST,HEADING`` (localize, evaluate);
 * ``--seed`` and ``--repeats``: the noise draws (evaluate, demo);
-* ``REFERENCE``: a traverse to build a map from, or a map file (localize, evaluate).
+* ``REFERENCE``: a traverse to build a map from, or a map file (localize, evaluate);
+* ``--odometry FILE``: a log's odometry, or its own (localize, export-log);
+* ``--params FILE`` and ``--set SECTION.KEY=VALUE``: parameter tables, a file's and single keys
+  on top of it (every command that takes parameters; :class:`nightloc.config.SettingsLayers`).
 """
 
 from __future__ import annotations
@@ -23,20 +26,25 @@ from pathlib import Path
 from typing import Any
 
 from .._validate import MAX_REPEATS
+from ..config import SettingsLayers
+from ..errors import DatasetError
 from ..io.atomic import check_output_path
 from ..io.bag import DEFAULT_SYNC_TOLERANCE_S
+from ..io.dataset_record import recorded_camera
 from ..io.kinds import bag_kind
-from ..io.traverse import load_traverse
+from ..io.odometry_csv import ODOMETRY_FILE
+from ..io.traverse import Traverse, load_traverse
 from ..localization.grid_filter import FilterParams
 from ..mapping.reference_map import ReferenceMap
-from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, noise_model
-from ..preparation.camera import CAMERAS, params_for_camera
+from ..motion.odometry import WHEEL_ODOMETRY_NOISE, NoiseModel, noise_model, traverse_odometry
+from ..preparation.camera import CAMERAS, check_panorama_shape, params_for_camera
 from ..preparation.params import PreparationParams
 
 __all__ = [
     "add_bag_options",
     "add_camera_option",
     "add_learn_options",
+    "add_params_options",
     "add_shift_window_option",
     "bag_options",
     "check_draw_options",
@@ -44,9 +52,13 @@ __all__ = [
     "file_wrap",
     "filter_params_with_window",
     "load_reference",
+    "log_odometry",
     "parse_noise",
     "parse_shift_window",
     "preparation_for_camera",
+    "read_settings",
+    "settings_line",
+    "traverse_camera",
 ]
 
 # --- ROS bags: --image-topic, --odometry-topic, --pose-topic, --sync-tolerance
@@ -88,6 +100,34 @@ def bag_options(args: argparse.Namespace) -> dict[str, Any]:
     return options
 
 
+# --- --params FILE, --set SECTION.KEY=VALUE
+
+
+def add_params_options(parser: argparse.ArgumentParser, tables: str) -> None:
+    """Adds ``--params FILE`` (``tables``: the TOML tables the command reads, in words) and
+    ``--set SECTION.KEY=VALUE`` (repeatable; over the file's)."""
+    parser.add_argument("--params", type=Path, help=f"TOML file with {tables}")
+    parser.add_argument(
+        "--set",
+        action="append",
+        metavar="SECTION.KEY=VALUE",
+        dest="settings",
+        help="one parameter, over --params' (repeatable; VALUE as in TOML, e.g. --set filter.uniform_floor=0.05)",
+    )
+
+
+def read_settings(args: argparse.Namespace) -> SettingsLayers:
+    """``--params``' tables, then each ``--set`` (checked as a parameter file is: the same errors)."""
+    return SettingsLayers().add_file(args.params).add_assignments(getattr(args, "settings", None))
+
+
+def settings_line(layers: SettingsLayers, sections: tuple[str, ...], lead: str = "settings") -> str:
+    """``"settings: SOURCE: [filter] key = value, ...; ...; the rest the defaults"``: where the
+    settings of ``sections`` that are not the defaults came from."""
+    found = layers.report(sections)
+    return f"{lead}: " + ("; ".join(found) + "; the rest the defaults" if found else "the defaults")
+
+
 # --- --camera panoramic|forward
 
 
@@ -101,24 +141,71 @@ def add_camera_option(parser: argparse.ArgumentParser, what: str) -> None:
     )
 
 
-def file_wrap(params_file: Path | str | None) -> bool | None:
-    """The ``wrap`` that ``params_file``'s ``[preparation]`` table sets, or None (no file, no
-    table, no key). The file has been read and checked already."""
+def file_wrap(params_file: Path | str | SettingsLayers | None) -> bool | None:
+    """The ``wrap`` that ``params_file``'s ``[preparation]`` table sets (a file, or the
+    ``--params``/``--set`` settings), or None (no file, no table, no key). The file has been read
+    and checked already."""
+    said = _wrap_said(params_file)
+    return None if said is None else said[0]
+
+
+def _wrap_said(params_file: Path | str | SettingsLayers | None) -> tuple[bool, str] | None:
+    """The ``[preparation]`` ``wrap`` set and who sets it, or None."""
     if params_file is None:
         return None
+    if isinstance(params_file, SettingsLayers):
+        value = params_file.table("preparation").get("wrap")
+        source = params_file.origin("preparation", "wrap")
+        return (value, str(source)) if isinstance(value, bool) else None
     document = tomllib.loads(Path(params_file).read_text(encoding="utf-8-sig"))
     table = document.get("preparation")
     value = table.get("wrap") if isinstance(table, dict) else None
-    return value if isinstance(value, bool) else None
+    return (value, str(params_file)) if isinstance(value, bool) else None
 
 
 def preparation_for_camera(
-    preparation: PreparationParams | None, camera: str | None, params_file: Path | str | None
+    preparation: PreparationParams | None, camera: str | None, params_file: Path | str | SettingsLayers | None
 ) -> PreparationParams | None:
-    """The preparation of ``--params`` set for ``--camera`` (None when neither says anything)."""
+    """The preparation of ``--params`` (and ``--set``) set for ``--camera`` (None when neither says
+    anything)."""
     if camera is None:
         return preparation
-    return params_for_camera(preparation, camera, file_wrap(params_file), str(params_file or ""))
+    said = _wrap_said(params_file)
+    return params_for_camera(preparation, camera, None if said is None else said[0], "" if said is None else said[1])
+
+
+def traverse_camera(
+    traverse: Traverse, camera: str | None, params_file: Path | str | SettingsLayers | None
+) -> tuple[str | None, str | None]:
+    """The camera to prepare ``traverse`` for, and who says so: ``--camera`` (``camera``), the
+    ``wrap`` of ``params_file``'s ``[preparation]`` table, or the camera that the traverse's
+    dataset description records (:func:`~nightloc.io.dataset_record.recorded_camera`); ``(None,
+    None)`` when none says (frames are then prepared as panoramas, the default).
+
+    A recorded camera that ``--camera`` or the parameter file contradicts is a ValueError naming
+    both (the two options are checked against each other by :func:`preparation_for_camera`), as
+    are frames too narrow for a panorama that would be prepared as one
+    (:func:`~nightloc.preparation.camera.check_panorama_shape`): the camera is never guessed."""
+    wrap_said = _wrap_said(params_file)
+    said: list[tuple[str, str]] = []
+    if camera is not None:
+        said.append((camera, f"--camera {camera}"))
+    if wrap_said is not None:
+        wrap, source = wrap_said
+        said.append(("panoramic" if wrap else "forward", f"{source} ([preparation] wrap = {str(wrap).lower()})"))
+    record = None if traverse.is_bag or traverse.is_video else recorded_camera(traverse.root)
+    if record is not None and record.camera in CAMERAS:
+        for name, who in said:
+            if name != record.camera:
+                raise ValueError(
+                    f"{who} contradicts {record.source}, which records a {record.camera} camera for the traverse "
+                    f"{traverse.root}: drop the option (the recorded camera is used), or correct {record.source}"
+                )
+        said.append((record.camera, str(record.source)))
+    chosen, said_by = said[0] if said else (None, None)
+    if chosen in (None, "panoramic"):
+        check_panorama_shape(traverse.read(0).shape, f"the traverse {traverse.root}", said_by)
+    return chosen, said_by
 
 
 # --- --shift-window COLUMNS,ROWS
@@ -222,7 +309,7 @@ def load_reference(
     path: Path,
     preparation: PreparationParams | None,
     camera: str | None = None,
-    params_file: Path | None = None,
+    params_file: Path | SettingsLayers | None = None,
     bag: dict | None = None,
 ) -> ReferenceMap:
     """The map of a reference traverse (a folder or a bag; prepared for ``camera`` when given),
@@ -231,9 +318,9 @@ def load_reference(
     (:func:`bag_options`)."""
     if path.is_dir() or bag_kind(path) is not None:
         options = (bag or {}) if bag_kind(path) is not None else {}
-        return ReferenceMap.build(
-            load_traverse(path, **options), preparation_for_camera(preparation, camera, params_file)
-        )
+        traverse = load_traverse(path, **options)
+        camera, _ = traverse_camera(traverse, camera, params_file)
+        return ReferenceMap.build(traverse, preparation_for_camera(preparation, camera, params_file))
     return ReferenceMap.load(path, preparation)
 
 
@@ -253,9 +340,10 @@ def add_learn_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--overwrite", action="store_true", help="--learn: replace NEW_MAP when it exists")
 
 
-def check_learn_target(target: Path, map_path: Path, out: Path, inputs: tuple, overwrite: bool) -> Path:
+def check_learn_target(target: Path, map_path: Path, out: Path | None, inputs: tuple, overwrite: bool) -> Path:
     """Fails before any work when NEW_MAP cannot be written: it is MAP (or inside an input), lies
-    inside OUT, is a folder, or exists without ``overwrite``."""
+    inside OUT (None: the command has no output folder), is a folder, or exists without
+    ``overwrite``."""
     same = target.resolve() == map_path.resolve()
     if not same and os.path.lexists(target) and os.path.lexists(map_path):
         try:
@@ -267,6 +355,29 @@ def check_learn_target(target: Path, map_path: Path, out: Path, inputs: tuple, o
             f"--learn {target} is the map itself: the map is never changed; write the learned map to a new file "
             f"(e.g. --learn {target.with_name(target.stem + '-learned' + target.suffix)})"
         )
-    if target.resolve().is_relative_to(out.resolve()):
+    if out is not None and target.resolve().is_relative_to(out.resolve()):
         raise ValueError(f"--learn {target} lies inside --out {out} (replaced as a whole): write it elsewhere")
     return check_output_path(target, overwrite=overwrite, inputs=inputs)
+
+
+# --- --odometry FILE: a log's odometry
+
+
+def log_odometry(log: Traverse, option: str | None, without: str) -> list:
+    """The log's odometry, one motion per frame: ``--odometry FILE``, or the log's own (its
+    ``odometry.csv``, a bag's odometry topic). A missing one is a DatasetError saying how to name
+    one and, ``without``, what the command can do without it."""
+    if option is None and log.is_bag:
+        return traverse_odometry(log)  # the bag's own odometry topic (or names what is missing)
+    if option is None and not log.is_video and not os.path.lexists(Path(log.root) / ODOMETRY_FILE):
+        raise DatasetError(
+            f"the log {log.root} has no {ODOMETRY_FILE} (its wheel odometry, one row per frame: "
+            f"image,forward,left,turn or image,dx,dy); name one with --odometry FILE"
+            + (f", or {without}" if without else "")
+        )
+    try:
+        return traverse_odometry(log, None if option is None else Path(option))
+    except DatasetError as error:
+        if log.is_video and option is None:
+            raise DatasetError(f"{error}: --odometry FILE" + (f", or {without}" if without else "")) from None
+        raise

@@ -3,7 +3,7 @@ route, with the route filter (default) or SeqSLAM.
 
     nightloc route REFERENCE QUERY --out OUT [--method filter|seqslam|seqslam,filter]
                    [--preset openseqslam] [--ds 10] [--vmin 0.8 --vmax 1.2] [--mode centred|causal]
-                   [--motion window|speed|odometry]
+                   [--motion MODEL]
                    [--tolerance 2] [--ground-truth auto|names|frames|positions|none]
 
 REFERENCE and QUERY are traverse folders (``images/`` with an optional ``poses.csv``, or a
@@ -25,16 +25,26 @@ at the same time refuses; files in OUT that nightloc did not write are kept):
   ``correspondence.png`` (the paper's Figure 23), and for the filter ``filter_confidence.png``,
   unless ``--no-figures``; ``--figure-format pdf|svg`` writes them as PDF or SVG instead.
 
-The filter's motion model: ``--motion window|speed|odometry`` names the one that runs (the
-names of :data:`nightloc.route.params.MOTION_MODELS`; odometry needs odometry in both
-traverses). Without it (``--odometry auto``): when both traverses carry odometry
-(``odometry.csv``, a bag's odometry, or poses) the filter predicts by the distance travelled
+The filter's motion model: ``--motion NAME`` names the one that runs (a name of
+:data:`nightloc.route.params.MOTION_MODELS`; a model that moves by the distance travelled,
+:data:`~nightloc.route.params.DISTANCE_MOTIONS`, needs odometry in both traverses). Without it
+(``--odometry auto``): when both traverses carry odometry (``odometry.csv``, a bag's odometry, or
+poses) the filter predicts by the distance travelled
 (:mod:`nightloc.route.odometry`); otherwise, or with ``--odometry none``, it runs the
 parameters' ``filter_motion`` (TOML ``[route] filter_motion``, default the speed model). The
 printed line and ``summary.json`` say which ran and why (e.g. odometry in one traverse only).
 
+``--dask SCHEDULER`` (an address such as ``tcp://10.0.0.5:8786``, or ``local`` for a
+``LocalCluster`` of worker processes on loopback) computes the difference matrix on a Dask
+cluster in bands of query rows (:func:`nightloc.route.dask_backend.dask_stream_match`): the
+filter receives the enhanced bands in order, SeqSLAM searches each band on its worker, and no
+process holds the whole matrix; the outputs are those of the run without it (the figure of the
+matrix is built band by band). The workers need nightloc installed. Without dask it fails in one
+line naming ``pip install "nightloc[dask]"``.
+
 Several methods (``--method seqslam,filter``) share the prepared images and the difference
-matrix; each writes its set into ``OUT/<method>/``, and ``OUT/summary.json`` holds the
+matrix (with ``--dask`` each method computes its own bands); each writes its set into
+``OUT/<method>/``, and ``OUT/summary.json`` holds the
 comparison (also printed as a table) with ``OUT/pr_comparison.png``.
 
 A run that can match no query frame (e.g. ``--ds`` longer than the query traverse) fails with
@@ -52,18 +62,20 @@ logs) say nothing about the place: then there is no ground truth, and the run sa
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import time
 from pathlib import Path
 
 from .._validate import thread_count
-from ..config import load_params_file
+from ..errors import NightlocError
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set, write_text
 from ..io.route_csv import matches_csv, pr_csv
 from ..io.traverse import load_traverse
 from ..preparation.camera import check_frames_fit
 from ..preparation.params import PreparationParams
+from ..route.dask_backend import dask_stream_match, local_client, require_distributed
 from ..route.evaluation import evaluate_matches
 from ..route.filter import texture_weights
 from ..route.ground_truth import (
@@ -72,18 +84,20 @@ from ..route.ground_truth import (
     GROUND_TRUTH_KINDS,
     ground_truth_for,
 )
-from ..route.odometry import motion_plan
-from ..route.params import MOTION_MODELS, PRESETS, RouteParams, resolve_params
+from ..route.odometry import carried_odometry, motion_plan
+from ..route.params import DISTANCE_MOTIONS, MOTION_MODELS, PRESETS, RouteParams, resolve_params
 from ..route.pipeline import RouteResult, match_difference, route_difference_matrix
 from ..route.preparation import RoutePreparer
 from ..route.report import COMPARED, comparison_summary, method_summary, motion_line, summary_json
 from .options import (
     add_bag_options,
     add_camera_option,
+    add_params_options,
     add_shift_window_option,
     bag_options,
     parse_shift_window,
     preparation_for_camera,
+    read_settings,
 )
 from .wording import duration, in_option_words, refuse_map_as_traverse
 
@@ -110,7 +124,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="filter (causal Bayes filter, the nightloc preset's default), seqslam (the openseqslam preset's), "
         "or a comma-separated list such as seqslam,filter to compare them in one run",
     )
-    parser.add_argument("--params", help="TOML file with [route] and/or [preparation] tables")
+    add_params_options(parser, "[route] and/or [preparation] tables")
     parser.add_argument("--ds", type=int, help="sequence length in frames (OpenSeqSLAM default 10)")
     parser.add_argument("--vmin", type=float, help="slowest speed, reference frames per query frame (0.8)")
     parser.add_argument("--vmax", type=float, help="fastest speed (1.2)")
@@ -141,8 +155,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--motion",
         type=motion_model,
         metavar="{" + ",".join(MOTION_MODELS) + "}",
-        help="the filter's motion model: " + ", ".join(MOTION_MODELS) + " (odometry needs it in both traverses); "
-        "default: odometry when both traverses carry it, else the parameters' filter_motion (speed)",
+        help="the filter's motion model: "
+        + ", ".join(MOTION_MODELS)
+        + f" ({', '.join(sorted(DISTANCE_MOTIONS))}: by the distance travelled, which needs odometry in both "
+        "traverses); default: that when both traverses carry odometry, else the parameters' filter_motion",
     )
     parser.add_argument(
         "--odometry",
@@ -151,6 +167,13 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "filter predicts by the distance travelled; none: never (the parameters' filter_motion runs)",
     )
     parser.add_argument("--threads", type=int, help="worker threads (default all cores)")
+    parser.add_argument(
+        "--dask",
+        metavar="SCHEDULER",
+        help="compute the difference matrix on a Dask cluster: the scheduler's address (tcp://HOST:8786) or local (a "
+        "LocalCluster of worker processes on this machine's loopback, one per --threads); bands of query rows stream "
+        'to the search, so memory is bounded by bands, not by the matrix (pip install "nightloc[dask]")',
+    )
     parser.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     add_figure_format_option(parser)
     add_bag_options(parser)
@@ -173,13 +196,20 @@ def uses_odometry(args: argparse.Namespace) -> bool:
     (odometry or not); without it, ``--odometry`` (auto: when both traverses carry odometry)."""
     if args.motion is None:
         return args.odometry != "none"
-    wanted = args.motion == "odometry"
+    wanted = args.motion in DISTANCE_MOTIONS
     if args.odometry is not None and (args.odometry == "auto") != wanted:
         raise ValueError(
             f"--motion {args.motion} contradicts --odometry {args.odometry}; give --motion alone (it names the model "
             "that runs)"
         )
     return wanted
+
+
+def option_name(field: str) -> str:
+    """How the command sets a :class:`RouteParams` field: its option (``--vmin``, ``--motion``),
+    else the field itself (a key of the ``--params`` file's ``[route]`` table)."""
+    options = {"filter_motion": "--motion", "vmin": "--vmin", "vmax": "--vmax", "ds": "--ds", "mode": "--mode"}
+    return options.get(field, field)
 
 
 def methods_from_args(args: argparse.Namespace, params: RouteParams) -> list:
@@ -199,15 +229,14 @@ def route_params_from_args(args: argparse.Namespace) -> tuple:
     """(RouteParams, PreparationParams or None) from --params, --preset and the overrides."""
     route_params: RouteParams | None = None
     preparation: PreparationParams | None = None
-    if args.params:
-        tables = load_params_file(args.params)
-        route_params = tables.get("route")
-        preparation = tables.get("preparation")
+    settings = read_settings(args)
+    route_params = settings.section(RouteParams)
+    preparation = settings.section(PreparationParams)
     if args.camera is not None:
         if args.circular_shifts and args.camera == "forward":
             raise ValueError("--circular-shifts (a panoramic camera's search) contradicts --camera forward")
         args.circular_shifts = args.camera == "panoramic"
-        preparation = preparation_for_camera(preparation, args.camera, args.params)
+        preparation = preparation_for_camera(preparation, args.camera, settings)
     if args.preset is not None:
         if route_params is not None:
             raise ValueError(f"give --preset or a [route] table in {args.params}, not both")
@@ -223,6 +252,31 @@ def route_params_from_args(args: argparse.Namespace) -> tuple:
         filter_motion=args.motion,
     )
     return params, preparation
+
+
+# --------------------------------------------------------------------------------------------
+# the Dask cluster
+
+
+def require_cluster(scheduler: str) -> None:
+    """Fails before the work when ``--dask`` cannot run: dask.distributed missing (one line naming
+    the install command) or an empty address."""
+    if not scheduler.strip():
+        raise ValueError("--dask needs a scheduler address (tcp://HOST:8786) or local")
+    require_distributed()
+
+
+@contextlib.contextmanager
+def cluster_client(scheduler: str, threads: int | None):
+    """A client of the scheduler ``--dask`` names (``local``: a LocalCluster of ``threads`` worker
+    processes on loopback, one thread each), closed on exit."""
+    if scheduler == "local":
+        with local_client(thread_count(threads)) as client:
+            yield client
+        return
+    distributed = require_distributed()
+    with distributed.Client(scheduler, timeout=20) as client:
+        yield client
 
 
 # --------------------------------------------------------------------------------------------
@@ -264,9 +318,11 @@ def run(args: argparse.Namespace) -> int:
         methods = methods_from_args(args, params)
         per_method = [resolve_params(params, method=method) for method in methods]
     except ValueError as error:  # raised by the parameter classes in their field names
-        if args.params is not None and str(error).startswith(str(args.params)):
-            raise  # about the file's keys, in its words
+        if isinstance(error, NightlocError):
+            raise  # about the keys of --params or --set, in their words
         raise in_option_words(error, _OPTIONS) from None
+    if args.dask is not None:
+        require_cluster(args.dask)
     inputs = (args.reference, args.query, args.params)
     check_output_path(args.out, folder=True, inputs=inputs, parents=True)  # a file in the way fails now
     usage = "nightloc route compares two traverses: nightloc route REFERENCE QUERY --out OUT"
@@ -290,36 +346,55 @@ def run(args: argparse.Namespace) -> int:
     for p in per_method:
         _check_can_match(p, len(reference), len(query))
     plan = motion_plan(reference, query, params.filter_motion, uses_odometry(args)) if "filter" in methods else None
+    carried = carried_odometry(reference, query)  # for the speed check, used by the search or not
 
     # Checked and locked before the work; the files appear together at the end, or not at all.
-    with output_set(args.out, command="route", inputs=inputs, parents=True) as out:
+    with contextlib.ExitStack() as stack:
+        client = None if args.dask is None else stack.enter_context(cluster_client(args.dask, args.threads))
+        out = stack.enter_context(output_set(args.out, command="route", inputs=inputs, parents=True))
         preparer = RoutePreparer(params, preparation)
         start = time.perf_counter()
         refs = preparer(reference)
         queries = preparer(query)
         preparation_s = time.perf_counter() - start
-        start = time.perf_counter()
-        difference = route_difference_matrix(queries, refs, params, threads=args.threads)
-        difference_s = time.perf_counter() - start
-        weights = texture_weights(queries, params.filter_min_texture) if "filter" in methods else None
+        if client is None:
+            start = time.perf_counter()
+            difference = route_difference_matrix(queries, refs, params, threads=args.threads)
+            difference_s = time.perf_counter() - start
+            weights = texture_weights(queries, params.filter_min_texture) if "filter" in methods else None
 
         summaries = {}
         evaluations = {}
         for index, p in enumerate(per_method):
             last = index == len(per_method) - 1
             used = plan if p.method == "filter" else None
-            result = match_difference(
-                difference,
-                p,
-                args.threads,
-                keep_difference=not last,
-                weights=weights if p.method == "filter" else None,
-                advances=None if used is None else used.advances,
-                reference_distances=None if used is None else used.reference_distances,
-            )
+            advances = None if used is None else used.advances
+            distances = None if used is None else used.reference_distances
+            if client is not None:
+                result = dask_stream_match(
+                    client,
+                    refs,
+                    queries,
+                    p,
+                    advances=advances,
+                    reference_distances=distances,
+                    carried_odometry=carried,
+                )
+                result.timings = {"preparation": preparation_s, "matching": result.timings["total"]}
+            else:
+                result = match_difference(
+                    difference,
+                    p,
+                    args.threads,
+                    keep_difference=not last,
+                    weights=weights if p.method == "filter" else None,
+                    advances=advances,
+                    reference_distances=distances,
+                    carried_odometry=carried,
+                )
+                result.timings = {"preparation": preparation_s, "difference": difference_s, **result.timings}
             if used is not None:
                 result.motion_note = used.note
-            result.timings = {"preparation": preparation_s, "difference": difference_s, **result.timings}
             if not result.defined.any():
                 raise ValueError(
                     f"no query frame could be matched by {p.method} ({result.n_queries} queries, {result.n_refs} "
@@ -388,7 +463,10 @@ def _write_method(
 
 def _print_method(result: RouteResult, evaluation, truth, truth_kind, no_truth, folder: Path, figures: list) -> None:
     p = result.params
-    compute = sum(result.timings[k] for k in ("difference", "enhancement", "search"))
+    timings = result.timings
+    stages = ("difference", "enhancement", "search", "speed_check")
+    compute = timings.get("matching", sum(timings.get(k, 0.0) for k in stages))
+    search = f" (search {duration(timings['search'])})" if "search" in timings else " (on the Dask cluster)"
     how = (
         f"filter, {motion_line(result)}, sharpness {p.filter_sharpness:g}"
         if p.method == "filter"
@@ -396,14 +474,16 @@ def _print_method(result: RouteResult, evaluation, truth, truth_kind, no_truth, 
     )
     print(
         f"{result.n_queries} query frames against {result.n_refs} reference frames: {int(result.defined.sum())} "
-        f"matched ({how}); matching {duration(compute)} (search {duration(result.timings['search'])}), "
-        f"reading and preparing {duration(result.timings['preparation'])}"
+        f"matched ({how}); matching {duration(compute)}{search}, "
+        f"reading and preparing {duration(timings['preparation'])}"
     )
     if evaluation is not None:
         unit = "m" if truth.kind == "positions" else "frames"
         print(f"ground truth from {truth_kind} (+-{truth.tolerance:g} {unit}): {evaluation.summary()}")
     else:
         print(f"no ground truth ({no_truth}): pr.csv not written")
+    if result.speed_check is not None and not result.speed_check.fits:
+        print(f"warning: {result.speed_check.message(option_name)}")
     print(
         f"wrote {folder}/matches.csv"
         + (", pr.csv" if evaluation is not None else "")

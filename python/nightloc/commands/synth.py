@@ -14,6 +14,7 @@ from ..synth.dataset import DEFAULT_DARKNESS, DEFAULT_SEED, make_dataset
 from ..synth.nights import NIGHTS, parse_nights
 from ..synth.render import Camera
 from ..synth.season import BAD_NIGHTS, SEASON_WORLDS
+from ..synth.sensor import MAX_DARKNESS
 from ..synth.world import ALL_WORLDS, WORLD_NAMES
 
 
@@ -33,7 +34,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         default="garden",
         help="which world (default garden; all = the default dataset's, garden and living_room; large_garden is "
         "the 25x15 m lawn of the teach run, about 1000 frames; creek is the paper's 500 m unlit bushland path for "
-        "route mode: a forward camera, 272 day and 315 night frames, darkness 1 unless --darkness is given)",
+        f"route mode: a forward camera, 272 day and 315 night frames, darkness {CREEK_DARKNESS:g} unless --darkness "
+        "is given)",
     )
     parser.add_argument("--out", required=True, type=Path, help="output folder (created with its parents if missing)")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"random seed (default {DEFAULT_SEED})")
@@ -41,7 +43,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--darkness",
         type=float,
         default=None,
-        help=f"night darkness in [0, 3]: 0 = night lights exposed like day, 1 = 100x fewer photons "
+        help=f"night darkness in [0, {MAX_DARKNESS:g}]: 0 = night lights exposed like day, 1 = 100x fewer photons "
         f"(default {DEFAULT_DARKNESS}; creek {CREEK_DARKNESS})",
     )
     parser.add_argument("--size", default="192x96", help="panorama WIDTHxHEIGHT in pixels (default 192x96)")
@@ -121,8 +123,8 @@ def run(args: argparse.Namespace) -> int:
         args.darkness = CREEK_DARKNESS if args.world == "creek" else DEFAULT_DARKNESS
     if args.seed < 0:
         raise ValueError("--seed must be >= 0")
-    if not (math.isfinite(args.darkness) and 0.0 <= args.darkness <= 3.0):
-        raise ValueError(f"--darkness must be in [0, 3], got {args.darkness}")
+    if not (math.isfinite(args.darkness) and 0.0 <= args.darkness <= MAX_DARKNESS):
+        raise ValueError(f"--darkness must be in [0, {MAX_DARKNESS:g}], got {args.darkness}")
     if args.threads is not None and args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
     camera = Camera(*parse_size(args.size))

@@ -1,7 +1,7 @@
 """Experience maps: a map that learns from its nights.
 
 * :mod:`~nightloc.experience.learning` — :func:`localize_night` (a night localized over a map, every
-  frame's estimate kept) and :func:`learn` (the map plus what the night taught it:
+  frame's estimate kept; :class:`NightLearner` frame by frame) and :func:`learn` (the map plus what the night taught it:
   :class:`LearningParams`, TOML ``[learning]``; :class:`LearningReport`).
 
 This stage sits above localization (it runs the localizer) and mapping (it extends a
@@ -10,6 +10,6 @@ This stage sits above localization (it runs the localizer) and mapping (it exten
 
 from __future__ import annotations
 
-from .learning import LearningParams, LearningReport, LocalizedNight, learn, localize_night
+from .learning import LearningParams, LearningReport, LocalizedNight, NightLearner, learn, localize_night
 
-__all__ = ["LearningParams", "LearningReport", "LocalizedNight", "learn", "localize_night"]
+__all__ = ["LearningParams", "LearningReport", "LocalizedNight", "NightLearner", "learn", "localize_night"]

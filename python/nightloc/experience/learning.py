@@ -71,6 +71,7 @@ __all__ = [
     "LearningParams",
     "LearningReport",
     "LocalizedNight",
+    "NightLearner",
     "RetentionPolicy",
     "backward_estimates",
     "learn",
@@ -224,6 +225,97 @@ class LocalizedNight:
         return len(self.estimates)
 
 
+class NightLearner:
+    """A night localized frame by frame, keeping what :func:`learn` needs (the streaming form of
+    :func:`localize_night`, e.g. a live robot's frames).
+
+    Args:
+        ref_map: the map.
+        localizer: a filter :class:`Localizer` over ``ref_map`` (default ``Localizer(ref_map)``);
+            it is reset first.
+        backward: keep each frame's position belief and motion, so that :meth:`night` also runs
+            the filter over the night backwards and smooths the two runs (as :func:`localize_night`).
+            The beliefs cost the grid's size per frame (``(Ny, Nx)`` float64).
+    """
+
+    def __init__(self, ref_map: ReferenceMap, localizer: Localizer | None = None, *, backward: bool = True):
+        loc = Localizer(ref_map) if localizer is None else localizer
+        if loc.ref_map is not ref_map and loc.ref_map != ref_map:
+            raise ValueError("the localizer runs over another map than ref_map")
+        if loc.method != "filter":
+            raise ValueError("learning needs the grid filter's confidence: a Localizer with method='filter'")
+        loc.reset()
+        self.ref_map = ref_map
+        self.localizer = loc
+        self.backward = backward
+        self._images: list[np.ndarray] = []
+        self._estimates: list[Estimate] = []
+        self._medians: list[float] = []
+        self._look_medians: list[float] = []
+        self._beliefs: list[np.ndarray] = []
+        self._motions: list[object] = []
+        night = None if ref_map.appearances is None else np.asarray(ref_map.appearances.night) > 0
+        self._looks = night if night is not None and night.any() else None
+
+    def __len__(self) -> int:
+        return len(self._estimates)
+
+    def step(self, frame: np.ndarray, motion: object = None, *, prepared: bool = False) -> Estimate:
+        """Localizes one raw camera frame (or a prepared one, ``prepared=True``) with ``motion``
+        since the previous frame (see :meth:`Localizer.update`), and keeps it."""
+        image = frame if prepared else self.ref_map.preparer.prepare(frame)
+        table = self.localizer.score_table(image, prepared=True)
+        estimate = self.localizer.update_table(table, motion)
+        self._estimates.append(estimate)
+        self._images.append(image)
+        mins = table.min(axis=1)
+        self._medians.append(float(np.median(mins)))
+        if self._looks is not None:
+            self._look_medians.append(float(np.median(mins[self._looks])))
+        if self.backward:
+            self._beliefs.append(self.localizer.belief)
+            self._motions.append(motion)
+        return estimate
+
+    def night(
+        self,
+        names: Sequence[str] | None = None,
+        timestamps: Sequence[float] | np.ndarray | None = None,
+        source: str = "",
+    ) -> LocalizedNight:
+        """The frames so far as a :class:`LocalizedNight` (``names``, ``timestamps`` in seconds
+        and ``source`` as :func:`localize_night` takes them). With ``backward``, the backward run
+        and the smoother run here (the localizer's belief is replaced)."""
+        ref_map = self.ref_map
+        m = len(self._estimates)
+        if names is None:
+            names = [f"{k:06d}" for k in range(m)]
+        if len(names) != m:
+            raise ValueError(f"{len(names)} names for {m} frames")
+        times = None if timestamps is None else np.asarray(timestamps, dtype=np.float64)
+        if times is not None and times.shape != (m,):
+            raise ValueError(f"timestamps must be ({m},) seconds, got shape {times.shape}")
+        shape = (0, ref_map.params.height, ref_map.params.width)
+        images = np.stack(self._images) if self._images else np.zeros(shape, np.uint8)
+        back, smoothed = None, None
+        if self.backward and m > 1:
+            back, predicted = backward_estimates(self.localizer, images, self._motions)
+            smoothed = smoothed_estimates(self.localizer, self._beliefs, predicted)
+        return LocalizedNight(
+            images,
+            tuple(self._estimates),
+            np.asarray(self._medians, dtype=np.float64),
+            tuple(names),
+            times,
+            str(source),
+            ref_map.fingerprint,
+            ref_map.params,
+            back,
+            smoothed,
+            np.asarray(self._look_medians, dtype=np.float64) if self._look_medians else None,
+        )
+
+
 def localize_night(
     ref_map: ReferenceMap,
     frames: Iterable[np.ndarray],
@@ -248,55 +340,10 @@ def localize_night(
             that the frames before the forward run settled can be learned too, and a frame the
             two runs place apart is not (:func:`trust_night`).
     """
-    loc = Localizer(ref_map) if localizer is None else localizer
-    if loc.ref_map is not ref_map and loc.ref_map != ref_map:
-        raise ValueError("the localizer runs over another map than ref_map")
-    if loc.method != "filter":
-        raise ValueError("learning needs the grid filter's confidence: a Localizer with method='filter'")
-    loc.reset()
-    preparer = ref_map.preparer
-    images, estimates, medians, beliefs, look_medians = [], [], [], [], []
-    looks = None if ref_map.appearances is None else np.asarray(ref_map.appearances.night) > 0
+    learner = NightLearner(ref_map, localizer, backward=backward)
     for k, frame in enumerate(frames):
-        prepared = preparer.prepare(frame)
-        table = loc.score_table(prepared, prepared=True)
-        motion = None if odometry is None else odometry[k]
-        estimates.append(loc.update_table(table, motion))
-        images.append(prepared)
-        mins = table.min(axis=1)
-        medians.append(float(np.median(mins)))
-        if looks is not None and looks.any():
-            look_medians.append(float(np.median(mins[looks])))
-        if backward:
-            beliefs.append(loc.belief)
-    m = len(estimates)
-    if names is None:
-        names = [f"{k:06d}" for k in range(m)]
-    if len(names) != m:
-        raise ValueError(f"{len(names)} names for {m} frames")
-    times = None if timestamps is None else np.asarray(timestamps, dtype=np.float64)
-    if times is not None and times.shape != (m,):
-        raise ValueError(f"timestamps must be ({m},) seconds, got shape {times.shape}")
-    shape = (0, ref_map.params.height, ref_map.params.width)
-    prepared = np.stack(images) if images else np.zeros(shape, np.uint8)
-    motions = [None] * m if odometry is None else [odometry[k] for k in range(m)]
-    back, smoothed = None, None
-    if backward and m > 1:
-        back, predicted = backward_estimates(loc, prepared, motions)
-        smoothed = smoothed_estimates(loc, beliefs, predicted)
-    return LocalizedNight(
-        prepared,
-        tuple(estimates),
-        np.asarray(medians, dtype=np.float64),
-        tuple(names),
-        times,
-        str(source),
-        ref_map.fingerprint,
-        ref_map.params,
-        back,
-        smoothed,
-        np.asarray(look_medians, dtype=np.float64) if look_medians else None,
-    )
+        learner.step(frame, None if odometry is None else odometry[k])
+    return learner.night(names, timestamps, source)
 
 
 def backward_estimates(
@@ -658,6 +705,7 @@ def learn(
         pose_source=ref_map.pose_source,
         covariances=None if covs is None else np.concatenate(covs),
         appearances=appearances,
+        settings=ref_map.settings,
     )
     first = int(np.flatnonzero(trusted)[0])
     report = LearningReport(

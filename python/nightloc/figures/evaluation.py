@@ -347,8 +347,9 @@ def heatmap_figure(
     Noise-free odometry, interpolation on. ``estimates`` may pass the two estimates (with heat
     maps) instead of replaying the localizer; ``caption`` (e.g. :func:`explain_heatmap_frame`)
     is written under the panels. Draw order, bottom to top: heat map, reference circles, truth
-    (large red cross), best reference (green), estimate (black, smaller, so a correct estimate
-    shows inside the truth's cross).
+    (large red cross), best reference (green: the frame's best match on the single-frame panel,
+    the reference the sequence reports, closest to its estimate, on the sequence's panel),
+    estimate (black, smaller, so a correct estimate shows inside the truth's cross).
     """
     params = params or LocalizationParams()
     if estimates is None:
@@ -359,7 +360,6 @@ def heatmap_figure(
     result = matches.results[frame]
     truth = matches.positions[frame]
     inverted = invert_scores(result.scores)  # 1 = best match, 0 = worst
-    best = ref_map.positions[result.index]
     shown = estimates[0].heatmap
     if shown is None:
         raise ValueError("estimates must carry heat maps: Localizer.update(..., return_heatmap=True)")
@@ -388,6 +388,7 @@ def heatmap_figure(
             label="references (size = match)",
         )
         _cross(ax, truth[0], truth[1], "red", 17, 3.5, "truth", zorder=3)
+        best = ref_map.positions[result.index if est.frames == 1 else est.ref_index]
         _cross(ax, best[0], best[1], "green", 12, 3.0, "best reference", zorder=4)
         _cross(ax, est.x, est.y, "black", 10, 2.5, "estimate", zorder=5)
         error = float(np.hypot(est.x - truth[0], est.y - truth[1]))

@@ -24,13 +24,13 @@ import os
 from pathlib import Path
 from typing import Union
 
-import cv2
 import numpy as np
 from matplotlib.figure import Figure
 
 from ..route.evaluation import RouteEvaluation
 from ..route.params import PRESETS, RouteParams
 from ..route.pipeline import RouteResult
+from ..route.preview import matrix_preview
 from ._common import figure_path, new_figure, save_figure, styled
 
 __all__ = [
@@ -44,9 +44,6 @@ __all__ = [
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]
-
-#: Largest side, in cells, of the matrix image drawn (bigger matrices are area-averaged).
-MAX_IMAGE_CELLS = 900
 
 
 def _changes(params: RouteParams, preset: str) -> list[str]:
@@ -96,21 +93,6 @@ def route_caption(
     return "\n".join(lines)
 
 
-def _reduced(matrix: np.ndarray, limit: int = MAX_IMAGE_CELLS) -> np.ndarray:
-    """``matrix`` area-averaged to at most ``limit`` cells per side (NaN and inf replaced by the
-    finite maximum first, so one bad cell does not blank its neighbourhood)."""
-    values = np.asarray(matrix, dtype=np.float32)
-    finite = np.isfinite(values)
-    if not finite.all():
-        fill = float(values[finite].max()) if finite.any() else 0.0
-        values = np.where(finite, values, np.float32(fill))
-    rows, cols = values.shape
-    if rows <= limit and cols <= limit:
-        return values
-    size = (min(cols, limit), min(rows, limit))  # cv2: (width, height)
-    return cv2.resize(values, size, interpolation=cv2.INTER_AREA)
-
-
 def _titled(fig: Figure, ax, title: str, caption: str | None) -> None:
     fig.suptitle(title)
     if caption:
@@ -130,7 +112,9 @@ def difference_matrix_figure(
 
     Matches are dots at the cell centres ``(query + 0.5, ref + 0.5)``: green where correct, red
     where wrong (white when there is no ground truth). Matrices larger than
-    :data:`MAX_IMAGE_CELLS` per side are area-averaged for the image (the dots are exact).
+    :data:`~nightloc.route.preview.MAX_IMAGE_CELLS` per side are area-averaged for the image
+    (:mod:`nightloc.route.preview`; a run on a Dask cluster brings the picture it built band by
+    band, ``result.matrix_image``); the dots are exact.
 
     Args:
         result: a :class:`RouteResult`.
@@ -142,7 +126,10 @@ def difference_matrix_figure(
     which = "contrast-enhanced difference matrix" if matrix is result.enhanced else "difference matrix"
     fig, ax = new_figure(8.0, 7.2)
     n_query, n_ref = matrix.shape
-    values = _reduced(matrix.T)  # rows = references (y), columns = queries (x)
+    picture = result.matrix_image if matrix is result.enhanced and result.matrix_image is not None else None
+    if picture is None:
+        picture = matrix_preview(matrix)
+    values = picture.T  # rows = references (y), columns = queries (x)
     finite = values[np.isfinite(values)]
     hi = float(np.percentile(finite, 99)) if finite.size else 1.0
     lo = float(finite.min()) if finite.size else 0.0

@@ -7,6 +7,7 @@
 * :mod:`~nightloc.io.kinds` — what a path is (a map, a bag, a traverse folder, ...) for messages;
 * :mod:`~nightloc.io.trajectory` — ``trajectory.csv`` and the TUM trajectory format;
 * :mod:`~nightloc.io.traverse` — :class:`Traverse`, :func:`load_traverse`, :func:`save_traverse`;
+* :mod:`~nightloc.io.firmware_log` — a log in the layout the firmware replay reads (PGM/PPM frames);
 * :mod:`~nightloc.io.map_file` — the reference map file (``.npz``: arrays, JSON header, checksums);
 * :mod:`~nightloc.io.atomic` — atomic file and folder writes.
 """

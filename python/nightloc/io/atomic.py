@@ -22,8 +22,9 @@ moved aside first, and a kill between the two renames is repaired by the next wr
 * leftovers of killed writes of the same target (hidden ``.<name>.<random>.partial`` and
   ``.old`` entries) are removed by the next write, under the lock;
 * the parent folder must exist (a typo must not create a tree of folders): FileNotFoundError;
-  except for a command's output folder (``parents=True``), which is created with its parents,
-  the parents it made being removed again when the command fails;
+  except for a command's outputs (an output folder with ``parents=True``, a file written inside
+  :func:`parent_folders`), whose missing parents are created, those made being removed again
+  when the command fails;
 * a symbolic link at the output path is followed: the file or folder it points to is replaced
   and the link stays (a link loop is refused);
 * an output that is, contains or lies inside one of the command's inputs is refused before any
@@ -67,6 +68,7 @@ __all__ = [
     "locked_target",
     "make_folder",
     "output_set",
+    "parent_folders",
     "refuse_overlap",
     "replace_folder",
     "staging_folder",
@@ -136,6 +138,20 @@ def _remove_made(made: list[Path]) -> None:
     for folder in reversed(made):
         with contextlib.suppress(OSError):
             os.rmdir(folder)
+
+
+@contextlib.contextmanager
+def parent_folders(path: PathLike) -> Iterator[Path]:
+    """Context manager: creates the missing parent folders of the output ``path`` (a command's
+    output file, e.g. ``maps/garden.map``) and removes those it made again when the block raises.
+    Raises NotADirectoryError naming the culprit when an existing parent is a file."""
+    user = Path(path)
+    made = _make_parents(_resolve(user), user)
+    try:
+        yield user
+    except BaseException:
+        _remove_made(made)
+        raise
 
 
 def _inside(inner: Path, outer: Path) -> bool:
@@ -730,18 +746,13 @@ def output_set(
             f"the output folder {user} is (or contains) the current folder, which replacing it would pull "
             f"from under you; choose a sub-folder"
         )
-    made = _make_parents(target, user) if parents else []
-    try:
-        with locked_target(user, wait=wait):
-            previous = _read_previous(target, user, overwrite, overwrite_hint)
-            staging = staging_folder(target)
-            try:
-                result = OutputSet(staging, target, user, command, previous)
-                yield result
-                result._commit()
-            except BaseException:
-                shutil.rmtree(staging, ignore_errors=True)
-                raise
-    except BaseException:
-        _remove_made(made)
-        raise
+    with parent_folders(user) if parents else contextlib.nullcontext(user), locked_target(user, wait=wait):
+        previous = _read_previous(target, user, overwrite, overwrite_hint)
+        staging = staging_folder(target)
+        try:
+            result = OutputSet(staging, target, user, command, previous)
+            yield result
+            result._commit()
+        except BaseException:
+            shutil.rmtree(staging, ignore_errors=True)
+            raise

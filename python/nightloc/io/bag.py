@@ -5,9 +5,8 @@ Read with `rosbags <https://gitlab.com/ternaris/rosbags>`_ (pure Python; importe
 bag is opened): ROS 1 bags (``.bag``), ROS 2 bags (a folder with ``metadata.yaml``, sqlite3 or
 MCAP storage) and lone ``.mcap`` / ``.db3`` files.
 
-* **Frames**: ``sensor_msgs/Image`` in an encoding of ``_ENCODINGS`` below (the one list: mono,
-  BGR, RGB, BGRA and RGBA at 8 and 16 bits, and ``8UC1``, ``8UC3``, ``8UC4``, ``16UC1``,
-  ``16UC3``; any row stride, either byte order) or ``sensor_msgs/CompressedImage`` (anything
+* **Frames**: ``sensor_msgs/Image`` in an encoding of :data:`IMAGE_ENCODINGS` below (the one
+  list; any row stride, either byte order) or ``sensor_msgs/CompressedImage`` (anything
   OpenCV decodes), as BGR or grey, 8 or 16 bit. A frame's time is its header stamp (the bag's
   record time when the stamps are unset).
 * **Odometry**: ``nav_msgs/Odometry`` (its pose in its own odom frame) or the TF transform
@@ -40,7 +39,7 @@ import os
 import warnings
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, Union
+from typing import Any, NamedTuple, Union
 
 import cv2
 import numpy as np
@@ -50,15 +49,19 @@ from .kinds import ROS1_BAG, bag_kind
 
 __all__ = [
     "DEFAULT_SYNC_TOLERANCE_S",
+    "IMAGE_ENCODINGS",
     "IMAGE_TYPES",
     "ODOMETRY_TYPES",
     "POSE_TYPES",
     "BagFrames",
     "BagLog",
+    "ImageEncoding",
     "decode_image",
     "interpolate_poses",
     "load_bag",
+    "quaternion_yaw",
     "robot_motions",
+    "stamp_seconds",
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -74,23 +77,47 @@ TF_TYPE = "tf2_msgs/msg/TFMessage"
 TF_PARENTS = ("odom",)
 TF_CHILDREN = ("base_link", "base_footprint")
 
-#: sensor_msgs/Image encodings: (channels, dtype, conversion to BGR or None).
-_ENCODINGS: dict[str, tuple[int, Any, int | None]] = {
-    "mono8": (1, np.uint8, None),
-    "8uc1": (1, np.uint8, None),
-    "mono16": (1, np.uint16, None),
-    "16uc1": (1, np.uint16, None),
-    "bgr8": (3, np.uint8, None),
-    "8uc3": (3, np.uint8, None),
-    "rgb8": (3, np.uint8, cv2.COLOR_RGB2BGR),
-    "bgra8": (4, np.uint8, cv2.COLOR_BGRA2BGR),
-    "8uc4": (4, np.uint8, cv2.COLOR_BGRA2BGR),
-    "rgba8": (4, np.uint8, cv2.COLOR_RGBA2BGR),
-    "bgr16": (3, np.uint16, None),
-    "16uc3": (3, np.uint16, None),
-    "rgb16": (3, np.uint16, cv2.COLOR_RGB2BGR),
-    "bgra16": (4, np.uint16, cv2.COLOR_BGRA2BGR),
-    "rgba16": (4, np.uint16, cv2.COLOR_RGBA2BGR),
+
+class ImageEncoding(NamedTuple):
+    """How a ``sensor_msgs/Image`` encoding lays out a pixel: its channels in order (``"mono"``,
+    ``"bgr"``, ``"rgb"``, ``"bgra"``, ``"rgba"``) and the bits of each (8 or 16)."""
+
+    order: str
+    bits: int
+
+    @property
+    def channels(self) -> int:
+        """Values per pixel."""
+        return 1 if self.order == "mono" else len(self.order)
+
+    @property
+    def dtype(self) -> type:
+        """``numpy.uint8`` or ``numpy.uint16``."""
+        return np.uint8 if self.bits == 8 else np.uint16
+
+    @property
+    def to_bgr(self) -> int | None:
+        """The ``cv2.cvtColor`` code that makes the pixels BGR (alpha dropped), or None (grey or BGR)."""
+        return {"rgb": cv2.COLOR_RGB2BGR, "bgra": cv2.COLOR_BGRA2BGR, "rgba": cv2.COLOR_RGBA2BGR}.get(self.order)
+
+
+#: The ``sensor_msgs/Image`` encodings read (names lowercase, as compared): the one list.
+IMAGE_ENCODINGS: dict[str, ImageEncoding] = {
+    "mono8": ImageEncoding("mono", 8),
+    "8uc1": ImageEncoding("mono", 8),
+    "mono16": ImageEncoding("mono", 16),
+    "16uc1": ImageEncoding("mono", 16),
+    "bgr8": ImageEncoding("bgr", 8),
+    "8uc3": ImageEncoding("bgr", 8),
+    "rgb8": ImageEncoding("rgb", 8),
+    "bgra8": ImageEncoding("bgra", 8),
+    "8uc4": ImageEncoding("bgra", 8),
+    "rgba8": ImageEncoding("rgba", 8),
+    "bgr16": ImageEncoding("bgr", 16),
+    "16uc3": ImageEncoding("bgr", 16),
+    "rgb16": ImageEncoding("rgb", 16),
+    "bgra16": ImageEncoding("bgra", 16),
+    "rgba16": ImageEncoding("rgba", 16),
 }
 
 
@@ -120,12 +147,13 @@ def decode_image(message: Any, msgtype: str, where: str) -> np.ndarray:
             image = cv2.cvtColor(image, cv2.COLOR_BGRA2BGR)
         return np.ascontiguousarray(image)
     encoding = str(message.encoding).strip().lower()
-    if encoding not in _ENCODINGS:
+    if encoding not in IMAGE_ENCODINGS:
         raise DatasetError(
             f"{where}: image encoding {message.encoding!r} is not read (supported: "
-            f"{', '.join(sorted(_ENCODINGS))}; or record a sensor_msgs/CompressedImage topic)"
+            f"{', '.join(sorted(IMAGE_ENCODINGS))}; or record a sensor_msgs/CompressedImage topic)"
         )
-    channels, dtype, conversion = _ENCODINGS[encoding]
+    layout = IMAGE_ENCODINGS[encoding]
+    channels, dtype, conversion = layout.channels, layout.dtype, layout.to_bgr
     height, width, step = int(message.height), int(message.width), int(message.step)
     itemsize = np.dtype(dtype).itemsize
     row = width * channels * itemsize
@@ -145,12 +173,12 @@ def decode_image(message: Any, msgtype: str, where: str) -> np.ndarray:
     return np.ascontiguousarray(image)
 
 
-def _yaw(q: Any) -> float:
+def quaternion_yaw(q: Any) -> float:
     """Rotation about z (radians) of a quaternion message."""
     return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
-def _seconds(stamp: Any) -> float:
+def stamp_seconds(stamp: Any) -> float:
     """A ``builtin_interfaces/Time`` as seconds, the double nearest the exact decimal."""
     return float(f"{int(stamp.sec)}.{int(stamp.nanosec):09d}")
 
@@ -453,10 +481,17 @@ def _index(
                     key = (transform.header.frame_id.lstrip("/"), transform.child_frame_id.lstrip("/"))
                     if (edge is None and key[0] in TF_PARENTS and key[1] in TF_CHILDREN) or key == edge:
                         t, r = transform.transform.translation, transform.transform.rotation
-                        tf_samples.setdefault(key, []).append((_seconds(transform.header.stamp), t.x, t.y, _yaw(r)))
+                        tf_samples.setdefault(key, []).append(
+                            (stamp_seconds(transform.header.stamp), t.x, t.y, quaternion_yaw(r))
+                        )
                 continue
             held = message.pose.pose if hasattr(message.pose, "pose") else message.pose
-            sample = (_seconds(message.header.stamp), held.position.x, held.position.y, _yaw(held.orientation))
+            sample = (
+                stamp_seconds(message.header.stamp),
+                held.position.x,
+                held.position.y,
+                quaternion_yaw(held.orientation),
+            )
             if connection.topic == odometry:
                 odometry_samples.append(sample)
             if connection.topic == pose:

@@ -35,6 +35,7 @@ from typing import Any, Union
 
 import numpy as np
 
+from .. import _core
 from .._core import __version__
 from .._validate import MAX_MAP_EXPANSION as _MAX_MAP_EXPANSION
 from ..errors import MapFormatError
@@ -49,18 +50,22 @@ __all__ = [
     "MAP_FORMAT_VERSION",
     "MAX_MAP_EXPANSION",
     "POSE_SOURCES",
+    "SETTINGS_CHECKSUM",
     "array_checksum",
     "check_map_version",
     "read_map_file",
+    "settings_checksum",
     "write_map_file",
 ]
 
 #: The ``format`` string in every map file's header.
 MAP_FORMAT = "nightloc-reference-map"
-#: The newest map format version this nightloc reads and the one it writes.
-MAP_FORMAT_VERSION = 4
-#: The version a map without learned nights is written as (what older firmware reads).
-DAY_MAP_FORMAT_VERSION = 3
+#: The newest map format version this nightloc reads and the one it writes (the core's
+#: ``kMapFormatVersion``, nightloc/map_file.hpp: the firmware's reader reads the same).
+MAP_FORMAT_VERSION: int = _core.MAP_FORMAT_VERSION
+#: The version a map without learned nights is written as (what older firmware reads; the core's
+#: ``kDayMapFormatVersion``).
+DAY_MAP_FORMAT_VERSION: int = _core.DAY_MAP_FORMAT_VERSION
 #: Where a map's poses came from: a survey (``poses.csv``), the robot's wheel odometry alone, or
 #: the teach run's pose graph (odometry corrected by the images; :mod:`nightloc.mapping`).
 POSE_SOURCES = ("surveyed", "dead-reckoned", "optimised")
@@ -71,6 +76,19 @@ POSE_SOURCES = ("surveyed", "dead-reckoned", "optimised")
 MAX_MAP_EXPANSION = _MAX_MAP_EXPANSION
 
 PathLike = Union[str, "os.PathLike[str]"]
+
+
+#: The key of the header's ``localizer`` table holding :func:`settings_checksum` of the settings
+#: the map keeps (its ``localization`` and ``filter`` tables and the core's ``settings``): a damaged
+#: byte there is refused by Python, as in an array. Maps written before it lack it (nothing to check).
+SETTINGS_CHECKSUM = "settings_checksum"
+
+
+def settings_checksum(localizer: dict[str, Any], sections: tuple[str, ...]) -> str:
+    """The SHA-256 (hex) of the ``sections`` of the header's ``localizer`` table as canonical JSON
+    (sorted keys; a missing section as null)."""
+    chosen = {name: localizer.get(name) for name in sections}
+    return hashlib.sha256(json.dumps(chosen, sort_keys=True).encode("ascii")).hexdigest()
 
 
 def array_checksum(array: np.ndarray) -> str:

@@ -43,8 +43,8 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 #: Columns of ``trajectory.csv``.
 TRAJECTORY_HEADER = ("image", "x", "y", "heading", "confidence", "credible_radius", "ref_index", "timestamp")
-#: The formats ``nightloc localize --format`` writes, and their file names.
-TRAJECTORY_FORMATS = {"csv": "trajectory.csv", "tum": "trajectory.tum"}
+#: The formats ``nightloc localize --format`` writes, and their file names (mcap: a ROS 2 bag folder).
+TRAJECTORY_FORMATS = {"csv": "trajectory.csv", "tum": "trajectory.tum", "mcap": "trajectory_bag"}
 #: The file that pairs each line of ``trajectory.tum`` with the pose's confidence, and its columns.
 TUM_CONFIDENCE_FILE = "trajectory_confidence.csv"
 TUM_CONFIDENCE_HEADER = ("timestamp", "confidence", "credible_radius")

@@ -36,10 +36,10 @@ import csv
 import dataclasses
 import math
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal, Union
+from typing import TYPE_CHECKING, Any, Literal, Union
 
 import numpy as np
 
@@ -65,9 +65,11 @@ from .localizer import Estimate, LocalizationParams, Localizer
 from .tail import FIRST_FRAME, TailMetrics, tail_metrics
 
 __all__ = [
+    "ERRORS_COLUMNS",
     "ERRORS_HEADER",
     "EVALUATION_METHODS",
     "LOG_NOISE_MODEL",
+    "SUMMARY_COLUMNS",
     "SUMMARY_HEADER",
     "Evaluation",
     "EvaluationSettings",
@@ -86,40 +88,55 @@ if TYPE_CHECKING:
 
 PathLike = Union[str, "os.PathLike[str]"]
 
-#: Columns of ``errors.csv``: one row per query frame and configuration.
-ERRORS_HEADER: tuple[str, ...] = (
-    "query",
-    "image",
-    "seq_len",
-    "noise_model",
-    "interpolation",
-    "repeat",
-    "x_est",
-    "y_est",
-    "x_true",
-    "y_true",
-    "error_m",
-    "ref_index",
-    "method",
-)
-#: Columns of ``summary.csv``: one row per (seq_len, noise_model, interpolation, method); the
-#: filter's rows summarize all its frames and have seq_len 0. ``n``, ``median_m``, ``mean_m`` and
-#: ``p90_m`` count every frame; the tail (``p95_m``, ``share_over_1m``, ``longest_run_over_1m``:
+
+def _metres(value: float) -> str:
+    return f"{float(value):.4f}"
+
+
+def _on_off(value: object) -> str:
+    return "on" if value else "off"
+
+
+#: Columns of ``errors.csv``, one row per query frame and configuration: name -> how a value is
+#: written. The one list of the columns: :data:`ERRORS_HEADER`, the rows and
+#: :attr:`Evaluation.columns` follow it.
+ERRORS_COLUMNS: dict[str, Callable[[Any], object]] = {
+    "query": str,
+    "image": str,
+    "seq_len": int,
+    "noise_model": int,
+    "interpolation": _on_off,
+    "repeat": int,
+    "x_est": _metres,
+    "y_est": _metres,
+    "x_true": _metres,
+    "y_true": _metres,
+    "error_m": _metres,
+    "ref_index": int,
+    "method": str,
+}
+ERRORS_HEADER: tuple[str, ...] = tuple(ERRORS_COLUMNS)
+#: Columns of ``summary.csv``, one row per (seq_len, noise_model, interpolation, method): name ->
+#: how a :class:`SummaryRow`'s field of that name is written. The filter's rows summarize all its
+#: frames and have seq_len 0. ``n``, ``median_m``, ``mean_m`` and ``p90_m`` count every frame; the
+#: tail (``p95_m``, ``share_over_1m``, ``longest_run_over_1m``:
 #: :func:`~nightloc.localization.tail.tail_metrics`) the frames from the 10th on, the longest run
-#: the worst of the configuration's runs (queries x draws).
-SUMMARY_HEADER: tuple[str, ...] = (
-    "seq_len",
-    "noise_model",
-    "interpolation",
-    "n",
-    "median_m",
-    "mean_m",
-    "p90_m",
-    "p95_m",
-    "share_over_1m",
-    "longest_run_over_1m",
-    "method",
-)
+#: the worst of the configuration's runs (queries x draws). The one list of the columns:
+#: :data:`SUMMARY_HEADER`, :class:`SummaryRow`'s fields and the rows follow it.
+SUMMARY_COLUMNS: dict[str, Callable[[Any], object]] = {
+    "seq_len": int,
+    "noise_model": int,
+    "interpolation": _on_off,
+    "n": int,
+    "median_m": _metres,
+    "mean_m": _metres,
+    "p90_m": _metres,
+    "p95_m": _metres,
+    "share_over_1m": lambda share: f"{share:.4f}",
+    "longest_run_over_1m": int,
+    "method": str,
+}
+SUMMARY_HEADER: tuple[str, ...] = tuple(SUMMARY_COLUMNS)
 #: Methods :func:`evaluate` runs.
 EVALUATION_METHODS = ("paper", "filter")
 #: ``noise_model`` of rows whose odometry is the query's own log.
@@ -417,7 +434,8 @@ def replay(
 
 @dataclass(frozen=True)
 class SummaryRow:
-    """Distance-error statistics of one configuration (metres); the filter's have seq_len 0."""
+    """Distance-error statistics of one configuration (metres); the filter's have seq_len 0. One
+    field per column of :data:`SUMMARY_COLUMNS`, by its name."""
 
     seq_len: int
     noise_model: int
@@ -426,10 +444,10 @@ class SummaryRow:
     median_m: float
     mean_m: float
     p90_m: float
-    method: str = "paper"
     p95_m: float = math.nan
     share_over_1m: float = math.nan
     longest_run_over_1m: int = 0
+    method: str = "paper"
 
 
 class Evaluation:
@@ -510,17 +528,17 @@ class Evaluation:
                 tail = self.tail(mask)
                 rows.append(
                     SummaryRow(
-                        n,
-                        model,
-                        interp,
-                        int(e.size),
-                        float(np.median(e)),
-                        float(e.mean()),
-                        float(np.percentile(e, 90)),
-                        method,
-                        tail.p95_m,
-                        tail.share_over_1m,
-                        tail.longest_run_over_1m,
+                        seq_len=n,
+                        noise_model=model,
+                        interpolation=interp,
+                        n=int(e.size),
+                        median_m=float(np.median(e)),
+                        mean_m=float(e.mean()),
+                        p90_m=float(np.percentile(e, 90)),
+                        p95_m=tail.p95_m,
+                        share_over_1m=tail.share_over_1m,
+                        longest_run_over_1m=tail.longest_run_over_1m,
+                        method=method,
                     )
                 )
 
@@ -561,23 +579,7 @@ class Evaluation:
             writer = csv.writer(stream, lineterminator="\n")
             writer.writerow(ERRORS_HEADER)
             for i in range(len(self)):
-                writer.writerow(
-                    [
-                        c["query"][i],
-                        c["image"][i],
-                        int(c["seq_len"][i]),
-                        int(c["noise_model"][i]),
-                        "on" if c["interpolation"][i] else "off",
-                        int(c["repeat"][i]),
-                        _metres(c["x_est"][i]),
-                        _metres(c["y_est"][i]),
-                        _metres(c["x_true"][i]),
-                        _metres(c["y_true"][i]),
-                        _metres(c["error_m"][i]),
-                        int(c["ref_index"][i]),
-                        c["method"][i],
-                    ]
-                )
+                writer.writerow([write(c[name][i]) for name, write in ERRORS_COLUMNS.items()])
         return Path(path)
 
     def write_summary_csv(self, path: PathLike, query: str | None = None) -> Path:
@@ -586,21 +588,7 @@ class Evaluation:
             writer = csv.writer(stream, lineterminator="\n")
             writer.writerow(SUMMARY_HEADER)
             for row in self.summary(query):
-                writer.writerow(
-                    [
-                        row.seq_len,
-                        row.noise_model,
-                        "on" if row.interpolation else "off",
-                        row.n,
-                        _metres(row.median_m),
-                        _metres(row.mean_m),
-                        _metres(row.p90_m),
-                        _metres(row.p95_m),
-                        f"{row.share_over_1m:.4f}",
-                        row.longest_run_over_1m,
-                        row.method,
-                    ]
-                )
+                writer.writerow([write(getattr(row, name)) for name, write in SUMMARY_COLUMNS.items()])
         return Path(path)
 
     def table(self, query: str | None = None, interpolation: bool = True, off_column: bool = False) -> str:
@@ -660,10 +648,6 @@ class Evaluation:
             label = "log" if model == LOG_NOISE_MODEL else str(model)
             lines.append(f"{label:>5} | {cell(paper):>{len(columns[0])}} | {cell(filt):>{len(columns[1])}}")
         return "\n".join(lines)
-
-
-def _metres(value: float) -> str:
-    return f"{float(value):.4f}"
 
 
 def evaluate(

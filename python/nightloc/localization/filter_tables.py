@@ -1,23 +1,25 @@
-"""The default localizer's map-only tables, as a map file stores them for firmware.
+"""The map's localizer's map-only tables, as a map file stores them for firmware.
 
 A robot without Python (``nightloc_replay``, the C++ ``nightloc::Localizer``; docs/cpp_core.md)
-runs the default localizer, ``nightloc.Localizer(ref_map)``: the grid Bayes filter with the
-default :class:`~nightloc.localization.grid_filter.FilterParams`,
-:class:`~nightloc.localization.localizer.LocalizationParams` and odometry noise (Table III
-model 1). What that localizer computes once per map with scipy (the grid, the Delaunay
-interpolation weights, the nearest reference of each cell) cannot be reproduced bit for bit
-without scipy, and the filter's settings must be the ones Python gives its core, not a second
-copy of the defaults: :func:`filter_tables` takes all of it from a default localizer, and
+runs the map's localizer, ``nightloc.Localizer(ref_map)``: the grid Bayes filter with the
+:class:`~nightloc.localization.grid_filter.FilterParams` and
+:class:`~nightloc.localization.localizer.LocalizationParams` the map keeps
+(:attr:`nightloc.ReferenceMap.settings`: ``nightloc build-map --params``; the defaults for a map
+without) and the odometry noise of Table III model 1. What that localizer computes once per map
+with scipy (the grid, the Delaunay interpolation weights, the nearest reference of each cell)
+cannot be reproduced bit for bit without scipy, and the filter's settings must be the ones Python
+gives its core, not a second copy: :func:`filter_tables` takes all of it from that localizer, and
 :meth:`nightloc.ReferenceMap.save` stores it beside the images (map format 3).
 
 Header (``header["localizer"]``, JSON): ``method`` ("filter"), ``grid`` (``x0, y0, dx, dy``
 metres: the centre of cell (0, 0) and the spacing; ``width, height`` cells), ``columns`` (of the
 prepared images), ``shifts`` (the table's column shifts), ``field_of_view`` (radians; 0 for a
 panorama), ``window`` (``[columns, rows]`` of the translation window), ``settings`` (what
-:class:`~nightloc.localization.grid_filter.GridFilter` gives the core, key for key), and for
-the record the ``localization`` and ``filter`` parameters and ``odometry_noise``
+:class:`~nightloc.localization.grid_filter.GridFilter` gives the core, key for key), the
+``localization`` and ``filter`` parameters they came from (what
+:meth:`nightloc.ReferenceMap.load` reads back as the map's settings) and ``odometry_noise``
 (``[distance_std, heading_std]``, then ``distance_per_metre, heading_per_radian`` for a
-step-scaled model) they came from.
+step-scaled model).
 
 Arrays (the grid has ``C = width x height`` cells, row-major from the lowest y; ``P`` places):
 ``filter_weights_indptr`` ``(C + 1,)`` int32, ``filter_weights_indices`` int32 and
@@ -50,7 +52,7 @@ FILTER_ARRAYS = (
 
 
 def filter_tables(ref_map: ReferenceMap) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """The default localizer's header section and arrays for ``ref_map`` (see the module docstring)."""
+    """The map's localizer's header section and arrays for ``ref_map`` (see the module docstring)."""
     localizer = Localizer(ref_map)
     flt = localizer.grid_filter
     mapper = localizer.mapper

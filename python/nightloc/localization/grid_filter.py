@@ -20,7 +20,7 @@ localization; docs/localization.md) keeps a belief over the heat-map grid **x he
    above the lowest count as that: one frame cannot erase a place), interpolated onto the grid with the map's
    weights (in log space);
 3. **estimates** position (the marginal's peak refined to the mean of the cells around it),
-   heading, covariance, ``credible_radius`` and ``confidence`` (the belief within
+   heading, covariance, the heading's variance, ``credible_radius`` and ``confidence`` (the belief within
    ``confidence_radius`` metres of the estimate: low means lost).
 
 The arithmetic runs in the compiled core (``nightloc/grid_filter.hpp``), one call per frame with
@@ -31,13 +31,14 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
 from .. import _core
 from ..config import params_section
 from ..motion.odometry import MapDisplacement, NoiseModel, RobotMotion, noise_model, wrap_angle
+from ..schema import CoreTable, Range, core_names, own_field
 from .heatmap import HeatMapper
 
 __all__ = ["MOTION_NONE", "MOTION_UNKNOWN", "FilterParams", "FilterState", "GridFilter", "table_window"]
@@ -45,9 +46,11 @@ __all__ = ["MOTION_NONE", "MOTION_UNKNOWN", "FilterParams", "FilterState", "Grid
 #: Motion codes of the core: no prediction (the first frame), unknown motion, map frame, robot frame.
 MOTION_NONE, MOTION_UNKNOWN, MOTION_MAP, MOTION_ROBOT = 0, 1, 2, 3
 
-#: The core's settings with their defaults (``GridFilterSettings`` in nightloc/grid_filter.hpp):
-#: the one place the defaults of :class:`FilterParams`' core fields are written.
-_CORE_DEFAULTS = _core.GridFilterSettings()
+#: The core's settings table (``GridFilterSettings`` in nightloc/grid_filter.hpp): the one place the
+#: defaults, ranges, units and docs of :class:`FilterParams`' core fields (and
+#: ``LocalizationParams.confidence_radius``) are written.
+GRID_FILTER_SETTINGS = CoreTable(_core.GridFilterSettings)
+_GRID = GRID_FILTER_SETTINGS
 
 
 @params_section("filter")
@@ -55,8 +58,8 @@ _CORE_DEFAULTS = _core.GridFilterSettings()
 class FilterParams:
     """The grid filter's tunables (TOML ``[filter]``); the odometry noise is the localizer's
     ``odometry_noise``. Defaults were tuned on the project's synthetic world (docs/localization.md);
-    the fields the core holds take theirs from the core's ``GridFilterSettings``, whose
-    ``validate()`` checks their ranges (:meth:`core_settings` is the one conversion).
+    the fields the core holds take theirs, with their ranges, from the core's ``GridFilterSettings``
+    table (:mod:`nightloc.schema`; :meth:`core_settings` is the one conversion).
 
     Attributes:
         heading_bins: heading bins; 0 = one per panorama column (48 for the paper's images, so a
@@ -101,32 +104,26 @@ class FilterParams:
             every map the same.
     """
 
-    heading_bins: int = _CORE_DEFAULTS.heading_bins
-    likelihood_gain: float = _CORE_DEFAULTS.likelihood_gain
-    position_floor: float = _CORE_DEFAULTS.position_floor
-    heading_floor: float = _CORE_DEFAULTS.heading_floor
-    uniform_floor: float = _CORE_DEFAULTS.uniform_floor
-    unknown_spread: float = _CORE_DEFAULTS.unknown_spread
-    credibility: float = _CORE_DEFAULTS.credibility
-    estimate_window: int = _CORE_DEFAULTS.estimate_window
-    negligible: float = _CORE_DEFAULTS.negligible
-    settle_frames: int = _CORE_DEFAULTS.settle_frames
-    field_of_view: float = 90.0
-    forward_window: int = 0
-    row_window: int = 0
-    score_cap: float = _CORE_DEFAULTS.score_cap
-    lookalike_places: float = _CORE_DEFAULTS.lookalike_places
+    heading_bins: int = _GRID.field("heading_bins")
+    likelihood_gain: float = _GRID.field("likelihood_gain")
+    position_floor: float = _GRID.field("position_floor")
+    heading_floor: float = _GRID.field("heading_floor")
+    uniform_floor: float = _GRID.field("uniform_floor")
+    unknown_spread: float = _GRID.field("unknown_spread")
+    credibility: float = _GRID.field("credibility")
+    estimate_window: int = _GRID.field("estimate_window")
+    negligible: float = _GRID.field("negligible")
+    settle_frames: int = _GRID.field("settle_frames")
+    field_of_view: float = own_field(90.0, unit="degrees", range=Range(0, 360, min_open=True))
+    forward_window: int = own_field(0, unit="columns", range=Range(0, 1000))
+    row_window: int = own_field(0, unit="rows", range=Range(0, 1000))
+    score_cap: float = _GRID.field("score_cap")
+    lookalike_places: float = _GRID.field("lookalike_places")
 
     def validate(self) -> None:
-        """Checks ranges (called on construction); raises ValueError naming the field: the core's
-        ``validate()`` for its fields, here the forward camera's and the row window."""
+        """The core's ``validate()`` of the settings it holds (every field's range is checked on
+        construction, from the table)."""
         self.core_settings().validate()
-        if not (math.isfinite(self.field_of_view) and 0 < self.field_of_view <= 360):
-            raise ValueError(f"field_of_view must be in (0, 360] degrees, got {self.field_of_view}")
-        if not 0 <= self.forward_window <= 1000:
-            raise ValueError(f"forward_window must be 0..1000 columns, got {self.forward_window}")
-        if not 0 <= self.row_window <= 1000:
-            raise ValueError(f"row_window must be 0..1000 rows, got {self.row_window}")
 
     def core_settings(
         self, noise: NoiseModel | None = None, confidence_radius: float | None = None
@@ -150,7 +147,7 @@ class FilterParams:
 
 #: The fields of :class:`FilterParams` the core's settings hold (the others are the map's or
 #: the localizer's: the forward camera, the row window).
-_CORE_FIELDS = tuple(f.name for f in fields(FilterParams) if f.name in _CORE_DEFAULTS.to_dict())
+_CORE_FIELDS = tuple(core_names(FilterParams))
 
 
 @dataclass(frozen=True)
@@ -165,6 +162,8 @@ class FilterState:
         cell: row-major index of the marginal's peak; ``flat``: the marginal had no peak.
         scores: ``(N,)`` the frame's minimum scores per reference, ``shifts`` their best shifts
             (None for a prediction without a frame).
+        heading_variance: rad^2, the belief's heading histogram about its circular mean (at most
+            pi^2); NaN when the belief is position-only.
     """
 
     x: float
@@ -177,6 +176,7 @@ class FilterState:
     flat: bool
     scores: np.ndarray | None = None
     shifts: np.ndarray | None = None
+    heading_variance: float = math.nan
 
 
 def table_window(columns: int, n_shifts: int, has_headings: bool, params: FilterParams) -> tuple[int, int]:
@@ -346,7 +346,7 @@ class GridFilter:
 
 
 def _state(estimate: tuple, scores: np.ndarray | None, shifts: np.ndarray | None) -> FilterState:
-    x, y, heading, cxx, cxy, cyy, radius, confidence, cell, flat = estimate
+    x, y, heading, cxx, cxy, cyy, radius, confidence, cell, flat, heading_var = estimate
     covariance = np.array([[cxx, cxy], [cxy, cyy]])
     return FilterState(
         float(x),
@@ -359,4 +359,5 @@ def _state(estimate: tuple, scores: np.ndarray | None, shifts: np.ndarray | None
         bool(flat),
         scores,
         shifts,
+        float(heading_var) if math.isfinite(heading_var) else math.nan,  # one NaN: estimates compare with ==
     )

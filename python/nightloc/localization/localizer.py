@@ -44,6 +44,7 @@ import numpy as np
 
 from .. import _core
 from .._validate import (
+    MAX_COORDINATE_M,
     MAX_GRID_CELLS,
     MAX_SEQUENCE_CELLS,
     StreamGuard,
@@ -56,8 +57,17 @@ from ..config import params_section
 from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, match, rotational_sad, shift_table
 from ..motion.odometry import Motion, NoiseModel, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
+from ..schema import Range, own_field
 from .day_scale import learned_mask, learned_proxies, on_day_scale
-from .grid_filter import MOTION_NONE, FilterParams, FilterState, GridFilter, MotionCode, motion_code
+from .grid_filter import (
+    GRID_FILTER_SETTINGS,
+    MOTION_NONE,
+    FilterParams,
+    FilterState,
+    GridFilter,
+    MotionCode,
+    motion_code,
+)
 from .heatmap import HeatMapper
 from .sequence import cumulative_offsets
 
@@ -90,28 +100,25 @@ class LocalizationParams:
             when finding the second-best place; the filter's confidence is the belief within it.
     """
 
-    grid_width: int = 100
-    grid_height: int = 100
-    margin: float = 0.25
-    seq_len: int = 7
+    grid_width: int = own_field(100, unit="cells", range=Range(2, math.inf))
+    grid_height: int = own_field(100, unit="cells", range=Range(2, math.inf))
+    margin: float = own_field(0.25, unit="m", range=Range(0, MAX_COORDINATE_M, max_open=True))
+    seq_len: int = own_field(7, unit="frames", range=Range(1, MAX_SEQ_LEN))
     interpolation: bool = True
     outside: Literal["lowest", "nearest"] = "lowest"
     inversion: Literal["range", "zscore", "negate"] = "range"
-    confidence_radius: float = 1.0
+    confidence_radius: float = GRID_FILTER_SETTINGS.field("confidence_radius")
 
     def validate(self) -> None:
-        """Checks ranges (called on construction); raises ValueError naming the field."""
-        for name in ("grid_width", "grid_height"):
-            if getattr(self, name) < 2:
-                raise ValueError(f"{name} must be >= 2 cells, got {getattr(self, name)}")
+        """The rules between fields (each field's range is checked on construction, from the
+        table): the grid's and the sequence's size, and the radius below MAX_COORDINATE_M (the
+        core's table bounds it by 0 only)."""
+        metres(self.confidence_radius, "confidence_radius", minimum=0.0)
         if self.grid_width * self.grid_height > MAX_GRID_CELLS:
             raise ValueError(
                 f"grid of {self.grid_width}x{self.grid_height} cells is too large (at most {MAX_GRID_CELLS} cells, "
                 f"MAX_GRID_CELLS)"
             )
-        metres(self.margin, "margin", minimum=0.0)
-        if not 1 <= self.seq_len <= MAX_SEQ_LEN:
-            raise ValueError(f"seq_len must be 1..{MAX_SEQ_LEN} frames, got {self.seq_len}")
         cells = self.seq_len * self.grid_height * (self.grid_width + 1)  # the sequence's padded float32 maps
         if cells > MAX_SEQUENCE_CELLS:
             raise ValueError(
@@ -119,7 +126,6 @@ class LocalizationParams:
                 f"cells, more than {MAX_SEQUENCE_CELLS} (MAX_SEQUENCE_CELLS, 512 MiB); shorten the sequence or "
                 f"coarsen the grid"
             )
-        metres(self.confidence_radius, "confidence_radius", minimum=0.0)
 
 
 @dataclass(frozen=True)
@@ -146,6 +152,9 @@ class Estimate:
         credible_radius: metres around ``(x, y)`` holding ``credibility`` (default 0.9) of the
             filter's belief (NaN for the paper's method).
         method: ``"filter"`` or ``"paper"``.
+        heading_variance: rad^2, the filter's belief about its heading (its heading histogram about
+            the circular mean, at most pi^2); NaN while the belief is position-only and for the
+            paper's method.
     """
 
     x: float
@@ -161,6 +170,7 @@ class Estimate:
     covariance: tuple[tuple[float, float], tuple[float, float]] | None = None
     credible_radius: float = math.nan
     method: str = "paper"
+    heading_variance: float = math.nan
 
     @property
     def position(self) -> np.ndarray:
@@ -177,19 +187,29 @@ class Localizer:
 
     Args:
         ref_map: the :class:`~nightloc.ReferenceMap` (prepared day images with poses).
-        params: :class:`LocalizationParams` (grid, margin, interpolation, ...; default: the
-            paper's values).
+        params: :class:`LocalizationParams` (grid, margin, interpolation, ...); None (default):
+            the map's (:attr:`~nightloc.ReferenceMap.settings`, what ``nightloc build-map --params``
+            stored; a map without: the paper's values).
         method: ``"filter"`` (default, the grid Bayes filter) or ``"paper"`` (the paper's sum of
             the last ``seq_len`` heat maps, unchanged).
         odometry_noise: the filter's odometry noise per frame: a Table III model number (0-3) or
             a :class:`NoiseModel` (metres on the step length, radians on the turn or step
             direction). Default 1 (0.1 m, 0.02 rad).
-        filter_params: :class:`~nightloc.localization.grid_filter.FilterParams` of the filter.
+        filter_params: :class:`~nightloc.localization.grid_filter.FilterParams` of the filter;
+            None (default): the map's, as ``params``.
         threads: matching threads (default 1: one core per frame, the robot's budget).
         **overrides: fields of ``params`` or ``filter_params`` to replace, e.g.
             ``grid_width=80, likelihood_gain=2.5``; ``seq_len`` only with ``method="paper"``.
 
     The grid, triangulation and interpolation weights are computed here, once.
+
+    **The map's settings.** A map keeps the ``[localization]`` and ``[filter]`` settings it was
+    built with (``nightloc build-map --params``), and its file carries the filter's tables made
+    with them. ``Localizer(ref_map)`` runs those settings, as ``nightloc localize``, the ROS 2 node
+    and the firmware (``nightloc_replay``) do: one filter on one map. A ``params`` or
+    ``filter_params`` given replaces the map's section as a whole (a ``FilterParams()`` is the
+    defaults, whatever the map says); ``**overrides`` change single fields of the map's (or the
+    given) settings.
 
     A localizer is one stream of frames: :meth:`update` from two threads at once raises
     RuntimeError (the order of the frames would be a race); use one localizer per thread (they
@@ -212,10 +232,11 @@ class Localizer:
             raise TypeError(f"ref_map must be a nightloc.ReferenceMap, got {type(ref_map).__name__}")
         if method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-        params = LocalizationParams() if params is None else params
+        stored = ref_map.settings  # the settings the map was built with (checked when it was made)
+        params = LocalizationParams(**stored.get("localization", {})) if params is None else params
         if not isinstance(params, LocalizationParams):
             raise TypeError(f"params must be a LocalizationParams, got {type(params).__name__}")
-        filter_params = FilterParams() if filter_params is None else filter_params
+        filter_params = FilterParams(**stored.get("filter", {})) if filter_params is None else filter_params
         if not isinstance(filter_params, FilterParams):
             raise TypeError(f"filter_params must be a FilterParams, got {type(filter_params).__name__}")
         if overrides:
@@ -392,6 +413,45 @@ class Localizer:
         self._require_sequence().clear()  # the frames' excess heat maps and fill values (in the core)
         self._motions: deque[Motion] = deque(maxlen=max(self.params.seq_len - 1, 1))
 
+    def set_pose(self, x: float, y: float, heading: float = math.nan, covariance: np.ndarray | None = None) -> None:
+        """The filter's belief becomes a Gaussian about ``(x, y)`` metres and ``heading`` radians
+        (what RViz's "2D Pose Estimate" sends): ``covariance`` ``(3, 3)`` of x, y and heading (m^2,
+        rad^2; default 0.25 m and 0.2 rad standard deviations), widened by half a cell and half a
+        heading bin. A NaN heading or heading variance, or a filter without heading bins: the
+        heading stays unknown (uniform). ValueError when the pose lies too far off the grid for
+        any cell to hold belief."""
+        flt = self._require_filter("set_pose")
+        cov = np.diag([0.0625, 0.0625, 0.04]) if covariance is None else np.asarray(covariance, dtype=np.float64)
+        if cov.shape != (3, 3) or not np.isfinite(cov[:2, :2]).all() or not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError(f"set_pose needs a finite x, y and a (3, 3) covariance, got {x}, {y}, shape {cov.shape}")
+        grid = self.grid
+        position_cov = cov[:2, :2] + np.diag([(grid.dx / 2) ** 2, (grid.dy / 2) ** 2])
+        try:
+            inverse = np.linalg.inv(position_cov)
+        except np.linalg.LinAlgError:
+            raise ValueError(f"set_pose: the position covariance {cov[:2, :2].tolist()} is singular") from None
+        gx, gy = np.meshgrid(np.asarray(grid.xs) - x, np.asarray(grid.ys) - y)
+        distance2 = inverse[0, 0] * gx * gx + 2 * inverse[0, 1] * gx * gy + inverse[1, 1] * gy * gy
+        position = np.exp(-0.5 * distance2)
+        if not position.sum() > 0:
+            raise ValueError(f"set_pose: ({x:g}, {y:g}) lies off the map's grid ({grid.x0:g}.. m, {grid.y0:g}.. m)")
+        heading_var = float(cov[2, 2])
+        if flt.can_pose:
+            bins = int(flt.settings.heading_bins)
+            step = 2 * math.pi / bins
+            if math.isfinite(heading) and math.isfinite(heading_var) and heading_var >= 0:
+                offset = np.asarray(wrap_angle(step * np.arange(bins) - heading))
+                weights = np.exp(-0.5 * offset**2 / (heading_var + (step / 2) ** 2))
+            else:
+                weights = np.ones(bins)
+            belief = weights[:, None, None] * position[None]
+            pose = True
+        else:
+            belief, pose = position[None], False
+        with self._guard("set_pose"):
+            flt.core.set_belief(np.ascontiguousarray(belief / belief.sum(), dtype=np.float32), pose, 0.0)
+            self._heading = float(wrap_angle(heading)) if math.isfinite(heading) else math.nan
+
     def update(
         self,
         frame: np.ndarray,
@@ -533,6 +593,7 @@ class Localizer:
             covariance=((float(cov[0, 0]), float(cov[0, 1])), (float(cov[1, 0]), float(cov[1, 1]))),
             credible_radius=state.credible_radius,
             method="filter",
+            heading_variance=state.heading_variance,
         )
 
     def update_match(self, result: MatchResult, odometry: object = None, *, return_heatmap: bool = False) -> Estimate:

@@ -8,9 +8,14 @@ from typing import Literal
 
 from ..config import params_section
 from ..motion.wheel_noise import WheelNoise
+from ..schema import Range, own_field
 from .warping import WarpParams
 
 __all__ = ["TeachParams"]
+
+_AT_LEAST_0 = Range(0, math.inf)
+_ABOVE_0 = Range(0, math.inf, min_open=True)
+_FRACTION = Range(0, math.inf)  # fractions of a step: WheelNoise checks they stay below 0.5
 
 
 @params_section("teach")
@@ -18,6 +23,7 @@ __all__ = ["TeachParams"]
 class TeachParams:
     """Parameters of the teach run (TOML ``[teach]``; defaults from the sweeps in docs/teach_run.md).
 
+    Attributes:
     The wheel odometry's error model (the odometry factors' covariance; :class:`WheelNoise`):
         odometry_scale_std: per-run scale error of every step's length (fraction).
         odometry_distance_std: per-step length noise (fraction of the step).
@@ -71,71 +77,38 @@ class TeachParams:
         rounds: candidates picked and measured again from the optimised estimate.
     """
 
-    odometry_scale_std: float = 0.03
-    odometry_distance_std: float = 0.03
-    odometry_turn_std: float = 0.05
-    odometry_turn_bias_std: float = 0.01
+    odometry_scale_std: float = own_field(0.03, range=_FRACTION)
+    odometry_distance_std: float = own_field(0.03, range=_FRACTION)
+    odometry_turn_std: float = own_field(0.05, unit="rad", range=_AT_LEAST_0)
+    odometry_turn_bias_std: float = own_field(0.01, unit="rad per step", range=_AT_LEAST_0)
     estimate_turn_bias: bool = True
-    unwrap_stage: float = 10.0
-    sequence_window: int = 3
-    max_distance: float = 1.5
-    place_candidates: int = 6
-    strong_score: float = 10.0
-    gate_sigmas: float = 3.0
+    unwrap_stage: float = own_field(10.0, unit="m", range=_AT_LEAST_0)
+    sequence_window: int = own_field(3, unit="frames", range=_AT_LEAST_0)
+    max_distance: float = own_field(1.5, unit="m", range=_ABOVE_0)
+    place_candidates: int = own_field(6, unit="frames", range=_AT_LEAST_0)
+    strong_score: float = own_field(10.0, unit="grey levels", range=_AT_LEAST_0)
+    gate_sigmas: float = own_field(3.0, unit="standard deviations", range=_AT_LEAST_0)
     heading_method: Literal["warp", "axis"] = "warp"
-    heading_std: float = 0.005
-    heading_std_per_metre: float = 0.03
-    unsure_heading: float = 0.15
-    axis_half_width: float = math.radians(30.0)
-    direction_range: float = math.radians(30.0)
-    elevation_top_deg: float = 50.0
-    elevation_bottom_deg: float = -30.0
-    place_position_std: float = 0.25
-    along_std: float = 0.05
-    along_std_per_metre: float = 0.15
-    along_min_path: float = 30.0
-    robust_scale: float = 1.0
-    accept_gate: float = 3.0
+    heading_std: float = own_field(0.005, unit="rad", range=_ABOVE_0)
+    heading_std_per_metre: float = own_field(0.03, unit="rad per m", range=_AT_LEAST_0)
+    unsure_heading: float = own_field(0.15, unit="rad", range=_ABOVE_0)
+    axis_half_width: float = own_field(math.radians(30.0), unit="rad", range=_ABOVE_0)
+    direction_range: float = own_field(math.radians(30.0), unit="rad", range=_ABOVE_0)
+    elevation_top_deg: float = own_field(50.0, unit="degrees")
+    elevation_bottom_deg: float = own_field(-30.0, unit="degrees")
+    place_position_std: float = own_field(0.25, unit="m", range=_ABOVE_0)
+    along_std: float = own_field(0.05, unit="m", range=_AT_LEAST_0)
+    along_std_per_metre: float = own_field(0.15, unit="m per m", range=_AT_LEAST_0)
+    along_min_path: float = own_field(30.0, unit="m", range=_ABOVE_0)
+    robust_scale: float = own_field(1.0, unit="standard deviations", range=_ABOVE_0)
+    accept_gate: float = own_field(3.0, unit="standard deviations", range=_ABOVE_0)
     closed_loop: bool = False
-    closed_loop_std: float = 0.05
-    rounds: int = 4
+    closed_loop_std: float = own_field(0.05, unit="m", range=_ABOVE_0)
+    rounds: int = own_field(4, range=Range(1, math.inf))
 
     def validate(self) -> None:
-        """Checks ranges (called on construction); raises ValueError naming the field."""
-        for name in ("sequence_window", "place_candidates"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"TeachParams.{name} must be an int >= 0, got {getattr(self, name)}")
-        if self.rounds < 1:
-            raise ValueError(f"TeachParams.rounds must be >= 1, got {self.rounds}")
-        zero_allowed = (
-            "strong_score",
-            "heading_std_per_metre",
-            "along_std",
-            "along_std_per_metre",
-            "gate_sigmas",
-            "unwrap_stage",
-            "odometry_scale_std",
-            "odometry_distance_std",
-            "odometry_turn_std",
-            "odometry_turn_bias_std",
-        )
-        for name in (
-            *zero_allowed,
-            "max_distance",
-            "heading_std",
-            "place_position_std",
-            "along_min_path",
-            "unsure_heading",
-            "axis_half_width",
-            "direction_range",
-            "robust_scale",
-            "accept_gate",
-            "closed_loop_std",
-        ):
-            value = getattr(self, name)
-            if not math.isfinite(value) or value < 0 or (value == 0 and name not in zero_allowed):
-                bound = ">= 0" if name in zero_allowed else "> 0"
-                raise ValueError(f"TeachParams.{name} must be a finite number {bound}, got {value!r}")
+        """The rules the table cannot say (each field's range is checked on construction): the
+        odometry model's fractions, the elevations."""
         self.wheel_noise  # noqa: B018  (the odometry fractions below 0.5)
         self.warp  # noqa: B018  (the elevations)
 

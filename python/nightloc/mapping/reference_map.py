@@ -6,16 +6,19 @@ and loads it at start-up (:meth:`ReferenceMap.load`), then matches camera frames
 traverse without poses but with the drive's wheel odometry is built by a teach run
 (:func:`nightloc.mapping.teach_run`).
 
-The file (format version 3, :mod:`nightloc.io.map_file`) holds the images, poses, parameters and
-the default localizer's map-only tables (:mod:`nightloc.localization.filter_tables`), for firmware
-without Python. The localization stage, above this one, gives :meth:`ReferenceMap.save` its table
-maker when it is imported (:func:`set_localizer_tables`; ``import nightloc`` imports it).
+The file (format version 3, :mod:`nightloc.io.map_file`) holds the images, poses, parameters, the
+localizer's settings the map was built with (:attr:`ReferenceMap.settings`: the ``[localization]``
+and ``[filter]`` tables) and the localizer's map-only tables made with them
+(:mod:`nightloc.localization.filter_tables`), for firmware without Python. The localization stage,
+above this one, gives :meth:`ReferenceMap.save` its table maker when it is imported
+(:func:`set_localizer_tables`; ``import nightloc`` imports it).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Union
 
@@ -23,7 +26,7 @@ import numpy as np
 
 from .._core import __version__
 from .._validate import coordinates, not_masked, uint8_array
-from ..config import params_from_dict, params_to_dict
+from ..config import params_from_dict, params_to_dict, registered_sections
 from ..errors import DatasetError, MapFormatError, with_cli_words
 from ..io.appearances import APPEARANCE_ARRAYS, Appearances, map_fingerprint
 from ..io.map_file import (
@@ -32,8 +35,10 @@ from ..io.map_file import (
     MAP_FORMAT_VERSION,
     MAX_MAP_EXPANSION,
     POSE_SOURCES,
+    SETTINGS_CHECKSUM,
     check_map_version,
     read_map_file,
+    settings_checksum,
     write_map_file,
 )
 from ..io.map_file import array_checksum as _sha256
@@ -46,6 +51,7 @@ from ..preparation.preparer import Preparer
 
 __all__ = [
     "DAY_MAP_FORMAT_VERSION",
+    "LOCALIZER_SECTIONS",
     "MAP_FORMAT",
     "MAP_FORMAT_VERSION",
     "MAX_MAP_EXPANSION",
@@ -55,6 +61,13 @@ __all__ = [
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]
+
+#: The parameter tables a map keeps with it (:attr:`ReferenceMap.settings`): the localizer's, which
+#: its tables are made with (``[preparation]`` is the map's :attr:`ReferenceMap.params`).
+LOCALIZER_SECTIONS = ("localization", "filter")
+#: The header's ``localizer`` records its settings checksum seals: the tables above and the core's
+#: settings made from them (what the firmware runs).
+_SEALED = (*LOCALIZER_SECTIONS, "settings")
 
 #: The default localizer's header section and arrays for a map (``(ref_map) -> (header, arrays)``):
 #: :func:`nightloc.localization.filter_tables.filter_tables`, given by :func:`set_localizer_tables`.
@@ -77,6 +90,33 @@ def _checked_frame_size(frame_size: Sequence[int] | None) -> tuple[int, int] | N
     if len(size) != 2 or not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v > 0 for v in size):
         raise ValueError(f"frame_size must be (width, height) in pixels, got {frame_size!r}")
     return int(size[0]), int(size[1])
+
+
+def _checked_settings(settings: Any) -> dict[str, dict[str, Any]]:
+    """``settings`` (section -> a parameter instance or a table of key = value) as checked tables
+    of :data:`LOCALIZER_SECTIONS` (ValueError naming a bad section, key or value)."""
+    if settings is None:
+        return {}
+    if not isinstance(settings, Mapping):
+        raise TypeError(f"settings must map a section name to its parameters, got {type(settings).__name__}")
+    classes = registered_sections()
+    tables: dict[str, dict[str, Any]] = {}
+    for section, value in settings.items():
+        if section not in LOCALIZER_SECTIONS:
+            raise ValueError(
+                f"a map keeps the settings {', '.join('[' + s + ']' for s in LOCALIZER_SECTIONS)}, not [{section}]"
+            )
+        table = params_to_dict(value) if dataclasses.is_dataclass(value) else value
+        params_from_dict(classes[section], table, where="the map's settings")  # a ValueError naming the key
+        tables[section] = dict(table)
+    return tables
+
+
+def _effective(settings: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Every key of :data:`LOCALIZER_SECTIONS` with the value the tables give it (a key left out:
+    its default): maps that keep the same settings compare equal however they spell them."""
+    classes = registered_sections()
+    return {s: params_to_dict(params_from_dict(classes[s], settings.get(s, {}))) for s in LOCALIZER_SECTIONS}
 
 
 def _frozen(array: np.ndarray) -> np.ndarray:
@@ -109,6 +149,9 @@ class ReferenceMap:
             (m², m·rad, rad²), or None (a survey states none).
         appearances: each reference's provenance (day map or learned night,
             :class:`~nightloc.io.appearances.Appearances`), or None: a day map.
+        settings: the localizer's settings the map was built with, section -> table
+            (:data:`LOCALIZER_SECTIONS`; empty: the defaults), which ``nightloc.Localizer(map)``,
+            ``nightloc localize``, the node and the firmware run.
     """
 
     __slots__ = (
@@ -121,6 +164,7 @@ class ReferenceMap:
         "_params",
         "_pose_source",
         "_positions",
+        "_settings",
         "_source",
     )
 
@@ -137,12 +181,17 @@ class ReferenceMap:
         pose_source: str = "surveyed",
         covariances: Any | None = None,
         appearances: Appearances | None = None,
+        settings: Mapping[str, Any] | None = None,
     ):
         """Wraps already prepared images; see :meth:`build` to prepare a traverse.
 
+        ``settings``: the localizer's settings to keep with the map, section (``"localization"``,
+        ``"filter"``) -> a parameter instance or a table of its keys.
+
         Raises TypeError/ValueError for a wrong dtype or shape, sizes that disagree with
         ``params`` (width x height), non-finite positions, headings or covariances, repeated
-        names, an unknown ``pose_source``, or ``appearances`` of another length.
+        names, an unknown ``pose_source``, ``appearances`` of another length, or settings of
+        another section or out of range.
         """
         params = PreparationParams() if params is None else params
         if not isinstance(params, PreparationParams):
@@ -200,12 +249,14 @@ class ReferenceMap:
             if len(appearances) != n:
                 raise ValueError(f"appearances record {len(appearances)} references, the map holds {n}")
         self._appearances = appearances
+        self._settings = _checked_settings(settings)
 
     def __getstate__(self) -> dict:
         return {name: getattr(self, name) for name in self.__slots__}
 
     def __setstate__(self, state: dict) -> None:
         object.__setattr__(self, "_appearances", None)  # pickled before maps learned: a day map
+        object.__setattr__(self, "_settings", {})  # pickled before maps kept their settings: the defaults
         for name, value in state.items():
             if isinstance(value, np.ndarray):
                 value = _frozen(value)
@@ -257,6 +308,27 @@ class ReferenceMap:
     def appearances(self) -> Appearances | None:
         """Each reference's provenance (an experience map), or None (a day map)."""
         return self._appearances
+
+    @property
+    def settings(self) -> dict[str, dict[str, Any]]:
+        """The localizer's settings the map was built with: section -> ``{key: value}``
+        (:data:`LOCALIZER_SECTIONS`; a section or key left out is the default). A copy."""
+        return {section: dict(table) for section, table in self._settings.items()}
+
+    def with_settings(self, *params: Any) -> ReferenceMap:
+        """This map keeping other settings: each of ``params`` (a ``LocalizationParams`` or a
+        ``FilterParams``) replaces its section. The arrays are shared (immutable)."""
+        tables = self.settings
+        for item in params:
+            if item is None:
+                continue
+            section = getattr(type(item), "__params_section__", None)
+            tables[str(section)] = params_to_dict(item)
+        clone = object.__new__(ReferenceMap)
+        for name in self.__slots__:
+            object.__setattr__(clone, name, getattr(self, name))
+        object.__setattr__(clone, "_settings", _checked_settings(tables))
+        return clone
 
     @property
     def fingerprint(self) -> str:
@@ -320,6 +392,7 @@ class ReferenceMap:
             and np.array_equal(self._positions, other._positions)
             and same_headings
             and self._appearances == other._appearances
+            and _effective(self._settings) == _effective(other._settings)
         )
 
     __hash__ = None  # type: ignore[assignment]
@@ -431,8 +504,8 @@ class ReferenceMap:
         folder must exist; a symbolic link at ``path`` is followed (the file it points to is
         replaced). Saves of the same path from several threads or processes take turns.
 
-        The file holds the default localizer's map-only tables too (format 3,
-        :mod:`nightloc.localization.filter_tables`), for firmware without Python.
+        The file holds the localizer's settings (:attr:`settings`) and its map-only tables made with
+        them too (format 3, :mod:`nightloc.localization.filter_tables`), for firmware without Python.
         """
         target = Path(path)
         if target.is_dir():
@@ -440,6 +513,7 @@ class ReferenceMap:
         if _localizer_tables is None:
             raise RuntimeError("the localization stage is not loaded: import nightloc before saving a map")
         localizer, tables = _localizer_tables(self)
+        localizer = {**localizer, SETTINGS_CHECKSUM: settings_checksum(localizer, _SEALED)}
         arrays = {"images": self._images, "positions": self._positions}
         if self._headings is not None:
             arrays["headings"] = self._headings
@@ -543,6 +617,22 @@ class ReferenceMap:
             raise MapFormatError(
                 f"{file}: the header's camera {camera!r} contradicts its parameters (wrap = {map_params.wrap}): corrupt"
             )
+        localizer = header.get("localizer")
+        sealed = isinstance(localizer, dict) and SETTINGS_CHECKSUM in localizer
+        if sealed and settings_checksum(localizer, _SEALED) != localizer[SETTINGS_CHECKSUM]:
+            raise MapFormatError(f"{file}: checksum of the localizer's settings does not match (the file is corrupt)")
+        stored = (
+            {s: localizer[s] for s in LOCALIZER_SECTIONS if isinstance(localizer.get(s), dict)}
+            if isinstance(localizer, dict)
+            else {}
+        )
+        try:
+            settings = _checked_settings(stored)
+        except ValueError as error:
+            raise MapFormatError(
+                f"{file}: the localizer settings it keeps are not this nightloc's ({error}); it was written by "
+                f"nightloc {header.get('nightloc_version')}"
+            ) from None
         try:
             appearances = None if experience is None else Appearances.from_file(experience, arrays, count)
             return cls(
@@ -556,6 +646,7 @@ class ReferenceMap:
                 pose_source=pose_source,
                 covariances=arrays.get("covariances"),
                 appearances=appearances,
+                settings=settings,
             )
         except (TypeError, ValueError) as error:
             raise MapFormatError(f"{file}: inconsistent map contents: {error}") from None

@@ -1,9 +1,9 @@
 """Which SIMD path the compiled kernels use, and a way to force one (tests run every path).
 
 The paths give bit-identical results; only their speed differs. The default is the fastest the
-CPU supports, or the one named by the environment variable ``NIGHTLOC_SIMD`` (one of
-``ALL_BACKENDS``: ``scalar``, ``sse2``, ``avx2``, ``avx512bw`` on x86-64, ``neon``, ``neon-dotprod``
-on AArch64) when it is set to a supported path.
+CPU supports, or the one named by the environment variable ``NIGHTLOC_SIMD`` (a name of
+:data:`ALL_BACKENDS`) when it is set to a supported path. :data:`SIMD_PATHS` is the core's
+registry of the paths: each one's architecture, whether this build has it and this CPU runs it.
 
 On CPUs with AVX-512 VNNI, the ``avx512bw`` path's all-shift kernel can accumulate with
 ``vpdpwssd`` (``"vnni"``) or ``vpaddw`` (same results); which is faster depends on the CPU
@@ -18,11 +18,14 @@ import contextlib
 import os
 import warnings
 from collections.abc import Iterator
+from typing import NamedTuple
 
 from .. import _core
 
 __all__ = [
     "ALL_BACKENDS",
+    "SIMD_PATHS",
+    "SimdPath",
     "available_simd_backends",
     "avx512_sad_variant",
     "set_simd_backend",
@@ -32,6 +35,32 @@ __all__ = [
 
 #: Every path the core knows (named once, in the C++ core), whether or not this CPU has it.
 ALL_BACKENDS: tuple[str, ...] = tuple(_core.ALL_SIMD_BACKENDS)
+
+
+class SimdPath(NamedTuple):
+    """One SIMD path of the core's registry (``cpp/src/dispatch/simd_paths.cpp``).
+
+    Attributes:
+        name: as :data:`ALL_BACKENDS` and ``NIGHTLOC_SIMD`` name it.
+        architecture: ``"any"`` (the scalar reference), ``"x86-64"`` or ``"aarch64"``.
+        compiled: whether this build has its kernels; ``supported``: and this CPU runs them.
+        alignment: bytes the SAD engine aligns bands of references to (None: not compiled).
+        all_shift_kernel: whether it has the all-shift SAD kernel (the interleaved layout).
+        float_kernels: the compilation of its float kernels (``"scalar"``, ``"baseline"``,
+            ``"avx2"``, ``"avx512"``; None: not compiled).
+    """
+
+    name: str
+    architecture: str
+    compiled: bool
+    supported: bool
+    alignment: int | None
+    all_shift_kernel: bool
+    float_kernels: str | None
+
+
+#: The core's registry of SIMD paths, in :data:`ALL_BACKENDS`' order.
+SIMD_PATHS: tuple[SimdPath, ...] = tuple(SimdPath(**row) for row in _core.simd_paths())
 
 
 def simd_backend() -> str:

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Union
 
 import numpy as np
 
+from .. import _core
 from .._validate import coordinates, metres, not_masked
 
 if TYPE_CHECKING:
@@ -182,8 +183,9 @@ NOISE_MODELS: dict[int, NoiseModel] = {
 
 #: The noise the filter assumes for a robot's own wheel odometry (``nightloc localize`` and
 #: ``evaluate --odometry log`` when the log's steps are robot-frame): 4 % of each step's length
-#: and Table III model 1's 0.02 rad per step (docs/localization.md, lawn scale).
-WHEEL_ODOMETRY_NOISE = NoiseModel(0.0, 0.02, 0.04, 0.0)
+#: and Table III model 1's 0.02 rad per step (docs/localization.md, lawn scale). Defined in the core
+#: (``kWheelOdometryNoise``, nightloc/localizer.hpp), which ``nightloc_replay`` assumes too.
+WHEEL_ODOMETRY_NOISE = NoiseModel(*_core.WHEEL_ODOMETRY_NOISE)
 
 
 def noise_model(model: int | NoiseModel) -> NoiseModel:

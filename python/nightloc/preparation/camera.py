@@ -16,7 +16,8 @@ from; frames of another camera give matches that mean nothing, so the commands r
 
 From its shape alone a frame is taken for a panorama when it is at least
 :data:`PANORAMA_MIN_ASPECT` times as wide as high (unwrapped panoramas are 2:1 to 6:1; forward
-cameras 4:3 to 16:9); that guess only words the messages, it never decides.
+cameras 4:3 to 16:9); that guess never decides the camera, but frames narrower than that cannot be
+360-degree panoramas, so preparing them as panoramas is refused (:func:`check_panorama_shape`).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ __all__ = [
     "PANORAMA_MIN_ASPECT",
     "camera_of",
     "check_frames_fit",
+    "check_panorama_shape",
     "params_for_camera",
     "shape_camera",
 ]
@@ -75,6 +77,28 @@ def shape_camera(width: int, height: int) -> str:
     return "panoramic" if width >= PANORAMA_MIN_ASPECT * height else "forward"
 
 
+def check_panorama_shape(frame_shape: Sequence[int], frames: str, said_by: str | None) -> None:
+    """ValueError naming the fix when frames of ``frame_shape`` (``(H, W[, C])``, from ``frames``,
+    e.g. "the traverse day") are to be prepared as 360-degree panoramas but are narrower than
+    :data:`PANORAMA_MIN_ASPECT` times their height, which no panorama is (a forward camera's are).
+    ``said_by`` names who chose the panoramic camera (e.g. "--camera panoramic"), None when it is
+    the default because nothing said which camera took the frames."""
+    width, height = _size(frame_shape)
+    if shape_camera(width, height) == "panoramic":
+        return
+    shape = f"{frames} has {width}x{height} frames (width/height {width / height:.2f})"
+    if said_by is None:
+        raise ValueError(
+            f"{shape}, the shape of a forward camera's, and nothing says which camera took them: frames are "
+            f"prepared as 360-degree panoramas unless told, and a panorama is at least {PANORAMA_MIN_ASPECT:g} "
+            f"times as wide as high; give --camera forward"
+        )
+    raise ValueError(
+        f"{shape}, but {said_by} says they are 360-degree panoramas, and a panorama is at least "
+        f"{PANORAMA_MIN_ASPECT:g} times as wide as high: if the camera is forward-facing, give --camera forward"
+    )
+
+
 def _size(shape: Sequence[int]) -> tuple[int, int]:
     return int(shape[1]), int(shape[0])
 
@@ -92,15 +116,17 @@ def check_frames_fit(
     """ValueError, naming both cameras, when frames of ``frame_shape`` (``(H, W[, C])``, from
     ``frames``, e.g. "the log night_run") do not fit the map ``map_name``: another width/height
     than the map's frames (``map_frame_size``, ``(width, height)``, None when the map does not
-    record it), or a ``camera`` named for the frames that is not ``map_camera``. ``remedy``
+    record it), or a ``camera`` named for the frames (by ``--camera``, which the message names
+    as the cause) that is not ``map_camera``. ``remedy``
     ends the message (``{camera}``: the frames' camera). ``exact_size``: frames of the map's
     shape but another size are refused too, naming both sizes (False: the shape is enough)."""
     width, height = _size(frame_shape)
     looks = shape_camera(width, height)
     if camera is not None and camera != map_camera:
         raise ValueError(
-            f"{frames} is from a {camera} camera, but {map_name} is a {map_camera} camera's; "
-            f"{remedy.format(camera=camera)}"
+            f"--camera {camera} says that {frames} is from a {camera} camera, but {map_name} is a {map_camera} "
+            f"camera's: a map keeps the camera it was built for, so the option is not needed with it; drop "
+            f"--camera {camera}, or, if the frames really are a {camera} camera's, {remedy.format(camera=camera)}"
         )
     if map_frame_size is None:
         return

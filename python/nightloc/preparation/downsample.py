@@ -85,7 +85,7 @@ def area_downsample(image: np.ndarray, width: int, height: int) -> np.ndarray:
         settings = _core.PrepareSettings()
         settings.equalize = "none"
         settings.width, settings.height = width, height
-        settings.normalize = False
+        settings.patch_normalize = False
         return _core.prepare_frame(image, "grey", settings)
     return area_downsample_opencv(image, width, height)
 

@@ -9,14 +9,16 @@ from typing import Any, Literal
 from .. import _core
 from .._validate import MAX_CLAHE_TILES
 from ..config import params_section
+from ..schema import CoreTable, Range, core_names, own_field
 
 __all__ = ["PreparationParams"]
 
 CropValue = int | float
 
-#: The core's ``PrepareSettings`` with their defaults (nightloc/prepare.hpp): the one place the
-#: defaults of the fields the core holds are written.
-_CORE_DEFAULTS = _core.PrepareSettings()
+#: The core's ``PrepareSettings`` table (nightloc/prepare.hpp): the one place the defaults, ranges,
+#: units and docs of the fields the core holds are written.
+PREPARE_SETTINGS = CoreTable(_core.PrepareSettings)
+_PREPARE = PREPARE_SETTINGS
 
 
 @params_section("preparation")
@@ -43,25 +45,23 @@ class PreparationParams:
         channel_order: ``"bgr"`` (OpenCV, :meth:`Traverse.read`) or ``"rgb"`` for colour input.
     """
 
-    width: int = _CORE_DEFAULTS.width
-    height: int = _CORE_DEFAULTS.height
-    radius: int = _CORE_DEFAULTS.radius
-    wrap: bool = _CORE_DEFAULTS.wrap
-    equalize: Literal["global", "clahe", "none"] = _CORE_DEFAULTS.equalize
-    clahe_clip_limit: float = 2.0
+    width: int = _PREPARE.field("width")
+    height: int = _PREPARE.field("height")
+    radius: int = _PREPARE.field("radius")
+    wrap: bool = _PREPARE.field("wrap")
+    equalize: Literal["global", "clahe", "none"] = _PREPARE.field("equalize")
+    clahe_clip_limit: float = own_field(2.0, range=Range(0, math.inf, min_open=True))
     clahe_tiles: tuple[int, int] = (8, 8)
-    crop: tuple[CropValue, CropValue, CropValue, CropValue] = (0, 0, 0, 0)
-    patch_normalize: bool = _CORE_DEFAULTS.normalize
-    scale: float = _CORE_DEFAULTS.scale
+    crop: tuple[CropValue, CropValue, CropValue, CropValue] = own_field((0, 0, 0, 0), unit="pixels or fractions")
+    patch_normalize: bool = _PREPARE.field("patch_normalize")
+    scale: float = _PREPARE.field("scale")
     channel_order: Literal["bgr", "rgb"] = "bgr"
 
     def validate(self) -> None:
-        """Checks ranges (called on construction); raises ValueError naming the field: the core's
-        ``validate()`` for the fields it holds (size, radius, scale), here CLAHE's and the crop's
-        (fractions of a frame, which the core takes as pixels)."""
+        """The rules the table cannot say (each field's range is checked on construction): the
+        core's ``validate()`` (the size), CLAHE's tiles and the crop's fractions (the core takes
+        pixels)."""
         self.core_settings().validate()
-        if not (math.isfinite(self.clahe_clip_limit) and self.clahe_clip_limit > 0):
-            raise ValueError(f"clahe_clip_limit must be a positive number, got {self.clahe_clip_limit}")
         if min(self.clahe_tiles) < 1 or max(self.clahe_tiles) > MAX_CLAHE_TILES:
             raise ValueError(
                 f"clahe_tiles must be 1..{MAX_CLAHE_TILES} in both directions (MAX_CLAHE_TILES; OpenCV keeps a "
@@ -87,14 +87,11 @@ class PreparationParams:
         ``crop`` in pixels (top, bottom, left, right; ``Preparer.crop_pixels`` resolves the
         fractions for a frame) and ``patch_normalize`` (None: this class's)."""
         settings = _core.PrepareSettings()
+        for name, core_name in _CORE_FIELDS.items():
+            setattr(settings, core_name, getattr(self, name))
         settings.crop_top, settings.crop_bottom, settings.crop_left, settings.crop_right = crop
-        settings.equalize = self.equalize
-        settings.width = self.width
-        settings.height = self.height
-        settings.normalize = self.patch_normalize if patch_normalize is None else patch_normalize
-        settings.radius = self.radius
-        settings.wrap = self.wrap
-        settings.scale = self.scale
+        if patch_normalize is not None:
+            settings.patch_normalize = patch_normalize
         return settings
 
     @property
@@ -110,3 +107,7 @@ class PreparationParams:
             if getattr(self, field.name) != getattr(other, field.name)
             or type(getattr(self, field.name)) is not type(getattr(other, field.name))
         }
+
+
+#: The fields of :class:`PreparationParams` the core's settings hold, by their name there.
+_CORE_FIELDS = core_names(PreparationParams)

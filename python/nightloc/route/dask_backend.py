@@ -25,6 +25,17 @@ Example::
     result.refs, result.scores                  # numpy, (n_query,)
     result.enhanced                             # dask array (n_query, n_ref), lazy
 
+**Streaming** (:func:`dask_stream_match`, what ``nightloc route --dask`` runs): on a
+``dask.distributed`` client, the references are scattered to every worker once and the query rows
+are cut into bands; a bounded number of band tasks is in flight at any time, so memory is bounded
+by bands, not by the matrix. The filter receives the enhanced bands in order on the client and
+continues over each; SeqSLAM searches each band on its worker with the rows its trajectories reach
+beyond the band recomputed there (centred mode first runs a pass of band minima for the global
+minimum, so its difference rows are computed twice). Each band also brings its share of the
+matrix's picture (:mod:`nightloc.route.preview`) and the rows the speed check samples
+(:mod:`nightloc.route.speed_check`); matches, scores and summaries are identical to
+:func:`~nightloc.route.match_prepared`'s.
+
 Requirements: the prepared reference images are sent to every worker once (they must fit in a
 worker's memory: ``n_ref * H * W`` bytes, 7 MB for 3576 Nordland frames); one block of rows,
 ``rows_per_block * n_ref * 4`` bytes (twice with ``keep_difference``), must fit in a task.
@@ -32,18 +43,38 @@ worker's memory: ``n_ref * H * W`` bytes, 7 MB for 3576 Nordland frames); one bl
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import math
 import time
+from collections.abc import Callable, Iterator
+from typing import Any
 
 import numpy as np
 
 from .. import _core
 from .._validate import same_image_size, shift_list, uint8_array
+from ..errors import MissingDependencyError
 from .filter import core_params, motion_name, texture_weights
 from .params import RouteParams, resolve_params
 from .pipeline import RouteResult, _divisor
+from .preview import MatrixPreview, PreviewPart, preview_part
+from .speed_check import MatchesRatio, StretchSampler, check_speed
 
-__all__ = ["dask_available", "dask_match_prepared", "dask_route_matrices"]
+__all__ = [
+    "BAND_CELLS",
+    "dask_available",
+    "dask_match_prepared",
+    "dask_route_matrices",
+    "dask_stream_match",
+    "local_client",
+    "require_distributed",
+]
+
+#: Matrix cells per band of query rows in :func:`dask_stream_match` (float32: 4 MB).
+BAND_CELLS = 1 << 20
+#: Install command named by the errors.
+INSTALL = 'pip install "nightloc[dask]"'
 
 
 def dask_available() -> bool:
@@ -61,10 +92,19 @@ def _require_dask():
         import dask
         import dask.array as da
     except ImportError as error:  # pragma: no cover - exercised only without dask
-        raise ImportError(
-            'the Dask backend needs dask: pip install "nightloc[dask]" (or pip install "dask[distributed]")'
+        raise MissingDependencyError(
+            f'the Dask backend needs dask: {INSTALL} (or pip install "dask[distributed]")'
         ) from error
     return dask, da
+
+
+def require_distributed():
+    """``dask.distributed``, or MissingDependencyError naming the install command."""
+    try:
+        import distributed
+    except ImportError:
+        raise MissingDependencyError(f"running on a Dask cluster needs dask.distributed: {INSTALL}") from None
+    return distributed
 
 
 # --------------------------------------------------------------------------------------------
@@ -281,4 +321,326 @@ def _dask_filter(refs, queries, p, rows_per_block, keep_difference, threads_per_
         confidence=confidence,
         off_route=off_route,
         weights=weights,
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# streaming on a dask.distributed client: bands of query rows, a bounded number in flight
+
+
+@contextlib.contextmanager
+def local_client(workers: int, threads_per_worker: int = 1, processes: bool = True) -> Iterator[Any]:
+    """A ``dask.distributed`` client of a new ``LocalCluster`` on loopback (127.0.0.1, TCP, no
+    dashboard), for a ``with`` block; the client and the cluster close at its end."""
+    distributed = require_distributed()
+    with (
+        distributed.LocalCluster(
+            n_workers=workers,
+            threads_per_worker=threads_per_worker,
+            processes=processes,
+            host="127.0.0.1",
+            protocol="tcp://",  # loopback TCP also when the workers are threads of this process
+            dashboard_address=":0",  # the scheduler's HTTP server on a free port, without the dashboard
+            scheduler_kwargs={"dashboard": False},
+            silence_logs=logging.ERROR,
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        yield client
+
+
+def _band_rows(n_refs: int, rows: int | None) -> int:
+    """Query rows per band: ``rows``, or ``BAND_CELLS`` cells (at least 8 rows)."""
+    if rows is None:
+        return max(8, BAND_CELLS // max(1, n_refs))
+    if isinstance(rows, bool) or not isinstance(rows, (int, np.integer)) or rows < 1:
+        raise ValueError(f"rows_per_band must be an int >= 1, got {rows!r}")
+    return int(rows)
+
+
+def _enhanced_rows(
+    queries: np.ndarray,
+    refs: np.ndarray,
+    shifts: np.ndarray,
+    divisor: float,
+    radius: int,
+    offset: str,
+    minimum: float | None,
+    threads: int,
+    window: tuple[int, int],
+) -> np.ndarray:
+    """Difference rows of ``queries`` enhanced as the in-process pipeline does (offset ``bound`` or
+    ``none``; minus ``minimum`` in float32 when given: the centred mode's global minimum)."""
+    rows = np.empty((queries.shape[0], refs.shape[0]), dtype=np.float32)
+    _core.difference_matrix_into(queries, refs, shifts, threads, divisor, rows, window)
+    _core.enhance_contrast(rows, radius, offset, threads, rows)
+    if minimum is not None:
+        np.subtract(rows, np.float32(minimum), out=rows)
+    return rows
+
+
+def _stretch_rows(stretches: list[tuple[int, int]], start: int, rows: np.ndarray) -> list[tuple[int, np.ndarray]]:
+    """The rows of ``rows`` (query rows ``start ..``) in the speed check's stretches, copied."""
+    stop = start + rows.shape[0]
+    out = []
+    for first, last in stretches:
+        lo, hi = max(first, start), min(last, stop)
+        if lo < hi:
+            out.append((lo, np.array(rows[lo - start : hi - start])))
+    return out
+
+
+def _stream_band_task(
+    queries: np.ndarray,
+    refs: np.ndarray,
+    shifts: np.ndarray,
+    divisor: float,
+    radius: int,
+    offset: str,
+    minimum: float | None,
+    threads: int,
+    window: tuple[int, int],
+    start: int,
+    n_queries: int,
+) -> tuple[np.ndarray, PreviewPart]:
+    """One band for the filter: its enhanced rows and their share of the picture."""
+    rows = _enhanced_rows(queries, refs, shifts, divisor, radius, offset, minimum, threads, window)
+    return rows, preview_part(rows, start, n_queries)
+
+
+def _minimum_task(
+    queries: np.ndarray,
+    refs: np.ndarray,
+    shifts: np.ndarray,
+    divisor: float,
+    radius: int,
+    threads: int,
+    window: tuple[int, int],
+) -> float:
+    """The NaN-ignoring minimum of one band's enhanced rows before the offset (centred mode)."""
+    rows = _enhanced_rows(queries, refs, shifts, divisor, radius, "none", None, threads, window)
+    return float(np.fmin.reduce(rows, axis=None))
+
+
+def _search_band_task(
+    queries: np.ndarray,
+    refs: np.ndarray,
+    shifts: np.ndarray,
+    divisor: float,
+    radius: int,
+    offset: str,
+    minimum: float | None,
+    threads: int,
+    window: tuple[int, int],
+    first_row: int,
+    start: int,
+    stop: int,
+    n_queries: int,
+    params: RouteParams,
+    stretches: list[tuple[int, int]],
+) -> tuple[np.ndarray, np.ndarray, PreviewPart, list[tuple[int, np.ndarray]]]:
+    """SeqSLAM on one band: ``queries`` are rows ``first_row ..`` (the band and the rows its
+    trajectories reach); returns the matches and scores of rows ``start .. stop-1``, the band's
+    share of the picture and its rows in the speed check's stretches."""
+    rows = _enhanced_rows(queries, refs, shifts, divisor, radius, offset, minimum, threads, window)
+    matched, scores = _core.trajectory_search(
+        rows,
+        params.ds,
+        params.vmin,
+        params.vmax,
+        params.uniqueness_radius,
+        params.mode == "causal",
+        start - first_row,
+        stop - first_row,
+        threads,
+    )
+    band = rows[start - first_row : stop - first_row]
+    return (
+        matched[start - first_row : stop - first_row],
+        scores[start - first_row : stop - first_row],
+        preview_part(band, start, n_queries),
+        _stretch_rows(stretches, start, band),
+    )
+
+
+def _in_order(submit: Callable[[int], Any], count: int, in_flight: int) -> Iterator[Any]:
+    """The results of ``submit(0) .. submit(count - 1)`` (futures) in order, with at most
+    ``in_flight`` submitted and not yet consumed."""
+    pending: dict[int, Any] = {}
+    submitted = 0
+    for index in range(count):
+        while submitted < count and submitted < index + in_flight:
+            pending[submitted] = submit(submitted)
+            submitted += 1
+        future = pending.pop(index)
+        yield future.result()
+        future.release()
+
+
+def dask_stream_match(
+    client: object,
+    refs: np.ndarray,
+    queries: np.ndarray,
+    params: RouteParams | str | None = None,
+    *,
+    rows_per_band: int | None = None,
+    in_flight: int | None = None,
+    threads_per_task: int = 1,
+    advances: np.ndarray | None = None,
+    reference_distances: np.ndarray | None = None,
+    carried_odometry: tuple[np.ndarray, np.ndarray] | None = None,
+    speed_check: bool = True,
+) -> RouteResult:
+    """:func:`~nightloc.route.match_prepared` on a ``dask.distributed`` client, streaming bands of
+    query rows (the module docstring says how): identical matches, scores, confidences and speed
+    check, with memory bounded by ``in_flight`` bands on the workers and one on the client.
+
+    Args:
+        client: a ``dask.distributed.Client`` (e.g. :func:`local_client`).
+        refs, queries: ``(N, H, W)`` and ``(M, H, W)`` uint8 prepared images.
+        params: :class:`RouteParams` or a preset name.
+        rows_per_band: query rows per band (default: ``BAND_CELLS`` cells, at least 8 rows).
+        in_flight: bands submitted ahead (default twice the cluster's threads).
+        threads_per_task: core threads inside one task.
+        advances, reference_distances, carried_odometry, speed_check: as
+            :func:`~nightloc.route.match_difference`.
+
+    Returns:
+        A :class:`RouteResult` whose ``enhanced`` is the lazy Dask array of
+        :func:`dask_route_matrices` (computed again on the cluster if read), ``difference`` None,
+        and ``matrix_image`` the enhanced matrix's picture built band by band.
+    """
+    require_distributed()
+    p = resolve_params(params)
+    r = uint8_array(refs, 3, "refs")
+    q = uint8_array(queries, 3, "queries")
+    same_image_size(q, r, "queries", "refs")
+    if r.shape[0] < 2:
+        raise ValueError(f"contrast enhancement needs at least 2 references, got {r.shape[0]}")
+    if (advances is None) != (reference_distances is None):
+        raise ValueError("the odometry model needs both advances and reference_distances")
+    n_queries, n_refs = q.shape[0], r.shape[0]
+    rows = _band_rows(n_refs, rows_per_band)
+    if in_flight is None:
+        in_flight = 2 * max(1, sum(client.nthreads().values()))  # type: ignore[attr-defined]
+    if isinstance(in_flight, bool) or not isinstance(in_flight, (int, np.integer)) or in_flight < 1:
+        raise ValueError(f"in_flight must be an int >= 1, got {in_flight!r}")
+    start_time = time.perf_counter()
+    shifts = shift_list(p.shifts, r.shape[2])
+    divisor = _divisor(p, r)
+    window = p.window_for(r.shape[1], r.shape[2])
+    refs_future = client.scatter(r, broadcast=True)  # type: ignore[attr-defined]
+    blocks = _blocks(n_queries, rows)
+    common = (refs_future, shifts, divisor, p.enhance_radius)
+    preview = MatrixPreview(n_queries, n_refs)
+    odometry = carried_odometry
+    if advances is not None and reference_distances is not None:
+        odometry = (advances, reference_distances)
+    sampler = StretchSampler(n_queries) if speed_check and odometry is None else None
+    matches = MatchesRatio()  # takes each sampled stretch once it is whole, then drops it
+    confidence = off_route = speed = weights = None
+    motion = None
+    if p.method == "filter":
+        weights = texture_weights(q, p.filter_min_texture)
+        motion = motion_name(p, reference_distances is not None)
+        state = _core.RouteFilter(n_refs, core_params(p, motion), reference_distances)
+
+        def submit(index: int) -> object:
+            lo, hi = blocks[index]
+            return client.submit(  # type: ignore[attr-defined]
+                _stream_band_task,
+                q[lo:hi],
+                *common,
+                "bound",
+                None,
+                threads_per_task,
+                window,
+                lo,
+                n_queries,
+                pure=False,
+            )
+
+        pieces = []
+        for (lo, hi), (band, part) in zip(blocks, _in_order(submit, len(blocks), in_flight)):
+            step = None if advances is None else np.ascontiguousarray(advances[lo:hi], dtype=np.float64)
+            pieces.append(state.run(band, weights[lo:hi], 1, step))
+            preview.add(part)
+            if sampler is not None:
+                sampler.take(lo, band)
+                for stretch in sampler.complete():
+                    matches.add(stretch)
+            del band
+        matched = np.concatenate([piece[0] for piece in pieces]).astype(np.int64)
+        confidence = np.concatenate([piece[1] for piece in pieces])
+        off_route = np.concatenate([piece[2] for piece in pieces])
+        speed = np.concatenate([piece[3] for piece in pieces])
+        scores = 1.0 - confidence
+    else:
+        minimum = None
+        offset = "bound" if p.search_offset == "bound" else "none"
+        if p.search_offset == "global_min":
+
+            def submit_minimum(index: int) -> object:
+                lo, hi = blocks[index]
+                return client.submit(  # type: ignore[attr-defined]
+                    _minimum_task, q[lo:hi], *common, threads_per_task, window, pure=False
+                )
+
+            minimum = _global_minimum(*_in_order(submit_minimum, len(blocks), in_flight))
+        plan = _core.trajectory_plan(p.ds, p.vmin, p.vmax, p.uniqueness_radius, p.mode == "causal")
+        before, after = -int(plan["columns"][0]), int(plan["columns"][-1])
+        stretches = [] if sampler is None else sampler.stretches
+
+        def submit_search(index: int) -> object:
+            lo, hi = blocks[index]
+            first, last = max(0, lo - before), min(n_queries, hi + after)
+            return client.submit(  # type: ignore[attr-defined]
+                _search_band_task,
+                q[first:last],
+                *common,
+                offset,
+                minimum,
+                threads_per_task,
+                window,
+                first,
+                lo,
+                hi,
+                n_queries,
+                p,
+                stretches,
+                pure=False,
+            )
+
+        matched_parts, score_parts = [], []
+        for band_refs, band_scores, part, sampled in _in_order(submit_search, len(blocks), in_flight):
+            matched_parts.append(band_refs)
+            score_parts.append(band_scores)
+            preview.add(part)
+            if sampler is not None:
+                for lo, piece in sampled:
+                    sampler.take(lo, piece, copy=False)
+                for stretch in sampler.complete():
+                    matches.add(stretch)
+        matched = np.concatenate(matched_parts).astype(np.int64)
+        scores = np.concatenate(score_parts).astype(np.float64)
+    checked = None
+    if speed_check:
+        checked = check_speed(p, motion, None, odometry, matches if sampler is not None else None)
+    # the lazy matrix in at most 8 blocks of rows: its graph is built in a fraction of a second
+    _, enhanced, _ = dask_route_matrices(r, q, p, max(rows, -(-n_queries // 8)), False, threads_per_task)
+    timings: dict[str, float] = {"total": time.perf_counter() - start_time}
+    return RouteResult(
+        refs=matched,
+        scores=scores,
+        enhanced=enhanced,
+        difference=None,
+        params=p,
+        timings=timings,
+        confidence=confidence,
+        off_route=off_route,
+        weights=weights,
+        motion=motion,
+        speed=speed,
+        speed_check=checked,
+        matrix_image=preview.image(),
     )

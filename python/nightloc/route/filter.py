@@ -47,7 +47,7 @@ import numpy as np
 
 from .. import _core
 from .._validate import thread_count, uint8_array
-from .params import RouteParams, resolve_params
+from .params import DISTANCE_MOTIONS, ODOMETRY_MOTION, RouteParams, resolve_params
 
 __all__ = [
     "FilterStep",
@@ -119,7 +119,7 @@ def route_filter_run(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, str]:
     """:func:`route_filter` with the filter's speed per frame (references per query frame: the
     speed model's mean speed, the odometry model's mean advance; NaN for the window model) and
-    the motion model that ran (``"window"``, ``"speed"`` or ``"odometry"``) appended."""
+    the motion model that ran (a name of :data:`~nightloc.route.params.MOTION_MODELS`) appended."""
     p = resolve_params(params)
     if not isinstance(matrix, np.ndarray):
         raise TypeError(f"matrix must be a numpy.ndarray of dtype float32, got {type(matrix).__name__}")
@@ -137,14 +137,17 @@ def route_filter_run(
 
 
 def motion_name(params: RouteParams, odometry: bool) -> str:
-    """The motion model the filter runs: ``"odometry"`` when given odometry (the references'
-    distances), else ``params.filter_motion``, which must then not be ``"odometry"``."""
+    """The motion model the filter runs: given odometry (the references' distances), one that
+    moves by the distance travelled (``params.filter_motion`` when it is one of
+    :data:`~nightloc.route.params.DISTANCE_MOTIONS`, else
+    :data:`~nightloc.route.params.ODOMETRY_MOTION`); else ``params.filter_motion``, which must then
+    not be one."""
     if odometry:
-        return "odometry"
-    if params.filter_motion == "odometry":
+        return params.filter_motion if params.filter_motion in DISTANCE_MOTIONS else ODOMETRY_MOTION
+    if params.filter_motion in DISTANCE_MOTIONS:
         raise ValueError(
-            "filter_motion 'odometry' needs odometry: the references' distances along the route and each query's "
-            "advance (reference_distances= and advances=, or traverses that carry odometry.csv or poses)"
+            f"filter_motion {params.filter_motion!r} needs odometry: the references' distances along the route and "
+            "each query's advance (reference_distances= and advances=, or traverses that carry odometry.csv or poses)"
         )
     return params.filter_motion
 
@@ -203,7 +206,7 @@ class RouteFilter:
 
     @property
     def motion(self) -> str:
-        """The motion model: ``"window"``, ``"speed"`` or ``"odometry"``."""
+        """The motion model: a name of :data:`~nightloc.route.params.MOTION_MODELS`."""
         return str(self._core.motion)
 
     @property

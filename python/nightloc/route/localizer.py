@@ -36,7 +36,7 @@ from ..io.traverse import Traverse
 from ..preparation.params import PreparationParams
 from .filter import core_params, motion_name
 from .odometry import route_odometry
-from .params import RouteParams, resolve_params
+from .params import DISTANCE_MOTIONS, RouteParams, resolve_params
 from .pipeline import TraverseInput, _as_frames, _divisor
 from .preparation import RoutePreparer
 
@@ -189,8 +189,8 @@ class RouteLocalizer:
 
     @property
     def motion(self) -> str | None:
-        """The filter's motion model (``"window"``, ``"speed"`` or ``"odometry"``); None for
-        SeqSLAM."""
+        """The filter's motion model (a name of :data:`~nightloc.route.params.MOTION_MODELS`); None
+        for SeqSLAM."""
         return str(self._filter.motion) if self._params.method == "filter" else None
 
     @property
@@ -239,7 +239,7 @@ class RouteLocalizer:
             return self._update(frame, prepared, advance)
 
     def _check_advance(self, advance: float | None) -> float:
-        if self.motion != "odometry":
+        if self.motion not in DISTANCE_MOTIONS:
             if advance is not None:
                 raise ValueError(
                     "advance is for the odometry model; create the localizer with odometry=True "

@@ -27,8 +27,9 @@ import numpy as np
 from ..io.odometry_csv import ODOMETRY_FILE
 from ..io.traverse import Traverse
 from ..motion.odometry import MapDisplacement, RobotMotion, traverse_odometry
+from .params import DISTANCE_MOTIONS, ODOMETRY_MOTION
 
-__all__ = ["MotionPlan", "RouteOdometry", "motion_plan", "route_odometry"]
+__all__ = ["MotionPlan", "RouteOdometry", "carried_odometry", "motion_plan", "route_odometry"]
 
 
 @dataclass(frozen=True)
@@ -83,7 +84,7 @@ class MotionPlan:
     """Which motion model route mode runs for a pair of traverses, and why.
 
     Attributes:
-        motion: ``"odometry"``, ``"speed"`` or ``"window"``.
+        motion: a name of :data:`~nightloc.route.params.MOTION_MODELS`.
         advances: ``(n_query,)`` the query's steps (odometry model), else None.
         reference_distances: ``(n_ref,)`` the reference's distances (odometry model), else None.
         note: the reason in words (e.g. which traverse lacked odometry), for summaries.
@@ -98,14 +99,16 @@ class MotionPlan:
 
 
 def motion_plan(reference: Traverse, query: Traverse, fallback: str, use_odometry: bool = True) -> MotionPlan:
-    """The odometry model when both traverses carry odometry (and ``use_odometry``), else
-    ``fallback`` (the parameters' ``filter_motion``) with the reason. A ``fallback`` of
-    ``"odometry"`` asks for the odometry model: without odometry in both traverses (or with
-    ``use_odometry`` False) that is a ValueError naming what is missing."""
+    """A model that moves by the distance travelled (``fallback`` when it is one of
+    :data:`~nightloc.route.params.DISTANCE_MOTIONS`, else
+    :data:`~nightloc.route.params.ODOMETRY_MOTION`) when both traverses carry odometry (and
+    ``use_odometry``), else ``fallback`` (the parameters' ``filter_motion``) with the reason. A
+    ``fallback`` that moves by the distance travelled without odometry in both traverses (or with
+    ``use_odometry`` False) is a ValueError naming what is missing."""
     plan = _plan(reference, query, fallback, use_odometry)
-    if fallback == "odometry" and plan.advances is None:
+    if fallback in DISTANCE_MOTIONS and plan.advances is None:
         raise ValueError(
-            f"the odometry motion model needs odometry in both traverses (odometry.csv, a bag's odometry, or "
+            f"the {fallback} motion model needs odometry in both traverses (odometry.csv, a bag's odometry, or "
             f"poses), but {plan.note}; choose another motion model (--motion, filter_motion)"
         )
     return plan
@@ -125,8 +128,18 @@ def _plan(reference: Traverse, query: Traverse, fallback: str, use_odometry: boo
             note = f"the reference's {ref_odometry.source} says it never moved"
             return MotionPlan(fallback, None, None, note, sources)
         note = f"reference {ref_odometry.source}, query {query_odometry.source}"
-        return MotionPlan("odometry", query_odometry.steps, distances, note, sources)
+        motion = fallback if fallback in DISTANCE_MOTIONS else ODOMETRY_MOTION
+        return MotionPlan(motion, query_odometry.steps, distances, note, sources)
     if ref_odometry is None and query_odometry is None:
         return MotionPlan(fallback, None, None, "neither traverse has odometry.csv or poses", sources)
     side, other = ("query", "reference") if query_odometry is not None else ("reference", "query")
     return MotionPlan(fallback, None, None, f"odometry in the {side} only (the {other} has none)", sources)
+
+
+def carried_odometry(reference: Traverse, query: Traverse) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(query advances, reference distances)`` when both traverses carry odometry and the
+    reference moves (what the odometry model would run on, whichever model runs), else None."""
+    plan = _plan(reference, query, "odometry", True)
+    if plan.advances is None or plan.reference_distances is None:
+        return None
+    return plan.advances, plan.reference_distances

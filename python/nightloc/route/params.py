@@ -26,18 +26,24 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any, Literal
 
 from .. import _core
 from ..config import params_section
 from ..preparation.params import PreparationParams
+from ..schema import CoreTable, Range, core_names, own_field
 
 __all__ = [
     "DEFAULT_SHIFT_WINDOWS",
+    "DISTANCE_MOTIONS",
     "MOTION_MODELS",
+    "ODOMETRY_MOTION",
     "PRESETS",
+    "MotionSpeeds",
     "RouteParams",
     "default_preparation",
+    "motion_speeds",
     "resolve_params",
     "route_preset",
 ]
@@ -45,6 +51,20 @@ __all__ = [
 #: The route filter's motion models by name (``filter_motion``, ``nightloc route --motion``): the
 #: compiled core's one name table (``route_motion_names()`` in ``nightloc/route_filter.hpp``).
 MOTION_MODELS: tuple[str, ...] = tuple(_core.route_motion_names())
+#: The models that move by the distance travelled (the registry's ``needs_distances``): they run
+#: only where both traverses carry odometry.
+DISTANCE_MOTIONS: frozenset[str] = frozenset(m["name"] for m in _core.route_motion_models() if m["needs_distances"])
+#: The model route mode runs when both traverses carry odometry and the parameters name none of
+#: :data:`DISTANCE_MOTIONS`: the registry's first.
+ODOMETRY_MOTION: str = next(name for name in MOTION_MODELS if name in DISTANCE_MOTIONS)
+
+#: The core's tables of the route filter's parameters and of SeqSLAM's search (nightloc/route_filter.hpp,
+#: nightloc/seqslam.hpp): the one place the defaults, ranges, units and docs of the fields
+#: :class:`RouteParams` shares with them are written.
+ROUTE_FILTER_SETTINGS = CoreTable(_core.RouteFilterParams)
+TRAJECTORY_SETTINGS = CoreTable(_core.TrajectoryParams)
+_FILTER = ROUTE_FILTER_SETTINGS
+_SEARCH = TRAJECTORY_SETTINGS
 
 #: The translation window of ``shift_window = None``, per camera: ``(columns, rows)``. On a
 #: forward camera +-8 columns and +-2 rows keep a night walk a metre beside the day walk and a
@@ -108,11 +128,10 @@ class RouteParams:
         filter_min_texture: a prepared query frame whose mean absolute deviation from its own
             mean is below this many grey levels carries proportionally less evidence (a flat
             frame: none, the belief is only predicted); 0 disables the weight.
-        filter_motion: the filter's motion model (:data:`MOTION_MODELS`): ``"speed"`` (a belief
-            over position x speed that follows a speed that changes), ``"window"`` (a speed drawn
-            afresh from ``vmin .. vmax`` every frame) or ``"odometry"`` (moved by the distance
-            travelled; needs odometry in both traverses). Route mode runs the odometry model
-            whenever both traverses carry odometry unless told not to
+        filter_motion: the filter's motion model, a name of :data:`MOTION_MODELS` (the models are
+            described in docs/route_mode.md; those of :data:`DISTANCE_MOTIONS` move by the distance
+            travelled and need odometry in both traverses). Route mode runs
+            :data:`ODOMETRY_MOTION` whenever both traverses carry odometry unless told not to
             (:func:`nightloc.route.odometry.motion_plan`).
         filter_speed_min, filter_speed_max, filter_speed_step: the speed model's planes,
             references per query frame (a negative speed: reversing).
@@ -134,59 +153,52 @@ class RouteParams:
 
     method: Literal["filter", "seqslam"] = "filter"
     preparation: Literal["nightloc", "openseqslam"] = "nightloc"
-    block_side: int = 8
+    block_side: int = own_field(8, unit="pixels", range=Range(2, math.inf))
     divisor: Literal["pixels", "references"] = "pixels"
     circular_shifts: bool = False
-    shift_window: tuple[int, int] | None = None
-    enhance_radius: int = 5
-    ds: int = 10
-    vmin: float = 0.8
-    vmax: float = 1.2
-    uniqueness_radius: int = 5
-    mode: Literal["centred", "causal"] = "centred"
-    filter_sharpness: float = 0.7
-    filter_clip: float = 0.0
-    filter_floor: float = 3e-3
-    filter_backward: float = 0.0
-    filter_leave: float = 1e-2
-    filter_rejoin: float = 1e-2
-    filter_window: int = 2
-    filter_min_texture: float = 1.0
-    filter_motion: str = "speed"
-    filter_speed_min: float = 0.5
-    filter_speed_max: float = 1.5
-    filter_speed_step: float = 0.1
-    filter_speed_jitter: float = 0.2
-    filter_speed_change: float = 0.07
-    filter_speed_tau: float = 4.0
-    filter_speed_cells: int = 2
-    filter_odometry_noise: float = 0.05
-    filter_odometry_jitter: float = 0.1
-    filter_odometry_novelty: float = 1.0
-    filter_odometry_cells: int = 4
+    shift_window: tuple[int, int] | None = own_field(None, unit="pixels (columns, rows)")
+    enhance_radius: int = own_field(5, unit="references", range=Range(1, math.inf))
+    ds: int = _SEARCH.field("ds")
+    vmin: float = _FILTER.field("vmin")
+    vmax: float = _FILTER.field("vmax")
+    uniqueness_radius: int = _SEARCH.field("uniqueness_radius")
+    mode: Literal["centred", "causal"] = _SEARCH.field("mode")
+    filter_sharpness: float = _FILTER.field("sharpness")
+    filter_clip: float = _FILTER.field("clip")
+    filter_floor: float = _FILTER.field("floor")
+    filter_backward: float = _FILTER.field("backward")
+    filter_leave: float = _FILTER.field("leave")
+    filter_rejoin: float = _FILTER.field("rejoin")
+    filter_window: int = _FILTER.field("window")
+    filter_min_texture: float = own_field(1.0, unit="grey levels", range=Range(0, math.inf))
+    filter_motion: str = _FILTER.field("motion")
+    filter_speed_min: float = _FILTER.field("speed_min")
+    filter_speed_max: float = _FILTER.field("speed_max")
+    filter_speed_step: float = _FILTER.field("speed_step")
+    filter_speed_jitter: float = _FILTER.field("speed_jitter")
+    filter_speed_change: float = _FILTER.field("speed_change")
+    filter_speed_tau: float = _FILTER.field("speed_tau")
+    filter_speed_cells: int = _FILTER.field("speed_cells")
+    filter_odometry_noise: float = _FILTER.field("odometry_noise")
+    filter_odometry_jitter: float = _FILTER.field("odometry_jitter")
+    filter_odometry_novelty: float = _FILTER.field("odometry_novelty")
+    filter_odometry_cells: int = _FILTER.field("odometry_cells")
 
     def validate(self) -> None:
-        """Checks ranges (called on construction); raises ValueError naming the field."""
+        """The rules between fields (each field's range is checked on construction, from the
+        table): the shift window, SeqSLAM's speeds, the core's rules of the filter's fields, the
+        size of SeqSLAM's search."""
         if self.shift_window is not None and min(self.shift_window) < 0:
             raise ValueError(f"shift_window must be (columns, rows) >= 0 pixels, got {self.shift_window}")
-        if self.block_side < 2:
-            raise ValueError(f"block_side must be >= 2 pixels, got {self.block_side}")
-        if self.enhance_radius < 1:
-            raise ValueError(f"enhance_radius must be >= 1 reference, got {self.enhance_radius}")
-        if not 2 <= self.ds <= 100000:
-            raise ValueError(f"ds must be a sequence length in [2, 100000] frames, got {self.ds}")
-        if not (math.isfinite(self.vmax) and 0 < self.vmax <= 1000):
-            raise ValueError(f"vmax must be a speed in (0, 1000] references per frame, got {self.vmax}")
-        if self.method == "seqslam" and not (math.isfinite(self.vmin) and 0 < self.vmin <= 1000):
+        if self.method == "seqslam" and not self.vmin > 0:
             raise ValueError(
                 f"vmin must be a speed in (0, 1000] references per frame for SeqSLAM, got {self.vmin} "
                 f"(the filter accepts vmin = 0: a robot that stops)"
             )
-        if not (math.isfinite(self.vmin) and 0 <= self.vmin <= 1000):
-            raise ValueError(f"vmin must be a speed in [0, 1000] references per frame, got {self.vmin}")
-        if self.vmin > self.vmax:
-            raise ValueError(f"vmin ({self.vmin}) must not exceed vmax ({self.vmax})")
-        self._validate_filter()
+        try:
+            self.core_filter_params().validate()
+        except _core.SettingError as error:  # the core's name of the field -> this class's
+            raise ValueError(f"{_PARAMS_FIELDS.get(error.setting, error.setting)} {error.requirement}") from None
         ds = self.effective_ds
         speeds = math.floor(self.vmax * ds - self.vmin * ds) + 1
         frames = ds + 1 if self.mode == "centred" else ds
@@ -195,20 +207,6 @@ class RouteParams:
                 f"{speeds} speeds (vmin {self.vmin} .. vmax {self.vmax} at ds {self.ds}) x {frames} frames is too "
                 f"large a search (at most {_core.MAX_TRAJECTORY_PLAN_ENTRIES:.0f}); narrow vmin..vmax or shorten ds"
             )
-        if self.uniqueness_radius < 0:
-            raise ValueError(f"uniqueness_radius must be >= 0, got {self.uniqueness_radius}")
-
-    def _validate_filter(self) -> None:
-        # The core's validate() is the range check of every field it takes (core_filter_params).
-        if self.filter_window < 0:
-            raise ValueError(f"filter_window must be >= 0 references, got {self.filter_window}")
-        if not (math.isfinite(self.filter_min_texture) and self.filter_min_texture >= 0):
-            raise ValueError(f"filter_min_texture must be >= 0 grey levels, got {self.filter_min_texture}")
-        try:
-            self.core_filter_params().validate()
-        except ValueError as error:  # the core names its field, without the filter_ prefix
-            field = str(error).split(" ", 1)[0]
-            raise ValueError(f"filter_{error}" if f"filter_{field}" in _FILTER_FIELDS else str(error)) from None
 
     def core_filter_params(self) -> _core.RouteFilterParams:
         """The filter's parameters as the compiled core takes them: ``vmin``, ``vmax`` and each
@@ -287,11 +285,69 @@ class RouteParams:
 #: the same meaning (the name without ``filter_``); fields the core lacks (``filter_min_texture``)
 #: are Python's own.
 _FILTER_FIELDS = tuple(f.name for f in dataclasses.fields(RouteParams) if f.name.startswith("filter_"))
-_CORE_FIELDS = {
-    name: name.removeprefix("filter_")
-    for name in ("vmin", "vmax", *_FILTER_FIELDS)
-    if hasattr(_core.RouteFilterParams, name.removeprefix("filter_"))
-}
+_CORE_FIELDS = core_names(RouteParams, ROUTE_FILTER_SETTINGS)
+#: The core's RouteFilterParams field -> the RouteParams field of the same meaning.
+_PARAMS_FIELDS = {core_name: name for name, core_name in _CORE_FIELDS.items()}
+
+#: The core's RouteFilterParams field -> the RouteParams field of the same meaning.
+_PARAMS_FIELDS = {core_name: name for name, core_name in _CORE_FIELDS.items()}
+
+
+@dataclasses.dataclass(frozen=True)
+class MotionSpeeds:
+    """The steady speeds a search follows, reference frames per query frame.
+
+    Attributes:
+        search: what follows them, in words (``"speed motion model"``, ``"SeqSLAM"``).
+        lowest, highest: the range (``-inf``, ``inf`` for a model that moves by the distance
+            travelled).
+        fields: the :class:`RouteParams` fields that set ``lowest`` and ``highest`` (the window
+            model's ``vmin``, ``vmax``; the speed model's planes and prior), or None.
+    """
+
+    search: str
+    lowest: float
+    highest: float
+    fields: tuple[str, ...] | None
+
+    @property
+    def bounded(self) -> bool:
+        """Whether the search assumes a range of speeds at all."""
+        return math.isfinite(self.lowest) or math.isfinite(self.highest)
+
+    def covers(self, ratio: float) -> bool:
+        """Whether ``ratio`` (reference frames per query frame) lies in the range (its ends
+        included, to 1e-6: a plane's speed or a measured slope may carry rounding)."""
+        return self.lowest - 1e-6 <= ratio <= self.highest + 1e-6
+
+    def words(self, option: Callable[[str], str] = str) -> str:
+        """The range in words: ``"the speed motion model's 0.5..1.5 (filter_speed_min..filter_speed_max)"``;
+        ``option(field)`` names each field as the user sets it (e.g. a command's ``--vmin``)."""
+        if not self.bounded:
+            return f"the {self.search} (any speed)"
+        owner = "SeqSLAM's speeds" if self.search == "SeqSLAM" else f"the {self.search}'s"
+        fields = ""
+        if self.fields and len(self.fields) == 2:
+            fields = f" ({option(self.fields[0])}..{option(self.fields[1])})"
+        elif self.fields:
+            fields = f" (set by {', '.join(option(field) for field in self.fields)})"
+        return f"{owner} {self.lowest:g}..{self.highest:g}{fields}"
+
+
+def motion_speeds(params: RouteParams, motion: str | None) -> MotionSpeeds:
+    """The steady speeds the search of ``params`` follows: the filter's motion model ``motion`` (a
+    name of :data:`MOTION_MODELS`; the range and the fields that set it come from the core's
+    registry of models: the central 80 % of the model's speed, ``vmin .. vmax`` uniform for the
+    window model, the speed prior over its planes for the speed model; any speed for odometry),
+    or SeqSLAM's trajectories (``motion`` None: every speed of ``vmin .. vmax`` is searched)."""
+    if motion is None:
+        return MotionSpeeds("SeqSLAM", params.vmin, params.vmax, ("vmin", "vmax"))
+    core = params.core_filter_params()
+    core.motion = motion
+    lowest, highest, fields = _core.route_motion_speeds(core)
+    named = tuple(_PARAMS_FIELDS[field] for field in fields) or None
+    return MotionSpeeds(f"{motion} motion model", float(lowest), float(highest), named)
+
 
 #: Preset name -> parameters.
 PRESETS = {

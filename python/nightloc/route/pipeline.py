@@ -33,9 +33,10 @@ from ..io.traverse import Traverse, load_traverse
 from ..preparation.params import PreparationParams
 from ..progress import progress
 from .filter import route_filter_run, texture_weights
-from .odometry import motion_plan
+from .odometry import carried_odometry, motion_plan
 from .params import RouteParams, resolve_params
 from .preparation import RoutePreparer
+from .speed_check import SpeedCheck, StretchSampler, check_speed
 
 __all__ = [
     "RouteResult",
@@ -69,19 +70,24 @@ class RouteResult:
             enhanced in place.
         params: the parameters used (``params.method`` says which search ran).
         timings: seconds per stage (``difference``, ``enhancement``, ``search`` (the filter or
-            the trajectory search), and ``preparation`` when :func:`match_route` prepared the
-            images).
+            the trajectory search), ``speed_check``, and ``preparation`` when :func:`match_route`
+            prepared the images; a run on a Dask cluster: ``total``).
         confidence: filter only, ``(n_query,)`` float64 belief within ``filter_window`` of the
             match; None for SeqSLAM.
         off_route: filter only, ``(n_query,)`` float64 probability that the query shows no
             reference; None for SeqSLAM.
         weights: filter only, ``(n_query,)`` float64 evidence weight of each query frame (its
             texture), or None.
-        motion: filter only: the motion model that ran, ``"window"``, ``"speed"`` or
-            ``"odometry"``; None for SeqSLAM.
+        motion: filter only: the motion model that ran (a name of
+            :data:`~nightloc.route.params.MOTION_MODELS`); None for SeqSLAM.
         speed: filter only, ``(n_query,)`` float64 references per query frame: the speed
             model's mean speed, the odometry model's mean advance; NaN for the window model.
         motion_note: why that motion model ran (e.g. odometry in one traverse only), or "".
+        speed_check: the query's speed ratio beside the range the search assumes
+            (:mod:`nightloc.route.speed_check`), or None when not checked.
+        matrix_image: the enhanced matrix area-averaged for a figure
+            (:mod:`nightloc.route.preview`) when the matrix was never held whole (a run on a
+            Dask cluster), else None.
     """
 
     refs: np.ndarray
@@ -96,6 +102,8 @@ class RouteResult:
     motion: str | None = None
     speed: np.ndarray | None = None
     motion_note: str = ""
+    speed_check: SpeedCheck | None = None
+    matrix_image: np.ndarray | None = None
 
     @property
     def method(self) -> str:
@@ -304,6 +312,8 @@ def match_difference(
     *,
     advances: np.ndarray | None = None,
     reference_distances: np.ndarray | None = None,
+    carried_odometry: tuple[np.ndarray, np.ndarray] | None = None,
+    speed_check: bool = True,
 ) -> RouteResult:
     """Route matching from a difference matrix: enhancement, then the filter or SeqSLAM.
 
@@ -318,6 +328,10 @@ def match_difference(
             (``(M,)`` distance travelled before each query, ``(N,)`` cumulative distance of each
             reference; :mod:`nightloc.route.odometry`); without them the filter runs
             ``params.filter_motion``.
+        carried_odometry: ``(advances, reference_distances)`` of traverses that carry odometry
+            the search does not use (SeqSLAM, another motion model): the speed check reads it.
+        speed_check: measure the query's speed ratio and compare it with the search's range
+            (``result.speed_check``, :func:`~nightloc.route.speed_check.check_speed`).
     """
     p = resolve_params(params)
     timings: dict[str, float] = {}
@@ -335,6 +349,19 @@ def match_difference(
     else:
         matched, scores = trajectory_search(enhanced, p, threads)
     timings["search"] = time.perf_counter() - start
+    checked = None
+    start = time.perf_counter()
+    if speed_check:
+        odometry = carried_odometry
+        if advances is not None and reference_distances is not None:
+            odometry = (advances, reference_distances)
+        stretches = None
+        if odometry is None:
+            sampler = StretchSampler(enhanced.shape[0])
+            sampler.take(0, enhanced, copy=False)
+            stretches = sampler.rows()
+        checked = check_speed(p, motion, stretches, odometry)
+        timings["speed_check"] = time.perf_counter() - start
     return RouteResult(
         refs=matched,
         scores=scores,
@@ -347,6 +374,7 @@ def match_difference(
         weights=weights if p.method == "filter" else None,
         motion=motion,
         speed=speed,
+        speed_check=checked,
     )
 
 
@@ -359,6 +387,7 @@ def match_prepared(
     *,
     advances: np.ndarray | None = None,
     reference_distances: np.ndarray | None = None,
+    carried_odometry: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> RouteResult:
     """Route matching of prepared images: difference matrix, enhancement, then the route filter
     (``params.method = "filter"``, the default) or SeqSLAM's trajectory search.
@@ -371,6 +400,8 @@ def match_prepared(
         keep_difference: keep the difference matrix (two M x N float32 matrices in memory);
             False enhances it in place (one matrix; ``result.difference`` is None).
         advances, reference_distances: the filter's odometry model (:func:`match_difference`).
+        carried_odometry: odometry the search does not use, for the speed check
+            (:func:`match_difference`).
     """
     p = resolve_params(params)
     start = time.perf_counter()
@@ -385,6 +416,7 @@ def match_prepared(
         weights,
         advances=advances,
         reference_distances=reference_distances,
+        carried_odometry=carried_odometry,
     )
     result.timings = {"difference": elapsed, **result.timings}
     return result
@@ -427,9 +459,11 @@ def match_route(
     preparer = RoutePreparer(p, preparation)
     reference_frames = _as_frames(reference, "reference", frame_step)
     query_frames = _as_frames(query, "query", frame_step)
-    plan = None
-    if p.method == "filter" and isinstance(reference_frames, Traverse) and isinstance(query_frames, Traverse):
-        plan = motion_plan(reference_frames, query_frames, p.filter_motion, odometry)
+    plan = carried = None
+    if isinstance(reference_frames, Traverse) and isinstance(query_frames, Traverse):
+        if p.method == "filter":
+            plan = motion_plan(reference_frames, query_frames, p.filter_motion, odometry)
+        carried = carried_odometry(reference_frames, query_frames)
     start = time.perf_counter()
     refs = preparer(reference_frames)
     queries = preparer(query_frames)
@@ -444,6 +478,7 @@ def match_route(
         keep_difference,
         advances=None if plan is None else plan.advances,
         reference_distances=None if plan is None else plan.reference_distances,
+        carried_odometry=carried,
     )
     result.timings["preparation"] = prep_time
     if plan is not None:

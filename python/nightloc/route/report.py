@@ -10,6 +10,7 @@ import numpy as np
 
 from ..preparation.params import PreparationParams
 from .evaluation import GroundTruth, RouteEvaluation
+from .params import DISTANCE_MOTIONS
 from .pipeline import RouteResult
 
 __all__ = ["COMPARED", "comparison_summary", "method_summary", "motion_line", "route_metrics", "summary_json"]
@@ -49,7 +50,7 @@ def method_summary(
     figures: list,
 ) -> dict:
     """One method's ``summary.json``: the traverses (their roots), sizes, the method's own
-    parameters, the motion model and why, the preparation, timings (s), the ground truth and,
+    parameters, the motion model and why, the speed check, the preparation, timings (s), the ground truth and,
     with it, :func:`route_metrics`."""
     p = result.params
     summary = {
@@ -62,6 +63,7 @@ def method_summary(
         "method_params": p.method_params(),  # the settings this method uses (no other method's)
         "motion_model": result.motion,
         "motion_model_because": result.motion_note or None,
+        "speed_check": None if result.speed_check is None else result.speed_check.as_dict(),
         "preparation": None
         if preparation is None
         else {field: getattr(preparation, field) for field in preparation.__dataclass_fields__},
@@ -102,7 +104,7 @@ def summary_json(summary: dict) -> str:
 def motion_line(result: RouteResult) -> str:
     """The filter's motion model for the printed line, with the reason when odometry was not used."""
     words = result.motion_words()
-    if result.motion == "odometry":
+    if result.motion in DISTANCE_MOTIONS:
         return f"{words} ({result.motion_note})"
     if result.motion_note and "neither" not in result.motion_note:
         return f"{words}: {result.motion_note}"

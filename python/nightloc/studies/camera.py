@@ -49,7 +49,7 @@ from ..progress import progress
 from ..synth.dataset import SynthScene
 from ..synth.paths import plan_traverses
 from ..synth.render import render_radiance
-from ..synth.sensor import FULL_WELL, READ_NOISE, capture
+from ..synth.sensor import FULL_WELL, MAX_DARKNESS, READ_NOISE, capture
 from ..synth.world import ALL_WORLDS
 
 __all__ = [
@@ -104,7 +104,7 @@ class Sensor:
 #: Matching resolutions (width, height): 72 to 4 608 pixels; the paper's 48 x 24 among them.
 DEFAULT_SIZES: tuple[tuple[int, int], ...] = ((12, 6), (16, 8), (24, 12), (32, 16), (48, 24), (64, 32), (96, 48))
 #: Night darkness levels (0 = night lighting exposed like day; each step of 1: 100x fewer photons).
-DEFAULT_DARKNESS_LEVELS: tuple[float, ...] = (0.0, 1.0, 1.5, 2.0, 2.5, 3.0)
+DEFAULT_DARKNESS_LEVELS: tuple[float, ...] = (0.0, 1.0, 1.5, 2.0, 2.5, MAX_DARKNESS)
 #: Pixels from a small phone pixel to a large full-frame one (1, 2, 4 and 8 um), with typical read
 #: noise at high gain (a large low-light sensor reads out with fewer electrons of noise).
 DEFAULT_SENSORS: tuple[Sensor, ...] = (
@@ -121,7 +121,7 @@ class StudySettings:
 
     Attributes:
         sizes: matching resolutions ``(width, height)`` in pixels.
-        darkness: night darkness levels in [0, 3].
+        darkness: night darkness levels in [0, :data:`~nightloc.synth.sensor.MAX_DARKNESS`].
         sensors: the pixels compared.
         draws: independent draws of sensor noise and odometry noise per cell.
         seed: the world's seed (textures, sun, paths) and of every noise draw.
@@ -152,8 +152,10 @@ class StudySettings:
                 )
         object.__setattr__(self, "sizes", tuple(sorted(sizes, key=lambda s: (s[0] * s[1], s))))
         levels = tuple(sorted({float(d) for d in self.darkness}))
-        if not levels or any(not (math.isfinite(d) and 0.0 <= d <= 3.0) for d in levels):
-            raise ValueError(f"darkness levels must be numbers in [0, 3], at least one, got {self.darkness!r}")
+        if not levels or any(not (math.isfinite(d) and 0.0 <= d <= MAX_DARKNESS) for d in levels):
+            raise ValueError(
+                f"darkness levels must be numbers in [0, {MAX_DARKNESS:g}], at least one, got {self.darkness!r}"
+            )
         object.__setattr__(self, "darkness", levels)
         if not self.sensors or not all(isinstance(s, Sensor) for s in self.sensors):
             raise ValueError("sensors must be at least one Sensor")
@@ -175,6 +177,11 @@ class StudySettings:
         """Rows of the study's table."""
         return len(self.sizes) * len(self.darkness) * len(self.sensors) * len(self.methods)
 
+
+#: A method is lost at a light level and sensor when even its best resolution errs over 1 m on
+#: more than this share of the frames (or has a median over 1 m): a robot that loses its track
+#: that often cannot drive on the estimate, however good its typical frame.
+LOST_SHARE_OVER_1M = 0.4
 
 #: Columns of ``camera_study.csv``.
 CSV_HEADER: tuple[str, ...] = (
@@ -261,7 +268,7 @@ class CameraStudy:
     def smallest_within(self, darkness: float, sensor: Sensor, method: str, tolerance: float = 0.10) -> StudyRow:
         """The fewest-pixel resolution whose median is within ``tolerance`` (a fraction) of the best
         resolution's median at this darkness, sensor and method."""
-        cells = [r for r in self.rows if r.darkness == darkness and r.sensor == sensor and r.method == method]
+        cells = self.cells(darkness, sensor, method)
         if not cells:
             raise KeyError(f"no cells at darkness {darkness}, {sensor.label}, {method}")
         best = min(r.median_m for r in cells)
@@ -277,30 +284,38 @@ class CameraStudy:
                 writer.writerow(r.csv_row())
         return Path(path)
 
+    def cells(self, darkness: float, sensor: Sensor, method: str) -> list[StudyRow]:
+        """Every resolution's row at this darkness, sensor and method."""
+        return [r for r in self.rows if (r.darkness, r.sensor, r.method) == (darkness, sensor, method)]
+
+    def lost(self, darkness: float, sensor: Sensor, method: str) -> bool:
+        """True when ``method`` is lost at this darkness and sensor at every resolution: a median
+        over 1 m, or more than :data:`LOST_SHARE_OVER_1M` of the frames over 1 m."""
+        return all(
+            r.median_m > 1.0 or r.share_over_1m > LOST_SHARE_OVER_1M for r in self.cells(darkness, sensor, method)
+        )
+
     def summary_lines(self, tolerance: float = 0.10) -> list[str]:
         """Per darkness level and sensor: the smallest resolution within ``tolerance`` of the best,
-        per method (the paper's "about 1000 pixels" as a number on this world)."""
+        per method (the paper's "about 1000 pixels" as a number on this world), and the methods
+        lost at every resolution (:meth:`lost`)."""
         lines = []
         for darkness in self.settings.darkness:
             for sensor in self.settings.sensors:
                 parts = []
                 for method in self.settings.methods:
+                    cells = self.cells(darkness, sensor, method)
                     small = self.smallest_within(darkness, sensor, method, tolerance)
-                    best = min(
-                        (r for r in self.rows if (r.darkness, r.sensor, r.method) == (darkness, sensor, method)),
-                        key=lambda r: r.median_m,
-                    )
+                    best = min(cells, key=lambda r: r.median_m)
+                    lost = ""
+                    if self.lost(darkness, sensor, method):
+                        fewest = min(r.share_over_1m for r in cells)
+                        lost = f"; LOST: {fewest:.0%} or more of the frames over 1 m at every resolution"
                     parts.append(
                         f"{method} {small.width}x{small.height} ({small.pixels} px, {small.median_m:.2f} m; best "
-                        f"{best.median_m:.2f} m at {best.width}x{best.height})"
+                        f"{best.median_m:.2f} m at {best.width}x{best.height}{lost})"
                     )
-                lost = all(
-                    min(r.median_m for r in self.rows if (r.darkness, r.sensor, r.method) == (darkness, sensor, m))
-                    > 1.0
-                    for m in self.settings.methods
-                )
-                note = " -- lost at every resolution (best median over 1 m)" if lost else ""
-                lines.append(f"darkness {darkness:g}, {sensor.label}: " + "; ".join(parts) + note)
+                lines.append(f"darkness {darkness:g}, {sensor.label}: " + "; ".join(parts))
         return lines
 
 

@@ -104,8 +104,9 @@ class NightRecord:
         night: the season night; ``bad``: its bad kind ("" for a good night).
         drive: ``"learn"`` (the re-drive of the day path, then learned) or ``"test"`` (the other path).
         map: ``"day"`` (the day map alone) or ``"learned"`` (the chain's map before tonight).
-        frames, median_m, p95_m, share_over_1m, longest_run_over_1m: the errors' tail (from the
-            10th frame; NaN on a night in another garden, whose truth is not this map's frame).
+        frames and the errors' tail: as the summary's columns of the same names
+            (:data:`~nightloc.localization.evaluation.SUMMARY_COLUMNS`; from the 10th frame; NaN on
+            a night in another garden, whose truth is not this map's frame).
         ms_per_frame: preparation, matching and the filter's update per frame, milliseconds.
         used: learned appearances that tonight's learning found the best match at their place
             for one of its trusted frames (``learn`` rows of the learned map; 0 elsewhere);

@@ -34,6 +34,7 @@ from ..progress import progress
 from .dataset import SYNTH_WHEEL_NOISE
 from .geometry import Cylinder, Solid, box
 from .routes import CAMERA_HEIGHT, Drive, RouteScene, path_length, render_drive
+from .sensor import MAX_DARKNESS
 from .textures import TextureLibrary, fbm, jitter_colour, value_noise
 from .world import GroundMap, World
 
@@ -277,8 +278,8 @@ def make_creek_dataset(
     ``frames`` sets other frame counts per traverse (default :data:`CREEK_FRAMES`), spread over the
     same 490 m.
     """
-    if not (np.isfinite(darkness) and 0.0 <= darkness <= 3.0):
-        raise ValueError(f"darkness must be a number in [0, 3], got {darkness!r}")
+    if not (np.isfinite(darkness) and 0.0 <= darkness <= MAX_DARKNESS):
+        raise ValueError(f"darkness must be a number in [0, {MAX_DARKNESS:g}], got {darkness!r}")
     counts = dict(CREEK_FRAMES) if frames is None else dict(frames)
     if set(counts) != set(CREEK_FRAMES) or not all(isinstance(n, int) and n >= 2 for n in counts.values()):
         raise ValueError(f"frames must give day_reference and night_query at least 2 frames each, got {frames!r}")

@@ -69,7 +69,7 @@ from .season import (
     season_traverse_names,
     season_world,
 )
-from .sensor import FULL_WELL, READ_NOISE, Exposure, capture, metered_exposure
+from .sensor import FULL_WELL, MAX_DARKNESS, READ_NOISE, Exposure, capture, metered_exposure
 from .world import ALL_WORLDS, WORLD_NAMES, World, build_world
 
 __all__ = [
@@ -134,9 +134,10 @@ class SynthScene:
         condition = NIGHTS[name]
         usual_world, usual_darkness = self._usual_night
         darkness = usual_darkness + condition.extra_darkness
-        if darkness > 3.0:
+        if darkness > MAX_DARKNESS:
             raise ValueError(
-                f"night {name!r} adds {condition.extra_darkness} to the darkness {usual_darkness}: at most 3 in all"
+                f"night {name!r} adds {condition.extra_darkness} to the darkness {usual_darkness}: at most "
+                f"{MAX_DARKNESS:g} in all"
             )
         world = lamp_layout(usual_world, self.seed, condition.lamps)
         direction = moon_direction(world, self.seed) if condition.moon > 0 else None

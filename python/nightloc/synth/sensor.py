@@ -20,11 +20,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FULL_WELL", "READ_NOISE", "Exposure", "capture", "metered_exposure"]
+__all__ = ["FULL_WELL", "MAX_DARKNESS", "READ_NOISE", "Exposure", "capture", "metered_exposure"]
 
 FULL_WELL = 4000.0  # electrons at the brightest output level
 READ_NOISE = 2.5  # electrons rms
 METER_TARGET = 0.18  # metered radiance -> 18 % of the full well
+#: The darkest night the sensor model renders: 10^-6 of the metered photons (each step of 1 is 100x fewer).
+MAX_DARKNESS = 3.0
 
 
 @dataclass(frozen=True)
@@ -76,8 +78,8 @@ def metered_exposure(
     """
     if not (np.isfinite(metered_radiance) and metered_radiance > 0):
         raise ValueError(f"metered radiance must be positive, got {metered_radiance!r}")
-    if not (np.isfinite(darkness) and 0.0 <= darkness <= 3.0):
-        raise ValueError(f"darkness must be a number in [0, 3], got {darkness!r}")
+    if not (np.isfinite(darkness) and 0.0 <= darkness <= MAX_DARKNESS):
+        raise ValueError(f"darkness must be a number in [0, {MAX_DARKNESS:g}], got {darkness!r}")
     electrons = METER_TARGET * full_well / metered_radiance * 10.0 ** (-2.0 * darkness)
     return Exposure(
         electrons_per_unit=electrons, gain=10.0**darkness, gamma=gamma, full_well=full_well, read_noise=read_noise

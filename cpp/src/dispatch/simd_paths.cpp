@@ -1,4 +1,6 @@
-// The SIMD path registry (simd_paths.hpp): one entry per path compiled into this build.
+// The SIMD path registry (common/simd_paths.hpp): one entry per path compiled into this build. The
+// table names the kernels of every stage (matching, preparation), so it sits above them in its own
+// folder; its interface sits below them in common/, where the stages ask for the active path.
 #include "common/simd_paths.hpp"
 
 #include <iterator>
