@@ -13,8 +13,6 @@ import math
 
 import numpy as np
 
-from nightloc.localization.day_scale import LEARNED_ADVANTAGE
-
 TWO_PI = 2.0 * math.pi
 LOWEST_LOG2 = -60.0
 
@@ -112,9 +110,8 @@ class OracleFilter:
         learned=None,
     ):
         self.w = weights.tocsr()
-        # learned references (an experience map): their scores times the ratio of the day and the
-        # learned references' median minimum scores of the frame, their lead over their place's
-        # day images tempered, before anything else
+        # learned references (an experience map): evidence about the day reference of their place
+        # nearest in heading (their proxy), which they then score as (see update)
         self.learned = None if learned is None else np.asarray(learned, dtype=bool)
         self.h, self.wd = height, width
         self.x0, self.y0, self.dx, self.dy = x0, y0, dx, dy
@@ -127,6 +124,19 @@ class OracleFilter:
         if lookalikes > 0 and with_refs > lookalikes:
             self.score_cap *= math.log(lookalikes) / math.log(with_refs)
         self.headings = None if ref_headings is None else np.asarray(ref_headings, dtype=np.float64)
+        self.proxy = np.full(len(self.place_of_ref), -1)
+        if self.learned is not None and 0 < self.learned.sum() < len(self.learned):
+            for i in np.flatnonzero(self.learned):
+                same = self.place_of_ref == self.place_of_ref[i]
+                day = [int(d) for d in np.flatnonzero(same & ~self.learned)]
+                if day and self.headings is not None:
+                    turn = [abs(math.remainder(self.headings[d] - self.headings[i], TWO_PI)) for d in day]
+                    day = [day[int(np.argmin(turn))]]
+                if day:
+                    self.proxy[i] = day[0]
+                    if self.headings is not None:  # read at its day reference's heading
+                        self.headings = self.headings.copy()
+                        self.headings[i] = self.headings[day[0]]
         self.columns = columns
         self.shifts = np.asarray(shifts)
         self.s = dict(settings)
@@ -142,6 +152,7 @@ class OracleFilter:
 
     # ------------------------------------------------------------------ state
     def reset(self):
+        self.recall_cell = self.h // 2 * self.wd + self.wd // 2  # the recall's centre: the grid's
         self.pose = self.can_pose
         self.offset = 0.0
         self.bin_max = None  # each bin's largest value after the last update (pose mode), else None
@@ -256,19 +267,27 @@ class OracleFilter:
         best = np.argmin(t, axis=1)
         self.best_shifts = self.candidates[best]
         if self.learned is not None and 0 < self.learned.sum() < n:
+            recalled = self.recalled()  # the looks this frame scores
             raw = t.min(axis=1)
             day = float(np.median(raw[~self.learned]))
-            night = float(np.median(raw[self.learned]))
-            if day > 0 and night > 0:  # float32 products, as the core stores them
-                t[self.learned] = (t[self.learned] * (day / night)).astype(np.float32)
-                # then a look's lead over its place's best day reference counts LEARNED_ADVANTAGE
-                scaled = t.min(axis=1)
-                for i in np.flatnonzero(self.learned):
-                    day_refs = (self.place_of_ref == self.place_of_ref[i]) & ~self.learned
-                    day_best = scaled[day_refs].min() if day_refs.any() else np.inf
-                    if scaled[i] < day_best:
-                        lift = (1.0 - LEARNED_ADVANTAGE) * (day_best - scaled[i])
-                        t[i] = (t[i] + lift).astype(np.float32)
+            night = float(np.median(raw[self.learned & recalled]))
+            evidence = {}  # a day reference's recalled looks' best minimum on the day scale
+            if day > 0 and night > 0:
+                ratio = day / night
+                for i in np.flatnonzero(self.learned & recalled):
+                    scaled = float(np.float32(raw[i] * ratio))  # float32, as the core stores it
+                    if self.proxy[i] < 0:  # a place learned in a gap: scaled only
+                        t[i] = (t[i] * ratio).astype(np.float32)
+                    else:
+                        evidence[self.proxy[i]] = min(evidence.get(self.proxy[i], math.inf), scaled)
+            if evidence:
+                neutral = float(np.median(list(evidence.values())))
+                for d, value in evidence.items():  # moved by its evidence against the typical
+                    t[d] = (t[d] + (value - neutral)).astype(np.float32)
+            for i in np.flatnonzero(self.proxy >= 0):  # then every look scores as its day reference
+                t[i] = t[self.proxy[i]]
+                best[i] = best[self.proxy[i]]
+                self.best_shifts[i] = self.best_shifts[self.proxy[i]]
         self.mins = t[np.arange(n), best]
         s_min = self.mins.min()
         spread = float(np.median(self.mins)) - s_min
@@ -323,6 +342,37 @@ class OracleFilter:
         self.p = post / total if total > 0 else like / like.sum()
         self.lam = lam
         self.bin_max = self.p.reshape(bins, -1).max(axis=1) if self.pose else None
+        self.recall_cell = int(np.argmax(self.p.sum(0)))  # the next frame's recall centre
+
+    def recalled(self):
+        """``(N,)`` bool: the references a frame scores: every day reference and look in a gap, and
+        of the looks with a day reference (at most as many as the day references) half whose
+        place's cell (its largest weight) lies nearest the recall centre (ties: the first), the
+        other half the window of the rest (in index order) that moves on by its size each frame."""
+        n = len(self.place_of_ref)
+        out = np.ones(n, dtype=bool)
+        looks = np.flatnonzero(self.learned & (self.proxy >= 0))
+        budget = int((~self.learned).sum())
+        if len(looks) <= budget:
+            return out
+        out[looks] = False
+        weights = self.w.tocsc()
+        cy, cx = divmod(self.recall_cell, self.wd)
+        d2 = []
+        for i in looks:
+            column = weights[:, int(self.place_of_ref[i])]
+            cell = (self.h * self.wd) // 2  # a place without weights: the middle cell
+            if column.nnz:  # the first cell of the largest weight
+                cell = int(np.min(column.indices[column.data == column.data.max()]))
+            ry, rx = divmod(cell, self.wd)
+            d2.append((self.dx * (rx - cx)) ** 2 + (self.dy * (ry - cy)) ** 2)
+        near, turn = budget // 2, budget - budget // 2
+        order = sorted(range(len(looks)), key=lambda k: (d2[k], looks[k]))
+        out[looks[order[:near]]] = True
+        rest = [i for i in looks if not out[i]]
+        start = self.frames * turn % len(rest)
+        out[[rest[(start + k) % len(rest)] for k in range(turn)]] = True
+        return out
 
     # ------------------------------------------------------------------ estimate
     def estimate(self):

@@ -17,7 +17,7 @@ from nightloc.experience.learning import (
     place_spacing,
     trusted_frames,
 )
-from nightloc.io.appearances import Appearances
+from nightloc.io.appearances import Appearances, LearnedNight
 from nightloc.localization.heatmap import HeatMapper
 from nightloc.localization.localizer import Estimate
 
@@ -42,17 +42,19 @@ def _estimate(x: float, y: float, confidence: float = 0.95, radius: float = 0.2,
 def _night(ref_map, images, poses, confidence=0.95, radius=0.2, source="night") -> LocalizedNight:
     """A night of prepared ``images`` at ``poses`` (x, y), its score medians from the numpy oracle."""
     images = np.asarray(images, dtype=np.uint8)
-    medians = [float(np.median(rotational_sad(q, ref_map.images, range(SHAPE[1])).min(axis=1))) for q in images]
+    mins = [rotational_sad(q, ref_map.images, range(SHAPE[1])).min(axis=1) for q in images]
+    looks = None if ref_map.appearances is None else ref_map.appearances.night > 0
     estimates = tuple(_estimate(x, y, confidence, radius) for x, y in poses)
     return LocalizedNight(
         images,
         estimates,
-        np.asarray(medians),
+        np.asarray([float(np.median(m)) for m in mins]),
         tuple(f"{k:06d}.png" for k in range(len(images))),
         np.arange(len(images), dtype=np.float64) * 0.5 + 1.0,
         source,
         ref_map.fingerprint,
         ref_map.params,
+        learned_medians=None if looks is None else np.asarray([float(np.median(m[looks])) for m in mins]),
     )
 
 
@@ -222,3 +224,82 @@ def test_a_map_pickled_before_experience_maps_unpickles_as_a_day_map():
     old.__setstate__(state)
     assert old.appearances is None and old == day
     assert pickle.loads(pickle.dumps(day)) == day
+
+
+def test_the_backward_run_is_the_filter_over_the_reversed_drive():
+    from nightloc.experience.learning import backward_estimates
+    from nightloc.motion.odometry import true_robot_motions
+
+    day = _day_map()
+    path = np.array([[0.0, 0.0], [0.6, 0.2], [1.2, 0.5], [1.9, 0.9], [2.4, 1.4], [2.9, 2.0], [3.0, 2.0]])
+    headings = np.arctan2(*np.diff(path, axis=0, prepend=[[-1.0, 0.0]]).T[::-1])
+    nearest = [int(np.argmin(np.hypot(*(day.positions - p).T))) for p in path]
+    images = day.images[nearest]
+    motions = true_robot_motions(path, headings)
+    back, predicted = backward_estimates(nightloc.Localizer(day, odometry_noise=1), images, motions)
+    assert predicted[-1] is None and all(b.shape == (100, 100) for b in predicted[:-1])
+    # the same filter driven along the path reversed, with that drive's own true motions
+    reverse = nightloc.Localizer(day, odometry_noise=1)
+    reversed_motions = true_robot_motions(path[::-1], headings[::-1])
+    direct = [reverse.update(images[::-1][k], reversed_motions[k] if k else None) for k in range(len(path))][::-1]
+    for a, b in zip(back, direct, strict=True):
+        assert (a.x, a.y, a.confidence) == pytest.approx((b.x, b.y, b.confidence), abs=1e-6)
+
+
+def test_a_night_is_trusted_both_ways_unless_the_runs_disagree():
+    from nightloc.experience.learning import trust_night
+
+    day = _day_map()
+    params = LearningParams(settled_frames=3)
+    night = _night(day, day.images[:8], [(1.0, 1.0)] * 8)
+    unsure = _estimate(1.0, 1.0, confidence=0.2, radius=3.0)
+    sure = _estimate(1.0, 1.0)
+    forward = [unsure] * 3 + [sure] * 5  # the forward run settles at frame 5 (three in a row)
+    backward = [sure] * 8
+    backward[6] = _estimate(3.0, 2.0)  # confident, 2.2 m from the forward run's estimate
+    one_way = dataclasses.replace(night, estimates=tuple(forward))
+    assert trust_night(one_way, params, agree=1.0)[0].tolist() == [False] * 5 + [True] * 3
+    both = dataclasses.replace(night, estimates=tuple(forward), backward=tuple(backward))
+    trusted, chosen = trust_night(both, params, agree=1.0)
+    # frames 0-2: trusted by the backward run alone (it settled going backwards); frame 6: the two
+    # runs are both confident and 2.2 m apart; frames 4-5 and 7 are trusted by both
+    assert trusted.tolist() == [True, True, True, True, True, True, False, True]
+    assert chosen[0] is backward[0] and chosen[7] is forward[7]
+
+
+def test_the_retention_policies_order_a_places_learned_looks():
+    from nightloc.experience.learning import RETENTION_POLICIES
+
+    # three looks: night 1 matched 5 times, night 2 matched once, night 4 matched 3 times; tonight is night 6
+    record = Appearances(
+        night=[0, 1, 2, 4], confidence=[0, 0.9, 0.95, 0.9], time=[0.0] * 4, matches=[9, 5, 1, 3],
+        nights=tuple(LearnedNight(k, f"n{k}", "2026-01-01T00:00:00Z", 1, 1, 1, 0, 0) for k in (1, 2, 3, 4, 5)),
+    )  # fmt: skip
+    matches = record.matches
+    looks = [1, 2, 3]
+    assert RETENTION_POLICIES["usage"].order(looks, record, matches, 6) == [2, 3, 1]  # 1, 3, 5 matches
+    assert RETENTION_POLICIES["recency"].order(looks, record, matches, 6) == [1, 2, 3]  # nights 1, 2, 4
+    # matches per night since learned: 5 / 5 = 1.0, 1 / 4 = 0.25, 3 / 2 = 1.5
+    assert RETENTION_POLICIES["usage_rate"].order(looks, record, matches, 6) == [2, 1, 3]
+    with pytest.raises(ValueError, match="retention must be one of usage, recency, usage_rate"):
+        LearningParams(retention="newest")
+
+
+def test_a_night_unlike_every_learned_look_is_not_learned():
+    day = _day_map()
+    rng = np.random.default_rng(8)
+    poses = _settled([(x + 0.1, y) for x in range(4) for y in range(3)])
+    looks = rng.integers(0, 256, (len(poses), *SHAPE), dtype=np.uint8)
+    once, _ = learn(day, _night(day, looks, poses))
+    # the same places again, their frames a little noisier: they match the learned looks
+    noisy = np.clip(looks.astype(int) + rng.integers(-8, 9, looks.shape), 0, 255).astype(np.uint8)
+    again = _night(once, noisy, poses)
+    _, report = learn(once, again)
+    assert not report.refused
+    # another garden: frames at the same estimated poses that match no learned look
+    foreign = _night(once, rng.integers(0, 256, looks.shape, dtype=np.uint8), poses)
+    same, report = learn(once, foreign)
+    assert same is once and report.appearances == 0 and report.trusted > 0
+    assert "not a night of this map's places" in report.line() and "max_look_ratio 0.85" in report.line()
+    # a map without learned looks has no such check: the day map learns the foreign night
+    assert learn(day, _night(day, foreign.images, poses))[1].appearances > 0

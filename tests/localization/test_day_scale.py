@@ -1,5 +1,5 @@
-"""Learned appearances' scores on the day map's scale (experience maps): the helper against hand
-arithmetic, and both methods choosing the day image's place when a learned night look scores
+"""Learned appearances as evidence about their day images (experience maps): the helper against
+hand arithmetic, and both methods choosing the day image's place when a learned night look scores
 lower only because it is a night image."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import pytest
 
 import nightloc
 from nightloc.io.appearances import Appearances, LearnedNight
-from nightloc.localization.day_scale import LEARNED_ADVANTAGE, learned_mask, on_day_scale
+from nightloc.localization.day_scale import learned_mask, learned_proxies, on_day_scale
 from nightloc.matching.sad import MatchResult
 
 WIDTH, HEIGHT = 16, 8
@@ -28,23 +28,35 @@ def _experience_map() -> nightloc.ReferenceMap:
     return nightloc.ReferenceMap(images, positions, np.zeros(5), params=params, appearances=appearances)
 
 
-def test_learned_scores_are_scaled_by_the_medians_and_their_lead_tempered():
-    scores = np.array([10, 12, 14, 5, 7], dtype=np.float32)
-    learned = np.array([0, 0, 0, 1, 1], dtype=np.uint8)
-    # day median 12, learned median 6: the learned scores doubled (10, 14); the look at place 2
-    # leads its day image (14) by 4, of which LEARNED_ADVANTAGE counts: 14 - 0.4 * 4 = 12.4; the
-    # look at place 1 trails its day image (12): 14 stays
-    places = np.array([0, 1, 2, 2, 1])
-    assert LEARNED_ADVANTAGE == 0.4
-    np.testing.assert_array_equal(on_day_scale(scores, learned, places), np.float32([10, 12, 14, 12.4, 14]))
-    # a look at a place without a day image (a gap the night filled): scaled only
-    np.testing.assert_array_equal(on_day_scale(scores, learned, [0, 1, 2, 3, 1]), [10, 12, 14, 10, 14])
-    table = np.array([[10, 11], [12, 13], [14, 15], [5, 9], [8, 7]], dtype=np.float32)
-    np.testing.assert_array_equal(on_day_scale(table, learned, places)[3:], np.float32([[12.4, 20.4], [16, 14]]))
-    assert on_day_scale(scores, None, places) is scores  # a day map: the scores themselves
-    assert on_day_scale(scores, np.ones(5, np.uint8), places) is scores  # nothing but learned: no day scale
+def test_learned_looks_move_their_day_references_by_their_evidence():
+    scores = np.array([10, 12, 14, 5, 7, 4], dtype=np.float32)
+    learned = np.array([0, 0, 0, 1, 1, 1], dtype=np.uint8)
+    places = np.array([0, 1, 2, 2, 1, 3])  # reference 5: a look learned in a gap (no day image)
+    proxies = learned_proxies(learned, places, None)
+    assert proxies.tolist() == [-1, -1, -1, 2, 1, -1]
+    # day median 12, learned median 5: on the day scale 12, 16.8, 9.6; the evidence of day
+    # references 2 and 1 is 12 and 16.8, their median 14.4: reference 2 moves down by 2.4 (its night
+    # look matches better than the typical one), reference 1 up by 2.4; each look then scores as
+    # its day reference; the gap's look keeps its scaled score
+    expected = np.float32([10, 12 + 2.4, 14 - 2.4, 14 - 2.4, 12 + 2.4, 4 * 2.4])
+    np.testing.assert_allclose(on_day_scale(scores, learned, proxies), expected, rtol=1e-6)
+    table = np.array([[10, 11], [12, 13], [14, 15], [5, 9], [8, 7], [4, 6]], dtype=np.float32)
+    out = on_day_scale(table, learned, proxies)
+    np.testing.assert_allclose(out[2], [14 - 2.4, 15 - 2.4], rtol=1e-6)
+    np.testing.assert_array_equal(out[3], out[2])  # a look: its day reference's row
+    np.testing.assert_allclose(out[5], [4 * 2.4, 6 * 2.4], rtol=1e-6)
+    assert on_day_scale(scores, None, proxies) is scores  # a day map: the scores themselves
+    assert on_day_scale(scores, np.ones(6, np.uint8), proxies) is scores  # nothing but learned: as they are
     with pytest.raises(ValueError, match="one value per reference"):
-        on_day_scale(scores, learned[:3], places)
+        on_day_scale(scores, learned[:3], proxies)
+
+
+def test_a_look_belongs_to_the_day_reference_of_its_place_nearest_in_heading():
+    # a forward camera's place: day views at 0, 90, 180 and -90 degrees; looks at 80 and -170 degrees
+    places = np.zeros(6, int)
+    headings = np.radians([0.0, 90.0, 180.0, -90.0, 80.0, -170.0])
+    learned = np.array([0, 0, 0, 0, 1, 1], np.uint8)
+    assert learned_proxies(learned, places, headings).tolist() == [-1, -1, -1, -1, 1, 2]
 
 
 def test_a_day_map_has_no_learned_mask():

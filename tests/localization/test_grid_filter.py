@@ -119,28 +119,36 @@ def test_core_equals_the_numpy_oracle_on_random_maps_and_motions(seed, noise):
 @pytest.mark.sanitize
 @pytest.mark.parametrize("seed", [0, 1])
 def test_core_equals_the_numpy_oracle_on_an_experience_map(seed):
-    # learned references (appearances at their places' positions) whose scores run lower than the
-    # day ones, as a night frame's do against night looks: the core brings them onto the day scale
+    # learned references whose scores run lower than the day ones, as a night frame's do against
+    # night looks: two looks at one place, looks taken at other headings than the day images', and
+    # a look learned in a gap (no day image at its position); the core moves their evidence onto
+    # their places' day references
     from nightloc.io.appearances import Appearances, LearnedNight
 
     rng = np.random.default_rng(seed)
     day = _random_map(rng, n=9)
     looks = rng.choice(9, 5, replace=False)
-    night = np.r_[np.zeros(9, np.int32), np.ones(5, np.int32)]
+    looks = np.r_[looks, looks[0]]  # two looks at one place
+    gap = np.array([[day.positions[:, 0].max() + 1.0, day.positions[:, 1].mean()]])
+    n_learned = len(looks) + 1
+    night = np.r_[np.zeros(9, np.int32), np.ones(n_learned, np.int32)]
     appearances = Appearances(
-        night=night, confidence=np.where(night > 0, 0.9, 0.0), time=np.zeros(14), matches=np.zeros(14, np.int64),
-        nights=(LearnedNight(1, "night1", "2026-01-01T00:00:00Z", 5, 5, 5, 0, 0),),
+        night=night, confidence=np.where(night > 0, 0.9, 0.0), time=np.zeros(len(night)),
+        matches=np.zeros(len(night), np.int64),
+        nights=(LearnedNight(1, "night1", "2026-01-01T00:00:00Z", 5, 5, 5, 1, 0),),
     )  # fmt: skip
+    turned = rng.uniform(-0.3, 0.3, len(looks))  # the learning night's headings, not the day's
     ref_map = nightloc.ReferenceMap(
-        np.concatenate([day.images, day.images[looks]]),
-        np.concatenate([day.positions, day.positions[looks]]),
-        np.concatenate([day.headings, day.headings[looks]]),
+        np.concatenate([day.images, day.images[looks], day.images[:1]]),
+        np.concatenate([day.positions, day.positions[looks], gap]),
+        np.concatenate([day.headings, wrap_angle(day.headings[looks] + turned), [0.2]]),
         params=day.params,
         appearances=appearances,
     )
     loc = Localizer(ref_map, odometry_noise=1, grid_width=30, grid_height=24)
     np.testing.assert_array_equal(loc._filter.learned, night > 0)
     oracle = _oracle(loc)
+    assert (oracle.proxy[9:-1] == looks).all() and oracle.proxy[-1] == -1
     for k, motion in enumerate(MOTIONS):
         table = rng.uniform(15, 25, (len(ref_map), 16)).astype(np.float32)
         table[9:] *= 0.4  # night looks: lower scores everywhere
@@ -150,6 +158,78 @@ def test_core_equals_the_numpy_oracle_on_an_experience_map(seed):
         oracle.update(table)
         _check_against_oracle(loc, oracle, estimate)
         assert estimate.score == pytest.approx(float(oracle.mins.min()), rel=1e-6)
+
+
+@pytest.mark.sanitize
+def test_core_equals_the_numpy_oracle_recalling_the_looks_near_the_belief():
+    # three looks at each of 8 places of a 9-place map: 24 looks, more than the 9 day references,
+    # so each frame recalls the 9 looks nearest the last belief's peak
+    from nightloc.io.appearances import Appearances, LearnedNight
+
+    rng = np.random.default_rng(3)
+    day = _random_map(rng, n=9)
+    looks = np.repeat(np.arange(8), 3)
+    night = np.r_[np.zeros(9, np.int32), np.ones(len(looks), np.int32)]
+    appearances = Appearances(
+        night=night, confidence=np.where(night > 0, 0.9, 0.0), time=np.zeros(len(night)),
+        matches=np.zeros(len(night), np.int64),
+        nights=(LearnedNight(1, "night1", "2026-01-01T00:00:00Z", 24, 24, 24, 0, 0),),
+    )  # fmt: skip
+    ref_map = nightloc.ReferenceMap(
+        np.concatenate([day.images, day.images[looks]]),
+        np.concatenate([day.positions, day.positions[looks]]),
+        np.concatenate([day.headings, day.headings[looks] + rng.uniform(-0.2, 0.2, len(looks))]),
+        params=day.params,
+        appearances=appearances,
+    )
+    loc = Localizer(ref_map, odometry_noise=1, grid_width=30, grid_height=24)
+    oracle = _oracle(loc)
+    recalls = []
+    for k, motion in enumerate(MOTIONS):
+        table = rng.uniform(15, 25, (len(ref_map), 16)).astype(np.float32)
+        table[1] -= 8.0  # the day image of place 1 matches: the belief peaks there
+        table[9:] *= rng.uniform(0.3, 0.5, (len(looks), 1)).astype(np.float32)
+        if k:
+            _apply(oracle, motion)
+        recalls.append(oracle.recalled())
+        estimate = loc.update_table(table, motion if k else None)
+        oracle.update(table)
+        _check_against_oracle(loc, oracle, estimate)
+    assert all(r.sum() == 9 + 9 for r in recalls)  # the day references and 9 of the 24 looks
+    assert len({tuple(r) for r in recalls}) > 1  # the recall followed the belief
+    # update_image matches only the recalled references and scores the rest as their day
+    # references: the same estimate as the whole table gives
+    image = rng.integers(0, 256, (8, 16), dtype=np.uint8)
+    a, b = copy.copy(loc), copy.copy(loc)
+    from_image = a.update(image, MOTIONS[1])
+    from_table = b.update_table(b.score_table(image, prepared=True), MOTIONS[1])
+    assert (from_image.x, from_image.y, from_image.confidence) == pytest.approx(
+        (from_table.x, from_table.y, from_table.confidence), abs=1e-9
+    )
+
+
+def test_the_estimate_of_a_given_belief_is_the_oracles():
+    # a smoother's product of two runs' beliefs, estimated as the filter estimates its own
+    rng = np.random.default_rng(7)
+    ref_map = _random_map(rng, n=10)
+    loc = Localizer(ref_map, odometry_noise=1, grid_width=30, grid_height=24)
+    oracle = _oracle(loc)
+    for k, motion in enumerate(MOTIONS[:3]):
+        loc.update_table(rng.uniform(10, 20, (10, 16)).astype(np.float32), motion if k else None)
+    belief = loc.belief * rng.uniform(0.5, 1.5, loc.belief.shape)  # any positive scale
+    estimate = loc.estimate_belief(belief * 3.0)
+    oracle.pose, oracle.p = False, (belief / belief.sum())[None]
+    x, y, _, _, radius, confidence, _, _, heading_var = oracle.estimate()
+    assert (estimate.x, estimate.y) == pytest.approx((x, y), abs=1e-4)
+    assert estimate.heading_variance == pytest.approx(heading_var, nan_ok=True)
+    assert estimate.credible_radius == pytest.approx(radius, abs=1e-6)
+    assert estimate.confidence == pytest.approx(confidence, abs=1e-5)
+    assert estimate.best_ref == -1 and math.isnan(estimate.score)
+    np.testing.assert_allclose(loc.belief, belief / belief.sum(), rtol=1e-5)  # the filter now holds it
+    with pytest.raises(ValueError, match="grid_height, grid_width"):
+        loc.estimate_belief(belief[:5])
+    with pytest.raises(ValueError, match="non-negative"):
+        loc.estimate_belief(-belief)
 
 
 def test_step_scaled_noise_is_the_constant_noise_of_each_step():

@@ -14,8 +14,10 @@ from nightloc.motion.odometry import (
     NoiseModel,
     RobotMotion,
     as_motion,
+    compose_motions,
     log_noise_model,
     noise_model,
+    reverse_motion,
     robot_steps_to_map,
     simulate_map_odometry,
     simulate_robot_odometry,
@@ -83,6 +85,23 @@ def test_true_robot_motions_round_trip_to_map_steps():
     # a robot heading north that drives 1 m forward and turns left by 90 degrees
     motion = true_robot_motions(np.array([[0.0, 0.0], [0.0, 1.0]]), np.array([np.pi / 2, np.pi]))[1]
     assert (motion.forward, motion.left, motion.turn) == pytest.approx((1.0, 0.0, np.pi / 2))
+
+
+def test_reversed_motions_drive_the_path_backwards():
+    rng = np.random.default_rng(3)
+    positions, headings = _wandering_path(rng, 40)
+    motions = true_robot_motions(positions, headings)
+    back = true_robot_motions(positions[::-1], headings[::-1])  # the same path driven backwards
+    for k in range(1, len(motions)):
+        r = reverse_motion(motions[k])
+        assert (r.forward, r.left, r.turn) == pytest.approx(
+            (back[len(motions) - k].forward, back[len(motions) - k].left, back[len(motions) - k].turn), abs=1e-9
+        )
+        there_and_back = compose_motions([motions[k], r])
+        assert (there_and_back.forward, there_and_back.left) == pytest.approx((0.0, 0.0), abs=1e-12)
+        assert there_and_back.turn == pytest.approx(0.0, abs=1e-12)
+    assert reverse_motion(MapDisplacement(1.5, -2.0)) == MapDisplacement(-1.5, 2.0)
+    assert reverse_motion(None) is None
 
 
 def test_mixed_motions_and_missing_heading():

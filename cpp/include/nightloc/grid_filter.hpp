@@ -145,10 +145,6 @@ struct GridFilterSettings {
                                       ///< score_cap ln(lookalike_places) / ln(P) (0: never tempered)
 };
 
-/// The share of a learned appearance's advantage over the best day reference of its place that
-/// counts (GridFilterMap::learned; python: nightloc.localization.day_scale.LEARNED_ADVANTAGE).
-inline constexpr double kLearnedAdvantage = 0.4;
-
 /// What the filter knows of the map (python: built from the HeatMapper of the localizer).
 struct GridFilterMap {
     std::shared_ptr<const HeatWeights> weights;  ///< cells x places interpolation weights
@@ -167,13 +163,24 @@ struct GridFilterMap {
     /// at column offset dx = wrap(theta - heading_i) columns / field_of_view.
     double field_of_view = 0;
     /// n_refs: 1 for a reference learned on a night (an experience map's appearance), 0 for the
-    /// day map's; or empty (a day map). When both kinds are present, each frame's scores of a
-    /// learned reference are, before the per-place minimum, (1) multiplied by median(day minimum
-    /// scores) / median(learned minimum scores) of the frame (night frames score lower against
-    /// any night image than against a day image: a place must not win by owning a night look),
-    /// then (2) raised by (1 - kLearnedAdvantage) of how far their minimum lies below the best
-    /// day reference of the same place (a night look, sharp but taken at one pose, keeps the
-    /// day images' smooth geometry between places); a place without a day reference: (1) only.
+    /// day map's; or empty (a day map). A learned reference is evidence about its day reference,
+    /// the day reference of its place nearest in heading (none: a place learned in a gap). When
+    /// both kinds are present, per frame and before the per-place minimum: (1) the learned
+    /// scores are multiplied by median(day minimum scores) / median(learned minimum scores) of
+    /// the frame (night frames score lower against any night image than against a day image);
+    /// (2) each day reference with learned ones is moved by how far their best minimum lies from
+    /// the median of that over the day references with learned ones (a place whose night look
+    /// matches better than the typical place's scores lower, one that matches worse higher); (3)
+    /// a learned reference then scores as its day reference, at that reference's heading (the day
+    /// images keep the geometry between places and the headings; a night look taken at one pose
+    /// with a heading the learning night estimated cannot pull the estimate); a learned reference
+    /// in a gap keeps (1). Recall: per frame at most as many learned references with a day
+    /// reference as the map has day references are matched and bring evidence: half of them those
+    /// whose place lies nearest the peak of the last frame's belief (the grid's centre after
+    /// reset(); ties: the first), the other half in turn (in index order, a window moving on
+    /// every frame, so a lost robot meets every look within a few frames); the others score as
+    /// their day references too, and update_image does not match them (the time per frame stays
+    /// within about twice the day map's however many looks the map holds).
     std::vector<std::uint8_t> learned;
 };
 
@@ -278,6 +285,8 @@ private:
         double shift_x, shift_y, sigma_x, sigma_y;
     };
     void to_position();
+    void choose_recall();
+    void update_recalled(const float* table);
     void scale_learned();
     void to_pose();
     // A prediction is pending until the next update (fused with it) or materialize(): per bin of
@@ -332,7 +341,16 @@ private:
     std::vector<float> row_y_;                  // a row of log2-likelihoods (scratch)
     std::vector<std::uint8_t> first_of_place_;  // per reference: the first of its place
     bool two_kinds_ = false;                    // learned and day references both present
-    std::vector<float> day_best_;               // per place: its day references' lowest score (scratch)
+    std::vector<std::int32_t> proxy_;           // per learned reference its day reference, else -1
+    std::vector<double> headings_;              // per reference the heading the table is read at
+    std::vector<float> evidence_;               // per day reference its learned ones' best score (scratch)
+    std::size_t day_refs_ = 0;                  // references of the day map (the recall's budget)
+    std::vector<std::size_t> place_cell_;       // per place the cell of its largest weight
+    std::size_t recall_cell_ = 0;               // the last frame's belief peak (the recall's centre)
+    std::vector<std::uint8_t> recalled_;        // per reference: scored this frame (learned: recalled)
+    std::vector<std::size_t> recall_order_;     // learned references with a day reference (scratch)
+    std::vector<std::size_t> matched_;          // references update_image matches (scratch)
+    std::vector<std::uint8_t> gathered_;        // their images, one after the other (scratch)
     std::vector<std::int32_t> empty_places_;    // places no reference stands at (take the bin's highest score)
     std::vector<float> bin_max_;                // each bin's largest value after the last measurement (pose mode)
     mutable bool bin_max_valid_ = false;        // false once the belief changed otherwise (see negligible)

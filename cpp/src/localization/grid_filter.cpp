@@ -231,6 +231,20 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
         for (std::size_t i = 0; i < row_of_ref_.size(); ++i)
             row_of_ref_[i] = row_of[static_cast<std::size_t>(map_.place_of_ref[i])];
     }
+    // each place's cell: where its weight is largest (ties: the first cell), the recall's distances
+    {
+        std::vector<float> largest(places_, -1.f);
+        place_cell_.assign(places_, cells_ / 2);
+        for (std::size_t c = 0; c < cells_; ++c)
+            for (auto k = static_cast<std::size_t>(csr.indptr[c]); k < static_cast<std::size_t>(csr.indptr[c + 1]);
+                 ++k) {
+                const auto p = static_cast<std::size_t>(csr.indices[k]);
+                if (csr.data[k] > largest[p]) {
+                    largest[p] = csr.data[k];
+                    place_cell_[p] = c;
+                }
+            }
+    }
     belief_.resize(bins_ * cells_);
     work_.resize(bins_ * cells_);
     marginal_.resize(cells_);
@@ -259,6 +273,7 @@ void GridFilter::reset() {
     std::fill(belief_.begin(), belief_.begin() + static_cast<std::ptrdiff_t>(n), 1.f);
     scale_ = 1.0 / static_cast<double>(n);
     marginal_valid_ = false;
+    recall_cell_ = height_ / 2 * width_ + width_ / 2;
 }
 
 void GridFilter::set_learned(std::vector<std::uint8_t> learned) {
@@ -272,12 +287,67 @@ void GridFilter::set_learned(std::vector<std::uint8_t> learned) {
     }
     map_.learned = std::move(learned);
     two_kinds_ = count > 0 && count < n;
+    headings_ = map_.ref_headings;
+    proxy_.assign(two_kinds_ ? n : 0, -1);
+    day_refs_ = n - count;
+    recalled_.assign(n, 1);
+    if (!two_kinds_) return;
+    std::vector<std::vector<std::size_t>> day_refs(places_);
+    for (std::size_t d = 0; d < n; ++d)
+        if (map_.learned[d] == 0) day_refs[static_cast<std::size_t>(map_.place_of_ref[d])].push_back(d);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (map_.learned[i] == 0) continue;
+        // the day reference of the place nearest in heading (ties: the first)
+        double nearest = std::numeric_limits<double>::infinity();
+        for (const std::size_t d : day_refs[static_cast<std::size_t>(map_.place_of_ref[i])]) {
+            const double gap = headings_.empty() ? 0.0 : std::fabs(wrap(map_.ref_headings[d] - map_.ref_headings[i]));
+            if (gap < nearest) {
+                nearest = gap;
+                proxy_[i] = static_cast<std::int32_t>(d);
+            }
+        }
+        if (proxy_[i] >= 0 && !headings_.empty()) headings_[i] = map_.ref_headings[static_cast<std::size_t>(proxy_[i])];
+    }
+}
+
+void GridFilter::choose_recall() {
+    // at most as many learned references with a day reference as the day references
+    // (GridFilterMap::learned): half the budget nearest the last belief's peak, the rest in turn
+    const std::size_t n = n_refs();
+    recall_order_.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+        recalled_[i] = 1;
+        if (map_.learned[i] != 0 && proxy_[i] >= 0) recall_order_.push_back(i);
+    }
+    if (recall_order_.size() <= day_refs_) return;
+    for (const std::size_t i : recall_order_) recalled_[i] = 0;
+    const double cx = static_cast<double>(recall_cell_ % width_), cy = static_cast<double>(recall_cell_ / width_);
+    auto d2 = [&](std::size_t i) {
+        const std::size_t c = place_cell_[static_cast<std::size_t>(map_.place_of_ref[i])];
+        const double ex = map_.dx * (static_cast<double>(c % width_) - cx);
+        const double ey = map_.dy * (static_cast<double>(c / width_) - cy);
+        return ex * ex + ey * ey;
+    };
+    const auto nearer = [&](std::size_t a, std::size_t b) {
+        const double da = d2(a), db = d2(b);
+        return da < db || (da == db && a < b);
+    };
+    const std::size_t near = day_refs_ / 2, turn = day_refs_ - near;
+    matched_.assign(recall_order_.begin(), recall_order_.end());  // scratch: nearest first
+    std::nth_element(matched_.begin(), matched_.begin() + static_cast<std::ptrdiff_t>(near), matched_.end(), nearer);
+    for (std::size_t k = 0; k < near; ++k) recalled_[matched_[k]] = 1;
+    // the others in index order, a window of them moving on by `turn` every frame (a lost robot
+    // meets every look within a few frames)
+    matched_.clear();
+    for (const std::size_t i : recall_order_)
+        if (recalled_[i] == 0) matched_.push_back(i);
+    const std::size_t start = frames_ * turn % matched_.size();
+    for (std::size_t k = 0; k < turn; ++k) recalled_[matched_[(start + k) % matched_.size()]] = 1;
 }
 
 void GridFilter::scale_learned() {
-    // the frame's learned scores onto the day references' scale (GridFilterMap::learned): times
-    // the ratio of the two kinds' median minimum scores, then a look's lead over its place's
-    // best day reference tempered (table_ and mins_ hold the frame's scores)
+    // the frame's recalled learned references as evidence about their day references
+    // (GridFilterMap::learned); table_, mins_ and best_shifts_ hold the frame's scores
     const std::size_t n = n_refs(), S = n_shifts();
     sorted_.clear();
     for (std::size_t i = 0; i < n; ++i)
@@ -285,27 +355,46 @@ void GridFilter::scale_learned() {
     const double day = median_of(sorted_);
     sorted_.clear();
     for (std::size_t i = 0; i < n; ++i)
-        if (map_.learned[i] != 0) sorted_.push_back(mins_[i]);
+        if (map_.learned[i] != 0 && recalled_[i] != 0) sorted_.push_back(mins_[i]);
     const double night = median_of(sorted_);
-    if (!(day > 0 && night > 0)) return;  // a frame that equals references: no scale to bring
-    const double ratio = day / night;
+    const bool scaled = day > 0 && night > 0;  // else a frame that equals references: no scale to bring
+    const double ratio = scaled ? day / night : 1.0;
+    // (1) on the day scale; a learned reference's best minimum to its day reference
     const float inf = std::numeric_limits<float>::infinity();
-    day_best_.assign(places_, inf);
-    for (std::size_t i = 0; i < n; ++i) {
-        float& best = day_best_[static_cast<std::size_t>(map_.place_of_ref[i])];
-        if (map_.learned[i] == 0) best = std::min(best, mins_[i]);
-    }
-    for (std::size_t i = 0; i < n; ++i) {
-        if (map_.learned[i] == 0) continue;
-        float* row = table_.data() + i * S;
+    evidence_.assign(n, inf);
+    for (std::size_t i = 0; scaled && i < n; ++i) {
+        if (map_.learned[i] == 0 || recalled_[i] == 0) continue;
+        const auto on_day = static_cast<float>(static_cast<double>(mins_[i]) * ratio);
+        if (proxy_[i] >= 0) {
+            float& best = evidence_[static_cast<std::size_t>(proxy_[i])];
+            best = std::min(best, on_day);
+            continue;
+        }
+        float* row = table_.data() + i * S;  // a place learned in a gap: scaled only
         for (std::size_t j = 0; j < S; ++j) row[j] = static_cast<float>(static_cast<double>(row[j]) * ratio);
-        mins_[i] = static_cast<float>(static_cast<double>(mins_[i]) * ratio);
-        // only kLearnedAdvantage of the look's lead over its place's day image counts
-        const float best = day_best_[static_cast<std::size_t>(map_.place_of_ref[i])];
-        if (!(best < inf) || !(mins_[i] < best)) continue;
-        const double lift = (1.0 - kLearnedAdvantage) * (static_cast<double>(best) - static_cast<double>(mins_[i]));
-        for (std::size_t j = 0; j < S; ++j) row[j] = static_cast<float>(static_cast<double>(row[j]) + lift);
-        mins_[i] = static_cast<float>(static_cast<double>(mins_[i]) + lift);
+        mins_[i] = on_day;
+    }
+    // (2) each day reference with learned ones moved by their evidence against the typical one's
+    sorted_.clear();
+    for (std::size_t d = 0; d < n; ++d)
+        if (evidence_[d] < inf) sorted_.push_back(evidence_[d]);
+    const double neutral = sorted_.empty() ? 0.0 : median_of(sorted_);
+    for (std::size_t d = 0; d < n; ++d) {
+        if (!(evidence_[d] < inf)) continue;
+        const double move = static_cast<double>(evidence_[d]) - neutral;
+        float* row = table_.data() + d * S;
+        for (std::size_t j = 0; j < S; ++j) row[j] = static_cast<float>(static_cast<double>(row[j]) + move);
+        mins_[d] = static_cast<float>(static_cast<double>(mins_[d]) + move);
+    }
+    // (3) a learned reference scores as its day reference (recalled or not)
+    for (std::size_t i = 0; i < n; ++i) {
+        if (map_.learned[i] == 0 || proxy_[i] < 0) continue;
+        const auto d = static_cast<std::size_t>(proxy_[i]);
+        std::copy(table_.begin() + static_cast<std::ptrdiff_t>(d * S),
+                  table_.begin() + static_cast<std::ptrdiff_t>((d + 1) * S),
+                  table_.begin() + static_cast<std::ptrdiff_t>(i * S));
+        mins_[i] = mins_[d];
+        best_shifts_[i] = best_shifts_[d];
     }
 }
 
@@ -643,23 +732,45 @@ void GridFilter::update_image(const std::uint8_t* query, const std::uint8_t* ref
         update(table_.data());
         return;
     }
+    if (two_kinds_) choose_recall();
+    matched_.clear();
+    for (std::size_t i = 0; two_kinds_ && i < n_refs_in; ++i)
+        if (recalled_[i] != 0) matched_.push_back(i);
     sums_table_.resize(table_.size());
-    rotational_sad_sums(query, refs, n_refs_in, image_height, map_.columns, map_.shifts.data(), map_.shifts.size(),
-                        sums_table_.data(), threads);
-    detail::filter_kernels(active_simd_backend())
-        .scale_sums(sums_table_.data(), table_.size(), static_cast<double>(image_height * map_.columns), table_.data());
-    update(table_.data());
+    const double pixels = static_cast<double>(image_height * map_.columns);
+    const auto& kernels = detail::filter_kernels(active_simd_backend());
+    if (!two_kinds_ || matched_.size() == n_refs_in) {
+        rotational_sad_sums(query, refs, n_refs_in, image_height, map_.columns, map_.shifts.data(), map_.shifts.size(),
+                            sums_table_.data(), threads);
+        kernels.scale_sums(sums_table_.data(), table_.size(), pixels, table_.data());
+    } else {  // the recalled references only, gathered (the others score as their day references)
+        const std::size_t image = image_height * map_.columns, S = n_shifts();
+        gathered_.resize(matched_.size() * image);
+        for (std::size_t k = 0; k < matched_.size(); ++k)
+            std::copy(refs + matched_[k] * image, refs + (matched_[k] + 1) * image, gathered_.begin() + k * image);
+        rotational_sad_sums(query, gathered_.data(), matched_.size(), image_height, map_.columns, map_.shifts.data(),
+                            map_.shifts.size(), sums_table_.data(), threads);
+        std::fill(table_.begin(), table_.end(), 0.f);
+        for (std::size_t k = 0; k < matched_.size(); ++k)
+            kernels.scale_sums(sums_table_.data() + k * S, S, pixels, table_.data() + matched_[k] * S);
+    }
+    update_recalled(table_.data());
 }
 
 double GridFilter::shift_of_bin0(std::size_t i, double W) const {
     // the fractional column shift of heading bin 0 for reference i, reduced to [0, W)
-    double c = (offset_ - map_.ref_headings[i]) * W / kTwoPi;
+    double c = (offset_ - headings_[i]) * W / kTwoPi;
     c -= W * std::floor(c / W);
     if (!(c < W) || c < 0) c = 0.0;  // rounding at the ends of the range
     return c;
 }
 
 void GridFilter::update(const float* table) {
+    if (two_kinds_) choose_recall();
+    update_recalled(table);
+}
+
+void GridFilter::update_recalled(const float* table) {
     if (table == nullptr) throw std::invalid_argument("grid filter: null table");
     const std::size_t n = n_refs(), S = n_shifts();
     const auto& k = detail::filter_kernels(active_simd_backend());
@@ -751,7 +862,7 @@ void GridFilter::update(const float* table) {
                 const float* row = table + i * S;
                 float* ps = place_scores_.data() + static_cast<std::size_t>(row_of_ref_[i]) * B;
                 for (std::size_t b = 0; b < bins_; ++b) {
-                    const double dx = wrap(offset_ + step * static_cast<double>(b) - map_.ref_headings[i]) * per_radian;
+                    const double dx = wrap(offset_ + step * static_cast<double>(b) - headings_[i]) * per_radian;
                     if (!(std::fabs(dx) <= c)) continue;  // not in view from this heading
                     const double x = dx + c;              // in [0, 2 c]
                     const auto j0 = std::min(static_cast<std::size_t>(x), last);
@@ -848,6 +959,10 @@ void GridFilter::update(const float* table) {
     scale_ = 1.0 / total;
     marginal_valid_ = true;
     bin_max_valid_ = pose_;
+    // the next frame's recall centre: the first maximum of this belief
+    recall_cell_ = static_cast<std::size_t>(
+        std::max_element(marginal_.begin(), marginal_.begin() + static_cast<std::ptrdiff_t>(cells_)) -
+        marginal_.begin());
 }
 
 void GridFilter::measure_group(detail::UpdateArgs& args, std::size_t d0, std::size_t d1, std::size_t first_slice) {
@@ -1168,7 +1283,8 @@ std::size_t GridFilter::memory_bytes() const noexcept {
     add(sums_table_), add(table_), add(mins_), add(sorted_), add(bin_high_), add(place_scores_), add(log_lik_);
     add(row_of_ref_), add(ref_c0_), add(ref_fraction_), add(row_y_), add(first_of_place_);
     add(empty_places_), add(bin_max_), add(bin_mass_), add(best_shifts_), add(xs_), add(dx2_), add(hist_), add(ring_);
-    add(map_.place_of_ref), add(map_.ref_headings), add(map_.shifts), add(map_.learned), add(day_best_);
+    add(map_.place_of_ref), add(map_.ref_headings), add(map_.shifts), add(map_.learned), add(proxy_), add(headings_),
+        add(evidence_), add(place_cell_), add(recalled_), add(recall_order_), add(matched_), add(gathered_);
     return bytes;
 }
 

@@ -49,9 +49,11 @@ evaluate`` does) before any error is computed or drawn, and the command says so;
 it says that the frames differ and reports no errors.
 
 ``--learn NEW_MAP`` also writes NEW_MAP (atomically; MAP is never changed): the map plus the
-frames this night localized confidently, as further appearances of its places or new places in its
-gaps (:mod:`nightloc.experience.learning`, ``[learning]`` in ``--params``); a night that never
-settles teaches nothing, and NEW_MAP is then the map unchanged (the command says so).
+frames this night localized confidently (the night localized forwards, backwards and smoothed),
+as further appearances of its places or new places in its gaps
+(:mod:`nightloc.experience.learning`, ``[learning]`` in ``--params``); a night that never settles,
+or whose frames match none of the map's learned looks (another garden), teaches nothing, and
+NEW_MAP is then the map unchanged (the command says so).
 """
 
 from __future__ import annotations

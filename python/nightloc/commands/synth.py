@@ -13,6 +13,7 @@ from ..synth.creek import CREEK_DARKNESS, make_creek_dataset
 from ..synth.dataset import DEFAULT_DARKNESS, DEFAULT_SEED, make_dataset
 from ..synth.nights import NIGHTS, parse_nights
 from ..synth.render import Camera
+from ..synth.season import BAD_NIGHTS, SEASON_WORLDS
 from ..synth.sensor import MAX_DARKNESS
 from ..synth.world import ALL_WORLDS, WORLD_NAMES
 
@@ -71,6 +72,28 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         + "; ".join(f"{night.name} ({night.description})" for night in NIGHTS.values())
         + ". Not for --world creek",
     )
+    parser.add_argument(
+        "--season",
+        type=int,
+        default=None,
+        metavar="N",
+        help="render a season of N consecutive nights of --world garden or large_garden instead of the night "
+        "traverses: each night OUT/season_NNN (the day path driven again, its own wheel odometry) under its own "
+        "light (lamps, lanterns, the moon's phase, clouds, fog) and scene (grass height and mowing stripes, leaves, "
+        "wet ground, furniture moved, a playhouse put up, a bench taken away), every --test-every nights "
+        "OUT/season_NNN_query (the other path); each night's conditions in dataset.json under season",
+    )
+    parser.add_argument(
+        "--test-every", type=int, default=None, metavar="K", help="--season: a test drive every K nights (default 3)"
+    )
+    parser.add_argument(
+        "--bad-nights",
+        default=None,
+        metavar="SPEC",
+        help="--season: bad nights as NIGHT:KIND items, e.g. 10:covered,17:kidnapped,24:other_garden (kinds: "
+        + ", ".join(BAD_NIGHTS)
+        + ")",
+    )
     parser.add_argument("--overwrite", action="store_true", help="replace a dataset that exists at OUT")
     parser.add_argument("--threads", type=int, default=None, help="render threads (default all cores)")
     parser.set_defaults(run=run)
@@ -119,6 +142,17 @@ def run(args: argparse.Namespace) -> int:
                 "--nights applies to the garden, living_room and large_garden worlds, not to --world creek"
             )
         looks["nights"] = parse_nights(args.nights)
+    if args.season is not None:
+        if args.world not in SEASON_WORLDS:
+            raise ValueError(f"--season applies to --world {' or '.join(SEASON_WORLDS)}, not {args.world}")
+        if args.nights is not None or args.pattern != "rows" or args.camera != "panoramic":
+            raise ValueError(
+                "--season renders its own nights with the panorama and the rows pattern: "
+                "not with --nights, --pattern or --camera forward"
+            )
+        looks.update(season=args.season, test_every=args.test_every or 3, bad_nights=args.bad_nights)
+    elif args.bad_nights is not None or args.test_every is not None:
+        raise ValueError("--bad-nights and --test-every are about a season's nights: give --season N too")
     start = time.perf_counter()
     if args.world == "creek":
         if args.size != "192x96" or args.camera != "panoramic" or args.tilt or args.height_jitter:

@@ -31,9 +31,12 @@ What is learned (:class:`LearningParams`, TOML ``[learning]``):
 * **Usefulness.** Every trusted frame that belongs to a place counts one match for the place's
   appearance that scored best against it (:attr:`~nightloc.io.appearances.Appearances.matches`).
 * **A cap per place.** A place view holds at most ``max_learned`` learned appearances; beyond,
-  the least useful learned one goes: the fewest matches, ties the oldest night, then the lowest
-  confidence. The day map's references (survey or teach run) are never evicted, nor the
-  appearance just learned.
+  the retention policy (``retention``, :data:`RETENTION_POLICIES`) says which goes: by default
+  the least useful one (the fewest matches, ties the oldest night, then the lowest confidence).
+  The day map's references (survey or teach run) are never evicted, nor the appearance just
+  learned. With the localizer's recall (``GridFilterMap::learned``: per frame only the looks
+  nearest the belief, as many as the day references, are matched) memory and time per frame stay
+  bounded however long the season.
 * **Provenance.** Each reference records its night (0: the day map), confidence, time and match
   count (:class:`~nightloc.io.appearances.Appearances`); the map's header lists the nights learned.
 
@@ -44,9 +47,11 @@ enter a map.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import datetime as dt
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -58,21 +63,65 @@ from ..io.appearances import Appearances, LearnedNight
 from ..localization.localizer import Estimate, Localizer
 from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import match
-from ..motion.odometry import wrap_angle
+from ..motion.odometry import as_motion, reverse_motion, wrap_angle
 from ..preparation.params import PreparationParams
 
 __all__ = [
+    "RETENTION_POLICIES",
     "LearningParams",
     "LearningReport",
     "LocalizedNight",
     "NightLearner",
+    "RetentionPolicy",
+    "backward_estimates",
     "learn",
     "localize_night",
+    "smoothed_estimates",
+    "trust_night",
     "trusted_frames",
 ]
 
 #: The place spacing assumed for a map of a single place (metres).
 _SINGLE_PLACE_SPACING = 1.0
+
+
+@dataclass(frozen=True)
+class RetentionPolicy:
+    """Which learned appearances of a place view go first when a night's new look would exceed
+    the cap: :meth:`order` sorts them, the first goes first. ``key`` maps an appearance (its
+    record ``Appearances``, its matches so far, tonight's night number, its index) to a sort key."""
+
+    name: str
+    description: str
+    key: Callable[[Appearances, np.ndarray, int, int], tuple]
+
+    def order(self, refs: Sequence[int], record: Appearances, matches: np.ndarray, night: int) -> list[int]:
+        """``refs`` (learned appearances' indices), the first to go first."""
+        return sorted(refs, key=lambda r: self.key(record, matches, night, r))
+
+
+#: The retention policies by name (:attr:`LearningParams.retention`; the sweep in
+#: docs/experience_maps.md chose the default).
+RETENTION_POLICIES: dict[str, RetentionPolicy] = {
+    policy.name: policy
+    for policy in (
+        RetentionPolicy(
+            "usage",
+            "the fewest matches (ties: the oldest night, the lowest confidence)",
+            lambda rec, m, night, r: (int(m[r]), int(rec.night[r]), float(rec.confidence[r]), r),
+        ),
+        RetentionPolicy(
+            "recency",
+            "the oldest night learned (ties: the fewest matches)",
+            lambda rec, m, night, r: (int(rec.night[r]), int(m[r]), r),
+        ),
+        RetentionPolicy(
+            "usage_rate",
+            "the fewest matches per night since learned (ties: the oldest night)",
+            lambda rec, m, night, r: (int(m[r]) / max(night - int(rec.night[r]), 1), int(rec.night[r]), r),
+        ),
+    )
+}
 
 
 @params_section("learning")
@@ -95,6 +144,13 @@ class LearningParams:
             the best of its appearances scores above this fraction of the frame's median score
             over the map (0: always, a large value: never).
         max_learned: learned appearances kept per place view (>= 1).
+        retention: which learned appearance of a full place view goes for a new one, a name of
+            :data:`RETENTION_POLICIES`.
+        max_look_ratio: a night is not learned when its trusted frames match their places'
+            learned appearances no better than this fraction of their median score over all
+            learned appearances (the median over the frames): it does not look like this map's
+            nights (another garden). Checked once the map has learned appearances at the places
+            of at least ``settled_frames`` of the night's frames.
     """
 
     min_confidence: float = 0.8
@@ -104,7 +160,9 @@ class LearningParams:
     gap_fraction: float = 1.0
     heading_tolerance: float = 45.0
     novelty: float = 0.5
-    max_learned: int = 3
+    max_learned: int = 2
+    retention: str = "usage"
+    max_look_ratio: float = 0.85
 
     def validate(self) -> None:
         if not 0.0 <= self.min_confidence <= 1.0:
@@ -123,6 +181,10 @@ class LearningParams:
             raise ValueError(f"novelty must be a finite number >= 0, got {self.novelty}")
         if self.max_learned < 1:
             raise ValueError(f"max_learned must be >= 1, got {self.max_learned}")
+        if self.retention not in RETENTION_POLICIES:
+            raise ValueError(f"retention must be one of {', '.join(RETENTION_POLICIES)}, got {self.retention!r}")
+        if not (self.max_look_ratio > 0 and math.isfinite(self.max_look_ratio)):
+            raise ValueError(f"max_look_ratio must be a positive number, got {self.max_look_ratio}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,6 +200,13 @@ class LocalizedNight:
         source: the log (a path), for the map's history.
         map_fingerprint: :attr:`ReferenceMap.fingerprint` of the map it was localized against.
         params: the preparation parameters of ``images``.
+        backward: the M estimates of the same filter run over the night backwards (last frame
+            first, each motion reversed), in frame order; None when only the forward run was made.
+        smoothed: the M estimates of the product of the two runs' beliefs (each frame's forward
+            belief times the backward run's prediction of it: what the whole night says of it);
+            None without the backward run.
+        learned_medians: ``(M,)`` each frame's median over the map's learned appearances of its
+            minimum score (the scale a learned look's match is judged on), or None (a day map).
     """
 
     images: np.ndarray
@@ -148,6 +217,9 @@ class LocalizedNight:
     source: str
     map_fingerprint: str
     params: PreparationParams
+    backward: tuple[Estimate, ...] | None = None
+    smoothed: tuple[Estimate, ...] | None = None
+    learned_medians: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.estimates)
@@ -161,9 +233,12 @@ class NightLearner:
         ref_map: the map.
         localizer: a filter :class:`Localizer` over ``ref_map`` (default ``Localizer(ref_map)``);
             it is reset first.
+        backward: keep each frame's position belief and motion, so that :meth:`night` also runs
+            the filter over the night backwards and smooths the two runs (as :func:`localize_night`).
+            The beliefs cost the grid's size per frame (``(Ny, Nx)`` float64).
     """
 
-    def __init__(self, ref_map: ReferenceMap, localizer: Localizer | None = None):
+    def __init__(self, ref_map: ReferenceMap, localizer: Localizer | None = None, *, backward: bool = True):
         loc = Localizer(ref_map) if localizer is None else localizer
         if loc.ref_map is not ref_map and loc.ref_map != ref_map:
             raise ValueError("the localizer runs over another map than ref_map")
@@ -172,9 +247,15 @@ class NightLearner:
         loc.reset()
         self.ref_map = ref_map
         self.localizer = loc
+        self.backward = backward
         self._images: list[np.ndarray] = []
         self._estimates: list[Estimate] = []
         self._medians: list[float] = []
+        self._look_medians: list[float] = []
+        self._beliefs: list[np.ndarray] = []
+        self._motions: list[object] = []
+        night = None if ref_map.appearances is None else np.asarray(ref_map.appearances.night) > 0
+        self._looks = night if night is not None and night.any() else None
 
     def __len__(self) -> int:
         return len(self._estimates)
@@ -187,7 +268,13 @@ class NightLearner:
         estimate = self.localizer.update_table(table, motion)
         self._estimates.append(estimate)
         self._images.append(image)
-        self._medians.append(float(np.median(table.min(axis=1))))
+        mins = table.min(axis=1)
+        self._medians.append(float(np.median(mins)))
+        if self._looks is not None:
+            self._look_medians.append(float(np.median(mins[self._looks])))
+        if self.backward:
+            self._beliefs.append(self.localizer.belief)
+            self._motions.append(motion)
         return estimate
 
     def night(
@@ -197,7 +284,8 @@ class NightLearner:
         source: str = "",
     ) -> LocalizedNight:
         """The frames so far as a :class:`LocalizedNight` (``names``, ``timestamps`` in seconds
-        and ``source`` as :func:`localize_night` takes them)."""
+        and ``source`` as :func:`localize_night` takes them). With ``backward``, the backward run
+        and the smoother run here (the localizer's belief is replaced)."""
         ref_map = self.ref_map
         m = len(self._estimates)
         if names is None:
@@ -208,8 +296,13 @@ class NightLearner:
         if times is not None and times.shape != (m,):
             raise ValueError(f"timestamps must be ({m},) seconds, got shape {times.shape}")
         shape = (0, ref_map.params.height, ref_map.params.width)
+        images = np.stack(self._images) if self._images else np.zeros(shape, np.uint8)
+        back, smoothed = None, None
+        if self.backward and m > 1:
+            back, predicted = backward_estimates(self.localizer, images, self._motions)
+            smoothed = smoothed_estimates(self.localizer, self._beliefs, predicted)
         return LocalizedNight(
-            np.stack(self._images) if self._images else np.zeros(shape, np.uint8),
+            images,
             tuple(self._estimates),
             np.asarray(self._medians, dtype=np.float64),
             tuple(names),
@@ -217,6 +310,9 @@ class NightLearner:
             str(source),
             ref_map.fingerprint,
             ref_map.params,
+            back,
+            smoothed,
+            np.asarray(self._look_medians, dtype=np.float64) if self._look_medians else None,
         )
 
 
@@ -229,6 +325,7 @@ def localize_night(
     names: Sequence[str] | None = None,
     timestamps: Sequence[float] | np.ndarray | None = None,
     source: str = "",
+    backward: bool = True,
 ) -> LocalizedNight:
     """Runs the grid filter over a night's frames, keeping what :func:`learn` needs.
 
@@ -239,33 +336,105 @@ def localize_night(
         localizer: a filter :class:`Localizer` over ``ref_map`` (default ``Localizer(ref_map)``);
             it is reset first.
         names, timestamps, source: the log's frame names, times (seconds) and path.
+        backward: also run the filter over the night backwards (:func:`backward_estimates`), so
+            that the frames before the forward run settled can be learned too, and a frame the
+            two runs place apart is not (:func:`trust_night`).
     """
-    learner = NightLearner(ref_map, localizer)
+    learner = NightLearner(ref_map, localizer, backward=backward)
     for k, frame in enumerate(frames):
         learner.step(frame, None if odometry is None else odometry[k])
     return learner.night(names, timestamps, source)
 
 
+def backward_estimates(
+    localizer: Localizer, images: np.ndarray, odometry: Sequence[object]
+) -> tuple[tuple[Estimate, ...], list[np.ndarray | None]]:
+    """The filter run over a night backwards: prepared ``images`` ``(M, Ry, Rx)`` from the last to
+    the first, each fed the reverse of the motion that led to the next frame
+    (:func:`~nightloc.motion.odometry.reverse_motion`). Returns the M estimates and, per frame, the
+    run's position belief predicted to it before its own frame (None for the last frame: no
+    prediction), both in frame order. The localizer is reset first."""
+    localizer.reset()
+    out: list[Estimate] = []
+    predicted: list[np.ndarray | None] = []
+    for k in range(len(images) - 1, -1, -1):
+        table = localizer.score_table(images[k], prepared=True)
+        motion = None if k + 1 == len(images) else reverse_motion(as_motion(odometry[k + 1]))
+        if motion is None:
+            predicted.append(None)
+        else:
+            ahead = copy.copy(localizer)
+            ahead.predict(motion)
+            predicted.append(ahead.belief)
+        out.append(localizer.update_table(table, motion))
+    return tuple(out[::-1]), predicted[::-1]
+
+
+def smoothed_estimates(
+    localizer: Localizer, forward: Sequence[np.ndarray], predicted: Sequence[np.ndarray | None]
+) -> tuple[Estimate, ...]:
+    """Per frame the estimate of its forward belief times the backward run's prediction of it
+    (the night's evidence before and after the frame, the frame's own once): the two-filter
+    smoother, over position. ``localizer``'s belief is replaced (it ends at the first frame's)."""
+    out = []
+    for belief, ahead in zip(forward, predicted, strict=True):
+        product = belief if ahead is None else belief * ahead
+        out.append(localizer.estimate_belief(product if product.sum() > 0 else belief))
+    return tuple(out)
+
+
 def trusted_frames(estimates: Sequence[Estimate], params: LearningParams) -> np.ndarray:
     """``(M,)`` bool: the frames learned from (confident, tight, after the belief settled)."""
-    good = np.array(
-        [
-            math.isfinite(e.confidence)
-            and e.confidence >= params.min_confidence
-            and math.isfinite(e.credible_radius)
-            and e.credible_radius <= params.max_credible_radius
-            and math.isfinite(e.x)
-            and math.isfinite(e.y)
-            for e in estimates
-        ],
-        dtype=bool,
-    )
+    good = np.array([_confident(e, params) for e in estimates], dtype=bool)
     run = 0
     trusted = np.zeros_like(good)
     for k, ok in enumerate(good):
         run = run + 1 if ok else 0
         trusted[k] = run >= params.settled_frames
     return trusted
+
+
+def _confident(estimate: Estimate, params: LearningParams) -> bool:
+    return (
+        math.isfinite(estimate.confidence)
+        and estimate.confidence >= params.min_confidence
+        and math.isfinite(estimate.credible_radius)
+        and estimate.credible_radius <= params.max_credible_radius
+        and math.isfinite(estimate.x)
+        and math.isfinite(estimate.y)
+    )
+
+
+def trust_night(night: LocalizedNight, params: LearningParams, agree: float) -> tuple[np.ndarray, tuple[Estimate, ...]]:
+    """The frames learned from, ``(M,)`` bool, and the estimate each is learned at.
+
+    A frame is trusted by a run: the forward run, the backward run or their product (the
+    smoother), each settled as :func:`trusted_frames` says (the backward run's settled frames count
+    backwards in time). It is learned at the smoother's position (with the tighter run's heading)
+    if that trusts it, else at the tighter trusting run's estimate; unless the forward or the
+    backward run, confident there (confidence and credible radius within the thresholds), places
+    it more than ``agree`` metres away: the runs then disagree (a robot carried off, a
+    look-alike), and nothing is taken.
+    """
+    runs = [night.estimates] if night.backward is None else [night.estimates, night.backward]
+    trusted = [trusted_frames(night.estimates, params)]
+    if night.backward is not None:
+        trusted.append(trusted_frames(night.backward[::-1], params)[::-1])
+    smoothed = night.smoothed
+    by_smoother = np.zeros(len(night), dtype=bool) if smoothed is None else trusted_frames(smoothed, params)
+    chosen: list[Estimate] = []
+    keep = np.zeros(len(night), dtype=bool)
+    for k in range(len(night)):
+        candidates = [run[k] for run, ok in zip(runs, trusted, strict=True) if ok[k]]
+        tightest = min(candidates or [run[k] for run in runs], key=lambda e: e.credible_radius)
+        best = tightest
+        if smoothed is not None and by_smoother[k]:  # the smoother's position, a run's heading
+            best = dataclasses.replace(smoothed[k], heading=tightest.heading)
+        chosen.append(best)
+        keep[k] = (bool(candidates) or bool(by_smoother[k])) and all(
+            math.hypot(run[k].x - best.x, run[k].y - best.y) <= agree for run in runs if _confident(run[k], params)
+        )
+    return keep, tuple(chosen)
 
 
 @dataclass(frozen=True)
@@ -281,6 +450,7 @@ class LearningReport:
         appearances: appearances added to places; ``places``: new places; ``evicted``: learned
             appearances evicted by the cap.
         places_before: places of the map before learning; ``references``: references after.
+        refused: why the night was not learned although frames were trusted ("" when it was).
     """
 
     night: int
@@ -294,6 +464,7 @@ class LearningReport:
     evicted: int
     places_before: int
     references: int
+    refused: str = ""
 
     @property
     def growth(self) -> float:
@@ -302,6 +473,8 @@ class LearningReport:
 
     def line(self) -> str:
         """One line for a person."""
+        if self.refused:
+            return f"learned nothing: {self.refused}"
         if self.first_trusted is None:
             return (
                 f"learned nothing: the localizer never settled on a confident pose in {self.frames} frames "
@@ -365,15 +538,15 @@ def learn(
         raise TypeError(f"params must be a LearningParams, got {type(params).__name__}")
     _check_night(ref_map, night)
     record = ref_map.appearances or Appearances.day(len(ref_map), ref_map.fingerprint)
-    trusted = trusted_frames(night.estimates, params)
+    spacing = place_spacing(ref_map.positions[record.night == 0])
+    attach, gap = params.attach_fraction * spacing, params.gap_fraction * spacing
+    trusted, estimates = trust_night(night, params, gap)
     places, place_of_ref = _places(ref_map.positions)
     n_places = len(places)
     if not trusted.any():
         report = LearningReport(0, len(night), 0, None, 0, 0, 0, 0, 0, n_places, len(ref_map))
         return ref_map, report
     number = len(record.nights) + 1
-    spacing = place_spacing(ref_map.positions[record.night == 0])
-    attach, gap = params.attach_fraction * spacing, params.gap_fraction * spacing
     forward = not ref_map.params.wrap and ref_map.headings is not None
     tolerance = math.radians(params.heading_tolerance)
     headings = ref_map.headings
@@ -400,10 +573,10 @@ def learn(
     new_places: list[int] = []  # frames that became new places
     attached: dict[tuple[int, float], list[int]] = {}
     for k in np.flatnonzero(trusted):
-        e = night.estimates[k]
+        e = estimates[k]
         distance, place = tree.query((e.x, e.y))
         if new_places:
-            new_xy = np.array([(night.estimates[f].x, night.estimates[f].y) for f in new_places])
+            new_xy = np.array([(estimates[f].x, estimates[f].y) for f in new_places])
             nearest_new = float(np.min(np.hypot(*(new_xy - (e.x, e.y)).T)))
             if nearest_new < distance:
                 if nearest_new >= gap:
@@ -420,32 +593,45 @@ def learn(
     learned: list[tuple[tuple[int, float], int, int]] = []  # (view, frame, best appearance)
     known = 0
     shifts = ref_map.params.shifts
+    look_ratios: list[float] = []  # per frame: its place's best learned look against the typical one
     for target, frames in attached.items():
         refs = view_refs(target)
+        looks = record.night[refs] > 0
         spot = places[target[0]]
-        candidate = min(frames, key=lambda f: (_distance(night.estimates[f], spot), -night.estimates[f].confidence))
+        candidate = min(frames, key=lambda f: (_distance(estimates[f], spot), -estimates[f].confidence))
         seen, best_of_candidate = False, -1
         for f in frames:
             result = match(night.images[f], ref_map.images[refs], shifts=shifts, threads=1)
             matches[refs[result.index]] += 1
             seen |= bool(result.score <= params.novelty * night.score_medians[f])
+            if looks.any() and night.learned_medians is not None:
+                look_ratios.append(float(result.scores[looks].min() / night.learned_medians[f]))
             if f == candidate:
                 best_of_candidate = int(refs[result.index])
         if seen:
             known += 1  # the place has a look like tonight's already
         else:
             learned.append((target, candidate, best_of_candidate))
+    ratio = float(np.median(look_ratios)) if len(look_ratios) >= params.settled_frames else math.nan
+    if ratio > params.max_look_ratio:  # not this map's nights: learn nothing
+        reason = (
+            f"its frames match their places' learned appearances at {ratio:.2f} of the typical one's score "
+            f"(more than [learning] max_look_ratio {params.max_look_ratio:g}): not a night of this map's places "
+            f"(another garden?)"
+        )
+        refused = LearningReport(0, len(night), int(trusted.sum()), None, 0, 0, 0, 0, 0, n_places, len(ref_map))
+        return ref_map, dataclasses.replace(refused, refused=reason)
 
-    # the cap: evict the least useful learned appearances of each view that would overflow
+    # the cap: the retention policy's first learned appearances of each view that would overflow go
     night_of = record.night
+    policy = RETENTION_POLICIES[params.retention]
     evict: list[int] = []
     for view, _, _ in learned:
         refs = view_refs(view)
         old = [int(r) for r in refs if night_of[r] > 0]
         excess = len(old) + 1 - params.max_learned
         if excess > 0:
-            order = sorted(old, key=lambda r: (matches[r], night_of[r], record.confidence[r], r))
-            evict.extend(order[:excess])
+            evict.extend(policy.order(old, record, matches, number)[:excess])
     keep = np.setdiff1d(np.arange(len(ref_map)), np.asarray(evict, dtype=np.int64))
 
     images = [ref_map.images[keep]]
@@ -458,7 +644,7 @@ def learn(
     new_night, new_conf, new_time = [], [], []
 
     def add(frame: int, position: np.ndarray, heading: float, covariance: np.ndarray | None) -> None:
-        e = night.estimates[frame]
+        e = estimates[frame]
         images.append(night.images[frame][None])
         positions.append(np.asarray(position, dtype=np.float64)[None])
         if heads is not None:
@@ -475,12 +661,12 @@ def learn(
         new_time.append(math.nan if night.timestamps is None else float(night.timestamps[frame]))
 
     for view, f, best in learned:
-        e = night.estimates[f]
+        e = estimates[f]
         heading = view[1] if forward else _frame_heading(e, ref_map, night, f, best)
         cov = None if ref_map.covariances is None else ref_map.covariances[best]
         add(f, ref_map.positions[best], heading, cov)
     for f in new_places:
-        e = night.estimates[f]
+        e = estimates[f]
         best = int(match(night.images[f], ref_map.images, shifts=shifts, threads=1).index)
         heading = e.heading if math.isfinite(e.heading) else _frame_heading(e, ref_map, night, f, best)
         cov = None

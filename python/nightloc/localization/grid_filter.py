@@ -218,8 +218,8 @@ class GridFilter:
         params: :class:`FilterParams`.
         noise: the odometry noise per step (a Table III model number or a NoiseModel).
         confidence_radius: metres; confidence = belief within it.
-        learned: ``(N,)`` uint8, 1 for a reference learned on a night (its scores are brought onto
-            the day references' scale per frame, :mod:`nightloc.localization.day_scale`), or None.
+        learned: ``(N,)`` uint8, 1 for a reference learned on a night (evidence about its day
+            reference per frame, :mod:`nightloc.localization.day_scale`), or None.
     """
 
     def __init__(
@@ -318,6 +318,12 @@ class GridFilter:
     def predict(self, motion: MotionCode) -> FilterState:
         """Only the prediction (no frame): the belief moves and spreads."""
         self.core.predict(*motion)
+        return _state(self.core.estimate(), None, None)
+
+    def estimate_belief(self, marginal: np.ndarray) -> FilterState:
+        """The belief replaced by ``marginal`` ``(grid_height, grid_width)`` float32 summing to 1
+        (position mode) and its estimate."""
+        self.core.set_belief(marginal[np.newaxis], False, 0.0)
         return _state(self.core.estimate(), None, None)
 
     def marginal(self) -> np.ndarray:

@@ -58,7 +58,7 @@ from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import MatchResult, match, rotational_sad, shift_table
 from ..motion.odometry import Motion, NoiseModel, RobotMotion, as_motion, robot_steps_to_map, wrap_angle
 from ..schema import Range, own_field
-from .day_scale import learned_mask, on_day_scale
+from .day_scale import learned_mask, learned_proxies, on_day_scale
 from .grid_filter import (
     GRID_FILTER_SETTINGS,
     MOTION_NONE,
@@ -272,7 +272,12 @@ class Localizer:
             confidence_radius=params.confidence_radius,
         )
         self._shifts = ref_map.params.shifts
-        self._learned = learned_mask(ref_map)  # experience maps: learned scores on the day scale
+        self._learned = learned_mask(ref_map)  # experience maps: learned looks as evidence about day images
+        self._proxies = (
+            None
+            if self._learned is None
+            else learned_proxies(self._learned, self.mapper.place_of_ref, ref_map.headings)
+        )
         self._prepared_shape = (ref_map.params.height, ref_map.params.width)
         if method == "filter":
             self._filter: GridFilter | None = self._new_filter(odometry_noise)
@@ -523,6 +528,22 @@ class Localizer:
             state = flt.predict(motion_code(motion))
             return self._filter_estimate(state, return_heatmap, frame=False)
 
+    def estimate_belief(self, belief: np.ndarray) -> Estimate:
+        """Replaces the filter's belief by the position belief ``belief`` ``(grid_height,
+        grid_width)`` (non-negative, any positive sum; the heading forgotten) and returns its
+        estimate as :meth:`predict` reports one (``best_ref`` -1, ``score`` NaN): e.g. of the
+        product of a forward and a backward run's beliefs (a smoother)."""
+        flt = self._require_filter("estimate_belief")
+        b = np.asarray(belief, dtype=np.float64)
+        if b.shape != self.mapper.grid.shape:
+            raise ValueError(f"belief must be {self.mapper.grid.shape} (grid_height, grid_width), got shape {b.shape}")
+        total = float(b.sum())
+        if not (np.all(np.isfinite(b)) and np.all(b >= 0) and total > 0):
+            raise ValueError("belief must be finite, non-negative and not all zero")
+        with self._guard("estimate_belief"):
+            state = flt.estimate_belief(np.ascontiguousarray(b / total, dtype=np.float32))
+            return self._filter_estimate(state, False, frame=False)
+
     def _motion(self, odometry: object) -> MotionCode:
         motion = as_motion(odometry)
         if self._frames == 0:
@@ -606,7 +627,7 @@ class Localizer:
                 "robot-frame odometry (RobotMotion) needs a heading estimate, and there is none: the reference "
                 "map has no headings; pass map-frame displacements (MapDisplacement or (dx, dy)) instead"
             )
-        scores = on_day_scale(result.scores, self._learned, self.mapper.place_of_ref)  # learned looks: day scale
+        scores = on_day_scale(result.scores, self._learned, self._proxies)  # learned looks: evidence
         values, fill = self.mapper.place_excess(scores)  # checks the scores before any state changes
         if isinstance(motion, RobotMotion) and math.isfinite(self._heading):
             predicted = self._heading + motion.turn

@@ -43,6 +43,7 @@ __all__ = [
     "log_noise_model",
     "noise_model",
     "read_odometry",
+    "reverse_motion",
     "robot_steps_to_map",
     "simulate_map_odometry",
     "simulate_robot_odometry",
@@ -385,6 +386,18 @@ def compose_motions(motions: Sequence[Motion]) -> Motion:
         y += s * m.forward + c * m.left
         heading += m.turn
     return RobotMotion(x, y, heading)
+
+
+def reverse_motion(motion: Motion | None) -> Motion | None:
+    """The motion back: from where ``motion`` ends to where it started, in the frame it ends in
+    (robot-frame: at the later pose; ``compose_motions([motion, reverse_motion(motion)])`` is no
+    motion); None (unknown) stays None. What a filter run backwards in time is fed."""
+    if motion is None:
+        return None
+    if isinstance(motion, MapDisplacement):
+        return MapDisplacement(-motion.dx, -motion.dy)
+    c, s = math.cos(motion.turn), math.sin(motion.turn)
+    return RobotMotion(-(c * motion.forward + s * motion.left), s * motion.forward - c * motion.left, -motion.turn)
 
 
 PathLike = Union[str, "os.PathLike[str]"]

@@ -24,7 +24,8 @@ Modules: :mod:`~nightloc.synth.geometry` (prisms, ray intersection), :mod:`~nigh
 :mod:`~nightloc.synth.render` (ray casting, panorama convention), :mod:`~nightloc.synth.paths`
 (Table I traverses), :mod:`~nightloc.synth.dataset` (writing traverses, the cached default),
 :mod:`~nightloc.synth.creek` (the paper's moonless 500 m creek path, for route mode),
-:mod:`~nightloc.synth.nights` (nights that differ: moved lamps, the moon, lamps off, darker).
+:mod:`~nightloc.synth.nights` (nights that differ: moved lamps, the moon, lamps off, darker),
+:mod:`~nightloc.synth.season` (a season of nights: light, lawn, leaves, furniture, bad nights).
 """
 
 from __future__ import annotations

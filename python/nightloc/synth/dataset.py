@@ -24,7 +24,7 @@ import copy
 import json
 import os
 import shutil
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
@@ -35,6 +35,7 @@ from .._validate import thread_count
 from ..io.atomic import locked_target, make_folder, output_set, replace_folder, staging_folder, write_text
 from ..io.files import open_regular
 from ..io.traverse import save_traverse
+from ..motion.odometry import RobotMotion
 from ..motion.wheel_noise import WheelNoise
 from ..progress import progress
 from .lighting import MOON_IRRADIANCE, Lighting, make_lighting, make_night_lighting
@@ -59,6 +60,15 @@ from .paths import (
     plan_traverses,
 )
 from .render import Camera, render_panorama, render_radiance
+from .season import (
+    COVERED_TRANSMISSION,
+    SeasonNight,
+    other_garden,
+    plan_season,
+    season_drives,
+    season_traverse_names,
+    season_world,
+)
 from .sensor import FULL_WELL, MAX_DARKNESS, READ_NOISE, Exposure, capture, metered_exposure
 from .world import ALL_WORLDS, WORLD_NAMES, World, build_world
 
@@ -131,6 +141,35 @@ class SynthScene:
             )
         world = lamp_layout(usual_world, self.seed, condition.lamps)
         direction = moon_direction(world, self.seed) if condition.moon > 0 else None
+        return self._lit_night(name, world, darkness, condition.moon, direction)
+
+    def season_night(self, night: SeasonNight) -> SynthScene:
+        """This scene on a night of a season (:func:`~nightloc.synth.season.plan_season`): the world's
+        lamps, lawn, leaves, furniture and objects of that night
+        (:func:`~nightloc.synth.season.season_world`; an ``other_garden`` night: another garden,
+        :func:`~nightloc.synth.season.other_garden`), its moon and darkness; the same day and
+        night camera."""
+        usual_world, usual_darkness = self._usual_night
+        if night.bad == "other_garden":
+            world = other_garden(usual_world.name, self.seed)
+        else:
+            world = season_world(usual_world, night, self.seed)
+        darkness = min(usual_darkness + night.extra_darkness, 3.0)
+        direction = None if night.moon_direction is None else np.asarray(night.moon_direction)
+        moon = night.moon if direction is not None else 0.0
+        scene = self._lit_night(f"season night {night.night}", world, darkness, moon, direction)
+        if night.bad == "covered":  # the lens covered: the same exposure, hardly any light
+            exposure = scene.exposure["night"]
+            scene.exposure["night"] = replace(
+                exposure, electrons_per_unit=exposure.electrons_per_unit * COVERED_TRANSMISSION
+            )
+        return scene
+
+    def _lit_night(
+        self, name: str, world: World, darkness: float, moon: float, direction: np.ndarray | None
+    ) -> SynthScene:
+        """A copy of this scene whose night is ``world``'s (its lamps), the moon's and ``darkness``."""
+        usual_world = self._usual_night[0]
         usual_power = sum(sum(light.power) for light in usual_world.lights.values() if "night" in light.conditions)
         power = sum(sum(light.power) for light in world.lights.values() if "night" in light.conditions)
         night = copy.copy(self)
@@ -143,7 +182,7 @@ class SynthScene:
             "night": make_night_lighting(
                 world,
                 self.seed,
-                moon=condition.moon,
+                moon=moon,
                 moon_direction=direction,
                 lamp_bounce=power / usual_power if usual_power > 0 else 1.0,
             ),
@@ -333,6 +372,9 @@ def make_dataset(
     pattern: str = "rows",
     parents: bool = False,
     nights: str | Sequence[str] | None = None,
+    season: int | None = None,
+    test_every: int = 3,
+    bad_nights: str | Mapping[int, str] | None = None,
 ) -> dict[str, Path]:
     """Renders every traverse of ``world`` into ``out_dir`` and returns their folders by name.
 
@@ -367,6 +409,12 @@ def make_dataset(
             ``night_reference`` and ``night_query``, the garden's byte-identical to Table I's), each
             night recorded in ``dataset.json`` under ``nights``. An unknown name is a ValueError
             naming the choices.
+        season: None (the default) or a number of nights N: instead of the night traverses, a
+            season of the garden or the large garden (:mod:`nightloc.synth.season`): the day
+            reference, then per night ``season_NNN`` (the day path driven again, with its own wheel
+            odometry) and every ``test_every`` nights ``season_NNN_query`` (the other path); each
+            night's conditions in ``dataset.json`` under ``season``. ``bad_nights``: bad nights of
+            the season, ``{night: kind}`` or ``"10:covered,17:kidnapped,24:other_garden"``.
 
     The dataset is written as one set (:func:`nightloc.io.atomic.output_set`): the traverses and
     ``dataset.json`` appear together, or -- on an error or an interruption -- the previous
@@ -381,23 +429,45 @@ def make_dataset(
         if not (np.isfinite(value) and 0 <= value <= 20):
             raise ValueError(f"{name} must be in [0, 20], got {value}")
     night_names = None if nights is None else parse_nights(nights)
+    if season is not None and (night_names is not None or pattern != "rows" or view != "panoramic"):
+        raise ValueError(
+            "a season (season=N) drives the day path and the other path of the rows pattern with a panorama: "
+            "not with nights, pattern or a forward view"
+        )
+    schedule = None if season is None else plan_season(world, season, seed, test_every=test_every, bad=bad_nights)
     scene = SynthScene(world, seed, darkness, camera)
     plans = plan_traverses(world, scene.seed, pattern)
     scenes = {plan.name: scene for plan in plans}
+    season_of: dict[str, SeasonNight] = {}  # a season's drives: their night (its scene made when rendered)
     if night_names is not None:
         plans, night_scenes = plans[:1], {name: scene.night(name) for name in night_names}
         for name in night_names:
             for drive in plan_night_drives(world, scene.seed, NIGHT_NAMES.index(name), pattern):
                 plans.append(replace(drive, name=night_traverse_name(drive.name, name)))
                 scenes[plans[-1].name] = night_scenes[name]
+    if schedule is not None:
+        plans = plans[:1]
+        for night in schedule:
+            for drive in season_drives(world, scene.seed, night):
+                plans.append(drive)
+                season_of[drive.name] = night
     if view == "forward":
         plans = [_four_ways(plan) if plan.name == "day_reference" else plan for plan in plans]
     with output_set(
         out_dir, command="synth", overwrite=overwrite, overwrite_hint="overwrite=True", parents=parents
     ) as out:
+        lit: dict[int, SynthScene] = {}  # the season night being rendered: its scene, made once
+        lamps: dict[int, list[dict]] = {}  # the lamps on, by season night
         for plan in plans:
+            plan_scene = scenes.get(plan.name, scene)
+            if plan.name in season_of:
+                night = season_of[plan.name]
+                if night.night not in lit:
+                    lit = {night.night: scene.season_night(night)}
+                    lamps[night.night] = lamps_on(lit[night.night].world)
+                plan_scene = lit[night.night]
             frames = progress(
-                scenes[plan.name].render_plan(plan, threads, tilt_deg, height_std),
+                plan_scene.render_plan(plan, threads, tilt_deg, height_std),
                 total=len(plan.positions),
                 desc=f"{world}/{plan.name}",
                 unit="frame",
@@ -405,6 +475,8 @@ def make_dataset(
             if view == "forward":
                 frames = (forward_view(frame) for frame in frames)
             odometry = SYNTH_WHEEL_NOISE.simulate(plan.positions, plan.headings, scene.odometry_rng(plan.name))
+            for k in plan.carried:  # carried: the wheels did not turn
+                odometry[k] = RobotMotion(0.0, 0.0, 0.0)
             save_traverse(
                 out / plan.name,
                 frames,
@@ -417,6 +489,20 @@ def make_dataset(
         description.update(view=view, tilt_deg=float(tilt_deg), height_std_m=float(height_std))
         if pattern != "rows":
             description.update(pattern=pattern)
+        if schedule is not None:
+            description["season"] = {
+                "nights": len(schedule),
+                "test_every": test_every,
+                "schedule": [
+                    {**n.describe(), "lamps_on": lamps[n.night], "traverses": list(season_traverse_names(n))}
+                    for n in schedule
+                ],
+            }
+            for plan in plans[1:]:
+                record = description["traverses"][plan.name]
+                record["season_night"] = int(plan.name.split("_")[1])
+                if plan.carried:
+                    record["carried"] = list(plan.carried)
         if night_names is not None:
             for plan in plans[1:]:
                 description["traverses"][plan.name]["night"] = scenes[plan.name].night_name

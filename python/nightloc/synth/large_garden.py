@@ -31,7 +31,8 @@ def _ground(rng: np.random.Generator) -> GroundMap:
     fine = value_noise(rng, rows, cols, rows // 2, cols // 2)
     dark, light = np.array([0.05, 0.16, 0.03], np.float32), np.array([0.13, 0.30, 0.06], np.float32)
     albedo = dark + (light - dark) * np.clip(0.7 * blotch + 0.5 * fine - 0.1, 0, 1)[..., None]
-    albedo *= np.where((np.floor((ys - y0) / 0.55) % 2) == 0, 1.12, 0.88)[..., None]
+    mowing = np.where((np.floor((ys - y0) / 0.55) % 2) == 0, 1.12, 0.88)  # mowing stripes along x
+    albedo *= mowing[..., None]
     worn = fbm(rng, rows, cols, 10, 14, octaves=3)
     albedo = np.where((worn > 0.72)[..., None], albedo * 0.5 + np.array([0.17, 0.13, 0.07], np.float32) * 0.6, albedo)
     soil = np.array([0.11, 0.07, 0.04], np.float32) * (0.7 + 0.6 * fine)[..., None]
@@ -42,7 +43,9 @@ def _ground(rng: np.random.Generator) -> GroundMap:
     patio = ys > 15.6
     paving = np.array([0.45, 0.42, 0.38], np.float32) * (0.85 + 0.3 * fine)[..., None]
     albedo = np.where(patio[..., None], paving, albedo)
-    return GroundMap(np.ascontiguousarray(albedo, dtype=np.float32), x0, y0, ppm)
+    lawn = ~beds & ~patio
+    stripes = np.where(lawn, mowing, 1.0).astype(np.float32)
+    return GroundMap(np.ascontiguousarray(albedo, dtype=np.float32), x0, y0, ppm, lawn, stripes)
 
 
 def large_garden(seed: int) -> World:

@@ -28,7 +28,7 @@ sky (indoors in the south, so it shines through the windows).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -45,6 +45,7 @@ __all__ = [
     "moon_direction",
     "night_traverse_name",
     "parse_nights",
+    "switch_lamps",
 ]
 
 
@@ -111,7 +112,7 @@ def night_traverse_name(traverse: str, night: str) -> str:
 
 #: The lamps switched where the robot lives: off on the ``lamps_moved`` night (the street lamp and the
 #: house's lit window stay on; every lamp is off on ``moon_only``).
-_HOUSE_LAMPS = {"porch_lamp", "floor_lamp", "table_lamp", "oven"}
+_HOUSE_LAMPS = frozenset({"porch_lamp", "floor_lamp", "table_lamp", "oven"})
 
 
 @dataclass(frozen=True)
@@ -146,18 +147,24 @@ def lamp_layout(world: World, layout_seed: int, lamps: str = "moved") -> World:
         return world
     if lamps not in ("moved", "off"):
         raise ValueError(f"lamps must be 'usual', 'moved' or 'off', got {lamps!r}")
+    off = set(world.lights) if lamps == "off" else _HOUSE_LAMPS
+    return switch_lamps(world, off, layout_seed if lamps == "moved" else None)
+
+
+def switch_lamps(world: World, off: Collection[str], lantern_seed: int | None = None) -> World:
+    """``world`` with its lamps named in ``off`` switched off at night and, given ``lantern_seed``, the
+    lamps of :func:`lamp_layout`'s ``"moved"`` night placed from that seed (garden lanterns
+    outdoors, floor lamps indoors). A new world object."""
     switched = {
-        name: replace(light, conditions=tuple(c for c in light.conditions if c != "night"))
-        if lamps == "off" or name in _HOUSE_LAMPS
-        else light
+        name: replace(light, conditions=tuple(c for c in light.conditions if c != "night")) if name in off else light
         for name, light in world.lights.items()
     }
     objects: list[Solid] = list(world.objects)
-    if lamps == "moved":
+    if lantern_seed is not None:
         style = _FLOOR_LAMP if world.indoor else _LANTERN
         post = "metal"
         head = "shade" if "shade" in world.materials else "lamp"
-        for k, (x, y) in enumerate(_lamp_places(world, layout_seed)):
+        for k, (x, y) in enumerate(_lamp_places(world, lantern_seed)):
             name = f"moved_lamp_{k}"
             objects.append(Cylinder((x, y), 0.03, 0.0, style.post, post))
             objects.append(Cylinder((x, y), 0.12, *style.head, head, emission=name))

@@ -69,12 +69,15 @@ class TraversePlan:
         condition: ``"day"`` or ``"night"``.
         positions: ``(N, 2)`` metres.
         headings: ``(N,)`` radians in (-pi, pi].
+        carried: the frames the robot reached by being carried from the previous one (a
+            kidnapped robot): its wheel odometry shows no motion for those steps.
     """
 
     name: str
     condition: str
     positions: np.ndarray
     headings: np.ndarray
+    carried: tuple[int, ...] = ()
 
     def timestamps(self) -> np.ndarray:
         """``(N,)`` seconds of the frames: :data:`FIRST_FRAME_S`, then for each step the straight

@@ -38,12 +38,19 @@ class LightSource:
 @dataclass(frozen=True)
 class GroundMap:
     """A map of the ground plane: ``values[row, col]`` is the cell at ``x = x0 + (col + 0.5) / ppm``,
-    ``y = y0 + (row + 0.5) / ppm`` (rows go north). ``values`` is ``(rows, cols, 3)`` float32."""
+    ``y = y0 + (row + 0.5) / ppm`` (rows go north). ``values`` is ``(rows, cols, 3)`` float32.
+
+    A world's albedo map may say where its lawn is: ``lawn`` ``(rows, cols)`` bool, the grass cells,
+    and ``stripes`` ``(rows, cols)`` float32, the mowing stripes' brightness factor the builder
+    applied there (1 elsewhere); a season of nights (:mod:`nightloc.synth.season`) regrows and
+    mows the lawn from them. None: no lawn (a room, an irradiance map)."""
 
     values: np.ndarray
     x0: float
     y0: float
     pixels_per_metre: float
+    lawn: np.ndarray | None = None
+    stripes: np.ndarray | None = None
 
     def sample(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Nearest-cell values at ground points (clamped to the map), ``x.shape + (3,)``."""

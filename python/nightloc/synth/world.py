@@ -56,12 +56,17 @@ def _garden_ground(rng: np.random.Generator) -> GroundMap:
     paving[joint] *= 0.4
     albedo = np.where(patio[..., None], paving, albedo)
     # stepping stones from the patio to the shed door, across the lawn's east side
+    stones = np.zeros((rows, cols), np.uint8)
     for t in np.linspace(0.06, 0.94, 8):
         cx, cy = 5.4 + t * (7.2 - 5.4), 5.8 + t * (0.9 - 5.8)
         tint = tuple(float(v) for v in np.array([0.50, 0.47, 0.43]) * rng.uniform(0.8, 1.15))
         centre = (int((cx - x0) * ppm), int((cy - y0) * ppm))
-        cv2.ellipse(albedo, centre, (int(0.22 * ppm), int(0.16 * ppm)), float(rng.uniform(0, 180)), 0, 360, tint, -1)
-    return GroundMap(np.ascontiguousarray(albedo, dtype=np.float32), x0, y0, ppm)
+        axes, angle = (int(0.22 * ppm), int(0.16 * ppm)), float(rng.uniform(0, 180))
+        cv2.ellipse(albedo, centre, axes, angle, 0, 360, tint, -1)
+        cv2.ellipse(stones, centre, axes, angle, 0, 360, 1, -1)
+    lawn = ~beds & ~patio & (stones == 0)
+    stripes = np.where(lawn, mowing, 1.0).astype(np.float32)
+    return GroundMap(np.ascontiguousarray(albedo, dtype=np.float32), x0, y0, ppm, lawn, stripes)
 
 
 def _garden(seed: int) -> World:
