@@ -65,6 +65,7 @@ from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import match
 from ..motion.odometry import as_motion, reverse_motion, wrap_angle
 from ..preparation.params import PreparationParams
+from ..schema import Range, own_field
 
 __all__ = [
     "RETENTION_POLICIES",
@@ -80,6 +81,9 @@ __all__ = [
     "trust_night",
     "trusted_frames",
 ]
+
+#: A positive finite number (a setting's range).
+_ABOVE_0 = Range(0, math.inf, min_open=True)
 
 #: The place spacing assumed for a map of a single place (metres).
 _SINGLE_PLACE_SPACING = 1.0
@@ -153,38 +157,26 @@ class LearningParams:
             of at least ``settled_frames`` of the night's frames.
     """
 
-    min_confidence: float = 0.8
-    max_credible_radius: float = 0.75
-    settled_frames: int = 5
-    attach_fraction: float = 0.5
-    gap_fraction: float = 1.0
-    heading_tolerance: float = 45.0
-    novelty: float = 0.5
-    max_learned: int = 2
+    min_confidence: float = own_field(0.8, range=Range(0, 1))
+    max_credible_radius: float = own_field(0.75, unit="m", range=_ABOVE_0)
+    settled_frames: int = own_field(5, unit="frames", range=Range(1, math.inf))
+    attach_fraction: float = own_field(0.5, unit="place spacings", range=_ABOVE_0)
+    gap_fraction: float = own_field(1.0, unit="place spacings", range=_ABOVE_0)
+    heading_tolerance: float = own_field(45.0, unit="degrees", range=Range(0, 180, min_open=True))
+    novelty: float = own_field(0.5, range=Range(0, math.inf))
+    max_learned: int = own_field(2, range=Range(1, math.inf))
     retention: str = "usage"
-    max_look_ratio: float = 0.85
+    max_look_ratio: float = own_field(0.85, range=_ABOVE_0)
 
     def validate(self) -> None:
-        if not 0.0 <= self.min_confidence <= 1.0:
-            raise ValueError(f"min_confidence must be in [0, 1], got {self.min_confidence}")
-        if not (self.max_credible_radius > 0 and math.isfinite(self.max_credible_radius)):
-            raise ValueError(f"max_credible_radius must be a positive number of metres, got {self.max_credible_radius}")
-        if self.settled_frames < 1:
-            raise ValueError(f"settled_frames must be >= 1, got {self.settled_frames}")
-        if not 0.0 < self.attach_fraction <= self.gap_fraction < math.inf:
+        """The rules the table cannot say (each field's range is checked on construction): the
+        two fractions' order, the retention policy's name."""
+        if self.attach_fraction > self.gap_fraction:
             raise ValueError(
-                f"need 0 < attach_fraction <= gap_fraction (finite), got {self.attach_fraction} and {self.gap_fraction}"
+                f"need attach_fraction <= gap_fraction, got {self.attach_fraction} and {self.gap_fraction}"
             )
-        if not 0.0 < self.heading_tolerance <= 180.0:
-            raise ValueError(f"heading_tolerance must be in (0, 180] degrees, got {self.heading_tolerance}")
-        if not (self.novelty >= 0 and math.isfinite(self.novelty)):
-            raise ValueError(f"novelty must be a finite number >= 0, got {self.novelty}")
-        if self.max_learned < 1:
-            raise ValueError(f"max_learned must be >= 1, got {self.max_learned}")
         if self.retention not in RETENTION_POLICIES:
             raise ValueError(f"retention must be one of {', '.join(RETENTION_POLICIES)}, got {self.retention!r}")
-        if not (self.max_look_ratio > 0 and math.isfinite(self.max_look_ratio)):
-            raise ValueError(f"max_look_ratio must be a positive number, got {self.max_look_ratio}")
 
 
 @dataclass(frozen=True, eq=False)
