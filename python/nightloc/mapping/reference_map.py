@@ -221,16 +221,7 @@ class ReferenceMap:
             if head.shape != (n,):
                 raise ValueError(f"headings must be ({n},) radians, got shape {head.shape}")
             head = finite_headings(head)
-        if names is None:
-            name_tuple = tuple(f"{i:06d}" for i in range(n))
-        else:
-            if isinstance(names, str):
-                raise TypeError("names must be a sequence of strings, not one string")
-            name_tuple = tuple(names)
-            if len(name_tuple) != n or not all(isinstance(name, str) for name in name_tuple):
-                raise ValueError(f"names must be {n} strings, got {len(name_tuple)} items")
-            if len(set(name_tuple)) != n:
-                raise ValueError("names must not repeat")
+        name_tuple = _checked_names(names, n)
         if pose_source not in POSE_SOURCES:
             raise ValueError(f"pose_source must be one of {', '.join(POSE_SOURCES)}, got {pose_source!r}")
         cov = None if covariances is None else _checked_covariances(covariances, n)
@@ -549,6 +540,7 @@ class ReferenceMap:
         file, header, arrays = read_map_file(path)
         return cls._from_parts(file, header, arrays, params)
 
+    # long: the map file's checks in the order the format is read, each with its own message
     @classmethod
     def _from_parts(
         cls, file: Path, header: Any, arrays: dict[str, np.ndarray], params: PreparationParams | None
@@ -650,6 +642,20 @@ class ReferenceMap:
             )
         except (TypeError, ValueError) as error:
             raise MapFormatError(f"{file}: inconsistent map contents: {error}") from None
+
+
+def _checked_names(names: Sequence[str] | None, n: int) -> tuple[str, ...]:
+    """The references' ``n`` distinct names (default ``000000``, ``000001``, ...)."""
+    if names is None:
+        return tuple(f"{i:06d}" for i in range(n))
+    if isinstance(names, str):
+        raise TypeError("names must be a sequence of strings, not one string")
+    name_tuple = tuple(names)
+    if len(name_tuple) != n or not all(isinstance(name, str) for name in name_tuple):
+        raise ValueError(f"names must be {n} strings, got {len(name_tuple)} items")
+    if len(set(name_tuple)) != n:
+        raise ValueError("names must not repeat")
+    return name_tuple
 
 
 def _checked_covariances(covariances: Any, n: int) -> np.ndarray:
