@@ -48,6 +48,7 @@ def _points(values: object, name: str, rows: int | None = None) -> np.ndarray:
     return array
 
 
+# long: one figure: its panels (references, path, credible radii, errors, confidence) drawn in order
 @styled
 def trajectory_figure(
     references: object,

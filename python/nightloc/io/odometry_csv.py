@@ -63,6 +63,7 @@ def _number(text: str, column: str, file: Path, line: int) -> float:
     return value
 
 
+# long: one pass over the CSV: the header, then each column's checks with their messages
 def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[OdometryRow], str]:
     """The rows of an odometry CSV in file order and its form, ``"robot"`` or ``"map"``.
 

@@ -196,6 +196,7 @@ def _parse_frame(text: str, file: Path, line: int) -> int:
     return value
 
 
+# long: one pass over the CSV: the header, then each column's checks with their messages
 def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
     """Rows of a poses CSV: ``(rows, has_heading)``.
 

@@ -136,6 +136,7 @@ def candidate_pairs(
     return sorted(pairs.values(), key=lambda p: (p.i, p.j)), dropped
 
 
+# long: one pass over the candidate pairs: each constraint's measurements and gates in turn
 def measure_constraints(
     images: np.ndarray,
     pairs: list[CandidatePair],

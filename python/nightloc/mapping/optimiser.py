@@ -69,6 +69,7 @@ def solve_headings(
     return solve_heading_graph(turns, turn_std, constraints, initial, robust_scale, iterations).headings
 
 
+# long: the staged, reweighted least squares of the headings: its stages share the system it builds
 def solve_heading_graph(
     turns: np.ndarray,
     turn_std: np.ndarray,

@@ -351,6 +351,7 @@ def _matches(
     )
 
 
+# long: the study's loop nest (darkness x sensor x draw x resolution) over frames rendered once, sharing them
 def run_camera_study(
     world: str,
     settings: StudySettings | None = None,
