@@ -261,7 +261,7 @@ class _BagOfTheNight:
         self.recorder.close()
 
 
-def _check_options(args: argparse.Namespace) -> tuple[object, list[str], tuple[int, int] | None]:
+def _check_options(args: argparse.Namespace) -> tuple[int | NoiseModel | None, list[str], tuple[int, int] | None]:
     """The options checked before anything is read: the noise model, the formats, the window."""
     noise = None if args.odometry_noise is None else parse_noise(args.odometry_noise)
     formats = parse_formats(args.format)

@@ -559,7 +559,7 @@ class _PlaceViews:
 
 
 def _attach_frames(
-    estimates: Sequence[Estimate],
+    estimates: tuple[Estimate, ...],
     trusted: np.ndarray,
     places: np.ndarray,
     views: _PlaceViews,
@@ -613,7 +613,7 @@ def _judge_looks(
     ref_map: ReferenceMap,
     night: LocalizedNight,
     record: Appearances,
-    estimates: Sequence[Estimate],
+    estimates: tuple[Estimate, ...],
     places: np.ndarray,
     views: _PlaceViews,
     attached: dict[_View, list[int]],
@@ -696,7 +696,7 @@ class _NewReferences:
 def _add_night(
     ref_map: ReferenceMap,
     night: LocalizedNight,
-    estimates: Sequence[Estimate],
+    estimates: tuple[Estimate, ...],
     learned: list[tuple[_View, int, int]],
     new_places: list[int],
     views: _PlaceViews,
