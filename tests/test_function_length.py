@@ -149,7 +149,11 @@ def _declarator(head: str) -> tuple[str, int]:
             break
         k -= 1
     found = _NAME.search(head[:k])
-    return (found.group(1), found.start(1)) if found else ("?", 0)
+    if not found:
+        return "?", 0
+    # a return type a template's arguments joined to the name: the name is the last piece
+    pieces = re.split(r"[\s&*]+(?![^<]*>)", found.group(1))
+    return pieces[-1], found.start(1) + found.group(1).rindex(pieces[-1])
 
 
 def cpp_functions(source: str) -> list[Function]:
