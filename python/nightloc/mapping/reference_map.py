@@ -540,7 +540,6 @@ class ReferenceMap:
         file, header, arrays = read_map_file(path)
         return cls._from_parts(file, header, arrays, params)
 
-    # long: the map file's checks in the order the format is read, each with its own message
     @classmethod
     def _from_parts(
         cls, file: Path, header: Any, arrays: dict[str, np.ndarray], params: PreparationParams | None
@@ -568,13 +567,7 @@ class ReferenceMap:
             raise MapFormatError(
                 f"{file}: the header's pose_source {pose_source!r} is not one of {', '.join(POSE_SOURCES)}"
             )
-        for name in dict.fromkeys(("images", "positions", *optional, *checksums)):
-            if name not in arrays:
-                raise MapFormatError(f"{file}: the map lacks its '{name}' array (corrupt file)")
-            if name not in checksums:
-                raise MapFormatError(f"{file}: the header has no checksum for '{name}' (corrupt file)")
-            if _sha256(arrays[name]) != checksums[name]:
-                raise MapFormatError(f"{file}: checksum of '{name}' does not match (the file is corrupt)")
+        _check_arrays(file, arrays, checksums, optional)
         images = arrays["images"]
         expected = (count, map_params.height, map_params.width)
         if images.dtype != np.uint8 or images.shape != expected:
@@ -583,20 +576,7 @@ class ReferenceMap:
             raise MapFormatError(
                 f"{file}: the header lists {len(names) if isinstance(names, list) else '?'} names for {count} images"
             )
-        if params is not None:
-            if not isinstance(params, PreparationParams):
-                raise TypeError(f"params must be a PreparationParams, got {type(params).__name__}")
-            different = map_params.differences(params)
-            if different:
-                listing = ", ".join(f"{k}: map {a!r}, requested {b!r}" for k, (a, b) in different.items())
-                built = f"{file} was built with other preparation parameters ({listing})"
-                raise with_cli_words(
-                    MapFormatError(
-                        f"{built}; rebuild the map with these parameters or load it without params to use the map's"
-                    ),
-                    f"{built}; rebuild the map with them (nightloc build-map --params), or leave the [preparation] "
-                    f"table out of --params to use the map's",
-                )
+        _check_requested_params(file, map_params, params)
         frame_size = header.get("frame_size")
         if frame_size is not None and not (
             isinstance(frame_size, list)
@@ -609,22 +589,7 @@ class ReferenceMap:
             raise MapFormatError(
                 f"{file}: the header's camera {camera!r} contradicts its parameters (wrap = {map_params.wrap}): corrupt"
             )
-        localizer = header.get("localizer")
-        sealed = isinstance(localizer, dict) and SETTINGS_CHECKSUM in localizer
-        if sealed and settings_checksum(localizer, _SEALED) != localizer[SETTINGS_CHECKSUM]:
-            raise MapFormatError(f"{file}: checksum of the localizer's settings does not match (the file is corrupt)")
-        stored = (
-            {s: localizer[s] for s in LOCALIZER_SECTIONS if isinstance(localizer.get(s), dict)}
-            if isinstance(localizer, dict)
-            else {}
-        )
-        try:
-            settings = _checked_settings(stored)
-        except ValueError as error:
-            raise MapFormatError(
-                f"{file}: the localizer settings it keeps are not this nightloc's ({error}); it was written by "
-                f"nightloc {header.get('nightloc_version')}"
-            ) from None
+        settings = _stored_settings(file, header)
         try:
             appearances = None if experience is None else Appearances.from_file(experience, arrays, count)
             return cls(
@@ -642,6 +607,56 @@ class ReferenceMap:
             )
         except (TypeError, ValueError) as error:
             raise MapFormatError(f"{file}: inconsistent map contents: {error}") from None
+
+
+def _check_arrays(file: Path, arrays: dict[str, np.ndarray], checksums: dict, optional: tuple[str, ...]) -> None:
+    """Every array the map needs is there, and every array matches its checksum in the header."""
+    for name in dict.fromkeys(("images", "positions", *optional, *checksums)):
+        if name not in arrays:
+            raise MapFormatError(f"{file}: the map lacks its '{name}' array (corrupt file)")
+        if name not in checksums:
+            raise MapFormatError(f"{file}: the header has no checksum for '{name}' (corrupt file)")
+        if _sha256(arrays[name]) != checksums[name]:
+            raise MapFormatError(f"{file}: checksum of '{name}' does not match (the file is corrupt)")
+
+
+def _check_requested_params(file: Path, map_params: PreparationParams, params: PreparationParams | None) -> None:
+    """The preparation parameters asked for (if any) are the map's."""
+    if params is not None:
+        if not isinstance(params, PreparationParams):
+            raise TypeError(f"params must be a PreparationParams, got {type(params).__name__}")
+        different = map_params.differences(params)
+        if different:
+            listing = ", ".join(f"{k}: map {a!r}, requested {b!r}" for k, (a, b) in different.items())
+            built = f"{file} was built with other preparation parameters ({listing})"
+            raise with_cli_words(
+                MapFormatError(
+                    f"{built}; rebuild the map with these parameters or load it without params to use the map's"
+                ),
+                f"{built}; rebuild the map with them (nightloc build-map --params), or leave the [preparation] "
+                f"table out of --params to use the map's",
+            )
+
+
+def _stored_settings(file: Path, header: Any) -> dict:
+    """The localizer settings the map keeps (its LOCALIZER_SECTIONS tables), their checksum checked."""
+    localizer = header.get("localizer")
+    sealed = isinstance(localizer, dict) and SETTINGS_CHECKSUM in localizer
+    if sealed and settings_checksum(localizer, _SEALED) != localizer[SETTINGS_CHECKSUM]:
+        raise MapFormatError(f"{file}: checksum of the localizer's settings does not match (the file is corrupt)")
+    stored = (
+        {s: localizer[s] for s in LOCALIZER_SECTIONS if isinstance(localizer.get(s), dict)}
+        if isinstance(localizer, dict)
+        else {}
+    )
+    try:
+        settings = _checked_settings(stored)
+    except ValueError as error:
+        raise MapFormatError(
+            f"{file}: the localizer settings it keeps are not this nightloc's ({error}); it was written by "
+            f"nightloc {header.get('nightloc_version')}"
+        ) from None
+    return settings
 
 
 def _checked_names(names: Sequence[str] | None, n: int) -> tuple[str, ...]:
