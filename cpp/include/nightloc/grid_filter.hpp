@@ -277,6 +277,54 @@ public:
     void set_belief(const float* belief, bool pose, double offset);
 
 private:
+    // Construction, in order: the references' places, the shift list (whether it is every
+    // column), the heading bins and the table's candidates, the weights as ELL slots and dense
+    // blocks, the per-place rows in the order the cells use them, each place's cell, the buffers.
+    void index_places();
+    bool check_shifts() const;
+    void choose_heading_bins(bool full_shifts);
+    void copy_weights_to_ell(const HeatWeights::Csr& csr);
+    void build_dense_blocks();
+    void order_place_rows();
+    void find_place_cells(const HeatWeights::Csr& csr);
+    void allocate_buffers();
+
+    /// The likelihood's scale for one frame: the median and lowest of the per-reference minimum
+    /// scores, the gain -lambda log2(e) (log2 units per score unit) and the lowest log2-likelihood.
+    struct LikelihoodScale {
+        double median = 0, s_min = 0, gain = 0, lowest = 0;
+    };
+    // The measurement, in order: the table checked and kept (its minima, the learned references
+    // scaled: returns the table to read), the scale (lambda_, frames_), the log2-likelihoods per
+    // place row and bin (log_lik_), the prior times the likelihood over all bins.
+    const float* take_scores(const float* table);
+    LikelihoodScale likelihood_scale();
+    void log_lik_by_columns(const float* table, const LikelihoodScale& scale);
+    void log_lik_by_places(const float* table, const LikelihoodScale& scale);
+    void place_scores_forward(const float* table, double median);
+    void place_scores_panoramic(const float* table);
+    void set_place_row(std::size_t place_row, float value);
+    void set_fill_rows(const float* fill);
+    void measure_all_bins();
+
+    /// Cell centres, metres.
+    double cell_x(std::size_t i) const noexcept { return map_.x0 + map_.dx * static_cast<double>(i); }
+    double cell_y(std::size_t j) const noexcept { return map_.y0 + map_.dy * static_cast<double>(j); }
+    /// The marginal's mass, raw moments about the grid's centre (ox, oy) in metres, and its range.
+    struct MarginalMoments {
+        double total = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
+        double ox = 0, oy = 0;
+        float hi = 0, lo = 0;
+    };
+    /// Rows [j0, j1) and columns [i0, i1) of the grid.
+    struct CellWindow {
+        std::size_t j0 = 0, j1 = 0, i0 = 0, i1 = 0;
+    };
+    MarginalMoments marginal_moments() const;
+    /// e.confidence and e.credible_radius about (e.x, e.y); `total` the marginal's mass.
+    void credible_region(GridEstimate& e, double total) const;
+    /// The heading of the belief in `around` (radians in (-pi, pi]; pose mode).
+    double peak_heading(const CellWindow& around) const;
     /// The heading variance of estimate() (pose mode, the belief materialized).
     double heading_variance() const;
     /// One slice's pending motion: its source bin and the shift and blur, in cells.
@@ -297,6 +345,8 @@ private:
     // The measurement of bins [d0, d1) over all cells; their priors' slices from slices_[first_slice].
     void measure_group(detail::UpdateArgs& args, std::size_t d0, std::size_t d1, std::size_t first_slice);
     void translate_blur_slice(const float* src, float* dst, const SliceMotion& m) const;
+    // translate_blur_slice's common case: its composed taps as two explicit passes.
+    void shift_blur_rows(const float* src, float* dst, std::ptrdiff_t off_x, std::ptrdiff_t off_y) const;
     void compute_marginal() const;
     double shift_of_bin0(std::size_t ref, double columns) const;
 

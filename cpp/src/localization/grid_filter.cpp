@@ -86,6 +86,21 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
     width_ = w.width();
     cells_ = w.cells();
     places_ = w.places();
+    index_places();
+    set_learned(std::move(map_.learned));
+    const bool full_shifts = check_shifts();
+    validate(settings_);
+    choose_heading_bins(full_shifts);
+    const auto csr = w.csr();
+    copy_weights_to_ell(csr);
+    build_dense_blocks();
+    order_place_rows();
+    find_place_cells(csr);
+    allocate_buffers();
+    reset();
+}
+
+void GridFilter::index_places() {
     require(std::isfinite(map_.x0) && std::isfinite(map_.y0), "grid filter: the grid origin must be finite");
     require(std::isfinite(map_.dx) && map_.dx > 0 && std::isfinite(map_.dy) && map_.dy > 0,
             "grid filter: the cell spacing must be finite and positive");
@@ -104,7 +119,9 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
         first_of_place_[i] = has_ref[p] ? 0 : 1;
         has_ref[p] = true;
     }
-    set_learned(std::move(map_.learned));
+}
+
+bool GridFilter::check_shifts() const {
     require(map_.ref_headings.empty() || map_.ref_headings.size() == map_.place_of_ref.size(),
             "grid filter: ref_headings must be empty or hold one heading per reference");
     for (double h : map_.ref_headings) require(std::isfinite(h), "grid filter: reference headings must be finite");
@@ -120,7 +137,10 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
         seen[static_cast<std::size_t>(s)] = true;
         full = full && static_cast<std::size_t>(s) == k;
     }
-    validate(settings_);
+    return full;
+}
+
+void GridFilter::choose_heading_bins(bool full_shifts) {
     if (settings_.heading_bins == 0) settings_.heading_bins = map_.columns;
     require(settings_.heading_bins <= 4096, "grid filter: heading_bins 0 means one per image column, and " +
                                                 std::to_string(map_.columns) +
@@ -147,13 +167,14 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
         candidates_ = map_.shifts;
     }
     const bool forward_pose = window.columns > 0 && map_.field_of_view > 0;
-    can_pose_ = s.heading_bins > 1 && !map_.ref_headings.empty() && (full || forward_pose);
+    can_pose_ = s.heading_bins > 1 && !map_.ref_headings.empty() && (full_shifts || forward_pose);
     bins_ = can_pose_ ? s.heading_bins : 1;
     require(bins_ <= (std::size_t{1} << 28) / cells_, "grid filter: heading bins x cells is too large");
+}
 
-    const auto csr = w.csr();
-    // ELL copy of the weights (slot k of cell c at k * cells + c; unused slots weigh 0 at place 0);
-    // a cell without weights reads the bin's fill value, kept at index places_
+void GridFilter::copy_weights_to_ell(const HeatWeights::Csr& csr) {
+    // slot k of cell c at k * cells + c; unused slots weigh 0 at place 0; a cell without weights
+    // reads the bin's fill value, kept at index places_
     slots_ = 1;
     for (std::size_t c = 0; c < cells_; ++c) {
         slots_ = std::max(slots_, static_cast<std::size_t>(csr.indptr[c + 1] - csr.indptr[c]));
@@ -172,9 +193,12 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
             ell_index_[slot * cells_ + c] = csr.indices[k];
         }
     }
-    // Dense blocks of the measurement: per kBlock cells the places they use (ascending; places_:
-    // the fill of cells without weights) and each cell's weight of each, when there are at most
-    // kDensePlaces; otherwise the block reads its cells' ELL slots.
+}
+
+void GridFilter::build_dense_blocks() {
+    // per kBlock cells the places they use (ascending; places_: the fill of cells without
+    // weights) and each cell's weight of each, when there are at most kDensePlaces; otherwise the
+    // block reads its cells' ELL slots
     const std::size_t blocks = (cells_ + detail::kBlock - 1) / detail::kBlock;
     block_start_.assign(blocks + 1, 0);
     block_places_.clear();
@@ -202,49 +226,52 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
         block_start_[block + 1] = static_cast<std::int32_t>(block_places_.size());
         has_sparse_blocks_ = has_sparse_blocks_ || block_start_[block + 1] == block_start_[block];
     }
+}
+
+void GridFilter::order_place_rows() {
     // The rows of the per-place arrays in the order the cells first use them (row-major): cells
     // that follow each other read neighbouring rows (a map's own place order, e.g. sorted by x,
     // would spread one row of cells over all of them). Only the indices change: every sum keeps
     // its order.
-    {
-        const auto unused = static_cast<std::int32_t>(cells_);
-        std::vector<std::int32_t> first(places_, unused);
-        for (std::size_t c = 0; c < cells_; ++c)
-            for (std::size_t k = 0; k < slots_; ++k) {
-                const auto p = static_cast<std::size_t>(ell_index_[k * cells_ + c]);
-                if (p < places_ && ell_data_[k * cells_ + c] != 0.f && first[p] == unused)
-                    first[p] = static_cast<std::int32_t>(c);
-            }
-        std::vector<std::int32_t> order(places_);
-        for (std::size_t p = 0; p < places_; ++p) order[p] = static_cast<std::int32_t>(p);
-        std::stable_sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
-            return first[static_cast<std::size_t>(a)] < first[static_cast<std::size_t>(b)];
-        });
-        std::vector<std::int32_t> row_of(places_ + 1);
-        for (std::size_t r = 0; r < places_; ++r)
-            row_of[static_cast<std::size_t>(order[r])] = static_cast<std::int32_t>(r);
-        row_of[places_] = static_cast<std::int32_t>(places_);  // the fill stays last
-        for (std::int32_t& p : ell_index_) p = row_of[static_cast<std::size_t>(p)];
-        for (std::int32_t& p : block_places_) p = row_of[static_cast<std::size_t>(p)];
-        for (std::int32_t& p : empty_places_) p = row_of[static_cast<std::size_t>(p)];
-        row_of_ref_.resize(map_.place_of_ref.size());
-        for (std::size_t i = 0; i < row_of_ref_.size(); ++i)
-            row_of_ref_[i] = row_of[static_cast<std::size_t>(map_.place_of_ref[i])];
-    }
+    const auto unused = static_cast<std::int32_t>(cells_);
+    std::vector<std::int32_t> first(places_, unused);
+    for (std::size_t c = 0; c < cells_; ++c)
+        for (std::size_t k = 0; k < slots_; ++k) {
+            const auto p = static_cast<std::size_t>(ell_index_[k * cells_ + c]);
+            if (p < places_ && ell_data_[k * cells_ + c] != 0.f && first[p] == unused)
+                first[p] = static_cast<std::int32_t>(c);
+        }
+    std::vector<std::int32_t> order(places_);
+    for (std::size_t p = 0; p < places_; ++p) order[p] = static_cast<std::int32_t>(p);
+    std::stable_sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
+        return first[static_cast<std::size_t>(a)] < first[static_cast<std::size_t>(b)];
+    });
+    std::vector<std::int32_t> row_of(places_ + 1);
+    for (std::size_t r = 0; r < places_; ++r) row_of[static_cast<std::size_t>(order[r])] = static_cast<std::int32_t>(r);
+    row_of[places_] = static_cast<std::int32_t>(places_);  // the fill stays last
+    for (std::int32_t& p : ell_index_) p = row_of[static_cast<std::size_t>(p)];
+    for (std::int32_t& p : block_places_) p = row_of[static_cast<std::size_t>(p)];
+    for (std::int32_t& p : empty_places_) p = row_of[static_cast<std::size_t>(p)];
+    row_of_ref_.resize(map_.place_of_ref.size());
+    for (std::size_t i = 0; i < row_of_ref_.size(); ++i)
+        row_of_ref_[i] = row_of[static_cast<std::size_t>(map_.place_of_ref[i])];
+}
+
+void GridFilter::find_place_cells(const HeatWeights::Csr& csr) {
     // each place's cell: where its weight is largest (ties: the first cell), the recall's distances
-    {
-        std::vector<float> largest(places_, -1.f);
-        place_cell_.assign(places_, cells_ / 2);
-        for (std::size_t c = 0; c < cells_; ++c)
-            for (auto k = static_cast<std::size_t>(csr.indptr[c]); k < static_cast<std::size_t>(csr.indptr[c + 1]);
-                 ++k) {
-                const auto p = static_cast<std::size_t>(csr.indices[k]);
-                if (csr.data[k] > largest[p]) {
-                    largest[p] = csr.data[k];
-                    place_cell_[p] = c;
-                }
+    std::vector<float> largest(places_, -1.f);
+    place_cell_.assign(places_, cells_ / 2);
+    for (std::size_t c = 0; c < cells_; ++c)
+        for (auto k = static_cast<std::size_t>(csr.indptr[c]); k < static_cast<std::size_t>(csr.indptr[c + 1]); ++k) {
+            const auto p = static_cast<std::size_t>(csr.indices[k]);
+            if (csr.data[k] > largest[p]) {
+                largest[p] = csr.data[k];
+                place_cell_[p] = c;
             }
-    }
+        }
+}
+
+void GridFilter::allocate_buffers() {
     belief_.resize(bins_ * cells_);
     work_.resize(bins_ * cells_);
     marginal_.resize(cells_);
@@ -259,7 +286,6 @@ GridFilter::GridFilter(GridFilterMap map, GridFilterSettings settings) : map_(st
     ref_fraction_.resize(n_refs());
     bin_max_.resize(bins_);
     log_lik_.resize((bins_ + detail::kGroupBins - 1) / detail::kGroupBins * (places_ + 1) * detail::kGroupBins);
-    reset();
 }
 
 void GridFilter::reset() {
@@ -483,27 +509,7 @@ void GridFilter::translate_blur_slice(const float* src, float* dst, const SliceM
     shift_blur_taps(shift_y, wide_y || !(sigma_y > 0) ? identity : composed_box_kernel(sigma_y), taps_y_, off_y);
     shift_blur_taps(shift_x, wide_x || !(sigma_x > 0) ? identity : composed_box_kernel(sigma_x), taps_x_, off_x);
     if (!wide_x && !wide_y) {  // the common case: two explicit passes, row by row, grid to grid
-        const auto n_x = static_cast<std::ptrdiff_t>(taps_x_.size());
-        // the rows' margin: a whole number of cache lines (the row pass's stores are aligned)
-        const auto reach = static_cast<std::size_t>(std::max<std::ptrdiff_t>({off_x, n_x - 1 - off_x, 0}));
-        const std::size_t pad = (reach + 15) / 16 * 16;
-        const std::size_t span = (width_ + 2 * pad + 15) / 16 * 16;
-        if (row_buf_.size() < 2 * span) row_buf_.resize(2 * span);
-        std::fill(row_buf_.begin(), row_buf_.begin() + static_cast<std::ptrdiff_t>(2 * span), 0.f);
-        const detail::ShiftBlurArgs args{src,
-                                         dst,
-                                         height_,
-                                         width_,
-                                         taps_y_.data(),
-                                         taps_y_.size(),
-                                         off_y,
-                                         taps_x_.data(),
-                                         taps_x_.size(),
-                                         off_x,
-                                         row_buf_.data(),
-                                         pad,
-                                         zeros_.data()};
-        k.shift_blur(args);
+        shift_blur_rows(src, dst, off_x, off_y);
         return;
     }
     const std::size_t my =
@@ -547,6 +553,32 @@ void GridFilter::translate_blur_slice(const float* src, float* dst, const SliceM
     for (std::size_t j = 0; j < height_; ++j) {
         std::copy(current + (j + my) * tw + mx, current + (j + my) * tw + mx + width_, dst + j * width_);
     }
+}
+
+void GridFilter::shift_blur_rows(const float* src, float* dst, std::ptrdiff_t off_x, std::ptrdiff_t off_y) const {
+    // the composed taps (taps_x_, taps_y_) as two explicit passes, row by row, grid to grid
+    const auto& k = detail::filter_kernels(active_simd_backend());
+    const auto n_x = static_cast<std::ptrdiff_t>(taps_x_.size());
+    // the rows' margin: a whole number of cache lines (the row pass's stores are aligned)
+    const auto reach = static_cast<std::size_t>(std::max<std::ptrdiff_t>({off_x, n_x - 1 - off_x, 0}));
+    const std::size_t pad = (reach + 15) / 16 * 16;
+    const std::size_t span = (width_ + 2 * pad + 15) / 16 * 16;
+    if (row_buf_.size() < 2 * span) row_buf_.resize(2 * span);
+    std::fill(row_buf_.begin(), row_buf_.begin() + static_cast<std::ptrdiff_t>(2 * span), 0.f);
+    const detail::ShiftBlurArgs args{src,
+                                     dst,
+                                     height_,
+                                     width_,
+                                     taps_y_.data(),
+                                     taps_y_.size(),
+                                     off_y,
+                                     taps_x_.data(),
+                                     taps_x_.size(),
+                                     off_x,
+                                     row_buf_.data(),
+                                     pad,
+                                     zeros_.data()};
+    k.shift_blur(args);
 }
 
 void GridFilter::to_position() {
@@ -771,6 +803,17 @@ void GridFilter::update(const float* table) {
 }
 
 void GridFilter::update_recalled(const float* table) {
+    table = take_scores(table);
+    const LikelihoodScale scale = likelihood_scale();
+    if (pose_ && !forward() && bins_ == map_.columns) {
+        log_lik_by_columns(table, scale);
+    } else {
+        log_lik_by_places(table, scale);
+    }
+    measure_all_bins();
+}
+
+const float* GridFilter::take_scores(const float* table) {
     if (table == nullptr) throw std::invalid_argument("grid filter: null table");
     const std::size_t n = n_refs(), S = n_shifts();
     const auto& k = detail::filter_kernels(active_simd_backend());
@@ -788,11 +831,16 @@ void GridFilter::update_recalled(const float* table) {
         scale_learned();
         table = table_.data();
     }
+    return table;
+}
+
+GridFilter::LikelihoodScale GridFilter::likelihood_scale() {
     // the median by selection (the two middle values for an even count), not a full sort
     sorted_.assign(mins_.begin(), mins_.end());
-    const double median = median_of(sorted_);
-    const double s_min = *std::min_element(mins_.begin(), mins_.end());
-    const double spread = median - s_min;
+    LikelihoodScale scale;
+    scale.median = median_of(sorted_);
+    scale.s_min = *std::min_element(mins_.begin(), mins_.end());
+    const double spread = scale.median - scale.s_min;
     // the first frames since reset() tempered: frame k (from 0) at (k + 1) / settle_frames of the
     // gain, so that a few frames that agree on a look-alike cannot make the belief certain of it
     const double temper =
@@ -803,118 +851,147 @@ void GridFilter::update_recalled(const float* table) {
     ++frames_;
     // the outlier-robust likelihood: a score above s_min + score_cap spread counts as that one, so
     // a frame that matches a look-alike cannot erase the place the prior holds (log2 units)
-    const double lowest =
-        cap_ > 0 ? std::max(kLowestLog2, -temper * settings_.likelihood_gain * cap_ * kLog2e) : kLowestLog2;
+    scale.lowest = cap_ > 0 ? std::max(kLowestLog2, -temper * settings_.likelihood_gain * cap_ * kLog2e) : kLowestLog2;
+    scale.gain = -lambda_ * kLog2e;
+    return scale;
+}
 
-    // per place and bin the log2-likelihood y = max(-lambda log2(e) (score - s_min), -60) of the
-    // place's lowest score (of its references), in groups of kGroupBins bins (a pass of the
-    // measurement reads one group: places_ + 1 rows); row places_: the fill, the y of the bin's
-    // highest place score (cells without weights; places without references take it too: never
-    // preferred). y falls with the score: the lowest score's y is the highest y.
-    const std::size_t B = active_bins();
-    const double gain = -lambda_ * kLog2e;
-    const std::size_t group_rows = places_ + 1;
-    const float inf = std::numeric_limits<float>::infinity();
-    auto place_row = [&](std::size_t p, float value) {  // every bin of place row p
-        for (std::size_t b = 0; b < B; ++b)
-            log_lik_[(b / detail::kGroupBins * group_rows + p) * detail::kGroupBins + b % detail::kGroupBins] = value;
-    };
-    auto set_fill = [&](const float* fill) {
-        for (std::size_t b = 0; b < B; ++b) {
-            for (std::int32_t p : empty_places_) {
-                log_lik_[(b / detail::kGroupBins * group_rows + static_cast<std::size_t>(p)) * detail::kGroupBins +
-                         b % detail::kGroupBins] = fill[b];
-            }
-            log_lik_[(b / detail::kGroupBins * group_rows + places_) * detail::kGroupBins + b % detail::kGroupBins] =
-                fill[b];
-        }
-    };
-    if (pose_ && !forward() && bins_ == map_.columns) {  // bin b is shift c0 + b: one fraction per reference
-        const auto W = static_cast<double>(map_.columns);
-        for (std::size_t i = 0; i < n; ++i) {
-            const double c = shift_of_bin0(i, W);
-            ref_c0_[i] = static_cast<std::int32_t>(c);
-            ref_fraction_[i] = c - static_cast<double>(ref_c0_[i]);
-        }
-        for (std::int32_t p : empty_places_) place_row(static_cast<std::size_t>(p), inf);
-        row_y_.resize(map_.columns);
-        k.lerp_log_lik(table, n, map_.columns, row_of_ref_.data(), first_of_place_.data(), ref_c0_.data(),
-                       ref_fraction_.data(), gain, s_min, lowest, log_lik_.data(), group_rows, row_y_.data());
-        bin_high_.assign(B, inf);  // here the bins' lowest y
-        k.group_min(log_lik_.data(), places_, B, group_rows, bin_high_.data());
-        set_fill(bin_high_.data());
-    } else {
-        // per place and bin the lowest score of its references; place p's bins at p * B (made
-        // here only: the common case above needs none)
-        place_scores_.assign(B * places_, inf);
-        if (pose_ && forward()) {
-            // a forward camera: each reference only in the bins whose heading sees it within the
-            // window (column offset dx = wrap(theta_b - heading_i) columns / field_of_view)
-            // window (column offset dx = wrap(theta_b - heading_i) columns / field_of_view); a bin
-            // spans step radians, half_span columns each side of its centre: its score is the best
-            // of the columns it spans (and of the interpolated centre)
-            const double per_radian = static_cast<double>(map_.columns) / map_.field_of_view;
-            const auto c = static_cast<double>(map_.window.columns);
-            const double step = kTwoPi / static_cast<double>(bins_);
-            const double half_span = 0.5 * step * per_radian;
-            const std::size_t last = 2 * map_.window.columns;
-            for (std::size_t i = 0; i < n; ++i) {
-                const float* row = table + i * S;
-                float* ps = place_scores_.data() + static_cast<std::size_t>(row_of_ref_[i]) * B;
-                for (std::size_t b = 0; b < bins_; ++b) {
-                    const double dx = wrap(offset_ + step * static_cast<double>(b) - headings_[i]) * per_radian;
-                    if (!(std::fabs(dx) <= c)) continue;  // not in view from this heading
-                    const double x = dx + c;              // in [0, 2 c]
-                    const auto j0 = std::min(static_cast<std::size_t>(x), last);
-                    const std::size_t j1 = std::min(j0 + 1, last);
-                    const double a = x - static_cast<double>(j0);
-                    auto v = static_cast<float>((1.0 - a) * row[j0] + a * row[j1]);
-                    const double lo = std::max(std::ceil(x - half_span), 0.0);
-                    const double hi = std::min(std::floor(x + half_span), static_cast<double>(last));
-                    for (auto j = static_cast<std::size_t>(lo); static_cast<double>(j) <= hi; ++j)
-                        v = std::min(v, row[j]);
-                    ps[b] = std::min(ps[b], v);
-                }
-            }
-            // a place none of whose references is in view: the frame's median (no evidence)
-            for (float& v : place_scores_)
-                if (v == inf) v = static_cast<float>(median);
-        } else if (pose_) {
-            const auto W = static_cast<double>(map_.columns);
-            const auto columns = static_cast<std::int32_t>(map_.columns);
-            const double per_bin = W / static_cast<double>(bins_);
-            for (std::size_t i = 0; i < n; ++i) {
-                const float* row = table + i * S;
-                const double c = shift_of_bin0(i, W);  // bin b's shift: per_bin b + c in [0, 2 W)
-                float* ps = place_scores_.data() + static_cast<std::size_t>(row_of_ref_[i]) * B;
-                for (std::size_t b = 0; b < bins_; ++b) {
-                    const double shift = per_bin * static_cast<double>(b) + c;
-                    const auto kf = static_cast<std::int32_t>(shift);  // shift >= 0: truncation is the floor
-                    const double a = shift - static_cast<double>(kf);
-                    const std::int32_t k0 = kf >= columns ? kf - columns : kf;
-                    const std::int32_t k1 = k0 + 1 == columns ? 0 : k0 + 1;
-                    const auto v = static_cast<float>((1.0 - a) * row[k0] + a * row[k1]);
-                    ps[b] = std::min(ps[b], v);
-                }
-            }
-        } else {
-            for (std::size_t i = 0; i < n; ++i) {
-                float& slot = place_scores_[static_cast<std::size_t>(row_of_ref_[i])];
-                slot = std::min(slot, mins_[i]);
-            }
-        }
+// log_lik_ holds per place and bin the log2-likelihood y = max(-lambda log2(e) (score - s_min), -60)
+// of the place's lowest score (of its references), in groups of kGroupBins bins (a pass of the
+// measurement reads one group: places_ + 1 rows); row places_: the fill, the y of the bin's
+// highest place score (cells without weights; places without references take it too: never
+// preferred). y falls with the score: the lowest score's y is the highest y.
+
+void GridFilter::set_place_row(std::size_t p, float value) {
+    const std::size_t B = active_bins(), group_rows = places_ + 1;
+    for (std::size_t b = 0; b < B; ++b)
+        log_lik_[(b / detail::kGroupBins * group_rows + p) * detail::kGroupBins + b % detail::kGroupBins] = value;
+}
+
+void GridFilter::set_fill_rows(const float* fill) {
+    const std::size_t B = active_bins(), group_rows = places_ + 1;
+    for (std::size_t b = 0; b < B; ++b) {
         for (std::int32_t p : empty_places_) {
-            std::fill_n(place_scores_.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(p) * B), B, -inf);
+            log_lik_[(b / detail::kGroupBins * group_rows + static_cast<std::size_t>(p)) * detail::kGroupBins +
+                     b % detail::kGroupBins] = fill[b];
         }
-        bin_high_.assign(B, -inf);
-        k.column_max(place_scores_.data(), places_, B, bin_high_.data());
-        k.log_lik(place_scores_.data(), places_, B, gain, s_min, lowest, log_lik_.data(), group_rows, 0);
-        std::vector<float>& fill = row_y_;
-        fill.resize(B);
-        k.log_lik(bin_high_.data(), 1, B, gain, s_min, lowest, fill.data(), 1, 0);
-        // fill is grouped with one row: bin b at (b / 4) * 4 + b % 4 = b
-        set_fill(fill.data());
+        log_lik_[(b / detail::kGroupBins * group_rows + places_) * detail::kGroupBins + b % detail::kGroupBins] =
+            fill[b];
     }
+}
+
+void GridFilter::log_lik_by_columns(const float* table, const LikelihoodScale& scale) {
+    // bin b is shift c0 + b: one fraction per reference
+    const auto& k = detail::filter_kernels(active_simd_backend());
+    const std::size_t n = n_refs(), B = active_bins();
+    const float inf = std::numeric_limits<float>::infinity();
+    const auto W = static_cast<double>(map_.columns);
+    for (std::size_t i = 0; i < n; ++i) {
+        const double c = shift_of_bin0(i, W);
+        ref_c0_[i] = static_cast<std::int32_t>(c);
+        ref_fraction_[i] = c - static_cast<double>(ref_c0_[i]);
+    }
+    for (std::int32_t p : empty_places_) set_place_row(static_cast<std::size_t>(p), inf);
+    row_y_.resize(map_.columns);
+    k.lerp_log_lik(table, n, map_.columns, row_of_ref_.data(), first_of_place_.data(), ref_c0_.data(),
+                   ref_fraction_.data(), scale.gain, scale.s_min, scale.lowest, log_lik_.data(), places_ + 1,
+                   row_y_.data());
+    bin_high_.assign(B, inf);  // here the bins' lowest y
+    k.group_min(log_lik_.data(), places_, B, places_ + 1, bin_high_.data());
+    set_fill_rows(bin_high_.data());
+}
+
+void GridFilter::log_lik_by_places(const float* table, const LikelihoodScale& scale) {
+    // per place and bin the lowest score of its references; place p's bins at p * B (made here
+    // only: log_lik_by_columns needs none)
+    const auto& k = detail::filter_kernels(active_simd_backend());
+    const std::size_t B = active_bins();
+    const float inf = std::numeric_limits<float>::infinity();
+    place_scores_.assign(B * places_, inf);
+    if (pose_ && forward()) {
+        place_scores_forward(table, scale.median);
+    } else if (pose_) {
+        place_scores_panoramic(table);
+    } else {
+        for (std::size_t i = 0; i < n_refs(); ++i) {
+            float& slot = place_scores_[static_cast<std::size_t>(row_of_ref_[i])];
+            slot = std::min(slot, mins_[i]);
+        }
+    }
+    for (std::int32_t p : empty_places_) {
+        std::fill_n(place_scores_.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(p) * B), B, -inf);
+    }
+    bin_high_.assign(B, -inf);
+    k.column_max(place_scores_.data(), places_, B, bin_high_.data());
+    k.log_lik(place_scores_.data(), places_, B, scale.gain, scale.s_min, scale.lowest, log_lik_.data(), places_ + 1, 0);
+    std::vector<float>& fill = row_y_;
+    fill.resize(B);
+    k.log_lik(bin_high_.data(), 1, B, scale.gain, scale.s_min, scale.lowest, fill.data(), 1, 0);
+    // fill is grouped with one row: bin b at (b / 4) * 4 + b % 4 = b
+    set_fill_rows(fill.data());
+}
+
+void GridFilter::place_scores_forward(const float* table, double median) {
+    // a forward camera: each reference only in the bins whose heading sees it within the window
+    // (column offset dx = wrap(theta_b - heading_i) columns / field_of_view); a bin spans step
+    // radians, half_span columns each side of its centre: its score is the best of the columns it
+    // spans (and of the interpolated centre)
+    const std::size_t n = n_refs(), S = n_shifts(), B = active_bins();
+    const float inf = std::numeric_limits<float>::infinity();
+    const double per_radian = static_cast<double>(map_.columns) / map_.field_of_view;
+    const auto c = static_cast<double>(map_.window.columns);
+    const double step = kTwoPi / static_cast<double>(bins_);
+    const double half_span = 0.5 * step * per_radian;
+    const std::size_t last = 2 * map_.window.columns;
+    for (std::size_t i = 0; i < n; ++i) {
+        const float* row = table + i * S;
+        float* ps = place_scores_.data() + static_cast<std::size_t>(row_of_ref_[i]) * B;
+        for (std::size_t b = 0; b < bins_; ++b) {
+            const double dx = wrap(offset_ + step * static_cast<double>(b) - headings_[i]) * per_radian;
+            if (!(std::fabs(dx) <= c)) continue;  // not in view from this heading
+            const double x = dx + c;              // in [0, 2 c]
+            const auto j0 = std::min(static_cast<std::size_t>(x), last);
+            const std::size_t j1 = std::min(j0 + 1, last);
+            const double a = x - static_cast<double>(j0);
+            auto v = static_cast<float>((1.0 - a) * row[j0] + a * row[j1]);
+            const double lo = std::max(std::ceil(x - half_span), 0.0);
+            const double hi = std::min(std::floor(x + half_span), static_cast<double>(last));
+            for (auto j = static_cast<std::size_t>(lo); static_cast<double>(j) <= hi; ++j) v = std::min(v, row[j]);
+            ps[b] = std::min(ps[b], v);
+        }
+    }
+    // a place none of whose references is in view: the frame's median (no evidence)
+    for (float& v : place_scores_)
+        if (v == inf) v = static_cast<float>(median);
+}
+
+void GridFilter::place_scores_panoramic(const float* table) {
+    // bin b of reference i reads the shift per_bin b + c, interpolated between its two columns
+    const std::size_t n = n_refs(), S = n_shifts(), B = active_bins();
+    const auto W = static_cast<double>(map_.columns);
+    const auto columns = static_cast<std::int32_t>(map_.columns);
+    const double per_bin = W / static_cast<double>(bins_);
+    for (std::size_t i = 0; i < n; ++i) {
+        const float* row = table + i * S;
+        const double c = shift_of_bin0(i, W);  // bin b's shift: per_bin b + c in [0, 2 W)
+        float* ps = place_scores_.data() + static_cast<std::size_t>(row_of_ref_[i]) * B;
+        for (std::size_t b = 0; b < bins_; ++b) {
+            const double shift = per_bin * static_cast<double>(b) + c;
+            const auto kf = static_cast<std::int32_t>(shift);  // shift >= 0: truncation is the floor
+            const double a = shift - static_cast<double>(kf);
+            const std::int32_t k0 = kf >= columns ? kf - columns : kf;
+            const std::int32_t k1 = k0 + 1 == columns ? 0 : k0 + 1;
+            const auto v = static_cast<float>((1.0 - a) * row[k0] + a * row[k1]);
+            ps[b] = std::min(ps[b], v);
+        }
+    }
+}
+
+void GridFilter::measure_all_bins() {
+    // the prior (the belief itself, in place, or the pending prediction) times the likelihood in
+    // log_lik_, normalized; a prior with nothing left: the likelihood alone
+    const auto& k = detail::filter_kernels(active_simd_backend());
+    const std::size_t B = active_bins();
     const float one = 1.f;
     detail::UpdateArgs args{block_start_.data(),
                             block_places_.data(),
@@ -1066,17 +1143,56 @@ GridEstimate GridFilter::estimate() const {
     compute_marginal();
     materialize();
     const float* M = marginal_.data();
-    const GridFilterSettings& s = settings_;
     GridEstimate e;
-    auto cx = [&](std::size_t i) { return map_.x0 + map_.dx * static_cast<double>(i); };
-    auto cy = [&](std::size_t j) { return map_.y0 + map_.dy * static_cast<double>(j); };
-    // one pass: the first maximum, the minimum and the raw moments of the marginal (per row in
-    // double, offsets from the grid's centre: the covariance about the mean loses no digits)
-    const double ox = cx(width_ / 2), oy = cy(height_ / 2);
+    const MarginalMoments moments = marginal_moments();
+    std::size_t peak = 0;  // the first maximum
+    while (M[peak] != moments.hi) ++peak;
+    e.cell = peak;
+    const double mx = moments.sx / moments.total, my = moments.sy / moments.total;  // relative to (ox, oy)
+    e.cov_xx = moments.sxx / moments.total - mx * mx;
+    e.cov_xy = moments.sxy / moments.total - mx * my;
+    e.cov_yy = moments.syy / moments.total - my * my;
+
+    const std::size_t pj = peak / width_, pi = peak % width_, w = settings_.estimate_window;
+    CellWindow around;
+    around.j0 = pj >= w ? pj - w : 0, around.j1 = std::min(height_, pj + w + 1);
+    around.i0 = pi >= w ? pi - w : 0, around.i1 = std::min(width_, pi + w + 1);
+    if (moments.hi <= moments.lo) {
+        e.flat = true;
+        e.x = mx + moments.ox;
+        e.y = my + moments.oy;
+    } else {
+        double m = 0, wx = 0, wy = 0;
+        for (std::size_t j = around.j0; j < around.j1; ++j)
+            for (std::size_t i = around.i0; i < around.i1; ++i) {
+                const double v = M[j * width_ + i];
+                m += v;
+                wx += v * cell_x(i);
+                wy += v * cell_y(j);
+            }
+        e.x = wx / m;
+        e.y = wy / m;
+    }
+    credible_region(e, moments.total);
+    if (!pose_) {
+        e.heading = std::numeric_limits<double>::quiet_NaN();
+        e.heading_var = std::numeric_limits<double>::quiet_NaN();
+    } else {
+        e.heading = peak_heading(around);
+        e.heading_var = heading_variance();
+    }
+    return e;
+}
+
+GridFilter::MarginalMoments GridFilter::marginal_moments() const {
+    // one pass: the maximum, the minimum and the raw moments of the marginal (per row in double,
+    // offsets from the grid's centre: the covariance about the mean loses no digits)
+    const float* M = marginal_.data();
+    MarginalMoments s;
+    s.ox = cell_x(width_ / 2), s.oy = cell_y(height_ / 2);
     xs_.resize(width_);
-    for (std::size_t i = 0; i < width_; ++i) xs_[i] = cx(i) - ox;
-    double total = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
-    float hi = M[0], lo = M[0];
+    for (std::size_t i = 0; i < width_; ++i) xs_[i] = cell_x(i) - s.ox;
+    s.hi = s.lo = M[0];
     constexpr std::size_t kLanes = 4;  // independent sums (a fixed order: the same on every path)
     for (std::size_t j = 0; j < height_; ++j) {
         const float* row = M + j * width_;
@@ -1107,56 +1223,34 @@ GridEstimate GridFilter::estimate() const {
             t += rt[l];
             tx += rx[l];
             txx += rxx[l];
-            hi = std::max(hi, rh[l]);
-            lo = std::min(lo, rl[l]);
+            s.hi = std::max(s.hi, rh[l]);
+            s.lo = std::min(s.lo, rl[l]);
         }
-        const double y = cy(j) - oy;
-        total += t;
-        sx += tx;
-        sy += t * y;
-        sxx += txx;
-        sxy += tx * y;
-        syy += t * y * y;
+        const double y = cell_y(j) - s.oy;
+        s.total += t;
+        s.sx += tx;
+        s.sy += t * y;
+        s.sxx += txx;
+        s.sxy += tx * y;
+        s.syy += t * y * y;
     }
-    std::size_t peak = 0;  // the first maximum
-    while (M[peak] != hi) ++peak;
-    e.cell = peak;
-    const double mx = sx / total, my = sy / total;  // relative to (ox, oy)
-    e.cov_xx = sxx / total - mx * mx;
-    e.cov_xy = sxy / total - mx * my;
-    e.cov_yy = syy / total - my * my;
+    return s;
+}
 
-    const std::size_t pj = peak / width_, pi = peak % width_, w = s.estimate_window;
-    const std::size_t j0 = pj >= w ? pj - w : 0, j1 = std::min(height_, pj + w + 1);
-    const std::size_t i0 = pi >= w ? pi - w : 0, i1 = std::min(width_, pi + w + 1);
-    if (hi <= lo) {
-        e.flat = true;
-        e.x = mx + ox;
-        e.y = my + oy;
-    } else {
-        double m = 0, wx = 0, wy = 0;
-        for (std::size_t j = j0; j < j1; ++j)
-            for (std::size_t i = i0; i < i1; ++i) {
-                const double v = M[j * width_ + i];
-                m += v;
-                wx += v * cx(i);
-                wy += v * cy(j);
-            }
-        e.x = wx / m;
-        e.y = wy / m;
-    }
-
+void GridFilter::credible_region(GridEstimate& e, double total) const {
     // credible radius (cells by their centres) and confidence, on squared distances: a histogram
     // of the mass over 1024 equal bins of d^2 up to the farthest corner's, the bin where the mass
     // reaches credibility, its cells sorted by distance
+    const float* M = marginal_.data();
+    const GridFilterSettings& s = settings_;
     dx2_.resize(width_);
     for (std::size_t i = 0; i < width_; ++i) {
-        const double ex = cx(i) - e.x;
+        const double ex = cell_x(i) - e.x;
         dx2_[i] = ex * ex;
     }
     double far2 = 0;
-    for (double corner_x : {cx(0), cx(width_ - 1)})
-        for (double corner_y : {cy(0), cy(height_ - 1)}) {
+    for (double corner_x : {cell_x(0), cell_x(width_ - 1)})
+        for (double corner_y : {cell_y(0), cell_y(height_ - 1)}) {
             const double ex = corner_x - e.x, ey = corner_y - e.y;
             far2 = std::max(far2, ex * ex + ey * ey);
         }
@@ -1167,7 +1261,7 @@ GridEstimate GridFilter::estimate() const {
     const double r2 = s.confidence_radius * s.confidence_radius;
     double within = 0;
     for (std::size_t j = 0; j < height_; ++j) {
-        const double ey = cy(j) - e.y, ey2 = ey * ey;
+        const double ey = cell_y(j) - e.y, ey2 = ey * ey;
         const float* row = M + j * width_;
         for (std::size_t i = 0; i < width_; ++i) {
             const double d2 = ey2 + dx2_[i];
@@ -1191,7 +1285,7 @@ GridEstimate GridFilter::estimate() const {
     ring_.clear();  // the crossing bin's cells (bins start at d^2 = crossing / per)
     const double ring_start = per > 0 ? static_cast<double>(crossing) / per : 0.0;
     for (std::size_t j = 0; j < height_; ++j) {
-        const double ey = cy(j) - e.y, ey2 = ey * ey;
+        const double ey = cell_y(j) - e.y, ey2 = ey * ey;
         if (per > 0 && crossing + 1 < kBins && ey2 > static_cast<double>(crossing + 1) / per) continue;
         const float* row = M + j * width_;
         for (std::size_t i = 0; i < width_; ++i) {
@@ -1211,36 +1305,32 @@ GridEstimate GridFilter::estimate() const {
             break;
         }
     }
+}
 
-    // heading
-    if (!pose_) {
-        e.heading = std::numeric_limits<double>::quiet_NaN();
-        e.heading_var = std::numeric_limits<double>::quiet_NaN();
-    } else {
-        std::vector<double> h(bins_, 0.0);
-        for (std::size_t b = 0; b < bins_; ++b) {
-            const float* slice = belief_.data() + b * cells_;
-            double v = 0;
-            for (std::size_t j = j0; j < j1; ++j)
-                for (std::size_t i = i0; i < i1; ++i) v += slice[j * width_ + i];
-            h[b] = v;
-        }
-        std::size_t top = 0;
-        for (std::size_t b = 1; b < bins_; ++b)
-            if (h[b] > h[top]) top = b;
-        const double step = kTwoPi / static_cast<double>(bins_);
-        double ss = 0, cc = 0;
-        const std::size_t reach = bins_ <= 5 ? bins_ : 5;
-        for (std::size_t t = 0; t < reach; ++t) {
-            const std::size_t b = bins_ <= 5 ? t : (top + bins_ - 2 + t) % bins_;
-            const double theta = offset_ + step * static_cast<double>(b);
-            ss += h[b] * std::sin(theta);
-            cc += h[b] * std::cos(theta);
-        }
-        e.heading = wrap(std::atan2(ss, cc));
-        e.heading_var = heading_variance();
+double GridFilter::peak_heading(const CellWindow& around) const {
+    // the circular mean of the heading histogram over the cells around the peak, over its top bin
+    // and two bins on each side (all bins when there are at most 5)
+    std::vector<double> h(bins_, 0.0);
+    for (std::size_t b = 0; b < bins_; ++b) {
+        const float* slice = belief_.data() + b * cells_;
+        double v = 0;
+        for (std::size_t j = around.j0; j < around.j1; ++j)
+            for (std::size_t i = around.i0; i < around.i1; ++i) v += slice[j * width_ + i];
+        h[b] = v;
     }
-    return e;
+    std::size_t top = 0;
+    for (std::size_t b = 1; b < bins_; ++b)
+        if (h[b] > h[top]) top = b;
+    const double step = kTwoPi / static_cast<double>(bins_);
+    double ss = 0, cc = 0;
+    const std::size_t reach = bins_ <= 5 ? bins_ : 5;
+    for (std::size_t t = 0; t < reach; ++t) {
+        const std::size_t b = bins_ <= 5 ? t : (top + bins_ - 2 + t) % bins_;
+        const double theta = offset_ + step * static_cast<double>(b);
+        ss += h[b] * std::sin(theta);
+        cc += h[b] * std::cos(theta);
+    }
+    return wrap(std::atan2(ss, cc));
 }
 
 double GridFilter::heading_variance() const {

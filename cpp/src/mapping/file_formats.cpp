@@ -354,9 +354,13 @@ std::uint64_t u64(const std::uint8_t* p) { return std::uint64_t{u32(p)} | (std::
 
 [[noreturn]] void zip_fail(const std::string& what) { throw std::runtime_error("not a readable zip archive: " + what); }
 
-}  // namespace
+// Where a zip's central directory lies: its entries, size and offset (bytes), from the
+// end-of-central-directory record, or the zip64 end record when those fields overflow.
+struct CentralDirectory {
+    std::uint64_t entries, size, offset;
+};
 
-std::vector<ZipMember> zip_members(const std::uint8_t* data, std::size_t size) {
+CentralDirectory central_directory(const std::uint8_t* data, std::size_t size) {
     // the end-of-central-directory record: 22 bytes plus a comment of up to 65535 bytes
     if (size < 22) zip_fail("shorter than a zip's end record (truncated?)");
     std::size_t eocd = size;
@@ -381,6 +385,14 @@ std::vector<ZipMember> zip_members(const std::uint8_t* data, std::size_t size) {
         dir_offset = u64(data + record + 48);
     }
     if (dir_offset > size || dir_size > size - dir_offset) zip_fail("central directory beyond the end (truncated?)");
+    return {entries, dir_size, dir_offset};
+}
+
+}  // namespace
+
+std::vector<ZipMember> zip_members(const std::uint8_t* data, std::size_t size) {
+    const CentralDirectory directory = central_directory(data, size);
+    const std::uint64_t entries = directory.entries, dir_size = directory.size, dir_offset = directory.offset;
     std::vector<ZipMember> members;
     std::size_t at = static_cast<std::size_t>(dir_offset);
     const std::size_t dir_end = static_cast<std::size_t>(dir_offset + dir_size);

@@ -111,6 +111,8 @@ void column_costs(const std::uint8_t* stack, const std::uint8_t* image, const Wa
 
 }  // namespace
 
+// long: the min-warping cost loop nest (pairs x directions x columns x shifts) with its per-thread
+// scratch, one parallel region
 void warp_costs(const std::uint8_t* images, const std::uint8_t* stacks, std::size_t n_frames,
                 const WarpGeometry& geometry, const std::int32_t* pairs, std::size_t n_pairs,
                 const std::int32_t* first_direction, std::size_t n_directions, const std::int32_t* first_shift,

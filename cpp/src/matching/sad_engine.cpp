@@ -109,6 +109,8 @@ std::size_t plan_set_bytes(const SimdPath& path, const Window& window) {
 // with `plans` prepared for those queries when `prepared` (single-block plans only), else prepared
 // here. Every candidate (band, slot) of every pair is merged into the pair's best (Window::better:
 // the order of the merges does not matter). Returns the tile through sink.
+// long: the hot loop nest of a tile (reference blocks x bands x slot blocks) and the buffers its
+// kernels share; split, each step would take most of them as arguments
 template <class Sink>
 void compute_tile(Tile tile, PlanSet& plans, bool prepared, bool stage, const std::uint8_t* queries,
                   const std::uint8_t* refs, const Window& window, Sink&& sink) {

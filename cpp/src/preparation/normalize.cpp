@@ -31,6 +31,8 @@ struct WindowSums {
     std::vector<std::int64_t> prefix_sum, prefix_squares, prefix_count;  // (height + 1) x width
     std::vector<std::ptrdiff_t> entering, leaving;  // wrap-around column indices of the sliding window
 
+    // long: the exact window sums' three passes over one image (sliding row sums, column prefix
+    // sums, window totals), sharing their indices
     void compute(const std::uint8_t* src, std::size_t height, std::size_t width, int radius, bool wrap) {
         const std::size_t pixels = height * width;
         sum.assign(pixels, 0);

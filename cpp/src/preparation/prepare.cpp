@@ -484,6 +484,8 @@ DownsampleMethod downsample_method(std::size_t in_height, std::size_t in_width, 
     return DownsampleMethod::integral;
 }
 
+// long: one frame's two passes (grey and histogram, then the downsample by one of four methods)
+// share the crop, the equalization table and the row converter
 void prepare_frame(const FrameView& frame, const PrepareSettings& s, std::uint8_t* out, PrepareWorkspace& workspace) {
     check_settings(frame, s);
     if (out == nullptr) throw std::invalid_argument("output pointer is null");

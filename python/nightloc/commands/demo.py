@@ -192,6 +192,60 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.set_defaults(run=run)
 
 
+def _draw_world(
+    evaluation: Evaluation,
+    errors: dict[str, dict[str, list[np.ndarray]]],
+    ref_map: ReferenceMap,
+    target: Path,
+    params: LocalizationParams,
+    world: str,
+    frames: int,
+    args: argparse.Namespace,
+) -> list[str]:
+    """One world's evaluation figures and the filter beside the paper's method: their names."""
+    from ..figures._common import figure_path
+    from ..figures.evaluation import save_evaluation_figures
+    from ..figures.filter import comparison_figure
+
+    written = [
+        p.name
+        for p in save_evaluation_figures(evaluation, ref_map, target, params=params, figure_format=args.figure_format)
+    ]
+    figure = figure_path(target, "filter_vs_paper", args.figure_format)
+    comparison_figure(
+        errors,
+        f"{world}: night query frames {COMPARE_FROM}-{frames}, {args.repeats} noise draw(s) per model",
+        figure,
+        args.figure_format,
+    )
+    written.append(figure.name)
+    return written
+
+
+def _print_world(
+    evaluation: Evaluation,
+    errors: dict[str, dict[str, list[np.ndarray]]],
+    ref_map: ReferenceMap,
+    world: str,
+    frames: int,
+    repeats: int,
+) -> None:
+    """One world's tables: the paper's method against the paper's figures, then the filter beside it."""
+    print()
+    print(
+        f"{world}: {frames} night query frames against a day map of {len(ref_map)} images; "
+        f"median distance error (m), interpolation on unless noted:"
+    )
+    print(evaluation.table(off_column=True))
+    print(PAPER_RESULTS[world])
+    print()
+    print(
+        f"{world}: the Bayes filter beside the paper's method (n = {COMPARE_SEQ_LEN}), median distance "
+        f"error (m) over frames {COMPARE_FROM}-{frames}, {repeats} noise draw(s):"
+    )
+    print(comparison_table(errors, evaluation.settings.noise_models))
+
+
 def run(args: argparse.Namespace) -> int:
     """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
     check_draw_options(args)
@@ -228,37 +282,8 @@ def run(args: argparse.Namespace) -> int:
                 wheel_evaluation.write_errors_csv(target / "errors_wheel.csv").name,
             ]
             if not args.no_figures:
-                from ..figures._common import figure_path
-                from ..figures.evaluation import save_evaluation_figures
-                from ..figures.filter import comparison_figure
-
-                written += [
-                    p.name
-                    for p in save_evaluation_figures(
-                        evaluation, ref_map, target, params=params, figure_format=args.figure_format
-                    )
-                ]
-                figure = figure_path(target, "filter_vs_paper", args.figure_format)
-                comparison_figure(
-                    errors,
-                    f"{world}: night query frames {COMPARE_FROM}-{frames}, {args.repeats} noise draw(s) per model",
-                    figure,
-                    args.figure_format,
-                )
-                written.append(figure.name)
-            print()
-            print(
-                f"{world}: {frames} night query frames against a day map of {len(ref_map)} images; "
-                f"median distance error (m), interpolation on unless noted:"
-            )
-            print(evaluation.table(off_column=True))
-            print(PAPER_RESULTS[world])
-            print()
-            print(
-                f"{world}: the Bayes filter beside the paper's method (n = {COMPARE_SEQ_LEN}), median distance "
-                f"error (m) over frames {COMPARE_FROM}-{frames}, {args.repeats} noise draw(s):"
-            )
-            print(comparison_table(errors, evaluation.settings.noise_models))
+                written += _draw_world(evaluation, errors, ref_map, target, params, world, frames, args)
+            _print_world(evaluation, errors, ref_map, world, frames, args.repeats)
             models = list(evaluation.settings.noise_models)
             model = 1 if 1 in models else models[0]  # the robot's wheel odometry noise, as the demo's
             wheel_filter = EvaluationSettings(

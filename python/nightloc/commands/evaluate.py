@@ -44,9 +44,10 @@ from pathlib import Path
 
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set
-from ..io.traverse import load_traverse
+from ..io.traverse import Traverse, load_traverse
 from ..localization.evaluation import (
     EVALUATION_METHODS,
+    Evaluation,
     EvaluationSettings,
     align_to_map,
     evaluate,
@@ -198,6 +199,34 @@ def settings_from_args(args: argparse.Namespace) -> EvaluationSettings:
     )
 
 
+def _print_results(
+    evaluation: Evaluation,
+    settings: EvaluationSettings,
+    frames: int,
+    query: Traverse,
+    references: int,
+    total_s: float,
+    matching_s: float,
+) -> None:
+    """The run's size and time, then each method's table of distance errors."""
+    configs = len(evaluation) // max(frames, 1)
+    print(
+        f"{frames} query frames of {query.root} against {references} references: "
+        f"{configs} configurations in {total_s:.1f} s (matching and preparation {matching_s:.1f} s)"
+    )
+    if "paper" in settings.methods:
+        for interp in settings.interpolation:
+            print(f"the paper's method: median distance error (m), interpolation {'on' if interp else 'off'}:")
+            print(evaluation.table(interpolation=interp))
+    if "filter" in settings.methods:
+        first = min(10, frames)
+        print(
+            f"the Bayes filter beside the paper's method over frames {first} on: median and p95 distance error (m), "
+            f"share of frames over 1 m, longest run of them:"
+        )
+        print(evaluation.compare_table(first_frame=first))
+
+
 def run(args: argparse.Namespace) -> int:
     """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
     settings = settings_from_args(args)
@@ -266,21 +295,6 @@ def run(args: argparse.Namespace) -> int:
 
     if alignment is not None:
         print(alignment[1])
-    configs = len(evaluation) // max(len(matches.results), 1)
-    print(
-        f"{len(matches.results)} query frames of {query.root} against {len(ref_map)} references: "
-        f"{configs} configurations in {total_s:.1f} s (matching and preparation {matching_s:.1f} s)"
-    )
-    if "paper" in settings.methods:
-        for interp in settings.interpolation:
-            print(f"the paper's method: median distance error (m), interpolation {'on' if interp else 'off'}:")
-            print(evaluation.table(interpolation=interp))
-    if "filter" in settings.methods:
-        first = min(10, len(matches.results))
-        print(
-            f"the Bayes filter beside the paper's method over frames {first} on: median and p95 distance error (m), "
-            f"share of frames over 1 m, longest run of them:"
-        )
-        print(evaluation.compare_table(first_frame=first))
+    _print_results(evaluation, settings, len(matches.results), query, len(ref_map), total_s, matching_s)
     print(f"wrote {args.out}/" + ", ".join(written))
     return 0

@@ -70,7 +70,7 @@ from ..config import SettingsLayers
 from ..errors import DatasetError
 from ..experience.learning import LearningParams
 from ..figures import add_figure_format_option
-from ..io.atomic import check_output_path, output_set
+from ..io.atomic import OutputSet, check_output_path, output_set
 from ..io.trajectory import (
     TRAJECTORY_FORMATS,
     TRAJECTORY_HEADER,
@@ -261,8 +261,8 @@ class _BagOfTheNight:
         self.recorder.close()
 
 
-def run(args: argparse.Namespace) -> int:
-    """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
+def _check_options(args: argparse.Namespace) -> tuple[int | NoiseModel | None, list[str], tuple[int, int] | None]:
+    """The options checked before anything is read: the noise model, the formats, the window."""
     noise = None if args.odometry_noise is None else parse_noise(args.odometry_noise)
     formats = parse_formats(args.format)
     if not 0.0 <= args.min_confidence <= 1.0:
@@ -273,7 +273,136 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
-    window = parse_shift_window(args.shift_window)
+    return noise, formats, parse_shift_window(args.shift_window)
+
+
+def _check_outputs(args: argparse.Namespace, inputs: tuple) -> None:
+    """OUT (a folder) and --learn's NEW_MAP can be written, and neither is an input."""
+    check_output_path(args.out, folder=True, inputs=inputs, parents=True)  # a file in the way fails now
+    if args.learn is not None:
+        check_learn_target(args.learn, args.map, args.out, inputs, args.overwrite)
+    elif args.overwrite:
+        raise ValueError("--overwrite replaces the --learn NEW_MAP: give --learn NEW_MAP too")
+
+
+def _read_log(args: argparse.Namespace, formats: list[str]) -> tuple[Traverse, list, bool]:
+    """The log, its odometry (one motion or None per frame) and whether it has none (--odometry none)."""
+    refuse_map_as_traverse(args.log, "LOG", "the map comes first: nightloc localize MAP LOG --out OUT")
+    log = load_traverse(args.log, **bag_options(args))
+    for kind in ("mcap", "tum"):
+        if kind in formats and log.timestamps is None:
+            raise DatasetError(
+                f"--format {kind} needs each frame's time, and the log {log.root} carries none: add a timestamp "
+                f"column (seconds) to its odometry.csv or poses.csv, or localize a bag or a video; --format csv "
+                f"needs none"
+            )
+    no_odometry = args.odometry is not None and args.odometry.strip().lower() == "none"
+    if no_odometry:
+        odometry: list = [None] * len(log)
+    else:
+        odometry = log_odometry(log, args.odometry, "localize without odometry: --odometry none")
+    return log, odometry, no_odometry
+
+
+def _localize_frames(
+    localizer: Localizer, log: Traverse, odometry: list, recorder: _BagOfTheNight | None, learn: bool
+) -> tuple[FrameLocalizer, list]:
+    """Every frame of the log through the filter (and into the bag): the runner and the estimates."""
+    frames = log.frames(progress_desc=f"localizing {log.root.name}")
+    runner = FrameLocalizer(localizer, learn=learn)
+    estimates = []
+    for i, frame in frames:
+        prepared = runner.prepare(frame)
+        time_s = math.nan if log.timestamps is None else float(log.timestamps[i])
+        estimates.append(runner.step(prepared, odometry[i], log.names[i], time_s))
+        if recorder is not None:
+            recorder.write(i, estimates[-1], prepared, runner.converged)
+    if recorder is not None:
+        recorder.close()
+    return runner, estimates
+
+
+def _write_trajectories(
+    out: OutputSet, formats: list[str], log: Traverse, estimates: list, min_confidence: float, written: list[str]
+) -> list[int]:
+    """trajectory.csv and the TUM pair (their names added to ``written``); the frames the TUM
+    files keep."""
+    chosen: list[int] = []
+    if "csv" in formats:
+        written.append(write_trajectory_csv(out / "trajectory.csv", log.names, estimates, log.timestamps).name)
+    if "tum" in formats and log.timestamps is not None:
+        chosen = confident_frames(estimates, min_confidence)
+        times, confident = [log.timestamps[k] for k in chosen], [estimates[k] for k in chosen]
+        written.append(write_tum(out / "trajectory.tum", times, confident).name)
+        written.append(write_tum_confidence(out / TUM_CONFIDENCE_FILE, times, confident).name)
+    return chosen
+
+
+def _draw_trajectory(
+    folder: Path,
+    args: argparse.Namespace,
+    log: Traverse,
+    ref_map: ReferenceMap,
+    localizer: Localizer,
+    estimates: list,
+    truth: np.ndarray | None,
+    alignment_note: str,
+    noise_label: str,
+    no_odometry: bool,
+) -> str:
+    """trajectory.png (or the --figure-format) in ``folder``: its name."""
+    from ..figures._common import figure_path
+    from ..figures.trajectory import trajectory_figure
+
+    source = (
+        "none"
+        if no_odometry
+        else (f"the bag's {(log.bag_topics or {}).get('odometry')}" if log.is_bag else "the log's")
+    )
+    caption = (
+        f"{len(estimates)} frames of {log.root.name} against {len(ref_map)} references; odometry: "
+        f"{source}, noise {noise_label}; disks: credible radius "
+        f"({localizer.filter_params.credibility:.0%})"
+        + (
+            "; true path moved into the map's frame by the rigid fit of its survey"
+            if truth is not None and alignment_note
+            else ""
+        )
+    )
+    figure = figure_path(folder, "trajectory", args.figure_format)
+    trajectory_figure(
+        ref_map.positions,
+        np.array([(e.x, e.y) for e in estimates]),
+        truth,
+        credible_radius=np.array([e.credible_radius for e in estimates]),
+        confidence=np.array([e.confidence for e in estimates]),
+        title="nightloc localize: the Bayes filter's trajectory",
+        caption=caption,
+        path=figure,
+        figure_format=args.figure_format,
+    )
+    return figure.name
+
+
+def _print_errors(log: Traverse, estimates: list, truth: np.ndarray | None, alignment_note: str) -> None:
+    """The alignment's note and, where the log has poses, the distance errors and their tail."""
+    if alignment_note:
+        print(alignment_note)
+    if truth is not None:
+        positions = np.array([(e.x, e.y) for e in estimates])
+        errors = np.hypot(*(positions - truth).T)
+        print(
+            f"distance error against {log.root.name}'s poses: median {np.median(errors):.2f} m, "
+            f"90th percentile {np.percentile(errors, 90):.2f} m"
+        )
+        tail = tail_metrics(errors)
+        if tail.n:
+            print(f"from frame {FIRST_FRAME} on ({tail.n} frames): {tail.line()}")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
+    noise, formats, window = _check_options(args)
     settings = read_settings(args)
     inputs = (
         args.map,
@@ -282,28 +411,8 @@ def run(args: argparse.Namespace) -> int:
         args.odometry if args.odometry not in (None, "none") else None,
         args.survey,
     )
-    check_output_path(args.out, folder=True, inputs=inputs, parents=True)  # a file in the way fails now
-    if args.learn is not None:
-        check_learn_target(args.learn, args.map, args.out, inputs, args.overwrite)
-    elif args.overwrite:
-        raise ValueError("--overwrite replaces the --learn NEW_MAP: give --learn NEW_MAP too")
-    refuse_map_as_traverse(args.log, "LOG", "the map comes first: nightloc localize MAP LOG --out OUT")
-    log = load_traverse(args.log, **bag_options(args))
-    if "mcap" in formats and log.timestamps is None:
-        raise DatasetError(
-            f"--format mcap needs each frame's time, and the log {log.root} carries none: add a timestamp column "
-            f"(seconds) to its odometry.csv or poses.csv, or localize a bag or a video; --format csv needs none"
-        )
-    if "tum" in formats and log.timestamps is None:
-        raise DatasetError(
-            f"--format tum needs each frame's time, and the log {log.root} carries none: add a timestamp column "
-            f"(seconds) to its odometry.csv or poses.csv, or localize a bag or a video; --format csv needs none"
-        )
-    no_odometry = args.odometry is not None and args.odometry.strip().lower() == "none"
-    if no_odometry:
-        odometry: list = [None] * len(log)
-    else:
-        odometry = log_odometry(log, args.odometry, "localize without odometry: --odometry none")
+    _check_outputs(args, inputs)
+    log, odometry, no_odometry = _read_log(args, formats)
     if noise is None:
         noise = log_noise_model(odometry)
     ref_map = _load_map(args.map, settings.section(PreparationParams), args.camera, settings, bag_options(args))
@@ -323,62 +432,27 @@ def run(args: argparse.Namespace) -> int:
     # Checked and locked before the work; the files appear together at the end, or not at all.
     with output_set(args.out, command="localize", inputs=inputs, parents=True) as out:
         start = time.perf_counter()
-        frames = log.frames(progress_desc=f"localizing {log.root.name}")
-        runner = FrameLocalizer(localizer, learn=args.learn is not None)
         recorder = (
             _BagOfTheNight(out.path, localizer, log, odometry, truth, alignment_note) if "mcap" in formats else None
         )
-        estimates = []
-        for i, frame in frames:
-            prepared = runner.prepare(frame)
-            time_s = math.nan if log.timestamps is None else float(log.timestamps[i])
-            estimates.append(runner.step(prepared, odometry[i], log.names[i], time_s))
-            if recorder is not None:
-                recorder.write(i, estimates[-1], prepared, runner.converged)
-        if recorder is not None:
-            recorder.close()
+        runner, estimates = _localize_frames(localizer, log, odometry, recorder, args.learn is not None)
         seconds = time.perf_counter() - start
         written = ["trajectory_bag/"] if recorder is not None else []
-        if "csv" in formats:
-            written.append(write_trajectory_csv(out / "trajectory.csv", log.names, estimates, log.timestamps).name)
-        if "tum" in formats and log.timestamps is not None:
-            chosen = confident_frames(estimates, args.min_confidence)
-            times, confident = [log.timestamps[k] for k in chosen], [estimates[k] for k in chosen]
-            written.append(write_tum(out / "trajectory.tum", times, confident).name)
-            written.append(write_tum_confidence(out / TUM_CONFIDENCE_FILE, times, confident).name)
-        positions = np.array([(e.x, e.y) for e in estimates])
+        chosen = _write_trajectories(out, formats, log, estimates, args.min_confidence, written)
         if not args.no_figures:
-            from ..figures._common import figure_path
-            from ..figures.trajectory import trajectory_figure
-
-            source = (
-                "none"
-                if no_odometry
-                else (f"the bag's {(log.bag_topics or {}).get('odometry')}" if log.is_bag else "the log's")
-            )
-            caption = (
-                f"{len(estimates)} frames of {log.root.name} against {len(ref_map)} references; odometry: "
-                f"{source}, noise {_noise_label(noise)}; disks: credible radius "
-                f"({localizer.filter_params.credibility:.0%})"
-                + (
-                    "; true path moved into the map's frame by the rigid fit of its survey"
-                    if truth is not None and alignment_note
-                    else ""
-                )
-            )
-            figure = figure_path(out.path, "trajectory", args.figure_format)
-            trajectory_figure(
-                ref_map.positions,
-                positions,
+            figure = _draw_trajectory(
+                out.path,
+                args,
+                log,
+                ref_map,
+                localizer,
+                estimates,
                 truth,
-                credible_radius=np.array([e.credible_radius for e in estimates]),
-                confidence=np.array([e.confidence for e in estimates]),
-                title="nightloc localize: the Bayes filter's trajectory",
-                caption=caption,
-                path=figure,
-                figure_format=args.figure_format,
+                alignment_note,
+                _noise_label(noise),
+                no_odometry,
             )
-            written.append(figure.name)
+            written.append(figure)
         if args.learn is not None:
             learned, report = runner.learned_map(str(args.log), settings.section(LearningParams))
             learned.save(args.learn, overwrite=args.overwrite)
@@ -396,17 +470,7 @@ def run(args: argparse.Namespace) -> int:
         print(
             f"trajectory.tum: {len(chosen)} of {len(estimates)} frames, those of confidence >= {args.min_confidence:g}"
         )
-    if alignment_note:
-        print(alignment_note)
-    if truth is not None:
-        errors = np.hypot(*(positions - truth).T)
-        print(
-            f"distance error against {log.root.name}'s poses: median {np.median(errors):.2f} m, "
-            f"90th percentile {np.percentile(errors, 90):.2f} m"
-        )
-        tail = tail_metrics(errors)
-        if tail.n:
-            print(f"from frame {FIRST_FRAME} on ({tail.n} frames): {tail.line()}")
+    _print_errors(log, estimates, truth, alignment_note)
     print(f"wrote {args.out}/" + ", ".join(written))
     if args.learn is not None:
         unchanged = " (the map unchanged)" if learned is ref_map else ""

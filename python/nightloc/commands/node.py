@@ -24,6 +24,7 @@ import signal
 import sys
 import threading
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import MissingDependencyError
 from ..experience.learning import LearningParams
@@ -36,6 +37,11 @@ from ..motion.odometry import WHEEL_ODOMETRY_NOISE
 from ..node.conventions import DEFAULT_FRAMES, TOPICS
 from ..node.runner import DEFAULT_CONVERGED_CONFIDENCE, FrameLocalizer
 from ..preparation.params import PreparationParams
+
+if TYPE_CHECKING:
+    from ..node.participant import Node, NodeSettings
+    from ..node.record import NightRecorder
+
 from .options import (
     add_learn_options,
     add_params_options,
@@ -129,15 +135,8 @@ def _domain(value: int | None) -> int:
     return value
 
 
-def run(args: argparse.Namespace) -> int:
-    """Runs the node until SIGINT/SIGTERM (or ``--duration``); returns the exit status."""
-    try:
-        import cyclonedds.domain  # noqa: F401
-    except ImportError as error:
-        raise MissingDependencyError(f"nightloc node needs cyclonedds ({error}): {INSTALL}") from None
-    from ..node.participant import Node, NodeSettings
-    from ..node.record import NightRecorder
-
+def _check_options(args: argparse.Namespace) -> None:
+    """The numeric options and the output paths, checked before anything is loaded."""
     for name in ("sync_tolerance", "odometry_wait", "transform_tolerance", "belief_rate"):
         value = getattr(args, name)
         if not (value >= 0 and value < float("inf")):
@@ -146,12 +145,10 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
     if not 0.0 <= args.converged_confidence <= 1.0:
         raise ValueError(f"--converged-confidence must be in [0, 1], got {args.converged_confidence}")
-    domain = _domain(args.domain_id)
-    covariance_noise = args.odometry_noise.strip().lower() == "covariance"
-    noise = WHEEL_ODOMETRY_NOISE if covariance_noise else parse_noise(args.odometry_noise)
-    window = parse_shift_window(args.shift_window)
-    params = read_settings(args)
-    inputs = (args.map, args.params)
+
+
+def _check_outputs(args: argparse.Namespace, inputs: tuple) -> None:
+    """--learn's NEW_MAP and --record's folder can be written, and neither is an input."""
     if args.learn is not None:
         check_learn_target(args.learn, args.map, None, inputs, args.overwrite)
     elif args.overwrite:
@@ -160,6 +157,100 @@ def run(args: argparse.Namespace) -> int:
         if os.path.lexists(args.record):
             raise ValueError(f"--record {args.record} exists: a recording goes into a new folder (rosbags writes it)")
         check_output_path(args.record, folder=True, overwrite=False, inputs=inputs)
+
+
+def _node_settings(args: argparse.Namespace, domain: int, covariance_noise: bool) -> NodeSettings:
+    """The node's topics (odometry from its topic, from TF or none), frames and timing."""
+    from ..node.participant import NodeSettings
+
+    odometry = "topic"
+    topic_names = {spec.role: getattr(args, f"{spec.role}_topic") for spec in TOPICS}
+    given = (topic_names["odometry"] or "").strip()
+    if given.lower() == "none":
+        odometry, topic_names["odometry"] = "none", None
+    elif given.split(":")[0] in ("/tf", "tf") or (given and given == topic_names["tf"]):
+        odometry, topic_names["odometry"] = "tf", None
+    return NodeSettings(
+        topics={role: name for role, name in topic_names.items() if name},
+        compressed=args.compressed,
+        odometry=odometry,
+        frames=(args.map_frame, args.odom_frame, args.base_frame),
+        noise="covariance" if covariance_noise else None,
+        sync_tolerance=args.sync_tolerance,
+        odometry_wait=args.odometry_wait,
+        transform_tolerance=args.transform_tolerance,
+        belief_rate=args.belief_rate,
+        domain_id=domain,
+    )
+
+
+def _staged_recorder(record: Path, localizer: Localizer, settings: NodeSettings) -> tuple[NightRecorder, Path]:
+    """--record's recorder, writing into a staging folder beside ``record`` (renamed when complete)."""
+    from ..node.record import NightRecorder
+
+    staging = record.parent / f".{record.name}.partial-{os.getpid()}"
+    shutil.rmtree(staging, ignore_errors=True)
+    staging.mkdir(parents=True)
+    recorder = NightRecorder(
+        staging / record.name,
+        localizer.grid,
+        frames=settings.frames,
+        topics=settings.topics,
+        transform_tolerance=settings.transform_tolerance,
+    )
+    return recorder, staging
+
+
+def _spin(node: Node, duration: float | None, record: Path | None, staged: tuple[NightRecorder, Path] | None) -> None:
+    """Runs ``node`` until SIGINT/SIGTERM or ``duration`` seconds; the recording is renamed to
+    ``record`` when the run ends normally, removed when it fails."""
+    stop = threading.Event()
+
+    def on_signal(signum, _frame) -> None:
+        stop.set()
+        node.stop()
+
+    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    timer = None
+    if duration is not None:
+        timer = threading.Timer(max(duration, 0.0), node.stop)
+        timer.daemon = True
+        timer.start()
+    try:
+        node.spin()
+    except BaseException:
+        if staged is not None:  # no half-written bag: the staging goes
+            staged[0].close()
+            shutil.rmtree(staged[1], ignore_errors=True)
+        raise
+    else:
+        if staged is not None and record is not None:  # the whole run, at once
+            staged[0].close()
+            os.rename(staged[1] / record.name, record)
+            staged[1].rmdir()
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        if timer is not None:
+            timer.cancel()
+
+
+def run(args: argparse.Namespace) -> int:
+    """Runs the node until SIGINT/SIGTERM (or ``--duration``); returns the exit status."""
+    try:
+        import cyclonedds.domain  # noqa: F401
+    except ImportError as error:
+        raise MissingDependencyError(f"nightloc node needs cyclonedds ({error}): {INSTALL}") from None
+    from ..node.participant import Node
+
+    _check_options(args)
+    domain = _domain(args.domain_id)
+    covariance_noise = args.odometry_noise.strip().lower() == "covariance"
+    noise = WHEEL_ODOMETRY_NOISE if covariance_noise else parse_noise(args.odometry_noise)
+    window = parse_shift_window(args.shift_window)
+    params = read_settings(args)
+    inputs = (args.map, args.params)
+    _check_outputs(args, inputs)
     if not args.map.is_file():
         raise ValueError(f"map {args.map} is not a map file (nightloc build-map writes one)")
     ref_map = load_reference(args.map, params.section(PreparationParams))
@@ -176,74 +267,17 @@ def run(args: argparse.Namespace) -> int:
     )
     _log(settings_line(params, LOCALIZER_SECTIONS))
     runner = FrameLocalizer(localizer, learn=args.learn is not None, converged_confidence=args.converged_confidence)
-    odometry = "topic"
-    topic_names = {spec.role: getattr(args, f"{spec.role}_topic") for spec in TOPICS}
-    given = (topic_names["odometry"] or "").strip()
-    if given.lower() == "none":
-        odometry, topic_names["odometry"] = "none", None
-    elif given.split(":")[0] in ("/tf", "tf") or (given and given == topic_names["tf"]):
-        odometry, topic_names["odometry"] = "tf", None
-    settings = NodeSettings(
-        topics={role: name for role, name in topic_names.items() if name},
-        compressed=args.compressed,
-        odometry=odometry,
-        frames=(args.map_frame, args.odom_frame, args.base_frame),
-        noise="covariance" if covariance_noise else None,
-        sync_tolerance=args.sync_tolerance,
-        odometry_wait=args.odometry_wait,
-        transform_tolerance=args.transform_tolerance,
-        belief_rate=args.belief_rate,
-        domain_id=domain,
-    )
-    recorder = None
-    staging = None
-    if args.record is not None:
-        staging = args.record.parent / f".{args.record.name}.partial-{os.getpid()}"  # renamed when complete
-        shutil.rmtree(staging, ignore_errors=True)
-        staging.mkdir(parents=True)
-        recorder = NightRecorder(
-            staging / args.record.name,
-            localizer.grid,
-            frames=settings.frames,
-            topics=settings.topics,
-            transform_tolerance=settings.transform_tolerance,
-        )
-    node = Node(runner, settings, _log, recorder)
-    stop = threading.Event()
-
-    def on_signal(signum, _frame) -> None:
-        stop.set()
-        node.stop()
-
-    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
-    timer = None
-    if args.duration is not None:
-        timer = threading.Timer(max(args.duration, 0.0), node.stop)
-        timer.daemon = True
-        timer.start()
+    settings = _node_settings(args, domain, covariance_noise)
+    staged = None if args.record is None else _staged_recorder(args.record, localizer, settings)
+    node = Node(runner, settings, _log, None if staged is None else staged[0])
+    odometry = settings.odometry
     _log(
         f"ready: domain {domain}, {len(ref_map)} references; frames from {settings.topic('image')}, odometry "
         f"{'none' if odometry == 'none' else settings.topic('tf' if odometry == 'tf' else 'odometry')}; publishing "
         f"{settings.topic('pose')}, {settings.topic('tf')} (map -> odom from confidence "
         f"{args.converged_confidence:g}), {settings.topic('belief')}, {settings.topic('status')}"
     )
-    try:
-        node.spin()
-    except BaseException:
-        if recorder is not None and staging is not None:  # no half-written bag: the staging goes
-            recorder.close()
-            shutil.rmtree(staging, ignore_errors=True)
-        raise
-    else:
-        if recorder is not None and staging is not None:  # the whole run, at once
-            recorder.close()
-            os.rename(staging / args.record.name, args.record)
-            staging.rmdir()
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-        if timer is not None:
-            timer.cancel()
+    _spin(node, args.duration, args.record, staged)
     stats = node.stats
     _log(
         f"stopped: {stats.received} frames received, {stats.processed} localized, {stats.dropped} dropped (a newer "

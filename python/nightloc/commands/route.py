@@ -72,7 +72,7 @@ from ..errors import NightlocError
 from ..figures import add_figure_format_option
 from ..io.atomic import check_output_path, output_set, write_text
 from ..io.route_csv import matches_csv, pr_csv
-from ..io.traverse import load_traverse
+from ..io.traverse import Traverse, load_traverse
 from ..preparation.camera import check_frames_fit
 from ..preparation.params import PreparationParams
 from ..route.dask_backend import dask_stream_match, local_client, require_distributed
@@ -307,7 +307,9 @@ def _check_can_match(p: RouteParams, n_refs: int, n_queries: int) -> None:
 _OPTIONS = ("threads", "ds", "vmin", "vmax", "mode")
 
 
-def run(args: argparse.Namespace) -> int:
+def _checked_params(args: argparse.Namespace) -> tuple[RouteParams, PreparationParams | None, list, list[RouteParams]]:
+    """The route and preparation parameters, the methods and each method's parameters, checked
+    (errors in the options' words)."""
     if args.frame_step < 1:
         raise ValueError(f"--frame-step must be >= 1, got {args.frame_step}")
     if args.tolerance is not None and not (math.isfinite(args.tolerance) and args.tolerance >= 0):
@@ -321,10 +323,12 @@ def run(args: argparse.Namespace) -> int:
         if isinstance(error, NightlocError):
             raise  # about the keys of --params or --set, in their words
         raise in_option_words(error, _OPTIONS) from None
-    if args.dask is not None:
-        require_cluster(args.dask)
-    inputs = (args.reference, args.query, args.params)
-    check_output_path(args.out, folder=True, inputs=inputs, parents=True)  # a file in the way fails now
+    return params, preparation, methods, per_method
+
+
+def _load_traverses(args: argparse.Namespace, params: RouteParams) -> tuple[Traverse, Traverse]:
+    """The reference and query traverses (names, times and poses; frames read when prepared),
+    checked to come from one camera."""
     usage = "nightloc route compares two traverses: nightloc route REFERENCE QUERY --out OUT"
     refuse_map_as_traverse(args.reference, "REFERENCE", usage)
     refuse_map_as_traverse(args.query, "QUERY", usage)
@@ -342,6 +346,27 @@ def run(args: argparse.Namespace) -> int:
         remedy="route mode matches two traverses of one camera",
         exact_size=False,
     )
+    return reference, query
+
+
+def _check_defined(result: RouteResult, p: RouteParams) -> None:
+    """A ValueError when no query frame could be matched (every trajectory left the references)."""
+    if not result.defined.any():
+        raise ValueError(
+            f"no query frame could be matched by {p.method} ({result.n_queries} queries, {result.n_refs} "
+            f"references, {p.mode} sequences of ds {p.effective_ds}, speeds {p.vmin:g}..{p.vmax:g}): every "
+            f"trajectory left the reference traverse or had no defined score; shorten --ds or widen the speeds"
+        )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Runs the sub-command; returns the exit status (errors raise, the CLI prints one line)."""
+    params, preparation, methods, per_method = _checked_params(args)
+    if args.dask is not None:
+        require_cluster(args.dask)
+    inputs = (args.reference, args.query, args.params)
+    check_output_path(args.out, folder=True, inputs=inputs, parents=True)  # a file in the way fails now
+    reference, query = _load_traverses(args, params)
     truth, truth_kind, no_truth = ground_truth_for(args.ground_truth, reference, query, args.tolerance)
     for p in per_method:
         _check_can_match(p, len(reference), len(query))
@@ -395,12 +420,7 @@ def run(args: argparse.Namespace) -> int:
                 result.timings = {"preparation": preparation_s, "difference": difference_s, **result.timings}
             if used is not None:
                 result.motion_note = used.note
-            if not result.defined.any():
-                raise ValueError(
-                    f"no query frame could be matched by {p.method} ({result.n_queries} queries, {result.n_refs} "
-                    f"references, {p.mode} sequences of ds {p.effective_ds}, speeds {p.vmin:g}..{p.vmax:g}): every "
-                    f"trajectory left the reference traverse or had no defined score; shorten --ds or widen the speeds"
-                )
+            _check_defined(result, p)
             folder = out.path if len(methods) == 1 else out.path / p.method
             evaluation = evaluate_matches(result.refs, result.scores, truth) if truth is not None else None
             evaluations[p.method] = (result, evaluation)

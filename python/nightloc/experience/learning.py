@@ -515,6 +515,250 @@ def _check_night(ref_map: ReferenceMap, night: LocalizedNight) -> None:
         raise ValueError(f"the night's arrays disagree: images {night.images.shape}, expected {shape}")
 
 
+#: A place view: (place index, heading in radians; 0.0 for a panorama's single view).
+_View = tuple[int, float]
+
+
+class _PlaceViews:
+    """The map's place views: a panorama's place has one, a forward camera's one per distinct
+    reference heading there (a frame belongs to the view nearest in heading, within ``tolerance``
+    radians)."""
+
+    def __init__(self, ref_map: ReferenceMap, place_of_ref: np.ndarray, tolerance: float):
+        self.forward = not ref_map.params.wrap and ref_map.headings is not None
+        self.headings = ref_map.headings
+        self.place_of_ref = place_of_ref
+        self.tolerance = tolerance
+
+    def of(self, place: int, heading: float) -> _View | None:
+        """The place view a frame of ``heading`` belongs to (forward: nearest heading in tolerance)."""
+        if not self.forward:
+            return (place, 0.0)
+        assert self.headings is not None
+        members = np.flatnonzero(self.place_of_ref == place)
+        views = np.unique(np.round(self.headings[members], 9))
+        gaps = np.abs(wrap_angle(views - heading))
+        k = int(np.argmin(gaps))
+        return (place, float(views[k])) if gaps[k] <= self.tolerance else None
+
+    def refs(self, view: _View) -> np.ndarray:
+        """The indices of the view's references."""
+        members = self.place_of_ref == view[0]
+        if self.forward:
+            assert self.headings is not None
+            members &= np.round(self.headings, 9) == view[1]
+        return np.flatnonzero(members)
+
+
+def _attach_frames(
+    estimates: tuple[Estimate, ...],
+    trusted: np.ndarray,
+    places: np.ndarray,
+    views: _PlaceViews,
+    attach: float,
+    gap: float,
+) -> tuple[dict[_View, list[int]], list[int]]:
+    """The trusted frames within ``attach`` metres of a place, by place view, and those that fill
+    a gap (no place within ``gap`` metres, nor a gap frame of this night nearer than its place)."""
+    tree = cKDTree(places)
+    new_places: list[int] = []  # frames that become new places
+    attached: dict[_View, list[int]] = {}
+    for k in np.flatnonzero(trusted):
+        e = estimates[k]
+        distance, place = tree.query((e.x, e.y))
+        if new_places:
+            new_xy = np.array([(estimates[f].x, estimates[f].y) for f in new_places])
+            nearest_new = float(np.min(np.hypot(*(new_xy - (e.x, e.y)).T)))
+            if nearest_new < distance:
+                if nearest_new >= gap:
+                    new_places.append(int(k))
+                continue  # near a place of this night: it holds this night's look already
+        if distance <= attach:
+            view = views.of(int(place), e.heading)
+            if view is not None:
+                attached.setdefault(view, []).append(int(k))
+        elif distance >= gap:
+            new_places.append(int(k))
+    return attached, new_places
+
+
+@dataclass
+class _Looks:
+    """What tonight's attached frames say of their place views.
+
+    Attributes:
+        matches: ``(N,)`` the map's match counts plus tonight's (one per attached frame, to its best
+            appearance).
+        learned: per view whose look is new: (view, the frame learned, its best appearance).
+        known: views that had a look like tonight's already.
+        look_ratios: per attached frame at a view with learned appearances: their best score over
+            the frame's median score over all learned appearances.
+    """
+
+    matches: np.ndarray
+    learned: list[tuple[_View, int, int]]
+    known: int
+    look_ratios: list[float]
+
+
+def _judge_looks(
+    ref_map: ReferenceMap,
+    night: LocalizedNight,
+    record: Appearances,
+    estimates: tuple[Estimate, ...],
+    places: np.ndarray,
+    views: _PlaceViews,
+    attached: dict[_View, list[int]],
+    novelty: float,
+) -> _Looks:
+    """Each view's frames matched against its appearances: the match counts, and whether tonight's
+    look is new there (no frame scores within ``novelty`` x its median score)."""
+    looks = _Looks(record.matches.copy(), [], 0, [])
+    shifts = ref_map.params.shifts
+    for target, frames in attached.items():
+        refs = views.refs(target)
+        learned_refs = record.night[refs] > 0
+        spot = places[target[0]]
+        candidate = min(frames, key=lambda f: (_distance(estimates[f], spot), -estimates[f].confidence))
+        seen, best_of_candidate = False, -1
+        for f in frames:
+            result = match(night.images[f], ref_map.images[refs], shifts=shifts, threads=1)
+            looks.matches[refs[result.index]] += 1
+            seen |= bool(result.score <= novelty * night.score_medians[f])
+            if learned_refs.any() and night.learned_medians is not None:
+                looks.look_ratios.append(float(result.scores[learned_refs].min() / night.learned_medians[f]))
+            if f == candidate:
+                best_of_candidate = int(refs[result.index])
+        if seen:
+            looks.known += 1  # the place has a look like tonight's already
+        else:
+            looks.learned.append((target, candidate, best_of_candidate))
+    return looks
+
+
+def _evictions(
+    looks: _Looks, views: _PlaceViews, record: Appearances, number: int, params: LearningParams
+) -> list[int]:
+    """The cap: the retention policy's first learned appearances of each view that would overflow."""
+    policy = RETENTION_POLICIES[params.retention]
+    evict: list[int] = []
+    for view, _, _ in looks.learned:
+        refs = views.refs(view)
+        old = [int(r) for r in refs if record.night[r] > 0]
+        excess = len(old) + 1 - params.max_learned
+        if excess > 0:
+            evict.extend(policy.order(old, record, looks.matches, number)[:excess])
+    return evict
+
+
+class _NewReferences:
+    """The map's kept references, then the night's frames added one by one (:meth:`add`)."""
+
+    def __init__(self, ref_map: ReferenceMap, night: LocalizedNight, number: int, keep: np.ndarray):
+        self.night, self.number = night, number
+        self.images = [ref_map.images[keep]]
+        self.positions = [ref_map.positions[keep]]
+        self.headings = None if ref_map.headings is None else [ref_map.headings[keep]]
+        self.covariances = None if ref_map.covariances is None else [ref_map.covariances[keep]]
+        self.names = [ref_map.names[i] for i in keep]
+        self.taken = set(self.names)
+        self.nights: list[int] = []
+        self.confidences: list[float] = []
+        self.times: list[float] = []
+
+    def add(self, frame: int, estimate: Estimate, position: np.ndarray, heading: float, covariance) -> None:
+        """Frame ``frame`` of the night as a reference at ``position`` (metres), ``heading`` (radians)."""
+        night = self.night
+        self.images.append(night.images[frame][None])
+        self.positions.append(np.asarray(position, dtype=np.float64)[None])
+        if self.headings is not None:
+            self.headings.append(np.array([heading]))
+        if self.covariances is not None and covariance is not None:
+            self.covariances.append(covariance[None])
+        name = f"night{self.number}/{night.names[frame]}"
+        while name in self.taken:
+            name += "'"
+        self.taken.add(name)
+        self.names.append(name)
+        self.nights.append(self.number)
+        self.confidences.append(min(max(float(estimate.confidence), 0.0), 1.0))
+        self.times.append(math.nan if night.timestamps is None else float(night.timestamps[frame]))
+
+
+def _add_night(
+    ref_map: ReferenceMap,
+    night: LocalizedNight,
+    estimates: tuple[Estimate, ...],
+    learned: list[tuple[_View, int, int]],
+    new_places: list[int],
+    views: _PlaceViews,
+    new: _NewReferences,
+) -> None:
+    """The learned looks, each at its place's position (a view's heading, or the frame's), and the
+    gap frames, each a new place at the localizer's pose with its uncertainty."""
+    for view, f, best in learned:
+        e = estimates[f]
+        heading = view[1] if views.forward else _frame_heading(e, ref_map, night, f, best)
+        cov = None if ref_map.covariances is None else ref_map.covariances[best]
+        new.add(f, e, ref_map.positions[best], heading, cov)
+    for f in new_places:
+        e = estimates[f]
+        best = int(match(night.images[f], ref_map.images, shifts=ref_map.params.shifts, threads=1).index)
+        heading = e.heading if math.isfinite(e.heading) else _frame_heading(e, ref_map, night, f, best)
+        cov = None
+        if ref_map.covariances is not None:
+            cov = np.zeros((3, 3))
+            cov[:2, :2] = np.asarray(e.covariance) if e.covariance is not None else np.eye(2) * e.credible_radius**2
+            cov[2, 2] = (math.pi / ref_map.params.width) ** 2
+        new.add(f, e, np.array([e.x, e.y]), heading, cov)
+
+
+def _learned_map(
+    ref_map: ReferenceMap,
+    record: Appearances,
+    history: LearnedNight,
+    matches: np.ndarray,
+    keep: np.ndarray,
+    new: _NewReferences,
+) -> ReferenceMap:
+    """The map of ``new``'s references with their provenance (the kept ones' from ``record``)."""
+    added = record.subset(keep)
+    appearances = Appearances(
+        np.concatenate([added.night, np.asarray(new.nights, np.int32)]),
+        np.concatenate([added.confidence, np.asarray(new.confidences, np.float64)]),
+        np.concatenate([added.time, np.asarray(new.times, np.float64)]),
+        np.concatenate([matches[keep], np.zeros(len(new.nights), np.int64)]),
+        (*record.nights, history),
+        record.day_fingerprint,
+    )
+    return ReferenceMap(
+        np.concatenate(new.images),
+        np.concatenate(new.positions),
+        None if new.headings is None else np.concatenate(new.headings),
+        new.names,
+        ref_map.params,
+        ref_map.source,
+        ref_map.frame_size,
+        pose_source=ref_map.pose_source,
+        covariances=None if new.covariances is None else np.concatenate(new.covariances),
+        appearances=appearances,
+        settings=ref_map.settings,
+    )
+
+
+def _look_refusal(looks: _Looks, params: LearningParams) -> str:
+    """Why the night is not learned ("" when it is): its frames match their places' learned looks
+    no better than ``max_look_ratio`` of the typical learned look (another garden)."""
+    ratio = float(np.median(looks.look_ratios)) if len(looks.look_ratios) >= params.settled_frames else math.nan
+    if not ratio > params.max_look_ratio:
+        return ""
+    return (
+        f"its frames match their places' learned appearances at {ratio:.2f} of the typical one's score "
+        f"(more than [learning] max_look_ratio {params.max_look_ratio:g}): not a night of this map's places "
+        f"(another garden?)"
+    )
+
+
 def learn(
     ref_map: ReferenceMap, night: LocalizedNight, params: LearningParams | None = None
 ) -> tuple[ReferenceMap, LearningReport]:
@@ -539,175 +783,37 @@ def learn(
         report = LearningReport(0, len(night), 0, None, 0, 0, 0, 0, 0, n_places, len(ref_map))
         return ref_map, report
     number = len(record.nights) + 1
-    forward = not ref_map.params.wrap and ref_map.headings is not None
-    tolerance = math.radians(params.heading_tolerance)
-    headings = ref_map.headings
-
-    def view_of(place: int, heading: float) -> tuple[int, float] | None:
-        """The place view a frame of ``heading`` belongs to (forward: nearest heading in tolerance)."""
-        if not forward:
-            return (place, 0.0)
-        assert headings is not None
-        members = np.flatnonzero(place_of_ref == place)
-        views = np.unique(np.round(headings[members], 9))
-        gaps = np.abs(wrap_angle(views - heading))
-        k = int(np.argmin(gaps))
-        return (place, float(views[k])) if gaps[k] <= tolerance else None
-
-    def view_refs(view: tuple[int, float]) -> np.ndarray:
-        members = place_of_ref == view[0]
-        if forward:
-            assert headings is not None
-            members &= np.round(headings, 9) == view[1]
-        return np.flatnonzero(members)
-
-    tree = cKDTree(places)
-    new_places: list[int] = []  # frames that became new places
-    attached: dict[tuple[int, float], list[int]] = {}
-    for k in np.flatnonzero(trusted):
-        e = estimates[k]
-        distance, place = tree.query((e.x, e.y))
-        if new_places:
-            new_xy = np.array([(estimates[f].x, estimates[f].y) for f in new_places])
-            nearest_new = float(np.min(np.hypot(*(new_xy - (e.x, e.y)).T)))
-            if nearest_new < distance:
-                if nearest_new >= gap:
-                    new_places.append(int(k))
-                continue  # near a place of this night: it holds this night's look already
-        if distance <= attach:
-            view = view_of(int(place), e.heading)
-            if view is not None:
-                attached.setdefault(view, []).append(int(k))
-        elif distance >= gap:
-            new_places.append(int(k))
-
-    matches = record.matches.copy()
-    learned: list[tuple[tuple[int, float], int, int]] = []  # (view, frame, best appearance)
-    known = 0
-    shifts = ref_map.params.shifts
-    look_ratios: list[float] = []  # per frame: its place's best learned look against the typical one
-    for target, frames in attached.items():
-        refs = view_refs(target)
-        looks = record.night[refs] > 0
-        spot = places[target[0]]
-        candidate = min(frames, key=lambda f: (_distance(estimates[f], spot), -estimates[f].confidence))
-        seen, best_of_candidate = False, -1
-        for f in frames:
-            result = match(night.images[f], ref_map.images[refs], shifts=shifts, threads=1)
-            matches[refs[result.index]] += 1
-            seen |= bool(result.score <= params.novelty * night.score_medians[f])
-            if looks.any() and night.learned_medians is not None:
-                look_ratios.append(float(result.scores[looks].min() / night.learned_medians[f]))
-            if f == candidate:
-                best_of_candidate = int(refs[result.index])
-        if seen:
-            known += 1  # the place has a look like tonight's already
-        else:
-            learned.append((target, candidate, best_of_candidate))
-    ratio = float(np.median(look_ratios)) if len(look_ratios) >= params.settled_frames else math.nan
-    if ratio > params.max_look_ratio:  # not this map's nights: learn nothing
-        reason = (
-            f"its frames match their places' learned appearances at {ratio:.2f} of the typical one's score "
-            f"(more than [learning] max_look_ratio {params.max_look_ratio:g}): not a night of this map's places "
-            f"(another garden?)"
-        )
+    views = _PlaceViews(ref_map, place_of_ref, math.radians(params.heading_tolerance))
+    attached, new_places = _attach_frames(estimates, trusted, places, views, attach, gap)
+    looks = _judge_looks(ref_map, night, record, estimates, places, views, attached, params.novelty)
+    refusal = _look_refusal(looks, params)
+    if refusal:  # not this map's nights: learn nothing
         refused = LearningReport(0, len(night), int(trusted.sum()), None, 0, 0, 0, 0, 0, n_places, len(ref_map))
-        return ref_map, dataclasses.replace(refused, refused=reason)
+        return ref_map, dataclasses.replace(refused, refused=refusal)
 
-    # the cap: the retention policy's first learned appearances of each view that would overflow go
-    night_of = record.night
-    policy = RETENTION_POLICIES[params.retention]
-    evict: list[int] = []
-    for view, _, _ in learned:
-        refs = view_refs(view)
-        old = [int(r) for r in refs if night_of[r] > 0]
-        excess = len(old) + 1 - params.max_learned
-        if excess > 0:
-            evict.extend(policy.order(old, record, matches, number)[:excess])
+    evict = _evictions(looks, views, record, number, params)
     keep = np.setdiff1d(np.arange(len(ref_map)), np.asarray(evict, dtype=np.int64))
-
-    images = [ref_map.images[keep]]
-    positions = [ref_map.positions[keep]]
-    heads = None if headings is None else [headings[keep]]
-    covs = None if ref_map.covariances is None else [ref_map.covariances[keep]]
-    names = [ref_map.names[i] for i in keep]
-    taken = set(names)
-    added = record.subset(keep)
-    new_night, new_conf, new_time = [], [], []
-
-    def add(frame: int, position: np.ndarray, heading: float, covariance: np.ndarray | None) -> None:
-        e = estimates[frame]
-        images.append(night.images[frame][None])
-        positions.append(np.asarray(position, dtype=np.float64)[None])
-        if heads is not None:
-            heads.append(np.array([heading]))
-        if covs is not None and covariance is not None:
-            covs.append(covariance[None])
-        name = f"night{number}/{night.names[frame]}"
-        while name in taken:
-            name += "'"
-        taken.add(name)
-        names.append(name)
-        new_night.append(number)
-        new_conf.append(min(max(float(e.confidence), 0.0), 1.0))
-        new_time.append(math.nan if night.timestamps is None else float(night.timestamps[frame]))
-
-    for view, f, best in learned:
-        e = estimates[f]
-        heading = view[1] if forward else _frame_heading(e, ref_map, night, f, best)
-        cov = None if ref_map.covariances is None else ref_map.covariances[best]
-        add(f, ref_map.positions[best], heading, cov)
-    for f in new_places:
-        e = estimates[f]
-        best = int(match(night.images[f], ref_map.images, shifts=shifts, threads=1).index)
-        heading = e.heading if math.isfinite(e.heading) else _frame_heading(e, ref_map, night, f, best)
-        cov = None
-        if ref_map.covariances is not None:
-            cov = np.zeros((3, 3))
-            cov[:2, :2] = np.asarray(e.covariance) if e.covariance is not None else np.eye(2) * e.credible_radius**2
-            cov[2, 2] = (math.pi / ref_map.params.width) ** 2
-        add(f, np.array([e.x, e.y]), heading, cov)
-
+    new = _NewReferences(ref_map, night, number, keep)
+    _add_night(ref_map, night, estimates, looks.learned, new_places, views, new)
     history = LearnedNight(
         number,
         night.source,
         dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
         len(night),
         int(trusted.sum()),
-        len(learned),
+        len(looks.learned),
         len(new_places),
         len(evict),
     )
-    appearances = Appearances(
-        np.concatenate([added.night, np.asarray(new_night, np.int32)]),
-        np.concatenate([added.confidence, np.asarray(new_conf, np.float64)]),
-        np.concatenate([added.time, np.asarray(new_time, np.float64)]),
-        np.concatenate([matches[keep], np.zeros(len(new_night), np.int64)]),
-        (*record.nights, history),
-        record.day_fingerprint,
-    )
-    new_map = ReferenceMap(
-        np.concatenate(images),
-        np.concatenate(positions),
-        None if heads is None else np.concatenate(heads),
-        names,
-        ref_map.params,
-        ref_map.source,
-        ref_map.frame_size,
-        pose_source=ref_map.pose_source,
-        covariances=None if covs is None else np.concatenate(covs),
-        appearances=appearances,
-        settings=ref_map.settings,
-    )
-    first = int(np.flatnonzero(trusted)[0])
+    new_map = _learned_map(ref_map, record, history, looks.matches, keep, new)
     report = LearningReport(
         number,
         len(night),
         int(trusted.sum()),
-        first,
+        int(np.flatnonzero(trusted)[0]),
         sum(len(f) for f in attached.values()),
-        known,
-        len(learned),
+        looks.known,
+        len(looks.learned),
         len(new_places),
         len(evict),
         n_places,

@@ -423,16 +423,24 @@ def load_bag(
         reader.close()
 
 
-def _index(
-    reader: Any,
-    bag: Path,
-    frame_step: int,
-    image_topic: str | None,
-    odometry_topic: str | None,
-    pose_topic: str | None,
-    tolerance: float,
-) -> BagLog:
-    topics = reader.topics
+@dataclasses.dataclass
+class _Samples:
+    """What one pass over a bag's messages gathers: per image message its header stamp (s, None
+    when unset), record and rank within the record; the odometry and pose samples ``(t, x, y,
+    yaw)``; with TF odometry, the samples per ``(parent, child)`` edge."""
+
+    stamps: list[float | None] = dataclasses.field(default_factory=list)
+    records: list[int] = dataclasses.field(default_factory=list)
+    ranks: list[int] = dataclasses.field(default_factory=list)
+    odometry: list[tuple[float, float, float, float]] = dataclasses.field(default_factory=list)
+    poses: list[tuple[float, float, float, float]] = dataclasses.field(default_factory=list)
+    tf: dict[tuple[str, str], list[tuple[float, float, float, float]]] = dataclasses.field(default_factory=dict)
+
+
+def _choose_topics(
+    topics: dict, bag: Path, image_topic: str | None, odometry_topic: str | None, pose_topic: str | None
+) -> tuple[str, str | None, str | None, bool, tuple[str, str] | None]:
+    """The image, pose and odometry topics, whether the odometry is TF, and the TF edge named."""
     image = _choose(topics, IMAGE_TYPES, image_topic, "image", "--image-topic", bag)
     if image is None:
         listing = _describe(topics, sorted(topics)) or "none"
@@ -457,23 +465,25 @@ def _index(
         odometry = _choose(free, ODOMETRY_TYPES, odometry_topic, "odometry", "--odometry-topic", bag)
         if odometry is None and odometry_topic is None and "/tf" in topics and topics["/tf"].msgtype == TF_TYPE:
             tf, odometry = True, "/tf"
+    return image, pose, odometry, tf, edge
+
+
+def _read_samples(
+    reader: Any, bag: Path, image: str, pose: str | None, odometry: str | None, tf: bool, edge: tuple[str, str] | None
+) -> _Samples:
+    """One pass over the messages of the chosen topics (images: their stamps only)."""
     wanted = {image, odometry, pose} - {None}
     connections = [c for c in reader.connections if c.topic in wanted]
-    stamps: list[float | None] = []
-    records: list[int] = []
-    ranks: list[int] = []
-    odometry_samples: list[tuple[float, float, float, float]] = []
-    pose_samples: list[tuple[float, float, float, float]] = []
-    tf_samples: dict[tuple[str, str], list[tuple[float, float, float, float]]] = {}
+    samples = _Samples()
     last_record, rank = None, 0
     try:
         for connection, record, raw in reader.messages(connections=connections):
             if connection.topic == image:
                 rank = rank + 1 if record == last_record else 0
                 last_record = record
-                stamps.append(_header_seconds(raw, reader.is2))
-                records.append(record)
-                ranks.append(rank)
+                samples.stamps.append(_header_seconds(raw, reader.is2))
+                samples.records.append(record)
+                samples.ranks.append(rank)
                 continue
             message = reader.deserialize(raw, connection.msgtype)
             if connection.topic == odometry and tf:
@@ -481,7 +491,7 @@ def _index(
                     key = (transform.header.frame_id.lstrip("/"), transform.child_frame_id.lstrip("/"))
                     if (edge is None and key[0] in TF_PARENTS and key[1] in TF_CHILDREN) or key == edge:
                         t, r = transform.transform.translation, transform.transform.rotation
-                        tf_samples.setdefault(key, []).append(
+                        samples.tf.setdefault(key, []).append(
                             (stamp_seconds(transform.header.stamp), t.x, t.y, quaternion_yaw(r))
                         )
                 continue
@@ -493,50 +503,70 @@ def _index(
                 quaternion_yaw(held.orientation),
             )
             if connection.topic == odometry:
-                odometry_samples.append(sample)
+                samples.odometry.append(sample)
             if connection.topic == pose:
-                pose_samples.append(sample)
+                samples.poses.append(sample)
     except DatasetError:
         raise
     except Exception as error:  # rosbags raises its own types for damaged bags
         raise DatasetError(f"bag {bag} cannot be read ({type(error).__name__}: {error})") from None
-    if not records:
+    if not samples.records:
         raise DatasetError(f"bag {bag}: the image topic {image} holds no messages")
-    times = _frame_times(stamps, records, image, bag)
+    return samples
+
+
+def _tf_odometry(samples: _Samples, bag: Path, odometry_topic: str | None, edge: tuple[str, str] | None) -> str | None:
+    """The TF odometry's name (``/tf:PARENT:CHILD``; None for a /tf without odometry frames), its
+    edge's samples made the odometry samples."""
+    if len(samples.tf) > 1:
+        edges = ", ".join(f"{p} -> {c}" for p, c in sorted(samples.tf))
+        raise DatasetError(
+            f"bag {bag}: /tf holds several odometry transforms ({edges}): name one with "
+            f"--odometry-topic /tf:PARENT:CHILD"
+        )
+    if not samples.tf:
+        if odometry_topic is not None:
+            wanted_edge = "{} -> {}".format(*edge) if edge else f"{'/'.join(TF_PARENTS)} -> {'/'.join(TF_CHILDREN)}"
+            raise DatasetError(f"bag {bag}: /tf holds no transform {wanted_edge}")
+        return None  # a /tf without odometry frames: no odometry
+    [(parent, child)] = samples.tf
+    samples.odometry = samples.tf[(parent, child)]
+    return f"/tf:{parent}:{child}"
+
+
+def _index(
+    reader: Any,
+    bag: Path,
+    frame_step: int,
+    image_topic: str | None,
+    odometry_topic: str | None,
+    pose_topic: str | None,
+    tolerance: float,
+) -> BagLog:
+    image, pose, odometry, tf, edge = _choose_topics(reader.topics, bag, image_topic, odometry_topic, pose_topic)
+    samples = _read_samples(reader, bag, image, pose, odometry, tf, edge)
+    records = samples.records
+    times = _frame_times(samples.stamps, records, image, bag)
     if tf:
-        if len(tf_samples) > 1:
-            edges = ", ".join(f"{p} -> {c}" for p, c in sorted(tf_samples))
-            raise DatasetError(
-                f"bag {bag}: /tf holds several odometry transforms ({edges}): name one with "
-                f"--odometry-topic /tf:PARENT:CHILD"
-            )
-        if not tf_samples:
-            if odometry_topic is not None:
-                wanted_edge = "{} -> {}".format(*edge) if edge else f"{'/'.join(TF_PARENTS)} -> {'/'.join(TF_CHILDREN)}"
-                raise DatasetError(f"bag {bag}: /tf holds no transform {wanted_edge}")
-            odometry = None  # a /tf without odometry frames: no odometry
-        else:
-            [(parent, child)] = tf_samples
-            odometry = f"/tf:{parent}:{child}"
-            odometry_samples = tf_samples[(parent, child)]
+        odometry = _tf_odometry(samples, bag, odometry_topic, edge)
     keep = np.arange(0, len(records), frame_step)
-    streams = [(f"the pose topic {pose}", pose_samples)] if pose is not None else []
+    streams = [(f"the pose topic {pose}", samples.poses)] if pose is not None else []
     if odometry is not None:
-        streams.append((f"the odometry {odometry}", odometry_samples))
+        streams.append((f"the odometry {odometry}", samples.odometry))
     keep = _within_streams(keep, times[keep], streams, tolerance, image, bag)
     kept_times = times[keep]
     positions = headings = motions = None
     if pose is not None:
-        poses = _matched(pose_samples, kept_times, tolerance, f"the pose topic {pose}", f"the frames of {image}")
+        poses = _matched(samples.poses, kept_times, tolerance, f"the pose topic {pose}", f"the frames of {image}")
         positions, headings = poses[:, :2], poses[:, 2]
     if odometry is not None:
-        odom = _matched(odometry_samples, kept_times, tolerance, f"the odometry {odometry}", f"the frames of {image}")
+        odom = _matched(samples.odometry, kept_times, tolerance, f"the odometry {odometry}", f"the frames of {image}")
         motions = robot_motions(odom)
     frames = BagFrames(
         bag,
         image,
         tuple(records[i] for i in keep),
-        tuple(ranks[i] for i in keep),
+        tuple(samples.ranks[i] for i in keep),
         tuple(int(i) for i in keep),
         odometry,
         pose,

@@ -63,6 +63,53 @@ def _number(text: str, column: str, file: Path, line: int) -> float:
     return value
 
 
+def _odometry_header(
+    fields: list[str], path: Path, line: int, key_column: str
+) -> tuple[list[str], str, tuple[str, ...]]:
+    """The header's column names (lower case), its form (``"robot"`` or ``"map"``) and the form's
+    value columns, checked."""
+    refuse_other_delimiter(fields, path, line, f"{key_column},forward,left,turn or {key_column},dx,dy")
+    header = [f.strip().lower() for f in fields]
+    refuse_misspelt_columns(
+        header,
+        (key_column, *ROBOT_COLUMNS, *MAP_COLUMNS, "timestamp"),
+        path,
+        line,
+        f"{key_column},forward,left,turn or {key_column},dx,dy [,timestamp]",
+    )
+    if key_column not in header:
+        raise DatasetError(
+            f"{path} line {line}: missing column {key_column!r}; the header must be "
+            f"{key_column},forward,left,turn (wheel odometry) or {key_column},dx,dy (map frame)"
+        )
+    if all(c in header for c in ROBOT_COLUMNS):
+        return header, "robot", ROBOT_COLUMNS
+    if all(c in header for c in MAP_COLUMNS):
+        return header, "map", MAP_COLUMNS
+    raise DatasetError(
+        f"{path} line {line}: the header ({', '.join(header)}) has neither forward,left,turn "
+        f"(wheel odometry) nor dx,dy (map-frame displacements)"
+    )
+
+
+def _odometry_key(raw_key: str, key_column: str, seen: dict[object, int], path: Path, line: int) -> object:
+    """A row's key: a frame index or an image name, unique (``seen`` maps each key to its line)."""
+    raw = raw_key.strip()
+    if key_column == "frame":
+        try:
+            key: object = int(raw)
+        except ValueError:
+            raise DatasetError(f"{path} line {line}: frame {raw!r} is not an integer") from None
+    else:
+        key = raw
+        if not raw:
+            raise DatasetError(f"{path} line {line}: column 'image' is empty")
+    if key in seen:
+        raise DatasetError(f"{path} line {line}: {key_column} {key!r} is listed twice (line {seen[key]})")
+    seen[key] = line
+    return key
+
+
 def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[OdometryRow], str]:
     """The rows of an odometry CSV in file order and its form, ``"robot"`` or ``"map"``.
 
@@ -93,48 +140,14 @@ def read_odometry_rows(file: PathLike, key_column: str = "image") -> tuple[list[
                 if not any(f.strip() for f in fields):
                     continue
                 if header is None:
-                    refuse_other_delimiter(fields, path, line, f"{key_column},forward,left,turn or {key_column},dx,dy")
-                    header = [f.strip().lower() for f in fields]
-                    refuse_misspelt_columns(
-                        header,
-                        (key_column, *ROBOT_COLUMNS, *MAP_COLUMNS, "timestamp"),
-                        path,
-                        line,
-                        f"{key_column},forward,left,turn or {key_column},dx,dy [,timestamp]",
-                    )
-                    if key_column not in header:
-                        raise DatasetError(
-                            f"{path} line {line}: missing column {key_column!r}; the header must be "
-                            f"{key_column},forward,left,turn (wheel odometry) or {key_column},dx,dy (map frame)"
-                        )
-                    if all(c in header for c in ROBOT_COLUMNS):
-                        form, columns = "robot", ROBOT_COLUMNS
-                    elif all(c in header for c in MAP_COLUMNS):
-                        form, columns = "map", MAP_COLUMNS
-                    else:
-                        raise DatasetError(
-                            f"{path} line {line}: the header ({', '.join(header)}) has neither forward,left,turn "
-                            f"(wheel odometry) nor dx,dy (map-frame displacements)"
-                        )
+                    header, form, columns = _odometry_header(fields, path, line, key_column)
                     index = [header.index(c) for c in columns]
                     key_index = header.index(key_column)
                     seen: dict[object, int] = {}
                     continue
                 if len(fields) != len(header):
                     raise DatasetError(f"{path} line {line}: {len(fields)} fields, but the header has {len(header)}")
-                raw = fields[key_index].strip()
-                if key_column == "frame":
-                    try:
-                        key: object = int(raw)
-                    except ValueError:
-                        raise DatasetError(f"{path} line {line}: frame {raw!r} is not an integer") from None
-                else:
-                    key = raw
-                    if not raw:
-                        raise DatasetError(f"{path} line {line}: column 'image' is empty")
-                if key in seen:
-                    raise DatasetError(f"{path} line {line}: {key_column} {key!r} is listed twice (line {seen[key]})")
-                seen[key] = line
+                key = _odometry_key(fields[key_index], key_column, seen, path, line)
                 values = tuple(_number(fields[i], c, path, line) for i, c in zip(index, columns))
                 if form == "robot":
                     check_heading(values[2], "turn", path, line)

@@ -196,6 +196,55 @@ def _parse_frame(text: str, file: Path, line: int) -> int:
     return value
 
 
+def _pose_header(fields: list[str], file: Path, line: int, key_column: str) -> tuple[list[str], dict[str, int]]:
+    """The header's column names (lower case) and the index of each column read (``heading`` and
+    ``timestamp`` only when present), checked: the required columns, once each."""
+    refuse_other_delimiter(fields, file, line, f"{key_column},x,y[,heading]")
+    header = [field.strip().lower() for field in fields]
+    refuse_misspelt_columns(
+        header, (key_column, "x", "y", "heading", "timestamp"), file, line, f"{key_column},x,y[,heading][,timestamp]"
+    )
+    for column in (key_column, "x", "y"):
+        if column not in header:
+            raise DatasetError(
+                f"{file} line {line}: missing column '{column}' (the header has: "
+                f"{', '.join(repr(h) for h in header)}); the header must be "
+                f"{key_column},x,y[,heading]"
+            )
+    duplicates = sorted({h for h in header if header.count(h) > 1 and h})
+    if duplicates:
+        raise DatasetError(f"{file} line {line}: column {duplicates[0]!r} appears twice in the header")
+    index = {name: header.index(name) for name in (key_column, "x", "y")}
+    for optional in ("heading", "timestamp"):
+        if optional in header:
+            index[optional] = header.index(optional)
+    return header, index
+
+
+def _pose_row(
+    fields: list[str], index: dict[str, int], key_column: str, seen: dict[str | int, int], file: Path, line: int
+) -> PoseRow:
+    """One row, checked: its key (unique: ``seen`` maps each key to its line), x, y (metres), the
+    heading (radians) and the timestamp (seconds) where the header has them."""
+    raw_key = fields[index[key_column]]
+    if key_column == "frame":
+        key: str | int = _parse_frame(raw_key, file, line)
+    else:
+        key = raw_key.strip()
+        if not key:
+            raise DatasetError(f"{file} line {line}: column 'image' is empty")
+    if key in seen:
+        raise DatasetError(f"{file} line {line}: {key_column} {key!r} is listed twice (first on line {seen[key]})")
+    seen[key] = line
+    x = _parse_number(fields[index["x"]], "x", file, line)
+    y = _parse_number(fields[index["y"]], "y", file, line)
+    heading = None
+    if "heading" in index:
+        heading = check_heading(_parse_number(fields[index["heading"]], "heading", file, line), "heading", file, line)
+    stamp = parse_timestamp(fields[index["timestamp"]], file, line) if "timestamp" in index else None
+    return PoseRow(line, key, x, y, heading, stamp)
+
+
 def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
     """Rows of a poses CSV: ``(rows, has_heading)``.
 
@@ -220,59 +269,16 @@ def read_pose_csv(file: Path, key_column: str) -> tuple[list[PoseRow], bool]:
                 if not any(field.strip() for field in fields):
                     continue
                 if header is None:
-                    refuse_other_delimiter(fields, file, line, f"{key_column},x,y[,heading]")
-                    header = [field.strip().lower() for field in fields]
+                    header, index = _pose_header(fields, file, line, key_column)
+                    has_heading = "heading" in index
                     header_line = line
-                    refuse_misspelt_columns(
-                        header,
-                        (key_column, "x", "y", "heading", "timestamp"),
-                        file,
-                        line,
-                        f"{key_column},x,y[,heading][,timestamp]",
-                    )
-                    for column in (key_column, "x", "y"):
-                        if column not in header:
-                            raise DatasetError(
-                                f"{file} line {line}: missing column '{column}' (the header has: "
-                                f"{', '.join(repr(h) for h in header)}); the header must be "
-                                f"{key_column},x,y[,heading]"
-                            )
-                    duplicates = sorted({h for h in header if header.count(h) > 1 and h})
-                    if duplicates:
-                        raise DatasetError(f"{file} line {line}: column {duplicates[0]!r} appears twice in the header")
-                    index = {name: header.index(name) for name in (key_column, "x", "y")}
-                    has_heading = "heading" in header
-                    if has_heading:
-                        index["heading"] = header.index("heading")
-                    if "timestamp" in header:
-                        index["timestamp"] = header.index("timestamp")
                     continue
                 if len(fields) != len(header):
                     raise DatasetError(
                         f"{file} line {line}: {len(fields)} fields, but the header (line {header_line}) has "
                         f"{len(header)}"
                     )
-                raw_key = fields[index[key_column]]
-                if key_column == "frame":
-                    key: str | int = _parse_frame(raw_key, file, line)
-                else:
-                    key = raw_key.strip()
-                    if not key:
-                        raise DatasetError(f"{file} line {line}: column 'image' is empty")
-                if key in seen:
-                    raise DatasetError(
-                        f"{file} line {line}: {key_column} {key!r} is listed twice (first on line {seen[key]})"
-                    )
-                seen[key] = line
-                x = _parse_number(fields[index["x"]], "x", file, line)
-                y = _parse_number(fields[index["y"]], "y", file, line)
-                heading = None
-                if has_heading:
-                    heading = check_heading(
-                        _parse_number(fields[index["heading"]], "heading", file, line), "heading", file, line
-                    )
-                stamp = parse_timestamp(fields[index["timestamp"]], file, line) if "timestamp" in index else None
-                rows.append(PoseRow(line, key, x, y, heading, stamp))
+                rows.append(_pose_row(fields, index, key_column, seen, file, line))
     except UnicodeDecodeError as error:
         raise DatasetError(f"{file} is not UTF-8 text ({error.reason} at byte {error.start})") from None
     except csv.Error as error:

@@ -648,6 +648,48 @@ def _looks_like_traverse(folder: Path) -> bool:
     return _IMAGE_DIR in entries and entries <= {_IMAGE_DIR, _POSE_FILE, ODOMETRY_FILE}
 
 
+def _checked_format(image_format: str) -> str:
+    """The image files' suffix (no dot, lower case): one OpenCV writes and load_traverse reads."""
+    fmt = str(image_format).lower().lstrip(".")
+    if not fmt or not cv2.haveImageWriter(f"x.{fmt}"):
+        raise ValueError(f"image_format {image_format!r} is not a format OpenCV can write (try 'png' or 'jpg')")
+    if f".{fmt}" not in IMAGE_SUFFIXES:
+        raise ValueError(
+            f"image_format {image_format!r} is not read back by load_traverse; use one of png, jpg, bmp, tif"
+        )
+    return fmt
+
+
+def _checked_motions(odometry: Sequence[object] | None, positions: np.ndarray | None) -> list | None:
+    """The odometry as a list of motions, every one checked (one per position), or None."""
+    if odometry is None:
+        return None
+    if isinstance(odometry, (str, bytes)) or not hasattr(odometry, "__len__"):
+        raise TypeError("odometry must be a sequence of motions (one per image), e.g. a list of nightloc.RobotMotion")
+    motions = list(odometry)
+    odometry_values(motions)  # checks every motion before anything is written
+    if positions is not None and len(motions) != len(positions):
+        raise ValueError(f"{len(motions)} odometry rows but {len(positions)} positions")
+    return motions
+
+
+def _write_images(
+    image_dir: Path, images: Iterable[np.ndarray], expected: int | None, file_names: list[str] | None, fmt: str
+) -> list[str]:
+    """Each image into ``image_dir`` (its name, or ``NNNNNN.<fmt>``), checked as it comes: the names written."""
+    written: list = []
+    for index, image in enumerate(images):
+        if expected is not None and index >= expected:
+            raise ValueError(f"more images than the {expected} positions/names given")
+        image = _checked_image(image, index)
+        name = file_names[index] if file_names is not None else None
+        if name is None:
+            name = f"{index:06d}.{fmt}"
+        write_image_file(image_dir / name, image, index)
+        written.append(name)
+    return written
+
+
 def save_traverse(
     path: PathLike,
     images: Iterable[np.ndarray],
@@ -690,25 +732,10 @@ def save_traverse(
         The written :class:`Traverse`.
     """
     target = Path(path)
-    fmt = str(image_format).lower().lstrip(".")
-    if not fmt or not cv2.haveImageWriter(f"x.{fmt}"):
-        raise ValueError(f"image_format {image_format!r} is not a format OpenCV can write (try 'png' or 'jpg')")
-    if f".{fmt}" not in IMAGE_SUFFIXES:
-        raise ValueError(
-            f"image_format {image_format!r} is not read back by load_traverse; use one of png, jpg, bmp, tif"
-        )
+    fmt = _checked_format(image_format)
     pos, head = checked_poses(positions, headings)
     file_names = _checked_names(names, fmt)
-    motions = None
-    if odometry is not None:
-        if isinstance(odometry, (str, bytes)) or not hasattr(odometry, "__len__"):
-            raise TypeError(
-                "odometry must be a sequence of motions (one per image), e.g. a list of nightloc.RobotMotion"
-            )
-        motions = list(odometry)
-        odometry_values(motions)  # checks every motion before anything is written
-        if pos is not None and len(motions) != len(pos):
-            raise ValueError(f"{len(motions)} odometry rows but {len(pos)} positions")
+    motions = _checked_motions(odometry, pos)
     times = _checked_times(timestamps, pos is not None or motions is not None)
     expected = len(pos) if pos is not None else (len(file_names) if file_names is not None else None)
     if pos is not None and file_names is not None and len(file_names) != len(pos):
@@ -727,16 +754,7 @@ def save_traverse(
                 )
         image_dir = staging / _IMAGE_DIR
         image_dir.mkdir()
-        written: list = []
-        for index, image in enumerate(images):
-            if expected is not None and index >= expected:
-                raise ValueError(f"more images than the {expected} positions/names given")
-            image = _checked_image(image, index)
-            name = file_names[index] if file_names is not None else None
-            if name is None:
-                name = f"{index:06d}.{fmt}"
-            write_image_file(image_dir / name, image, index)
-            written.append(name)
+        written = _write_images(image_dir, images, expected, file_names, fmt)
         if not written:
             raise ValueError("images is empty: a traverse needs at least one image")
         if expected is not None and len(written) != expected:

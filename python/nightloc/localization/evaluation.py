@@ -650,6 +650,83 @@ class Evaluation:
         return "\n".join(lines)
 
 
+class _ErrorRows:
+    """The errors table's columns (``ERRORS_HEADER``) as lists of per-run arrays, one run of
+    ``matches``' frames at a time (:meth:`add`)."""
+
+    def __init__(self, matches: QueryMatches):
+        self.matches = matches
+        self.columns: dict[str, list[np.ndarray]] = {c: [] for c in ERRORS_HEADER}
+        self.images = np.array(matches.images, dtype=object)
+        self.query_names = np.full(len(matches.results), matches.name, dtype=object)
+
+    def add(self, estimates: list[Estimate], seq_len: np.ndarray, model: int, interp: bool, repeat: int, method: str):
+        """One run's estimates (one per frame) with its configuration."""
+        rows, truth, n_frames = self.columns, self.matches.positions, len(self.matches.results)
+        x = np.array([e.x for e in estimates])
+        y = np.array([e.y for e in estimates])
+        rows["query"].append(self.query_names)
+        rows["image"].append(self.images)
+        rows["seq_len"].append(seq_len)
+        rows["noise_model"].append(np.full(n_frames, model))
+        rows["interpolation"].append(np.full(n_frames, interp))
+        rows["repeat"].append(np.full(n_frames, repeat))
+        rows["x_est"].append(x)
+        rows["y_est"].append(y)
+        rows["x_true"].append(truth[:, 0])
+        rows["y_true"].append(truth[:, 1])
+        rows["error_m"].append(np.hypot(x - truth[:, 0], y - truth[:, 1]))
+        rows["ref_index"].append(np.array([e.ref_index for e in estimates]))
+        rows["method"].append(np.full(n_frames, method, dtype=object))
+
+
+def _checked_matches(
+    ref_map: ReferenceMap,
+    query: Traverse | PathLike | QueryMatches,
+    settings: EvaluationSettings,
+    name: str | None,
+    threads: int | None,
+    filter_params: FilterParams | None,
+) -> QueryMatches:
+    """The query's matches (made here unless given), checked to hold what ``settings`` needs: the
+    rotational tables for the filter, headings for robot-frame odometry, the log's odometry."""
+    want_tables = "filter" in settings.methods
+    want_log = settings.odometry == "log"
+    if isinstance(query, QueryMatches):
+        matches = query
+        if want_tables and matches.tables is None:
+            raise ValueError("the filter needs the rotational tables: match_traverse(..., tables=True)")
+    else:
+        matches = match_traverse(
+            ref_map, query, name, threads, tables=want_tables, odometry=want_log, filter_params=filter_params
+        )
+    if name is not None and isinstance(query, QueryMatches):
+        matches = dataclasses.replace(matches, name=name)
+    if settings.odometry == "robot" and matches.headings is None:
+        raise DatasetError(f"query {matches.name} has no headings: robot-frame odometry needs them")
+    if settings.odometry == "robot" and ref_map.headings is None:
+        raise DatasetError("the reference map has no headings: robot-frame odometry needs them")
+    if want_log and matches.odometry is None:
+        raise DatasetError(f"query {matches.name} has no odometry log (match_traverse(..., odometry=True))")
+    return matches
+
+
+def _configurations(settings: EvaluationSettings, draws: list[tuple[int, int]]) -> list[tuple]:
+    """The runs of an evaluation, in order: ``(method, interpolation, noise model, repeat, n)``
+    (the paper's method per sequence length n, the filter once with n = 0)."""
+    work: list[tuple] = []
+    if "paper" in settings.methods:
+        work += [
+            ("paper", interp, model, repeat, n)
+            for interp in settings.interpolation
+            for model, repeat in draws
+            for n in settings.seq_lengths
+        ]
+    if "filter" in settings.methods:
+        work += [("filter", interp, model, repeat, 0) for interp in settings.interpolation for model, repeat in draws]
+    return work
+
+
 def evaluate(
     ref_map: ReferenceMap,
     query: Traverse | PathLike | QueryMatches,
@@ -682,29 +759,9 @@ def evaluate(
     params = params or LocalizationParams()
     if not isinstance(ref_map, ReferenceMap):
         raise TypeError(f"ref_map must be a nightloc.ReferenceMap, got {type(ref_map).__name__}")
-    want_tables = "filter" in settings.methods
-    want_log = settings.odometry == "log"
-    if isinstance(query, QueryMatches):
-        matches = query
-        if want_tables and matches.tables is None:
-            raise ValueError("the filter needs the rotational tables: match_traverse(..., tables=True)")
-    else:
-        matches = match_traverse(
-            ref_map, query, name, threads, tables=want_tables, odometry=want_log, filter_params=filter_params
-        )
-    if name is not None and isinstance(query, QueryMatches):
-        matches = dataclasses.replace(matches, name=name)
-    if settings.odometry == "robot" and matches.headings is None:
-        raise DatasetError(f"query {matches.name} has no headings: robot-frame odometry needs them")
-    if settings.odometry == "robot" and ref_map.headings is None:
-        raise DatasetError("the reference map has no headings: robot-frame odometry needs them")
-    if want_log and matches.odometry is None:
-        raise DatasetError(f"query {matches.name} has no odometry log (match_traverse(..., odometry=True))")
+    matches = _checked_matches(ref_map, query, settings, name, threads, filter_params)
     n_frames = len(matches.results)
     draws = [(model, repeat) for model in settings.models for repeat in range(settings.repeats_of(model))]
-    rows: dict[str, list[np.ndarray]] = {c: [] for c in ERRORS_HEADER}
-    images = np.array(matches.images, dtype=object)
-    query_names = np.full(n_frames, matches.name, dtype=object)
     odometry_cache: dict[tuple[int, int], list[object]] = {}
 
     def odometry_of(model: int, repeat: int) -> list[object]:
@@ -712,33 +769,10 @@ def evaluate(
             odometry_cache[(model, repeat)] = simulated_odometry(matches, model, repeat, settings)
         return odometry_cache[(model, repeat)]
 
-    def record(estimates: list[Estimate], seq_len: np.ndarray, model: int, interp: bool, repeat: int, method: str):
-        x = np.array([e.x for e in estimates])
-        y = np.array([e.y for e in estimates])
-        rows["query"].append(query_names)
-        rows["image"].append(images)
-        rows["seq_len"].append(seq_len)
-        rows["noise_model"].append(np.full(n_frames, model))
-        rows["interpolation"].append(np.full(n_frames, interp))
-        rows["repeat"].append(np.full(n_frames, repeat))
-        rows["x_est"].append(x)
-        rows["y_est"].append(y)
-        rows["x_true"].append(matches.positions[:, 0])
-        rows["y_true"].append(matches.positions[:, 1])
-        rows["error_m"].append(np.hypot(x - matches.positions[:, 0], y - matches.positions[:, 1]))
-        rows["ref_index"].append(np.array([e.ref_index for e in estimates]))
-        rows["method"].append(np.full(n_frames, method, dtype=object))
+    rows = _ErrorRows(matches)
+    record = rows.add
 
-    work: list[tuple] = []
-    if "paper" in settings.methods:
-        work += [
-            ("paper", interp, model, repeat, n)
-            for interp in settings.interpolation
-            for model, repeat in draws
-            for n in settings.seq_lengths
-        ]
-    if "filter" in settings.methods:
-        work += [("filter", interp, model, repeat, 0) for interp in settings.interpolation for model, repeat in draws]
+    work = _configurations(settings, draws)
     # one localizer per method and interpolation setting; each configuration starts a fresh copy
     # sharing its grid and weights
     bases = {
@@ -764,5 +798,5 @@ def evaluate(
                 loc.noise = log_noise_model(odometry) if settings.log_noise is None else settings.log_noise
             estimates = [loc.update_table(tables[i], odometry[i]) for i in range(n_frames)]
             record(estimates, np.arange(1, n_frames + 1), model, interp, repeat, "filter")
-    columns = {c: np.concatenate(v) if v else np.zeros(0) for c, v in rows.items()}
+    columns = {c: np.concatenate(v) if v else np.zeros(0) for c, v in rows.columns.items()}
     return Evaluation(columns, settings, [matches])

@@ -136,6 +136,51 @@ def candidate_pairs(
     return sorted(pairs.values(), key=lambda p: (p.i, p.j)), dropped
 
 
+#: How a pair is measured: the pair, the distance between its places (metres), whether it is
+#: strong (one place) or lost (its frames' headings too unsure), the direction from i to j in i's
+#: frame and the predicted relative heading (radians; None: no prediction), whether it is warped.
+_PairPlan = tuple[CandidatePair, float, bool, bool, float, float | None, bool]
+
+
+def _plan_pair(
+    pair: CandidatePair,
+    poses: np.ndarray,
+    unsure: np.ndarray,
+    strong_score: float,
+    unsure_heading: float,
+    can_warp: bool,
+    min_axis_distance: float,
+) -> _PairPlan:
+    """How ``pair`` is measured, from the current poses ``(N, 3)`` and heading uncertainties ``(N,)``."""
+    i, j = pair.i, pair.j
+    dx, dy = poses[j, :2] - poses[i, :2]
+    distance = math.hypot(dx, dy)
+    strong = pair.kind == "place" and pair.score <= strong_score
+    lost = pair.kind == "place" and math.hypot(unsure[i], unsure[j]) > unsure_heading
+    line = math.atan2(dy, dx) - poses[i, 2]  # the direction from i to j in i's frame
+    prior = None if strong or lost else poses[j, 2] - poses[i, 2]
+    # an unsure pair (no prediction to search around) is compared over the whole image: in the
+    # first round, before the heading stage has had its say; warped later (the same maps)
+    warped = can_warp and not strong and not lost and distance >= min_axis_distance
+    return (pair, distance, strong, lost, line, prior, warped)
+
+
+def _warped_headings(warper: PanoramaWarper | None, plans: list[_PairPlan], direction_range: float) -> dict[int, float]:
+    """The relative headings (radians) min-warping measured, by the index of their plan (the
+    warped plans whose measurement is finite)."""
+    warp_jobs = [k for k, plan in enumerate(plans) if plan[6]]
+    if warper is None or not warp_jobs:
+        return {}
+    results = warper.measure_many(
+        np.array([[plans[k][0].i, plans[k][0].j] for k in warp_jobs]),
+        np.array([plans[k][4] for k in warp_jobs]),
+        direction_range,
+        np.array([plans[k][5] for k in warp_jobs]),
+        4,
+    )
+    return {k: result.heading for k, result in zip(warp_jobs, results) if math.isfinite(result.heading)}
+
+
 def measure_constraints(
     images: np.ndarray,
     pairs: list[CandidatePair],
@@ -179,30 +224,11 @@ def measure_constraints(
         direction_range: radians; directions of travel tried either side of the estimate's.
     """
     unsure = np.zeros(len(poses)) if heading_uncertainty is None else np.asarray(heading_uncertainty, np.float64)
-    plans = []
-    for pair in pairs:
-        i, j = pair.i, pair.j
-        dx, dy = poses[j, :2] - poses[i, :2]
-        distance = math.hypot(dx, dy)
-        strong = pair.kind == "place" and pair.score <= strong_score
-        lost = pair.kind == "place" and math.hypot(unsure[i], unsure[j]) > unsure_heading
-        line = math.atan2(dy, dx) - poses[i, 2]  # the direction from i to j in i's frame
-        prior = None if strong or lost else poses[j, 2] - poses[i, 2]
-        # an unsure pair (no prediction to search around) is compared over the whole image: in the
-        # first round, before the heading stage has had its say; warped later (the same maps)
-        warped = warper is not None and not strong and not lost and distance >= min_axis_distance
-        plans.append((pair, distance, strong, lost, line, prior, warped))
-    warp_jobs = [k for k, plan in enumerate(plans) if plan[6]]
-    measured: dict[int, float] = {}
-    if warper is not None and warp_jobs:
-        results = warper.measure_many(
-            np.array([[plans[k][0].i, plans[k][0].j] for k in warp_jobs]),
-            np.array([plans[k][4] for k in warp_jobs]),
-            direction_range,
-            np.array([plans[k][5] for k in warp_jobs]),
-            4,
-        )
-        measured = {k: result.heading for k, result in zip(warp_jobs, results) if math.isfinite(result.heading)}
+    plans = [
+        _plan_pair(pair, poses, unsure, strong_score, unsure_heading, warper is not None, min_axis_distance)
+        for pair in pairs
+    ]
+    measured = _warped_headings(warper, plans, direction_range)
     out = []
     for k, (pair, distance, strong, lost, line, prior, _) in enumerate(plans):
         i, j = pair.i, pair.j

@@ -69,6 +69,63 @@ def solve_headings(
     return solve_heading_graph(turns, turn_std, constraints, initial, robust_scale, iterations).headings
 
 
+def _stage_limits(separation: np.ndarray | None, first_stage: float) -> list[float]:
+    """The stages' limits on the constraints' separation: ``first_stage``, doubling while below the
+    largest separation, then all (one stage, all, without ``separation``)."""
+    if separation is None:
+        return [np.inf]
+    far = float(np.max(separation)) if len(separation) else 0.0
+    limits = []
+    limit = max(float(first_stage), 1e-9)
+    while limit < far:
+        limits.append(limit)
+        limit *= 2.0
+    limits.append(np.inf)
+    return limits
+
+
+def _weighted_heading_solve(
+    turns: np.ndarray,
+    turn_std: np.ndarray,
+    ui: np.ndarray,
+    uj: np.ndarray,
+    unwrapped: np.ndarray,
+    weight_visual: np.ndarray,
+    turn_bias_std: float | None,
+) -> np.ndarray:
+    """One weighted linear least-squares solve: the ``N`` headings (radians; N - 1 = len(turns))
+    and, with ``turn_bias_std``, the turn bias after them, from the odometry turns, the visual
+    relative headings ``unwrapped`` between frames ``ui`` and ``uj`` with their weights, and the
+    anchor theta_0 = 0."""
+    n = len(turns) + 1
+    unknowns = n + (1 if turn_bias_std is not None else 0)
+    odo = np.arange(n - 1)
+    # rows: theta_j - theta_i (+ bias for an odometry turn) = target; theta_0 = 0; bias = 0
+    k_odo, k_vis = n - 1, len(ui)
+    row = np.arange(k_odo + k_vis)
+    one = np.ones(1)
+    data: list[np.ndarray] = [np.ones(k_odo + k_vis), -np.ones(k_odo + k_vis), one]
+    rows: list[np.ndarray] = [row, row, np.array([k_odo + k_vis])]
+    cols: list[np.ndarray] = [np.concatenate([odo + 1, uj]), np.concatenate([odo, ui]), np.zeros(1, np.intp)]
+    weights: list[np.ndarray] = [1.0 / np.asarray(turn_std, np.float64) ** 2, weight_visual, one * _ANCHOR]
+    targets: list[np.ndarray] = [turns, unwrapped, np.zeros(1)]
+    count = k_odo + k_vis + 1
+    if turn_bias_std is not None:
+        data += [np.ones(k_odo), one]
+        rows += [np.arange(k_odo), np.array([count])]
+        cols += [np.full(k_odo, n), np.array([n])]
+        weights.append(one / max(float(turn_bias_std), 1e-12) ** 2)
+        targets.append(np.zeros(1))
+        count += 1
+    design = scipy.sparse.csr_matrix(
+        (np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(count, unknowns)
+    )
+    w = np.concatenate(weights)
+    normal = (design.T @ scipy.sparse.diags(w) @ design).tocsc()
+    solution = scipy.sparse.linalg.spsolve(normal, design.T @ (w * np.concatenate(targets)))
+    return solution
+
+
 def solve_heading_graph(
     turns: np.ndarray,
     turn_std: np.ndarray,
@@ -112,18 +169,7 @@ def solve_heading_graph(
     cj = np.array([c.j for c in constraints])
     measured = np.array([c.heading for c in constraints])
     std = np.array([c.heading_std for c in constraints])
-    unknowns = n + (1 if turn_bias_std is not None else 0)
-    odo = np.arange(n - 1)
-    if separation is None:
-        limits = [np.inf]
-    else:
-        far = float(np.max(separation)) if len(separation) else 0.0
-        limits = []
-        limit = max(float(first_stage), 1e-9)
-        while limit < far:
-            limits.append(limit)
-            limit *= 2.0
-        limits.append(np.inf)
+    limits = _stage_limits(separation, first_stage)
     bias = 0.0
     for stage, limit in enumerate(limits):
         use = np.ones(len(constraints), bool) if separation is None else np.asarray(separation) <= limit
@@ -137,29 +183,7 @@ def solve_heading_graph(
                 weight_visual = 1.0 / us**2
             else:
                 weight_visual = _cauchy((predicted - unwrapped) / us, robust_scale) / us**2
-            # rows: theta_j - theta_i (+ bias for an odometry turn) = target; theta_0 = 0; bias = 0
-            k_odo, k_vis = n - 1, len(ui)
-            row = np.arange(k_odo + k_vis)
-            one = np.ones(1)
-            data: list[np.ndarray] = [np.ones(k_odo + k_vis), -np.ones(k_odo + k_vis), one]
-            rows: list[np.ndarray] = [row, row, np.array([k_odo + k_vis])]
-            cols: list[np.ndarray] = [np.concatenate([odo + 1, uj]), np.concatenate([odo, ui]), np.zeros(1, np.intp)]
-            weights: list[np.ndarray] = [1.0 / np.asarray(turn_std, np.float64) ** 2, weight_visual, one * _ANCHOR]
-            targets: list[np.ndarray] = [turns, unwrapped, np.zeros(1)]
-            count = k_odo + k_vis + 1
-            if turn_bias_std is not None:
-                data += [np.ones(k_odo), one]
-                rows += [np.arange(k_odo), np.array([count])]
-                cols += [np.full(k_odo, n), np.array([n])]
-                weights.append(one / max(float(turn_bias_std), 1e-12) ** 2)
-                targets.append(np.zeros(1))
-                count += 1
-            design = scipy.sparse.csr_matrix(
-                (np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(count, unknowns)
-            )
-            w = np.concatenate(weights)
-            normal = (design.T @ scipy.sparse.diags(w) @ design).tocsc()
-            solution = scipy.sparse.linalg.spsolve(normal, design.T @ (w * np.concatenate(targets)))
+            solution = _weighted_heading_solve(turns, turn_std, ui, uj, unwrapped, weight_visual, turn_bias_std)
             heading = np.asarray(solution[:n])
             bias = float(solution[n]) if turn_bias_std is not None else 0.0
     return HeadingSolution(heading, bias)

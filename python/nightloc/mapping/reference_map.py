@@ -221,16 +221,7 @@ class ReferenceMap:
             if head.shape != (n,):
                 raise ValueError(f"headings must be ({n},) radians, got shape {head.shape}")
             head = finite_headings(head)
-        if names is None:
-            name_tuple = tuple(f"{i:06d}" for i in range(n))
-        else:
-            if isinstance(names, str):
-                raise TypeError("names must be a sequence of strings, not one string")
-            name_tuple = tuple(names)
-            if len(name_tuple) != n or not all(isinstance(name, str) for name in name_tuple):
-                raise ValueError(f"names must be {n} strings, got {len(name_tuple)} items")
-            if len(set(name_tuple)) != n:
-                raise ValueError("names must not repeat")
+        name_tuple = _checked_names(names, n)
         if pose_source not in POSE_SOURCES:
             raise ValueError(f"pose_source must be one of {', '.join(POSE_SOURCES)}, got {pose_source!r}")
         cov = None if covariances is None else _checked_covariances(covariances, n)
@@ -576,13 +567,7 @@ class ReferenceMap:
             raise MapFormatError(
                 f"{file}: the header's pose_source {pose_source!r} is not one of {', '.join(POSE_SOURCES)}"
             )
-        for name in dict.fromkeys(("images", "positions", *optional, *checksums)):
-            if name not in arrays:
-                raise MapFormatError(f"{file}: the map lacks its '{name}' array (corrupt file)")
-            if name not in checksums:
-                raise MapFormatError(f"{file}: the header has no checksum for '{name}' (corrupt file)")
-            if _sha256(arrays[name]) != checksums[name]:
-                raise MapFormatError(f"{file}: checksum of '{name}' does not match (the file is corrupt)")
+        _check_arrays(file, arrays, checksums, optional)
         images = arrays["images"]
         expected = (count, map_params.height, map_params.width)
         if images.dtype != np.uint8 or images.shape != expected:
@@ -591,20 +576,7 @@ class ReferenceMap:
             raise MapFormatError(
                 f"{file}: the header lists {len(names) if isinstance(names, list) else '?'} names for {count} images"
             )
-        if params is not None:
-            if not isinstance(params, PreparationParams):
-                raise TypeError(f"params must be a PreparationParams, got {type(params).__name__}")
-            different = map_params.differences(params)
-            if different:
-                listing = ", ".join(f"{k}: map {a!r}, requested {b!r}" for k, (a, b) in different.items())
-                built = f"{file} was built with other preparation parameters ({listing})"
-                raise with_cli_words(
-                    MapFormatError(
-                        f"{built}; rebuild the map with these parameters or load it without params to use the map's"
-                    ),
-                    f"{built}; rebuild the map with them (nightloc build-map --params), or leave the [preparation] "
-                    f"table out of --params to use the map's",
-                )
+        _check_requested_params(file, map_params, params)
         frame_size = header.get("frame_size")
         if frame_size is not None and not (
             isinstance(frame_size, list)
@@ -617,22 +589,7 @@ class ReferenceMap:
             raise MapFormatError(
                 f"{file}: the header's camera {camera!r} contradicts its parameters (wrap = {map_params.wrap}): corrupt"
             )
-        localizer = header.get("localizer")
-        sealed = isinstance(localizer, dict) and SETTINGS_CHECKSUM in localizer
-        if sealed and settings_checksum(localizer, _SEALED) != localizer[SETTINGS_CHECKSUM]:
-            raise MapFormatError(f"{file}: checksum of the localizer's settings does not match (the file is corrupt)")
-        stored = (
-            {s: localizer[s] for s in LOCALIZER_SECTIONS if isinstance(localizer.get(s), dict)}
-            if isinstance(localizer, dict)
-            else {}
-        )
-        try:
-            settings = _checked_settings(stored)
-        except ValueError as error:
-            raise MapFormatError(
-                f"{file}: the localizer settings it keeps are not this nightloc's ({error}); it was written by "
-                f"nightloc {header.get('nightloc_version')}"
-            ) from None
+        settings = _stored_settings(file, header)
         try:
             appearances = None if experience is None else Appearances.from_file(experience, arrays, count)
             return cls(
@@ -650,6 +607,70 @@ class ReferenceMap:
             )
         except (TypeError, ValueError) as error:
             raise MapFormatError(f"{file}: inconsistent map contents: {error}") from None
+
+
+def _check_arrays(file: Path, arrays: dict[str, np.ndarray], checksums: dict, optional: tuple[str, ...]) -> None:
+    """Every array the map needs is there, and every array matches its checksum in the header."""
+    for name in dict.fromkeys(("images", "positions", *optional, *checksums)):
+        if name not in arrays:
+            raise MapFormatError(f"{file}: the map lacks its '{name}' array (corrupt file)")
+        if name not in checksums:
+            raise MapFormatError(f"{file}: the header has no checksum for '{name}' (corrupt file)")
+        if _sha256(arrays[name]) != checksums[name]:
+            raise MapFormatError(f"{file}: checksum of '{name}' does not match (the file is corrupt)")
+
+
+def _check_requested_params(file: Path, map_params: PreparationParams, params: PreparationParams | None) -> None:
+    """The preparation parameters asked for (if any) are the map's."""
+    if params is not None:
+        if not isinstance(params, PreparationParams):
+            raise TypeError(f"params must be a PreparationParams, got {type(params).__name__}")
+        different = map_params.differences(params)
+        if different:
+            listing = ", ".join(f"{k}: map {a!r}, requested {b!r}" for k, (a, b) in different.items())
+            built = f"{file} was built with other preparation parameters ({listing})"
+            raise with_cli_words(
+                MapFormatError(
+                    f"{built}; rebuild the map with these parameters or load it without params to use the map's"
+                ),
+                f"{built}; rebuild the map with them (nightloc build-map --params), or leave the [preparation] "
+                f"table out of --params to use the map's",
+            )
+
+
+def _stored_settings(file: Path, header: Any) -> dict:
+    """The localizer settings the map keeps (its LOCALIZER_SECTIONS tables), their checksum checked."""
+    localizer = header.get("localizer")
+    sealed = isinstance(localizer, dict) and SETTINGS_CHECKSUM in localizer
+    if sealed and settings_checksum(localizer, _SEALED) != localizer[SETTINGS_CHECKSUM]:
+        raise MapFormatError(f"{file}: checksum of the localizer's settings does not match (the file is corrupt)")
+    stored = (
+        {s: localizer[s] for s in LOCALIZER_SECTIONS if isinstance(localizer.get(s), dict)}
+        if isinstance(localizer, dict)
+        else {}
+    )
+    try:
+        settings = _checked_settings(stored)
+    except ValueError as error:
+        raise MapFormatError(
+            f"{file}: the localizer settings it keeps are not this nightloc's ({error}); it was written by "
+            f"nightloc {header.get('nightloc_version')}"
+        ) from None
+    return settings
+
+
+def _checked_names(names: Sequence[str] | None, n: int) -> tuple[str, ...]:
+    """The references' ``n`` distinct names (default ``000000``, ``000001``, ...)."""
+    if names is None:
+        return tuple(f"{i:06d}" for i in range(n))
+    if isinstance(names, str):
+        raise TypeError("names must be a sequence of strings, not one string")
+    name_tuple = tuple(names)
+    if len(name_tuple) != n or not all(isinstance(name, str) for name in name_tuple):
+        raise ValueError(f"names must be {n} strings, got {len(name_tuple)} items")
+    if len(set(name_tuple)) != n:
+        raise ValueError("names must not repeat")
+    return name_tuple
 
 
 def _checked_covariances(covariances: Any, n: int) -> np.ndarray:

@@ -203,6 +203,130 @@ def teach_run(
     return reference_map, report
 
 
+@dataclasses.dataclass(frozen=True)
+class _TeachDrive:
+    """What every round of a teach run reads: the prepared images ``(N, H, W)``, the odometry
+    steps ``(N - 1, 3)`` and their covariances ``(N - 1, 3, 3)`` (with the turn bias, and without
+    it: each step's own noise, for a graph that estimates the bias), the turns' standard
+    deviations of both (radians), the images' difference matrix ``(N, N)``, the warper (or None)
+    and the path length at each frame ``(N,)`` metres."""
+
+    images: np.ndarray
+    steps: np.ndarray
+    step_cov: np.ndarray
+    free_step_cov: np.ndarray
+    turn_std: np.ndarray
+    free_turn_std: np.ndarray
+    scores: np.ndarray
+    warper: PanoramaWarper | None
+    path_length: np.ndarray
+
+    @classmethod
+    def of(
+        cls, images: np.ndarray, steps: np.ndarray, step_cov: np.ndarray, teach: TeachParams, threads: int | None
+    ) -> _TeachDrive:
+        scores, _ = difference_matrix(images, images, threads=threads)
+        warper = PanoramaWarper(images, teach.warp, threads) if teach.heading_method == "warp" else None
+        # with the turn bias a variable, each step's own noise alone
+        free_step_cov = dataclasses.replace(teach.wheel_noise, turn_bias_std=0.0).step_covariances(
+            steps[:, 0], steps[:, 1]
+        )
+        return cls(
+            images,
+            steps,
+            step_cov,
+            free_step_cov,
+            np.sqrt(step_cov[:, 2, 2]),
+            np.sqrt(free_step_cov[:, 2, 2]),
+            scores,
+            warper,
+            np.concatenate([[0.0], np.cumsum(np.hypot(steps[:, 0], steps[:, 1]))]),
+        )
+
+
+def _round_constraints(
+    drive: _TeachDrive, teach: TeachParams, poses: np.ndarray, covariances: np.ndarray
+) -> tuple[list[VisualConstraint], int]:
+    """One round's visual constraints between the candidate pairs that the poses ``(N, 3)`` and
+    their covariances ``(N, 3, 3)`` allow, and the candidates the distance gate dropped."""
+    position_std = np.sqrt(np.linalg.eigvalsh(covariances[:, :2, :2])[:, -1].clip(min=0.0))
+    heading_std = np.sqrt(covariances[:, 2, 2].clip(min=0.0))
+    pairs, gated_out = candidate_pairs(
+        drive.scores,
+        poses,
+        sequence_window=teach.sequence_window,
+        max_distance=teach.max_distance,
+        place_candidates=teach.place_candidates,
+        strong_score=teach.strong_score,
+        position_std=position_std,
+        gate_sigmas=teach.gate_sigmas,
+    )
+    constraints = measure_constraints(
+        drive.images,
+        pairs,
+        poses,
+        heading_std=teach.heading_std,
+        heading_std_per_metre=teach.heading_std_per_metre,
+        axis_half_width=teach.axis_half_width,
+        strong_score=teach.strong_score,
+        place_position_std=teach.place_position_std,
+        max_distance=teach.max_distance,
+        scores=drive.scores if teach.along_std > 0 else None,
+        along_std=teach.along_std,
+        along_std_per_metre=teach.along_std_per_metre,
+        path_length=drive.path_length,
+        along_min_path=teach.along_min_path,
+        heading_uncertainty=heading_std,
+        unsure_heading=teach.unsure_heading,
+        warper=drive.warper,
+        direction_range=teach.direction_range,
+    )
+    return constraints, gated_out
+
+
+def _solve_round(
+    drive: _TeachDrive, teach: TeachParams, constraints: list[VisualConstraint], poses: np.ndarray, last: bool
+) -> GraphSolution:
+    """One round's graph: the headings (with the turn bias), then the positions, then the whole
+    pose graph from them (the ``last`` round with more marginals)."""
+    steps = drive.steps
+    path_length = drive.path_length
+    separation = np.array([abs(path_length[c.j] - path_length[c.i]) for c in constraints])
+    heading_solution = solve_heading_graph(
+        steps[:, 2],
+        drive.free_turn_std if teach.estimate_turn_bias else drive.turn_std,
+        constraints,
+        poses[:, 2],
+        teach.robust_scale,
+        turn_bias_std=teach.wheel_noise.turn_bias_std if teach.estimate_turn_bias else None,
+        separation=separation if teach.unwrap_stage > 0 else None,
+        first_stage=teach.unwrap_stage,
+    )
+    headings = heading_solution.headings
+    corrected = steps.copy()
+    corrected[:, 2] -= heading_solution.turn_bias
+    corrected_cov = drive.free_step_cov if teach.estimate_turn_bias else drive.step_cov
+    positions = solve_positions(
+        headings,
+        corrected,
+        corrected_cov,
+        constraints,
+        teach.robust_scale,
+        teach.closed_loop_std if teach.closed_loop else None,
+    )
+    return optimise_graph(
+        np.column_stack([positions, headings]),
+        corrected,
+        corrected_cov,
+        constraints,
+        robust_scale=teach.robust_scale,
+        closed_loop_std=teach.closed_loop_std if teach.closed_loop else None,
+        # intermediate rounds gate with about 100 marginals along the drive (interpolated in
+        # the map frame), the last has every frame's up to 999 frames, then about 500
+        marginal_stride=max(1, len(drive.images) // (500 if last else 100)),
+    )
+
+
 def teach_poses(
     images: np.ndarray,
     steps: np.ndarray,
@@ -235,84 +359,13 @@ def teach_poses(
     gated_out = 0
     solution = None
     if panoramic:
-        scores, _ = difference_matrix(images, images, threads=threads)
-        warper = PanoramaWarper(images, teach.warp, threads) if teach.heading_method == "warp" else None
-        poses = reckoned.copy()
-        turn_std = np.sqrt(step_cov[:, 2, 2])
-        # with the turn bias a variable, each step's own noise alone
-        free_step_cov = dataclasses.replace(wheel_noise, turn_bias_std=0.0).step_covariances(steps[:, 0], steps[:, 1])
-        free_turn_std = np.sqrt(free_step_cov[:, 2, 2])
-        covariances_now = reckoned_cov
-        path_length = np.concatenate([[0.0], np.cumsum(np.hypot(steps[:, 0], steps[:, 1]))])
+        drive = _TeachDrive.of(images, steps, step_cov, teach, threads)
+        poses, covariances_now = reckoned.copy(), reckoned_cov
         for round_index in range(teach.rounds):
-            position_std = np.sqrt(np.linalg.eigvalsh(covariances_now[:, :2, :2])[:, -1].clip(min=0.0))
-            heading_std = np.sqrt(covariances_now[:, 2, 2].clip(min=0.0))
-            pairs, gated_out = candidate_pairs(
-                scores,
-                poses,
-                sequence_window=teach.sequence_window,
-                max_distance=teach.max_distance,
-                place_candidates=teach.place_candidates,
-                strong_score=teach.strong_score,
-                position_std=position_std,
-                gate_sigmas=teach.gate_sigmas,
-            )
-            constraints = measure_constraints(
-                images,
-                pairs,
-                poses,
-                heading_std=teach.heading_std,
-                heading_std_per_metre=teach.heading_std_per_metre,
-                axis_half_width=teach.axis_half_width,
-                strong_score=teach.strong_score,
-                place_position_std=teach.place_position_std,
-                max_distance=teach.max_distance,
-                scores=scores if teach.along_std > 0 else None,
-                along_std=teach.along_std,
-                along_std_per_metre=teach.along_std_per_metre,
-                path_length=path_length,
-                along_min_path=teach.along_min_path,
-                heading_uncertainty=heading_std,
-                unsure_heading=teach.unsure_heading,
-                warper=warper,
-                direction_range=teach.direction_range,
-            )
+            constraints, gated_out = _round_constraints(drive, teach, poses, covariances_now)
             if not constraints:
                 break
-            separation = np.array([abs(path_length[c.j] - path_length[c.i]) for c in constraints])
-            heading_solution = solve_heading_graph(
-                steps[:, 2],
-                free_turn_std if teach.estimate_turn_bias else turn_std,
-                constraints,
-                poses[:, 2],
-                teach.robust_scale,
-                turn_bias_std=wheel_noise.turn_bias_std if teach.estimate_turn_bias else None,
-                separation=separation if teach.unwrap_stage > 0 else None,
-                first_stage=teach.unwrap_stage,
-            )
-            headings = heading_solution.headings
-            corrected = steps.copy()
-            corrected[:, 2] -= heading_solution.turn_bias
-            corrected_cov = free_step_cov if teach.estimate_turn_bias else step_cov
-            positions = solve_positions(
-                headings,
-                corrected,
-                corrected_cov,
-                constraints,
-                teach.robust_scale,
-                teach.closed_loop_std if teach.closed_loop else None,
-            )
-            solution = optimise_graph(
-                np.column_stack([positions, headings]),
-                corrected,
-                corrected_cov,
-                constraints,
-                robust_scale=teach.robust_scale,
-                closed_loop_std=teach.closed_loop_std if teach.closed_loop else None,
-                # intermediate rounds gate with about 100 marginals along the drive (interpolated in
-                # the map frame), the last has every frame's up to 999 frames, then about 500
-                marginal_stride=max(1, len(images) // (500 if round_index == teach.rounds - 1 else 100)),
-            )
+            solution = _solve_round(drive, teach, constraints, poses, round_index == teach.rounds - 1)
             poses = solution.poses.copy()
             poses[:, 2] = np.unwrap(poses[:, 2])
             covariances_now = solution.covariances

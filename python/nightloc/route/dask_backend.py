@@ -44,6 +44,7 @@ worker's memory: ``n_ref * H * W`` bytes, 7 MB for 3576 Nordland frames); one bl
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import math
 import time
@@ -477,6 +478,138 @@ def _in_order(submit: Callable[[int], Any], count: int, in_flight: int) -> Itera
         future.release()
 
 
+def _checked_images(
+    refs: np.ndarray, queries: np.ndarray, advances: np.ndarray | None, reference_distances: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The prepared references and queries, checked: uint8 ``(N, H, W)`` and ``(M, H, W)`` of one
+    size, at least 2 references, the odometry model's two arrays both or neither."""
+    r = uint8_array(refs, 3, "refs")
+    q = uint8_array(queries, 3, "queries")
+    same_image_size(q, r, "queries", "refs")
+    if r.shape[0] < 2:
+        raise ValueError(f"contrast enhancement needs at least 2 references, got {r.shape[0]}")
+    if (advances is None) != (reference_distances is None):
+        raise ValueError("the odometry model needs both advances and reference_distances")
+    return r, q
+
+
+def _checked_in_flight(client: object, in_flight: int | None) -> int:
+    """The bands submitted ahead: ``in_flight``, by default twice the cluster's threads."""
+    if in_flight is None:
+        in_flight = 2 * max(1, sum(client.nthreads().values()))  # type: ignore[attr-defined]
+    if isinstance(in_flight, bool) or not isinstance(in_flight, (int, np.integer)) or in_flight < 1:
+        raise ValueError(f"in_flight must be an int >= 1, got {in_flight!r}")
+    return int(in_flight)
+
+
+@dataclasses.dataclass
+class _Stream:
+    """What the bands of one streamed match share: the client, the prepared queries ``(M, H, W)``,
+    the bands' ``(lo, hi)`` rows, the tasks' common arguments (the scattered references, shifts,
+    divisor, enhancement radius), their threads and window, the bands in flight, and what the
+    client gathers: the matrix's picture, the speed check's sampled stretches and their ratios."""
+
+    client: object
+    queries: np.ndarray
+    blocks: list[tuple[int, int]]
+    common: tuple
+    threads_per_task: int
+    window: object
+    in_flight: int
+    preview: MatrixPreview
+    sampler: StretchSampler | None
+    matches: MatchesRatio
+
+
+def _stream_filter(
+    stream: _Stream, state: object, weights: np.ndarray, advances: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The route filter over the streamed bands, in order: matched references ``(M,)`` int64, and
+    the confidence, off-route probability and speed per query."""
+    q, blocks, n_queries = stream.queries, stream.blocks, stream.queries.shape[0]
+
+    def submit(index: int) -> object:
+        lo, hi = blocks[index]
+        return stream.client.submit(  # type: ignore[attr-defined]
+            _stream_band_task,
+            q[lo:hi],
+            *stream.common,
+            "bound",
+            None,
+            stream.threads_per_task,
+            stream.window,
+            lo,
+            n_queries,
+            pure=False,
+        )
+
+    pieces = []
+    for (lo, hi), (band, part) in zip(blocks, _in_order(submit, len(blocks), stream.in_flight)):
+        step = None if advances is None else np.ascontiguousarray(advances[lo:hi], dtype=np.float64)
+        pieces.append(state.run(band, weights[lo:hi], 1, step))  # type: ignore[attr-defined]
+        stream.preview.add(part)
+        if stream.sampler is not None:
+            stream.sampler.take(lo, band)
+            for stretch in stream.sampler.complete():
+                stream.matches.add(stretch)
+        del band
+    matched = np.concatenate([piece[0] for piece in pieces]).astype(np.int64)
+    return matched, *(np.concatenate([piece[k] for piece in pieces]) for k in (1, 2, 3))  # type: ignore[return-value]
+
+
+def _stream_search(stream: _Stream, p: RouteParams) -> tuple[np.ndarray, np.ndarray]:
+    """SeqSLAM's trajectory search over the streamed bands (each with the rows its trajectories
+    reach): matched references ``(M,)`` int64 and scores ``(M,)`` float64."""
+    q, blocks, n_queries = stream.queries, stream.blocks, stream.queries.shape[0]
+    minimum = None
+    offset = "bound" if p.search_offset == "bound" else "none"
+    if p.search_offset == "global_min":
+
+        def submit_minimum(index: int) -> object:
+            lo, hi = blocks[index]
+            return stream.client.submit(  # type: ignore[attr-defined]
+                _minimum_task, q[lo:hi], *stream.common, stream.threads_per_task, stream.window, pure=False
+            )
+
+        minimum = _global_minimum(*_in_order(submit_minimum, len(blocks), stream.in_flight))
+    plan = _core.trajectory_plan(p.ds, p.vmin, p.vmax, p.uniqueness_radius, p.mode == "causal")
+    before, after = -int(plan["columns"][0]), int(plan["columns"][-1])
+    stretches = [] if stream.sampler is None else stream.sampler.stretches
+
+    def submit_search(index: int) -> object:
+        lo, hi = blocks[index]
+        first, last = max(0, lo - before), min(n_queries, hi + after)
+        return stream.client.submit(  # type: ignore[attr-defined]
+            _search_band_task,
+            q[first:last],
+            *stream.common,
+            offset,
+            minimum,
+            stream.threads_per_task,
+            stream.window,
+            first,
+            lo,
+            hi,
+            n_queries,
+            p,
+            stretches,
+            pure=False,
+        )
+
+    matched_parts, score_parts = [], []
+    for band_refs, band_scores, part, sampled in _in_order(submit_search, len(blocks), stream.in_flight):
+        matched_parts.append(band_refs)
+        score_parts.append(band_scores)
+        stream.preview.add(part)
+        if stream.sampler is not None:
+            for lo, piece in sampled:
+                stream.sampler.take(lo, piece, copy=False)
+            for stretch in stream.sampler.complete():
+                stream.matches.add(stretch)
+    return np.concatenate(matched_parts).astype(np.int64), np.concatenate(score_parts).astype(np.float64)
+
+
+# long: its docstring states the streaming contract (19 lines); the body, 56, sets up the stream and the result
 def dask_stream_match(
     client: object,
     refs: np.ndarray,
@@ -512,117 +645,39 @@ def dask_stream_match(
     """
     require_distributed()
     p = resolve_params(params)
-    r = uint8_array(refs, 3, "refs")
-    q = uint8_array(queries, 3, "queries")
-    same_image_size(q, r, "queries", "refs")
-    if r.shape[0] < 2:
-        raise ValueError(f"contrast enhancement needs at least 2 references, got {r.shape[0]}")
-    if (advances is None) != (reference_distances is None):
-        raise ValueError("the odometry model needs both advances and reference_distances")
+    r, q = _checked_images(refs, queries, advances, reference_distances)
     n_queries, n_refs = q.shape[0], r.shape[0]
     rows = _band_rows(n_refs, rows_per_band)
-    if in_flight is None:
-        in_flight = 2 * max(1, sum(client.nthreads().values()))  # type: ignore[attr-defined]
-    if isinstance(in_flight, bool) or not isinstance(in_flight, (int, np.integer)) or in_flight < 1:
-        raise ValueError(f"in_flight must be an int >= 1, got {in_flight!r}")
+    in_flight = _checked_in_flight(client, in_flight)
     start_time = time.perf_counter()
     shifts = shift_list(p.shifts, r.shape[2])
-    divisor = _divisor(p, r)
-    window = p.window_for(r.shape[1], r.shape[2])
     refs_future = client.scatter(r, broadcast=True)  # type: ignore[attr-defined]
-    blocks = _blocks(n_queries, rows)
-    common = (refs_future, shifts, divisor, p.enhance_radius)
-    preview = MatrixPreview(n_queries, n_refs)
     odometry = carried_odometry
     if advances is not None and reference_distances is not None:
         odometry = (advances, reference_distances)
-    sampler = StretchSampler(n_queries) if speed_check and odometry is None else None
-    matches = MatchesRatio()  # takes each sampled stretch once it is whole, then drops it
+    stream = _Stream(
+        client,
+        q,
+        _blocks(n_queries, rows),
+        (refs_future, shifts, _divisor(p, r), p.enhance_radius),
+        threads_per_task,
+        p.window_for(r.shape[1], r.shape[2]),
+        in_flight,
+        MatrixPreview(n_queries, n_refs),
+        StretchSampler(n_queries) if speed_check and odometry is None else None,
+        MatchesRatio(),  # takes each sampled stretch once it is whole, then drops it
+    )
     confidence = off_route = speed = weights = None
     motion = None
     if p.method == "filter":
         weights = texture_weights(q, p.filter_min_texture)
         motion = motion_name(p, reference_distances is not None)
         state = _core.RouteFilter(n_refs, core_params(p, motion), reference_distances)
-
-        def submit(index: int) -> object:
-            lo, hi = blocks[index]
-            return client.submit(  # type: ignore[attr-defined]
-                _stream_band_task,
-                q[lo:hi],
-                *common,
-                "bound",
-                None,
-                threads_per_task,
-                window,
-                lo,
-                n_queries,
-                pure=False,
-            )
-
-        pieces = []
-        for (lo, hi), (band, part) in zip(blocks, _in_order(submit, len(blocks), in_flight)):
-            step = None if advances is None else np.ascontiguousarray(advances[lo:hi], dtype=np.float64)
-            pieces.append(state.run(band, weights[lo:hi], 1, step))
-            preview.add(part)
-            if sampler is not None:
-                sampler.take(lo, band)
-                for stretch in sampler.complete():
-                    matches.add(stretch)
-            del band
-        matched = np.concatenate([piece[0] for piece in pieces]).astype(np.int64)
-        confidence = np.concatenate([piece[1] for piece in pieces])
-        off_route = np.concatenate([piece[2] for piece in pieces])
-        speed = np.concatenate([piece[3] for piece in pieces])
+        matched, confidence, off_route, speed = _stream_filter(stream, state, weights, advances)
         scores = 1.0 - confidence
     else:
-        minimum = None
-        offset = "bound" if p.search_offset == "bound" else "none"
-        if p.search_offset == "global_min":
-
-            def submit_minimum(index: int) -> object:
-                lo, hi = blocks[index]
-                return client.submit(  # type: ignore[attr-defined]
-                    _minimum_task, q[lo:hi], *common, threads_per_task, window, pure=False
-                )
-
-            minimum = _global_minimum(*_in_order(submit_minimum, len(blocks), in_flight))
-        plan = _core.trajectory_plan(p.ds, p.vmin, p.vmax, p.uniqueness_radius, p.mode == "causal")
-        before, after = -int(plan["columns"][0]), int(plan["columns"][-1])
-        stretches = [] if sampler is None else sampler.stretches
-
-        def submit_search(index: int) -> object:
-            lo, hi = blocks[index]
-            first, last = max(0, lo - before), min(n_queries, hi + after)
-            return client.submit(  # type: ignore[attr-defined]
-                _search_band_task,
-                q[first:last],
-                *common,
-                offset,
-                minimum,
-                threads_per_task,
-                window,
-                first,
-                lo,
-                hi,
-                n_queries,
-                p,
-                stretches,
-                pure=False,
-            )
-
-        matched_parts, score_parts = [], []
-        for band_refs, band_scores, part, sampled in _in_order(submit_search, len(blocks), in_flight):
-            matched_parts.append(band_refs)
-            score_parts.append(band_scores)
-            preview.add(part)
-            if sampler is not None:
-                for lo, piece in sampled:
-                    sampler.take(lo, piece, copy=False)
-                for stretch in sampler.complete():
-                    matches.add(stretch)
-        matched = np.concatenate(matched_parts).astype(np.int64)
-        scores = np.concatenate(score_parts).astype(np.float64)
+        matched, scores = _stream_search(stream, p)
+    sampler, matches, preview = stream.sampler, stream.matches, stream.preview
     checked = None
     if speed_check:
         checked = check_speed(p, motion, None, odometry, matches if sampler is not None else None)

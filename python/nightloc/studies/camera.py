@@ -47,7 +47,7 @@ from ..preparation.params import PreparationParams
 from ..preparation.preparer import Preparer
 from ..progress import progress
 from ..synth.dataset import SynthScene
-from ..synth.paths import plan_traverses
+from ..synth.paths import TraversePlan, plan_traverses
 from ..synth.render import render_radiance
 from ..synth.sensor import FULL_WELL, MAX_DARKNESS, READ_NOISE, capture
 from ..synth.world import ALL_WORLDS
@@ -351,6 +351,57 @@ def _matches(
     )
 
 
+def _day_maps(
+    scene: SynthScene, day: TraversePlan, day_frames: np.ndarray, settings: StudySettings
+) -> tuple[dict[tuple[int, int], Preparer], dict[tuple[int, int], ReferenceMap]]:
+    """Per image size ``(width, height)`` its preparer and the day map prepared with it."""
+    preparers = {
+        size: Preparer(PreparationParams(width=size[0], height=size[1], radius=patch_radius(size[0])))
+        for size in settings.sizes
+    }
+    maps = {
+        size: ReferenceMap(
+            preparer.prepare(day_frames),
+            day.positions,
+            day.headings,
+            params=preparer.params,
+            frame_size=(scene.camera.width, scene.camera.height),
+        )
+        for size, preparer in preparers.items()
+    }
+    return preparers, maps
+
+
+def _study(world: str, settings: StudySettings, errors: dict[tuple, list[list[np.ndarray]]]) -> CameraStudy:
+    """The study's rows: per size, darkness, sensor and method the tail of the errors over every
+    draw (``errors[(size, darkness index, sensor index, method)]``: per draw, one array per night)."""
+    study = CameraStudy(world, settings)
+    for size in settings.sizes:
+        for d_index, darkness in enumerate(settings.darkness):
+            for s_index, sensor in enumerate(settings.sensors):
+                for method in settings.methods:
+                    per_draw = errors[(size, d_index, s_index, method)]
+                    tail = tail_metrics([e for draw in per_draw for e in draw], first_frame=settings.seq_len)
+                    medians = [tail_metrics(draw, first_frame=settings.seq_len).median_m for draw in per_draw]
+                    study.rows.append(
+                        StudyRow(
+                            width=size[0],
+                            height=size[1],
+                            darkness=darkness,
+                            sensor=sensor,
+                            method=method,
+                            median_m=tail.median_m,
+                            p95_m=tail.p95_m,
+                            share_over_1m=tail.share_over_1m,
+                            longest_over_1m=tail.longest_run_over_1m,
+                            median_spread_m=float(np.std(medians)),
+                            frames=tail.n,
+                            draws=settings.draws,
+                        )
+                    )
+    return study
+
+
 def run_camera_study(
     world: str,
     settings: StudySettings | None = None,
@@ -378,20 +429,7 @@ def run_camera_study(
         ]
         for p in nights
     }
-    preparers = {
-        size: Preparer(PreparationParams(width=size[0], height=size[1], radius=patch_radius(size[0])))
-        for size in settings.sizes
-    }
-    maps = {
-        size: ReferenceMap(
-            preparer.prepare(day_frames),
-            day.positions,
-            day.headings,
-            params=preparer.params,
-            frame_size=(scene.camera.width, scene.camera.height),
-        )
-        for size, preparer in preparers.items()
-    }
+    preparers, maps = _day_maps(scene, day, day_frames, settings)
     params = LocalizationParams(seq_len=settings.seq_len)
     errors: dict[tuple, list[list[np.ndarray]]] = {}
     jobs = [
@@ -438,31 +476,7 @@ def run_camera_study(
                     (e,) = evaluation.runs(evaluation.select(method=method))
                     per_draw = errors.setdefault((size, d_index, s_index, method), [[] for _ in range(settings.draws)])
                     per_draw[draw].append(e)
-    study = CameraStudy(world, settings)
-    for size in settings.sizes:
-        for d_index, darkness in enumerate(settings.darkness):
-            for s_index, sensor in enumerate(settings.sensors):
-                for method in settings.methods:
-                    per_draw = errors[(size, d_index, s_index, method)]
-                    tail = tail_metrics([e for draw in per_draw for e in draw], first_frame=settings.seq_len)
-                    medians = [tail_metrics(draw, first_frame=settings.seq_len).median_m for draw in per_draw]
-                    study.rows.append(
-                        StudyRow(
-                            width=size[0],
-                            height=size[1],
-                            darkness=darkness,
-                            sensor=sensor,
-                            method=method,
-                            median_m=tail.median_m,
-                            p95_m=tail.p95_m,
-                            share_over_1m=tail.share_over_1m,
-                            longest_over_1m=tail.longest_run_over_1m,
-                            median_spread_m=float(np.std(medians)),
-                            frames=tail.n,
-                            draws=settings.draws,
-                        )
-                    )
-    return study
+    return _study(world, settings, errors)
 
 
 def sizes_from_text(text: str) -> tuple[tuple[int, int], ...]:

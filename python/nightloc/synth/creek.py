@@ -90,6 +90,7 @@ def _creek_ground(rng: np.random.Generator, length: float) -> GroundMap:
     return GroundMap(np.ascontiguousarray(albedo, dtype=np.float32), x0, y0, ppm)
 
 
+# long: a world builder: the list of the creek's materials and objects, one after the other
 def build_creek(seed: int = 0, length: float = CREEK_LENGTH_M) -> World:
     """The creek world (see the module docstring): ``length`` metres of path along +x."""
     length = path_length(seed, length)

@@ -357,6 +357,91 @@ def _write_json_atomic(path: Path, content: dict) -> None:
     write_text(path, json.dumps(content, indent=2) + "\n")
 
 
+def _plan_drives(
+    world: str,
+    scene: SynthScene,
+    pattern: str,
+    night_names: Sequence[str] | None,
+    schedule: Sequence[SeasonNight] | None,
+    view: str,
+) -> tuple[list, dict[str, SynthScene], dict[str, SynthScene], dict[str, SeasonNight]]:
+    """The drives to render, in order (Table I's, or the day reference then each night's or each
+    season night's drives; a forward camera's day reference four ways), the scene of each drive
+    that is not ``scene``'s, the nights' scenes by name and the season night of each season drive."""
+    plans = plan_traverses(world, scene.seed, pattern)
+    scenes = {plan.name: scene for plan in plans}
+    night_scenes: dict[str, SynthScene] = {}
+    season_of: dict[str, SeasonNight] = {}  # a season's drives: their night (its scene made when rendered)
+    if night_names is not None:
+        plans, night_scenes = plans[:1], {name: scene.night(name) for name in night_names}
+        for name in night_names:
+            for drive in plan_night_drives(world, scene.seed, NIGHT_NAMES.index(name), pattern):
+                plans.append(replace(drive, name=night_traverse_name(drive.name, name)))
+                scenes[plans[-1].name] = night_scenes[name]
+    if schedule is not None:
+        plans = plans[:1]
+        for night in schedule:
+            for drive in season_drives(world, scene.seed, night):
+                plans.append(drive)
+                season_of[drive.name] = night
+    if view == "forward":
+        plans = [_four_ways(plan) if plan.name == "day_reference" else plan for plan in plans]
+    return plans, scenes, night_scenes, season_of
+
+
+def _describe_dataset(
+    scene: SynthScene,
+    plans: list,
+    view: str,
+    tilt_deg: float,
+    height_std: float,
+    pattern: str,
+    schedule: Sequence[SeasonNight] | None,
+    lamps: dict[int, list[dict]],
+    test_every: int,
+) -> dict:
+    """``dataset.json``'s description: the scene's, the camera's motion, and a season's schedule."""
+    description = scene.describe(plans)
+    description.update(view=view, tilt_deg=float(tilt_deg), height_std_m=float(height_std))
+    if pattern != "rows":
+        description.update(pattern=pattern)
+    if schedule is not None:
+        description["season"] = {
+            "nights": len(schedule),
+            "test_every": test_every,
+            "schedule": [
+                {**n.describe(), "lamps_on": lamps[n.night], "traverses": list(season_traverse_names(n))}
+                for n in schedule
+            ],
+        }
+        for plan in plans[1:]:
+            record = description["traverses"][plan.name]
+            record["season_night"] = int(plan.name.split("_")[1])
+            if plan.carried:
+                record["carried"] = list(plan.carried)
+    return description
+
+
+def _describe_nights(
+    description: dict,
+    plans: list,
+    scenes: dict[str, SynthScene],
+    night_scenes: dict[str, SynthScene],
+    night_names: Sequence[str],
+) -> None:
+    """Each night traverse's night, and each night's conditions and traverses, into ``description``."""
+    for plan in plans[1:]:
+        description["traverses"][plan.name]["night"] = scenes[plan.name].night_name
+    description["nights"] = {
+        name: {
+            **night_scenes[name].describe_night(),
+            "traverses": [night_traverse_name(drive, name) for drive in NIGHT_DRIVES],
+        }
+        for name in night_names
+    }
+
+
+# long: its docstring documents every argument (45 lines); the body plans, renders and describes in 53
 def make_dataset(
     world: str,
     out_dir: str | os.PathLike,
@@ -436,23 +521,7 @@ def make_dataset(
         )
     schedule = None if season is None else plan_season(world, season, seed, test_every=test_every, bad=bad_nights)
     scene = SynthScene(world, seed, darkness, camera)
-    plans = plan_traverses(world, scene.seed, pattern)
-    scenes = {plan.name: scene for plan in plans}
-    season_of: dict[str, SeasonNight] = {}  # a season's drives: their night (its scene made when rendered)
-    if night_names is not None:
-        plans, night_scenes = plans[:1], {name: scene.night(name) for name in night_names}
-        for name in night_names:
-            for drive in plan_night_drives(world, scene.seed, NIGHT_NAMES.index(name), pattern):
-                plans.append(replace(drive, name=night_traverse_name(drive.name, name)))
-                scenes[plans[-1].name] = night_scenes[name]
-    if schedule is not None:
-        plans = plans[:1]
-        for night in schedule:
-            for drive in season_drives(world, scene.seed, night):
-                plans.append(drive)
-                season_of[drive.name] = night
-    if view == "forward":
-        plans = [_four_ways(plan) if plan.name == "day_reference" else plan for plan in plans]
+    plans, scenes, night_scenes, season_of = _plan_drives(world, scene, pattern, night_names, schedule, view)
     with output_set(
         out_dir, command="synth", overwrite=overwrite, overwrite_hint="overwrite=True", parents=parents
     ) as out:
@@ -485,34 +554,9 @@ def make_dataset(
                 odometry=odometry,
                 timestamps=plan.timestamps(),
             )
-        description = scene.describe(plans)
-        description.update(view=view, tilt_deg=float(tilt_deg), height_std_m=float(height_std))
-        if pattern != "rows":
-            description.update(pattern=pattern)
-        if schedule is not None:
-            description["season"] = {
-                "nights": len(schedule),
-                "test_every": test_every,
-                "schedule": [
-                    {**n.describe(), "lamps_on": lamps[n.night], "traverses": list(season_traverse_names(n))}
-                    for n in schedule
-                ],
-            }
-            for plan in plans[1:]:
-                record = description["traverses"][plan.name]
-                record["season_night"] = int(plan.name.split("_")[1])
-                if plan.carried:
-                    record["carried"] = list(plan.carried)
+        description = _describe_dataset(scene, plans, view, tilt_deg, height_std, pattern, schedule, lamps, test_every)
         if night_names is not None:
-            for plan in plans[1:]:
-                description["traverses"][plan.name]["night"] = scenes[plan.name].night_name
-            description["nights"] = {
-                name: {
-                    **night_scenes[name].describe_night(),
-                    "traverses": [night_traverse_name(drive, name) for drive in NIGHT_DRIVES],
-                }
-                for name in night_names
-            }
+            _describe_nights(description, plans, scenes, night_scenes, night_names)
         _write_json_atomic(out / "dataset.json", description)
     return {plan.name: Path(out_dir) / plan.name for plan in plans}
 

@@ -48,6 +48,7 @@ def _ground(rng: np.random.Generator) -> GroundMap:
     return GroundMap(np.ascontiguousarray(albedo, dtype=np.float32), x0, y0, ppm, lawn, stripes)
 
 
+# long: a world builder: the list of the large garden's materials and objects, one after the other
 def large_garden(seed: int) -> World:
     """The large garden world with textures drawn from ``seed`` (the layout is fixed)."""
     rng = np.random.default_rng([seed, 3])

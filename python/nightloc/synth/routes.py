@@ -103,6 +103,7 @@ def path_length(seed: int, length: float) -> float:
     return float(length)
 
 
+# long: a world builder: the list of the street's materials and objects, one after the other
 def build_street(seed: int = 0, length: float = 250.0) -> World:
     """The street world (see the module docstring): ``length`` metres of path along +x."""
     length = path_length(seed, length)

@@ -69,6 +69,7 @@ def _garden_ground(rng: np.random.Generator) -> GroundMap:
     return GroundMap(np.ascontiguousarray(albedo, dtype=np.float32), x0, y0, ppm, lawn, stripes)
 
 
+# long: a world builder: the list of the garden's materials and objects, one after the other
 def _garden(seed: int) -> World:
     rng = np.random.default_rng([seed, 1])
     material = TextureLibrary(rng, ppm=100.0)
@@ -222,6 +223,7 @@ def _room_floor(rng: np.random.Generator) -> GroundMap:
     return GroundMap(np.ascontiguousarray(albedo, dtype=np.float32), x0, y0, ppm)
 
 
+# long: a world builder: the list of the living room's materials and objects, one after the other
 def _living_room(seed: int) -> World:
     rng = np.random.default_rng([seed, 2])
     material = TextureLibrary(rng, ppm=100.0)
