@@ -30,6 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import oracle
 import route_oracle as ro
 from conftest import shared_data_dir
+from route_support import NORDLAND_GROUP, default_match
 
 SIZES = [500, 3576]
 _cache: dict = {}
@@ -123,29 +124,29 @@ _search_cache: dict = {}
 
 
 def nightloc_enhanced(n=3576):
-    """(enhanced matrix with the causal offset, texture weights, real) for the default preparation."""
+    """(enhanced matrix with the causal offset, texture weights, real) for the default preparation:
+    the whole Nordland route (the tests' match of it, computed once per process), else n x n
+    synthetic frames."""
     if n in _search_cache:
         return _search_cache[n]
     root = shared_data_dir() / "nordland"
     params = route.RouteParams()
-    preparer = route.RoutePreparer(params)
     if (root / "summer").is_dir():
-        names = sorted(p.name for p in (root / "summer").iterdir() if p.suffix == ".png")[:n]
-
-        def load(season):
-            return preparer([cv2.imread(str(root / season / name), cv2.IMREAD_COLOR) for name in names])
-
-        refs, queries, real = load("summer"), load("winter"), len(names) == n
+        matched = default_match(shared_data_dir(), "nordland/summer", "nordland/winter").result
+        enhanced, weights, real = matched.enhanced, matched.weights, matched.n_refs == n
     else:
+        preparer = route.RoutePreparer(params)
         refs, queries, _ = ro.synthetic_route(n, n, speed=1.0, seed=n, height=32, width=64)
         refs, queries, real = preparer(refs), preparer(queries), False
-    difference = route.route_difference_matrix(queries, refs, params)
-    enhanced = route.enhance_contrast(difference, params, offset="bound")
+        difference = route.route_difference_matrix(queries, refs, params)
+        enhanced = route.enhance_contrast(difference, params, offset="bound")
+        weights = route.texture_weights(queries, params.filter_min_texture)
     _search_cache.clear()
-    _search_cache[n] = (enhanced, route.texture_weights(queries, params.filter_min_texture), real)
+    _search_cache[n] = (enhanced, weights, real)
     return _search_cache[n]
 
 
+@pytest.mark.xdist_group(NORDLAND_GROUP)
 @pytest.mark.parametrize("threads", [1, 2])
 def test_search_seqslam(benchmark, threads):
     enhanced, _, _ = nightloc_enhanced()
@@ -163,6 +164,7 @@ MOTIONS = {
 }
 
 
+@pytest.mark.xdist_group(NORDLAND_GROUP)
 @pytest.mark.parametrize("threads", [1, 2])
 @pytest.mark.parametrize("motion", sorted(MOTIONS))
 def test_search_filter(benchmark, threads, motion):

@@ -14,33 +14,27 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import nightloc
 from nightloc import route
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
 from route_speed_sweep import sinusoidal_speed_positions  # the cases' positions, as the sweep builds them
 
-pytestmark = pytest.mark.slow
+from route_support import NORDLAND_GROUP, default_match
+
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group(NORDLAND_GROUP)]
 
 PAIRS = {
     # name: (reference, query, odometry targets: best F1, recall at 100 % precision)
     "gardens_point": ("gardens_point/day_right", "gardens_point/night_right", 0.90, 0.75),
     "nordland": ("nordland/summer", "nordland/winter", 0.97, 0.88),
 }
-_matrices: dict = {}
 
 
 def _pair(shared_data, name):
-    if name not in _matrices:
-        reference, query = PAIRS[name][:2]
-        params = route.RouteParams()
-        preparer = route.RoutePreparer(params)
-        refs = preparer(nightloc.load_traverse(shared_data / reference))
-        queries = preparer(nightloc.load_traverse(shared_data / query))
-        difference = route.route_difference_matrix(queries, refs, params)
-        enhanced = route.enhance_contrast(difference, params, offset="bound")
-        _matrices[name] = (enhanced, route.texture_weights(queries, params.filter_min_texture))
-    return _matrices[name]
+    """The aligned pair's enhanced matrix (the filter's: causal offset) and texture weights, with
+    the default parameters."""
+    result = default_match(shared_data, *PAIRS[name][:2]).result
+    return result.enhanced, result.weights
 
 
 def _evaluate(enhanced, weights, index, params, **odometry):

@@ -17,6 +17,7 @@ from nightloc.route import RouteParams
 
 import oracle
 import route_oracle as ro
+from route_support import NORDLAND_GROUP, default_match
 
 
 def test_route_difference_matrix_is_the_window_oracle():
@@ -159,12 +160,12 @@ REAL_TARGETS = {
 }
 
 
+@pytest.mark.xdist_group(NORDLAND_GROUP)
 @pytest.mark.parametrize("case", list(REAL_TARGETS.values()), ids=list(REAL_TARGETS))
 def test_real_pairs_meet_the_targets_with_the_window(shared_data, case):
     reference, query, _frames, f1_target, r100_target = case
-    preparer = route.RoutePreparer(RouteParams())
-    refs = preparer(nightloc.load_traverse(shared_data / reference))
-    queries = preparer(nightloc.load_traverse(shared_data / query))
-    evaluation = ro.evaluate_route(refs, queries, RouteParams())
+    result = default_match(shared_data, reference, query).result  # match_prepared, RouteParams()
+    truth = route.GroundTruth.from_frames(result.n_queries, result.n_refs, 2)
+    evaluation = route.evaluate_matches(result.refs, result.scores, truth)
     assert evaluation.best_f1 >= f1_target, evaluation.summary()
     assert evaluation.recall_at_100 >= r100_target, evaluation.summary()
