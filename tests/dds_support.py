@@ -6,6 +6,7 @@ the node publishes), with bounded waits that fail with a message saying what nev
 
 from __future__ import annotations
 
+import gc
 import os
 import random
 import signal
@@ -128,9 +129,11 @@ class Graph:
         from nightloc.node.messages import TYPES, dds_topic
 
         self.types = TYPES
+        gc.collect()  # entities an earlier graph left are deleted now, not while these are created
         self.participant = DomainParticipant(int(os.environ["ROS_DOMAIN_ID"]) if domain is None else domain)
         self.names = {spec.role: prefix + spec.default for spec in TOPICS}
         self.writers, self.readers = {}, {}
+        self.topics: list = []  # held as long as their readers and writers
         self.messages: dict[str, list] = defaultdict(list)
         self.arrivals: dict[str, list] = defaultdict(list)
         for spec in TOPICS:
@@ -138,6 +141,7 @@ class Graph:
             # the robot's side: what a ROS 2 robot offers (camera: best effort, the rest reliable)
             for msgtype in spec.types:
                 topic = Topic(self.participant, dds_topic(self.names[spec.role]), TYPES[msgtype])
+                self.topics.append(topic)
                 qos = Qos(
                     reliability or Policy.Reliability.BestEffort,
                     Policy.Durability.TransientLocal if spec.transient_local else Policy.Durability.Volatile,
@@ -181,8 +185,16 @@ class Graph:
         return len(self.writers[(role, msgtype or spec.types[0])].get_matched_subscriptions())
 
     def close(self) -> None:
+        """Stops collecting and deletes the graph's DDS entities (readers, writers, topics, the
+        participant) now: left to the garbage collector, their deletion could fall inside the
+        creation of another graph's entities."""
         self._stop.set()
         self._thread.join(5)
+        self.readers.clear()
+        self.writers.clear()
+        self.topics.clear()
+        self.participant = None
+        gc.collect()
 
 
 def night_messages(night, odometry_poses: np.ndarray, stamps: Sequence[float], types, tf: bool = False):
