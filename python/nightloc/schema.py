@@ -33,6 +33,8 @@ import typing
 from typing import Any, Literal, Union
 
 __all__ = [
+    "ABOVE_0",
+    "AT_LEAST_0",
     "CoreTable",
     "Range",
     "Setting",
@@ -117,6 +119,12 @@ class Range:
             else:
                 text = f"{special} ({self.special_means}) or {text}"
         return text
+
+
+#: The finite numbers >= 0.
+AT_LEAST_0 = Range(0, math.inf)
+#: The finite numbers > 0.
+ABOVE_0 = Range(0, math.inf, min_open=True)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -65,7 +65,7 @@ from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import match
 from ..motion.odometry import as_motion, reverse_motion, wrap_angle
 from ..preparation.params import PreparationParams
-from ..schema import Range, own_field
+from ..schema import ABOVE_0, AT_LEAST_0, Range, own_field
 
 __all__ = [
     "RETENTION_POLICIES",
@@ -81,9 +81,6 @@ __all__ = [
     "trust_night",
     "trusted_frames",
 ]
-
-#: A positive finite number (a setting's range).
-_ABOVE_0 = Range(0, math.inf, min_open=True)
 
 #: The place spacing assumed for a map of a single place (metres).
 _SINGLE_PLACE_SPACING = 1.0
@@ -158,15 +155,15 @@ class LearningParams:
     """
 
     min_confidence: float = own_field(0.8, range=Range(0, 1))
-    max_credible_radius: float = own_field(0.75, unit="m", range=_ABOVE_0)
+    max_credible_radius: float = own_field(0.75, unit="m", range=ABOVE_0)
     settled_frames: int = own_field(5, unit="frames", range=Range(1, math.inf))
-    attach_fraction: float = own_field(0.5, unit="place spacings", range=_ABOVE_0)
-    gap_fraction: float = own_field(1.0, unit="place spacings", range=_ABOVE_0)
+    attach_fraction: float = own_field(0.5, unit="place spacings", range=ABOVE_0)
+    gap_fraction: float = own_field(1.0, unit="place spacings", range=ABOVE_0)
     heading_tolerance: float = own_field(45.0, unit="degrees", range=Range(0, 180, min_open=True))
-    novelty: float = own_field(0.5, range=Range(0, math.inf))
+    novelty: float = own_field(0.5, range=AT_LEAST_0)
     max_learned: int = own_field(2, range=Range(1, math.inf))
     retention: str = "usage"
-    max_look_ratio: float = own_field(0.85, range=_ABOVE_0)
+    max_look_ratio: float = own_field(0.85, range=ABOVE_0)
 
     def validate(self) -> None:
         """The rules the table cannot say (each field's range is checked on construction): the

@@ -8,14 +8,12 @@ from typing import Literal
 
 from ..config import params_section
 from ..motion.wheel_noise import WheelNoise
-from ..schema import Range, own_field
+from ..schema import ABOVE_0, AT_LEAST_0, Range, own_field
 from .warping import WarpParams
 
 __all__ = ["TeachParams"]
 
-_AT_LEAST_0 = Range(0, math.inf)
-_ABOVE_0 = Range(0, math.inf, min_open=True)
-_FRACTION = Range(0, math.inf)  # fractions of a step: WheelNoise checks they stay below 0.5
+_FRACTION = AT_LEAST_0  # fractions of a step: WheelNoise checks they stay below 0.5
 
 
 @params_section("teach")
@@ -79,31 +77,31 @@ class TeachParams:
 
     odometry_scale_std: float = own_field(0.03, range=_FRACTION)
     odometry_distance_std: float = own_field(0.03, range=_FRACTION)
-    odometry_turn_std: float = own_field(0.05, unit="rad", range=_AT_LEAST_0)
-    odometry_turn_bias_std: float = own_field(0.01, unit="rad per step", range=_AT_LEAST_0)
+    odometry_turn_std: float = own_field(0.05, unit="rad", range=AT_LEAST_0)
+    odometry_turn_bias_std: float = own_field(0.01, unit="rad per step", range=AT_LEAST_0)
     estimate_turn_bias: bool = True
-    unwrap_stage: float = own_field(10.0, unit="m", range=_AT_LEAST_0)
-    sequence_window: int = own_field(3, unit="frames", range=_AT_LEAST_0)
-    max_distance: float = own_field(1.5, unit="m", range=_ABOVE_0)
-    place_candidates: int = own_field(6, unit="frames", range=_AT_LEAST_0)
-    strong_score: float = own_field(10.0, unit="grey levels", range=_AT_LEAST_0)
-    gate_sigmas: float = own_field(3.0, unit="standard deviations", range=_AT_LEAST_0)
+    unwrap_stage: float = own_field(10.0, unit="m", range=AT_LEAST_0)
+    sequence_window: int = own_field(3, unit="frames", range=AT_LEAST_0)
+    max_distance: float = own_field(1.5, unit="m", range=ABOVE_0)
+    place_candidates: int = own_field(6, unit="frames", range=AT_LEAST_0)
+    strong_score: float = own_field(10.0, unit="grey levels", range=AT_LEAST_0)
+    gate_sigmas: float = own_field(3.0, unit="standard deviations", range=AT_LEAST_0)
     heading_method: Literal["warp", "axis"] = "warp"
-    heading_std: float = own_field(0.005, unit="rad", range=_ABOVE_0)
-    heading_std_per_metre: float = own_field(0.03, unit="rad per m", range=_AT_LEAST_0)
-    unsure_heading: float = own_field(0.15, unit="rad", range=_ABOVE_0)
-    axis_half_width: float = own_field(math.radians(30.0), unit="rad", range=_ABOVE_0)
-    direction_range: float = own_field(math.radians(30.0), unit="rad", range=_ABOVE_0)
+    heading_std: float = own_field(0.005, unit="rad", range=ABOVE_0)
+    heading_std_per_metre: float = own_field(0.03, unit="rad per m", range=AT_LEAST_0)
+    unsure_heading: float = own_field(0.15, unit="rad", range=ABOVE_0)
+    axis_half_width: float = own_field(math.radians(30.0), unit="rad", range=ABOVE_0)
+    direction_range: float = own_field(math.radians(30.0), unit="rad", range=ABOVE_0)
     elevation_top_deg: float = own_field(50.0, unit="degrees")
     elevation_bottom_deg: float = own_field(-30.0, unit="degrees")
-    place_position_std: float = own_field(0.25, unit="m", range=_ABOVE_0)
-    along_std: float = own_field(0.05, unit="m", range=_AT_LEAST_0)
-    along_std_per_metre: float = own_field(0.15, unit="m per m", range=_AT_LEAST_0)
-    along_min_path: float = own_field(30.0, unit="m", range=_ABOVE_0)
-    robust_scale: float = own_field(1.0, unit="standard deviations", range=_ABOVE_0)
-    accept_gate: float = own_field(3.0, unit="standard deviations", range=_ABOVE_0)
+    place_position_std: float = own_field(0.25, unit="m", range=ABOVE_0)
+    along_std: float = own_field(0.05, unit="m", range=AT_LEAST_0)
+    along_std_per_metre: float = own_field(0.15, unit="m per m", range=AT_LEAST_0)
+    along_min_path: float = own_field(30.0, unit="m", range=ABOVE_0)
+    robust_scale: float = own_field(1.0, unit="standard deviations", range=ABOVE_0)
+    accept_gate: float = own_field(3.0, unit="standard deviations", range=ABOVE_0)
     closed_loop: bool = False
-    closed_loop_std: float = own_field(0.05, unit="m", range=_ABOVE_0)
+    closed_loop_std: float = own_field(0.05, unit="m", range=ABOVE_0)
     rounds: int = own_field(4, range=Range(1, math.inf))
 
     def validate(self) -> None:

@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Any, Literal
 
 from .. import _core
 from .._validate import MAX_CLAHE_TILES
 from ..config import params_section
-from ..schema import CoreTable, Range, core_names, own_field
+from ..schema import ABOVE_0, CoreTable, core_names, own_field
 
 __all__ = ["PreparationParams"]
 
@@ -50,7 +49,7 @@ class PreparationParams:
     radius: int = _PREPARE.field("radius")
     wrap: bool = _PREPARE.field("wrap")
     equalize: Literal["global", "clahe", "none"] = _PREPARE.field("equalize")
-    clahe_clip_limit: float = own_field(2.0, range=Range(0, math.inf, min_open=True))
+    clahe_clip_limit: float = own_field(2.0, range=ABOVE_0)
     clahe_tiles: tuple[int, int] = (8, 8)
     crop: tuple[CropValue, CropValue, CropValue, CropValue] = own_field((0, 0, 0, 0), unit="pixels or fractions")
     patch_normalize: bool = _PREPARE.field("patch_normalize")

@@ -32,7 +32,7 @@ from typing import Any, Literal
 from .. import _core
 from ..config import params_section
 from ..preparation.params import PreparationParams
-from ..schema import CoreTable, Range, core_names, own_field
+from ..schema import AT_LEAST_0, CoreTable, Range, core_names, own_field
 
 __all__ = [
     "DEFAULT_SHIFT_WINDOWS",
@@ -170,7 +170,7 @@ class RouteParams:
     filter_leave: float = _FILTER.field("leave")
     filter_rejoin: float = _FILTER.field("rejoin")
     filter_window: int = _FILTER.field("window")
-    filter_min_texture: float = own_field(1.0, unit="grey levels", range=Range(0, math.inf))
+    filter_min_texture: float = own_field(1.0, unit="grey levels", range=AT_LEAST_0)
     filter_motion: str = _FILTER.field("motion")
     filter_speed_min: float = _FILTER.field("speed_min")
     filter_speed_max: float = _FILTER.field("speed_max")
