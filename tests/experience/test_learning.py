@@ -55,6 +55,7 @@ def _night(ref_map, images, poses, confidence=0.95, radius=0.2, source="night") 
         ref_map.fingerprint,
         ref_map.params,
         learned_medians=None if looks is None else np.asarray([float(np.median(m[looks])) for m in mins]),
+        best_looks=None if looks is None else np.asarray([np.flatnonzero(looks)[np.argmin(m[looks])] for m in mins]),
     )
 
 
@@ -109,6 +110,32 @@ def test_a_new_look_becomes_an_appearance_at_the_place_and_a_gap_a_new_place():
     assert len(np.unique(HeatMapper(new.positions).place_of_ref)) == 13
     # every trusted frame near a place counted one match for the place's best (only) appearance
     assert rec.matches[0] == 1 and rec.matches[6] == 1 and rec.matches[11] == 1 and rec.matches[12:].sum() == 0
+
+
+def test_a_frame_between_places_gives_each_of_them_a_look():
+    # a drive along y = 0 whose poses fall halfway between the 1 m places: (0.5, 0), (1.5, 0),
+    # (2.5, 0) are 0.5 m from two places each. Within 0.75 spacings every place of the row gets a
+    # look, its nearest frame's (the first of equals); within 0.4 (the poses' 0.5 m beyond it) none.
+    day = _day_map()
+    rng = np.random.default_rng(5)
+    poses = _settled([(0.5, 0.0), (1.5, 0.0), (2.5, 0.0)])
+    images = rng.integers(0, 256, (len(poses), *SHAPE), dtype=np.uint8)
+    night = _night(day, images, poses)
+    new, report = learn(day, night, LearningParams(attach_fraction=0.75))
+    learned = {tuple(p): name for p, name in zip(new.positions[12:].tolist(), new.names[12:], strict=True)}
+    # place (0, 0): frames 4 (0 m) -- the nearest; (1, 0): frames 5 and 6 at 0.5 m -- the first;
+    # (2, 0): frames 6 and 7 -- the first; (3, 0): frame 7
+    assert learned == {
+        (0.0, 0.0): "night1/000004.png",
+        (1.0, 0.0): "night1/000005.png",
+        (2.0, 0.0): "night1/000006.png",
+        (3.0, 0.0): "night1/000007.png",
+    }
+    assert report.appearances == 4 and report.places == 0
+    # each frame counted one match at every place it belongs to: frame 6 at (1, 0) and (2, 0)
+    assert new.appearances.matches[[1, 2]].tolist() == [2, 2]
+    _, narrow = learn(day, night, LearningParams(attach_fraction=0.4))
+    assert narrow.appearances == 1  # only place (0, 0), where frames 0-4 stand
 
 
 def test_learning_the_same_night_again_adds_nothing():
@@ -303,3 +330,23 @@ def test_a_night_unlike_every_learned_look_is_not_learned():
     assert "not a night of this map's places" in report.line() and "max_look_ratio 0.85" in report.line()
     # a map without learned looks has no such check: the day map learns the foreign night
     assert learn(day, _night(day, foreign.images, poses))[1].appearances > 0
+
+
+def test_a_night_whose_frames_match_looks_of_other_places_is_not_learned():
+    day = _day_map()
+    rng = np.random.default_rng(9)
+    poses = _settled([(x + 0.1, y) for x in range(4) for y in range(3)])
+    looks = rng.integers(0, 256, (len(poses), *SHAPE), dtype=np.uint8)
+    once, _ = learn(day, _night(day, looks, poses))
+    look_at = {tuple(p): once.images[i] for i, p in enumerate(once.positions.tolist()) if once.appearances.night[i]}
+    # every frame shows the learned look of a place two metres and one row away (not a
+    # neighbour): its best learned look is never at or beside its place
+    elsewhere = np.stack([look_at[((round(x) + 2) % 4, (round(y) + 1) % 3)] for x, y in poses]).astype(np.uint8)
+    lenient = LearningParams(max_look_ratio=10.0)  # the ratio check out of the way
+    same, report = learn(once, _night(once, elsewhere, poses), lenient)
+    assert same is once and report.appearances == 0 and report.trusted > 0
+    assert "only 0% of its frames" in report.line() and "min_look_hits 0.8" in report.line()
+    # the same frames at the places whose looks they show: every best look is at its place
+    moved = [((round(x) + 2) % 4 + 0.1, (round(y) + 1) % 3) for x, y in poses]
+    _, report = learn(once, _night(once, elsewhere, moved), lenient)
+    assert not report.refused

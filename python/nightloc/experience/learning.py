@@ -20,8 +20,10 @@ What is learned (:class:`LearningParams`, TOML ``[learning]``):
   one position form one place, :class:`~nightloc.localization.heatmap.HeatMapper`; the filter and
   the heat map score a place by the best of its references). A trusted frame within
   ``attach_fraction`` x the day map's place spacing (the median distance from a place to its
-  nearest neighbour) of a place belongs to that place (for a forward camera, to the view of it
-  whose heading is within ``heading_tolerance`` degrees). Per place view and night, the frame
+  nearest neighbour) of a place belongs to that place, and to every other place that near (for a
+  forward camera, to the view of it whose heading is within ``heading_tolerance`` degrees): every
+  place the night passes gets a look, wherever its poses fall between places, so no place is
+  left without one beside neighbours that have one. Per place view and night, the frame
   nearest to the place is its candidate; it becomes another appearance of the place, stored at
   the place's position (a learned pose that is slightly wrong does not blur the heat map), when
   tonight's look is *new* there: for every frame of the night belonging to the place, the best of
@@ -84,6 +86,9 @@ __all__ = [
 
 #: The place spacing assumed for a map of a single place (metres).
 _SINGLE_PLACE_SPACING = 1.0
+#: A look within this many place spacings of a place is at that place or its neighbour (the
+#: tolerance keeps a grid's diagonal out and its rounding in).
+_SAME_PLACE = 1.01
 
 
 @dataclass(frozen=True)
@@ -135,8 +140,8 @@ class LearningParams:
         min_confidence: a frame is trusted when the localizer's confidence is at least this (0..1).
         max_credible_radius: ... and its credible radius at most this, metres.
         settled_frames: ... and so were the frames before it: this many in a row (>= 1).
-        attach_fraction: a frame belongs to a place within this fraction of the day map's place
-            spacing (median nearest-neighbour distance between places).
+        attach_fraction: a frame belongs to every place within this fraction of the day map's
+            place spacing (median nearest-neighbour distance between places).
         gap_fraction: a frame with no place within this fraction of the spacing becomes a new
             place (>= attach_fraction); frames in between are not learned.
         heading_tolerance: degrees; a forward camera's frame belongs to a place's view of the
@@ -152,18 +157,22 @@ class LearningParams:
             learned appearances (the median over the frames): it does not look like this map's
             nights (another garden). Checked once the map has learned appearances at the places
             of at least ``settled_frames`` of the night's frames.
+        min_look_hits: ... nor when fewer than this share of those frames (0..1) find their best
+            learned appearance over the whole map at their place or a neighbouring one (within one
+            place spacing): tonight's frames match looks anywhere, not those of where they are.
     """
 
     min_confidence: float = own_field(0.8, range=Range(0, 1))
     max_credible_radius: float = own_field(0.75, unit="m", range=ABOVE_0)
     settled_frames: int = own_field(5, unit="frames", range=Range(1, math.inf))
-    attach_fraction: float = own_field(0.5, unit="place spacings", range=ABOVE_0)
+    attach_fraction: float = own_field(0.75, unit="place spacings", range=ABOVE_0)
     gap_fraction: float = own_field(1.0, unit="place spacings", range=ABOVE_0)
     heading_tolerance: float = own_field(45.0, unit="degrees", range=Range(0, 180, min_open=True))
     novelty: float = own_field(0.5, range=AT_LEAST_0)
     max_learned: int = own_field(2, range=Range(1, math.inf))
     retention: str = "usage"
     max_look_ratio: float = own_field(0.85, range=ABOVE_0)
+    min_look_hits: float = own_field(0.8, range=Range(0, 1))
 
     def validate(self) -> None:
         """The rules the table cannot say (each field's range is checked on construction): the
@@ -196,6 +205,8 @@ class LocalizedNight:
             None without the backward run.
         learned_medians: ``(M,)`` each frame's median over the map's learned appearances of its
             minimum score (the scale a learned look's match is judged on), or None (a day map).
+        best_looks: ``(M,)`` int, each frame's best-matching learned appearance (an index into the
+            map's references), or None (a day map).
     """
 
     images: np.ndarray
@@ -209,6 +220,7 @@ class LocalizedNight:
     backward: tuple[Estimate, ...] | None = None
     smoothed: tuple[Estimate, ...] | None = None
     learned_medians: np.ndarray | None = None
+    best_looks: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.estimates)
@@ -241,10 +253,12 @@ class NightLearner:
         self._estimates: list[Estimate] = []
         self._medians: list[float] = []
         self._look_medians: list[float] = []
+        self._best_looks: list[int] = []
         self._beliefs: list[np.ndarray] = []
         self._motions: list[object] = []
         night = None if ref_map.appearances is None else np.asarray(ref_map.appearances.night) > 0
         self._looks = night if night is not None and night.any() else None
+        self._look_index = np.zeros(0, np.int64) if self._looks is None else np.flatnonzero(self._looks)
 
     def __len__(self) -> int:
         return len(self._estimates)
@@ -261,6 +275,7 @@ class NightLearner:
         self._medians.append(float(np.median(mins)))
         if self._looks is not None:
             self._look_medians.append(float(np.median(mins[self._looks])))
+            self._best_looks.append(int(self._look_index[np.argmin(mins[self._looks])]))
         if self.backward:
             self._beliefs.append(self.localizer.belief)
             self._motions.append(motion)
@@ -302,6 +317,7 @@ class NightLearner:
             back,
             smoothed,
             np.asarray(self._look_medians, dtype=np.float64) if self._look_medians else None,
+            np.asarray(self._best_looks, dtype=np.int64) if self._best_looks else None,
         )
 
 
@@ -554,12 +570,15 @@ def _attach_frames(
     views: _PlaceViews,
     attach: float,
     gap: float,
-) -> tuple[dict[_View, list[int]], list[int]]:
-    """The trusted frames within ``attach`` metres of a place, by place view, and those that fill
-    a gap (no place within ``gap`` metres, nor a gap frame of this night nearer than its place)."""
+) -> tuple[dict[_View, list[int]], dict[int, _View], list[int]]:
+    """The trusted frames within ``attach`` metres of a place, by place view (a frame belongs to
+    every place that near: each place passed gets a look, however the night's poses fall between
+    places), each attached frame's nearest place view, and the frames that fill a gap (no place
+    within ``gap`` metres, nor a gap frame of this night nearer than its place)."""
     tree = cKDTree(places)
     new_places: list[int] = []  # frames that become new places
     attached: dict[_View, list[int]] = {}
+    nearest: dict[int, _View] = {}
     for k in np.flatnonzero(trusted):
         e = estimates[k]
         distance, place = tree.query((e.x, e.y))
@@ -573,10 +592,14 @@ def _attach_frames(
         if distance <= attach:
             view = views.of(int(place), e.heading)
             if view is not None:
-                attached.setdefault(view, []).append(int(k))
+                nearest[int(k)] = view
+            for near in tree.query_ball_point((e.x, e.y), attach):
+                view = views.of(int(near), e.heading)
+                if view is not None:
+                    attached.setdefault(view, []).append(int(k))
         elif distance >= gap:
             new_places.append(int(k))
-    return attached, new_places
+    return attached, nearest, new_places
 
 
 @dataclass
@@ -584,18 +607,21 @@ class _Looks:
     """What tonight's attached frames say of their place views.
 
     Attributes:
-        matches: ``(N,)`` the map's match counts plus tonight's (one per attached frame, to its best
-            appearance).
+        matches: ``(N,)`` the map's match counts plus tonight's (one per attached frame and view it
+            belongs to, to the view's best appearance).
         learned: per view whose look is new: (view, the frame learned, its best appearance).
         known: views that had a look like tonight's already.
-        look_ratios: per attached frame at a view with learned appearances: their best score over
-            the frame's median score over all learned appearances.
+        look_ratios: per attached frame whose nearest view has learned appearances: their best
+            score there over the frame's median score over all learned appearances.
+        look_hits: per such frame, whether its best learned appearance over the whole map stands
+            within one place spacing of that view's place.
     """
 
     matches: np.ndarray
     learned: list[tuple[_View, int, int]]
     known: int
     look_ratios: list[float]
+    look_hits: list[bool]
 
 
 def _judge_looks(
@@ -606,11 +632,13 @@ def _judge_looks(
     places: np.ndarray,
     views: _PlaceViews,
     attached: dict[_View, list[int]],
+    nearest: dict[int, _View],
     novelty: float,
+    spacing: float,
 ) -> _Looks:
     """Each view's frames matched against its appearances: the match counts, and whether tonight's
     look is new there (no frame scores within ``novelty`` x its median score)."""
-    looks = _Looks(record.matches.copy(), [], 0, [])
+    looks = _Looks(record.matches.copy(), [], 0, [], [])
     shifts = ref_map.params.shifts
     for target, frames in attached.items():
         refs = views.refs(target)
@@ -622,8 +650,11 @@ def _judge_looks(
             result = match(night.images[f], ref_map.images[refs], shifts=shifts, threads=1)
             looks.matches[refs[result.index]] += 1
             seen |= bool(result.score <= novelty * night.score_medians[f])
-            if learned_refs.any() and night.learned_medians is not None:
+            if learned_refs.any() and night.learned_medians is not None and nearest.get(f) == target:
                 looks.look_ratios.append(float(result.scores[learned_refs].min() / night.learned_medians[f]))
+                if night.best_looks is not None:
+                    where = ref_map.positions[night.best_looks[f]]
+                    looks.look_hits.append(math.dist(where, spot) <= spacing * _SAME_PLACE)
             if f == candidate:
                 best_of_candidate = int(refs[result.index])
         if seen:
@@ -745,15 +776,23 @@ def _learned_map(
 
 def _look_refusal(looks: _Looks, params: LearningParams) -> str:
     """Why the night is not learned ("" when it is): its frames match their places' learned looks
-    no better than ``max_look_ratio`` of the typical learned look (another garden)."""
+    no better than ``max_look_ratio`` of the typical learned look, or too few of them find their
+    best look at their place (``min_look_hits``): another garden."""
     ratio = float(np.median(looks.look_ratios)) if len(looks.look_ratios) >= params.settled_frames else math.nan
-    if not ratio > params.max_look_ratio:
-        return ""
-    return (
-        f"its frames match their places' learned appearances at {ratio:.2f} of the typical one's score "
-        f"(more than [learning] max_look_ratio {params.max_look_ratio:g}): not a night of this map's places "
-        f"(another garden?)"
-    )
+    if ratio > params.max_look_ratio:
+        return (
+            f"its frames match their places' learned appearances at {ratio:.2f} of the typical one's score "
+            f"(more than [learning] max_look_ratio {params.max_look_ratio:g}): not a night of this map's places "
+            f"(another garden?)"
+        )
+    hits = float(np.mean(looks.look_hits)) if len(looks.look_hits) >= params.settled_frames else math.nan
+    if hits < params.min_look_hits:
+        return (
+            f"only {hits:.0%} of its frames find their best learned appearance at or beside their place "
+            f"(fewer than [learning] min_look_hits {params.min_look_hits:g}): not a night of this map's places "
+            f"(another garden?)"
+        )
+    return ""
 
 
 def learn(
@@ -781,8 +820,8 @@ def learn(
         return ref_map, report
     number = len(record.nights) + 1
     views = _PlaceViews(ref_map, place_of_ref, math.radians(params.heading_tolerance))
-    attached, new_places = _attach_frames(estimates, trusted, places, views, attach, gap)
-    looks = _judge_looks(ref_map, night, record, estimates, places, views, attached, params.novelty)
+    attached, nearest, new_places = _attach_frames(estimates, trusted, places, views, attach, gap)
+    looks = _judge_looks(ref_map, night, record, estimates, places, views, attached, nearest, params.novelty, spacing)
     refusal = _look_refusal(looks, params)
     if refusal:  # not this map's nights: learn nothing
         refused = LearningReport(0, len(night), int(trusted.sum()), None, 0, 0, 0, 0, 0, n_places, len(ref_map))
