@@ -65,6 +65,17 @@ def _settled(poses_after):
     return [(0.0, 0.0)] * 5 + list(poses_after)
 
 
+def _learned_once(seed: int):
+    """The day map, a night over its 12 places (after five settling frames) of random looks at
+    ``poses``, the map that learned it and the generator: ``(day, poses, looks, once, rng)``."""
+    day = _day_map()
+    rng = np.random.default_rng(seed)
+    poses = _settled([(x + 0.1, y) for x in range(4) for y in range(3)])
+    looks = rng.integers(0, 256, (len(poses), *SHAPE), dtype=np.uint8)
+    once, _ = learn(day, _night(day, looks, poses))
+    return day, poses, looks, once, rng
+
+
 def test_trusted_frames_need_a_settled_run_of_confident_tight_frames():
     params = LearningParams(min_confidence=0.8, max_credible_radius=0.5, settled_frames=3)
     conf = [0.9, 0.9, 0.9, 0.9, 0.5, 0.9, 0.9, 0.9, 0.9, 0.9]
@@ -313,11 +324,7 @@ def test_the_retention_policies_order_a_places_learned_looks():
 
 
 def test_a_night_unlike_every_learned_look_is_not_learned():
-    day = _day_map()
-    rng = np.random.default_rng(8)
-    poses = _settled([(x + 0.1, y) for x in range(4) for y in range(3)])
-    looks = rng.integers(0, 256, (len(poses), *SHAPE), dtype=np.uint8)
-    once, _ = learn(day, _night(day, looks, poses))
+    day, poses, looks, once, rng = _learned_once(8)
     # the same places again, their frames a little noisier: they match the learned looks
     noisy = np.clip(looks.astype(int) + rng.integers(-8, 9, looks.shape), 0, 255).astype(np.uint8)
     again = _night(once, noisy, poses)
@@ -333,11 +340,7 @@ def test_a_night_unlike_every_learned_look_is_not_learned():
 
 
 def test_a_night_whose_frames_match_looks_of_other_places_is_not_learned():
-    day = _day_map()
-    rng = np.random.default_rng(9)
-    poses = _settled([(x + 0.1, y) for x in range(4) for y in range(3)])
-    looks = rng.integers(0, 256, (len(poses), *SHAPE), dtype=np.uint8)
-    once, _ = learn(day, _night(day, looks, poses))
+    _, poses, _, once, _ = _learned_once(9)
     look_at = {tuple(p): once.images[i] for i, p in enumerate(once.positions.tolist()) if once.appearances.night[i]}
     # every frame shows the learned look of a place two metres and one row away (not a
     # neighbour): its best learned look is never at or beside its place
