@@ -157,12 +157,17 @@ class Graph:
 
     def _collect(self) -> None:
         while not self._stop.is_set():
-            for role, reader in self.readers.items():
-                for message in reader.take(N=256):
+            self._take()
+            time.sleep(0.002)
+        self._take()  # what arrived since the last pass (the node's last messages before it exited)
+
+    def _take(self) -> None:
+        for role, reader in self.readers.items():
+            while messages := reader.take(N=256):
+                for message in messages:
                     if getattr(message.sample_info, "valid_data", False):
                         self.messages[role].append(message)
                         self.arrivals[role].append(time.perf_counter())
-            time.sleep(0.002)
 
     @staticmethod
     def types_for_test():

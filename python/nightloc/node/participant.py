@@ -42,6 +42,8 @@ __all__ = ["Node", "NodeSettings", "NodeStats"]
 COMPLAINT_INTERVAL_S = 5.0
 #: Latencies kept for the status' percentiles.
 LATENCY_WINDOW = 1000
+#: Seconds the node waits at shutdown for its subscribers to acknowledge the last messages.
+FLUSH_TIMEOUT_S = 2.0
 
 
 @dataclass
@@ -219,7 +221,8 @@ class Node:
     # ------------------------------------------------------------------------------ receiving
     def spin(self) -> None:
         """Receives until :meth:`stop` (the worker runs beside it), then lets the worker finish
-        the frame it holds. Raises what the worker raised, if it failed."""
+        the frame it holds and waits (at most :data:`FLUSH_TIMEOUT_S`) until the subscribers
+        have the last pose and status. Raises what the worker raised, if it failed."""
         self._worker.start()
         try:
             while not self._stop.is_set():
@@ -230,8 +233,19 @@ class Node:
             with self._lock:
                 self._lock.notify_all()
             self._worker.join()
+            self.flush()
         if self._worker_error is not None:
             raise self._worker_error
+
+    def flush(self, timeout: float = FLUSH_TIMEOUT_S) -> bool:
+        """Waits until every matched reliable subscriber has acknowledged what the node wrote, at
+        most ``timeout`` seconds in all; False if some had not by then."""
+        end = time.monotonic() + timeout
+        for writer in self.writers.values():
+            left = end - time.monotonic()
+            if left <= 0 or not writer.wait_for_acks(int(left * 1e9)):
+                return False
+        return True
 
     def stop(self) -> None:
         """Asks :meth:`spin` to return (signal-safe)."""
@@ -316,6 +330,9 @@ class Node:
                             frame, self._slot = self._slot, None
                             break
                         if self._stop.is_set():
+                            if self._slot is not None:  # still waiting for its odometry: never localized
+                                self._slot = None
+                                self.stats.dropped += 1
                             return
                         self._lock.wait(0.02 if self._slot is not None else 0.1)
                 if command is not None:
