@@ -284,6 +284,50 @@ def test_the_backward_run_is_the_filter_over_the_reversed_drive():
         assert (a.x, a.y, a.confidence) == pytest.approx((b.x, b.y, b.confidence), abs=1e-6)
 
 
+def test_a_long_night_recomputes_its_beliefs_from_bounded_checkpoints(monkeypatch):
+    """A learner over its belief budget keeps the filter's state every few frames (fewer as the
+    night grows) and smooths exactly as one that kept every belief (the oracle: the forward
+    beliefs by hand, then backward_estimates and smoothed_estimates)."""
+    from nightloc.experience import learning
+    from nightloc.motion.odometry import true_robot_motions
+
+    monkeypatch.setattr(learning, "CHECKPOINT_FRAMES", 2)
+    monkeypatch.setattr(learning, "MAX_CHECKPOINTS", 3)
+    day = _day_map()
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 2 * np.pi, 23)
+    path = np.column_stack([1.5 + 1.3 * np.cos(t), 1.0 + 0.9 * np.sin(t)])
+    headings = np.arctan2(*np.diff(path, axis=0, prepend=path[-2:-1]).T[::-1])
+    nearest = [int(np.argmin(np.hypot(*(day.positions - p).T))) for p in path]
+    noise = rng.integers(-20, 21, (len(path), *SHAPE))
+    images = np.clip(day.images[nearest].astype(int) + noise, 0, 255).astype(np.uint8)
+    motions = [None, *true_robot_motions(path, headings)[1:]]
+
+    forward = nightloc.Localizer(day, odometry_noise=1)
+    beliefs = []
+    for image, motion in zip(images, motions, strict=True):
+        forward.update_table(forward.score_table(image, prepared=True), motion)
+        beliefs.append(forward.belief)
+    back, predicted = learning.backward_estimates(nightloc.Localizer(day, odometry_noise=1), images, motions)
+    smoothed = learning.smoothed_estimates(nightloc.Localizer(day, odometry_noise=1), beliefs, predicted)
+
+    kept = learning.NightLearner(day, nightloc.Localizer(day, odometry_noise=1))
+    bounded = learning.NightLearner(day, nightloc.Localizer(day, odometry_noise=1), belief_budget=3 * beliefs[0].nbytes)
+    for image, motion in zip(images, motions, strict=True):
+        kept.step(image, motion, prepared=True)
+        bounded.step(image, motion, prepared=True)
+    assert kept._beliefs is not None and bounded._beliefs is None
+    assert len(bounded._checkpoints) <= 3 and bounded._checkpoint_spacing == 8  # 2 -> 4 -> 8 frames
+    for night in (kept.night(), bounded.night(), bounded.night()):
+        assert night.backward == back and night.smoothed == smoothed
+    assert len({(e.x, e.y) for e in smoothed}) > 5  # the night goes round: the smoother moves
+
+
+def test_a_learner_refuses_a_negative_belief_budget():
+    with pytest.raises(ValueError, match="belief_budget"):
+        nightloc.experience.learning.NightLearner(_day_map(), belief_budget=-1)
+
+
 def test_a_night_is_trusted_both_ways_unless_the_runs_disagree():
     from nightloc.experience.learning import trust_night
 

@@ -89,6 +89,14 @@ _SINGLE_PLACE_SPACING = 1.0
 #: A look within this many place spacings of a place is at that place or its neighbour (the
 #: tolerance keeps a grid's diagonal out and its rounding in).
 _SAME_PLACE = 1.01
+#: Frames between two saved states of a learner's forward run at first (the spacing doubles
+#: whenever more than :data:`MAX_CHECKPOINTS` states are saved).
+CHECKPOINT_FRAMES = 128
+#: Saved states of a learner's forward run kept at most.
+MAX_CHECKPOINTS = 32
+#: Bytes of forward beliefs a learner keeps by default; a longer night's are recomputed from the
+#: saved states when the night ends.
+BELIEF_BUDGET = 128 * 2**20
 
 
 @dataclass(frozen=True)
@@ -234,12 +242,24 @@ class NightLearner:
         ref_map: the map.
         localizer: a filter :class:`Localizer` over ``ref_map`` (default ``Localizer(ref_map)``);
             it is reset first.
-        backward: keep each frame's position belief and motion, so that :meth:`night` also runs
-            the filter over the night backwards and smooths the two runs (as :func:`localize_night`).
-            The beliefs cost the grid's size per frame (``(Ny, Nx)`` float64).
+        backward: keep each frame's motion and the forward run's position beliefs, so that
+            :meth:`night` also runs the filter over the night backwards and smooths the two runs
+            (as :func:`localize_night`).
+        belief_budget: bytes of forward beliefs (``(Ny, Nx)`` float64 per frame) kept; a night
+            whose beliefs would need more keeps only the filter's state every few hundred frames
+            (at most :data:`MAX_CHECKPOINTS`) and :meth:`night` recomputes the beliefs from them
+            (one more forward pass, the same result). Either way the learner holds each prepared
+            frame and a few numbers per frame besides.
     """
 
-    def __init__(self, ref_map: ReferenceMap, localizer: Localizer | None = None, *, backward: bool = True):
+    def __init__(
+        self,
+        ref_map: ReferenceMap,
+        localizer: Localizer | None = None,
+        *,
+        backward: bool = True,
+        belief_budget: int = BELIEF_BUDGET,
+    ):
         loc = Localizer(ref_map) if localizer is None else localizer
         if loc.ref_map is not ref_map and loc.ref_map != ref_map:
             raise ValueError("the localizer runs over another map than ref_map")
@@ -254,7 +274,12 @@ class NightLearner:
         self._medians: list[float] = []
         self._look_medians: list[float] = []
         self._best_looks: list[int] = []
-        self._beliefs: list[np.ndarray] = []
+        if belief_budget < 0:
+            raise ValueError(f"belief_budget must be >= 0 bytes, got {belief_budget}")
+        self._belief_budget = int(belief_budget)
+        self._beliefs: list[np.ndarray] | None = []
+        self._checkpoints: list[Localizer] = []
+        self._checkpoint_spacing = CHECKPOINT_FRAMES
         self._motions: list[object] = []
         night = None if ref_map.appearances is None else np.asarray(ref_map.appearances.night) > 0
         self._looks = night if night is not None and night.any() else None
@@ -267,6 +292,8 @@ class NightLearner:
         """Localizes one raw camera frame (or a prepared one, ``prepared=True``) with ``motion``
         since the previous frame (see :meth:`Localizer.update`), and keeps it."""
         image = frame if prepared else self.ref_map.preparer.prepare(frame)
+        if self.backward and len(self._estimates) % self._checkpoint_spacing == 0:
+            self._checkpoints.append(copy.copy(self.localizer))  # the state before this frame
         table = self.localizer.score_table(image, prepared=True)
         estimate = self.localizer.update_table(table, motion)
         self._estimates.append(estimate)
@@ -277,9 +304,35 @@ class NightLearner:
             self._look_medians.append(float(np.median(mins[self._looks])))
             self._best_looks.append(int(self._look_index[np.argmin(mins[self._looks])]))
         if self.backward:
-            self._beliefs.append(self.localizer.belief)
             self._motions.append(motion)
+            self._keep_belief()
         return estimate
+
+    def _keep_belief(self) -> None:
+        if self._beliefs is not None:
+            belief = self.localizer.belief
+            if (len(self._beliefs) + 1) * belief.nbytes > self._belief_budget:
+                self._beliefs = None  # from now on recomputed from the checkpoints
+            else:
+                self._beliefs.append(belief)
+        if len(self._checkpoints) > MAX_CHECKPOINTS:
+            self._checkpoints = self._checkpoints[::2]
+            self._checkpoint_spacing *= 2
+
+    def _forward_beliefs_reversed(self, images: np.ndarray) -> Iterable[np.ndarray]:
+        """The forward run's position beliefs from the last frame to the first: kept, or
+        recomputed block by block from the checkpoints (the same filter over the same frames)."""
+        if self._beliefs is not None:
+            yield from reversed(self._beliefs)
+            return
+        spacing, m = self._checkpoint_spacing, len(self._estimates)
+        for i in range(len(self._checkpoints) - 1, -1, -1):
+            replay = copy.copy(self._checkpoints[i])
+            block = []
+            for k in range(i * spacing, min(m, (i + 1) * spacing)):
+                replay.update_table(replay.score_table(images[k], prepared=True), self._motions[k])
+                block.append(replay.belief)
+            yield from reversed(block)
 
     def night(
         self,
@@ -303,8 +356,14 @@ class NightLearner:
         images = np.stack(self._images) if self._images else np.zeros(shape, np.uint8)
         back, smoothed = None, None
         if self.backward and m > 1:
-            back, predicted = backward_estimates(self.localizer, images, self._motions)
-            smoothed = smoothed_estimates(self.localizer, self._beliefs, predicted)
+            smoother = copy.copy(self.localizer)
+            smoother.reset()  # its estimates carry no heading (trust_night takes a run's)
+            backward, smoothing = [], []
+            runs = zip(_backward_run(self.localizer, images, self._motions), self._forward_beliefs_reversed(images))
+            for (estimate, ahead), belief in runs:
+                backward.append(estimate)
+                smoothing.append(_smoothed(smoother, belief, ahead))
+            back, smoothed = tuple(backward[::-1]), tuple(smoothing[::-1])
         return LocalizedNight(
             images,
             tuple(self._estimates),
@@ -359,20 +418,29 @@ def backward_estimates(
     (:func:`~nightloc.motion.odometry.reverse_motion`). Returns the M estimates and, per frame, the
     run's position belief predicted to it before its own frame (None for the last frame: no
     prediction), both in frame order. The localizer is reset first."""
-    localizer.reset()
     out: list[Estimate] = []
     predicted: list[np.ndarray | None] = []
+    for estimate, ahead in _backward_run(localizer, images, odometry):
+        out.append(estimate)
+        predicted.append(ahead)
+    return tuple(out[::-1]), predicted[::-1]
+
+
+def _backward_run(
+    localizer: Localizer, images: np.ndarray, odometry: Sequence[object]
+) -> Iterable[tuple[Estimate, np.ndarray | None]]:
+    """:func:`backward_estimates`' run, one frame at a time from the last: its estimate and the
+    belief predicted to it."""
+    localizer.reset()
     for k in range(len(images) - 1, -1, -1):
         table = localizer.score_table(images[k], prepared=True)
         motion = None if k + 1 == len(images) else reverse_motion(as_motion(odometry[k + 1]))
-        if motion is None:
-            predicted.append(None)
-        else:
-            ahead = copy.copy(localizer)
-            ahead.predict(motion)
-            predicted.append(ahead.belief)
-        out.append(localizer.update_table(table, motion))
-    return tuple(out[::-1]), predicted[::-1]
+        ahead = None
+        if motion is not None:
+            prediction = copy.copy(localizer)
+            prediction.predict(motion)
+            ahead = prediction.belief
+        yield localizer.update_table(table, motion), ahead
 
 
 def smoothed_estimates(
@@ -381,11 +449,12 @@ def smoothed_estimates(
     """Per frame the estimate of its forward belief times the backward run's prediction of it
     (the night's evidence before and after the frame, the frame's own once): the two-filter
     smoother, over position. ``localizer``'s belief is replaced (it ends at the first frame's)."""
-    out = []
-    for belief, ahead in zip(forward, predicted, strict=True):
-        product = belief if ahead is None else belief * ahead
-        out.append(localizer.estimate_belief(product if product.sum() > 0 else belief))
-    return tuple(out)
+    return tuple(_smoothed(localizer, belief, ahead) for belief, ahead in zip(forward, predicted, strict=True))
+
+
+def _smoothed(localizer: Localizer, belief: np.ndarray, ahead: np.ndarray | None) -> Estimate:
+    product = belief if ahead is None else belief * ahead
+    return localizer.estimate_belief(product if product.sum() > 0 else belief)
 
 
 def trusted_frames(estimates: Sequence[Estimate], params: LearningParams) -> np.ndarray:
