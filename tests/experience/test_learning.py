@@ -323,6 +323,51 @@ def test_a_long_night_recomputes_its_beliefs_from_bounded_checkpoints(monkeypatc
     assert len({(e.x, e.y) for e in smoothed}) > 5  # the night goes round: the smoother moves
 
 
+def test_a_bounded_learner_replays_what_moved_its_localizer_between_frames(monkeypatch):
+    """A set pose, a reset and a new noise model between frames (the node's initial pose,
+    relocalization and per-frame covariance) are in the recomputed beliefs as in the kept ones."""
+    from nightloc.experience import learning
+    from nightloc.motion.odometry import true_robot_motions
+
+    monkeypatch.setattr(learning, "CHECKPOINT_FRAMES", 4)
+    monkeypatch.setattr(learning, "MAX_CHECKPOINTS", 2)
+    day = _day_map(1)
+    t = np.linspace(0.0, 2 * np.pi, 30)
+    path = np.column_stack([1.5 + 1.3 * np.cos(t), 1.0 + 0.9 * np.sin(t)])
+    headings = np.arctan2(*np.diff(path, axis=0, prepend=path[-2:-1]).T[::-1])
+    nearest = [int(np.argmin(np.hypot(*(day.positions - p).T))) for p in path]
+    images = day.images[nearest]
+    motions = [None, *true_robot_motions(path, headings)[1:]]
+    learners = [
+        learning.NightLearner(day, nightloc.Localizer(day, odometry_noise=1)),
+        learning.NightLearner(day, nightloc.Localizer(day, odometry_noise=1), belief_budget=0),
+    ]
+    for learner in learners:
+        for k, (image, motion) in enumerate(zip(images, motions, strict=True)):
+            if k == 6:
+                learner.localizer.set_pose(3.0, 0.0, 0.0)  # a wrong initial pose: the night recovers
+            if k == 13:
+                learner.localizer.reset()
+            learner.localizer.noise = 3 if 9 <= k < 20 else 1
+            learner.step(image, motion, prepared=True)
+    kept, bounded = learners
+    pinned = [frame for frame, _, pin in bounded._checkpoints if pin]
+    assert pinned == [6, 13] and bounded._checkpoint_spacing == 16
+    a, b = kept.night(), bounded.night()
+    assert a.smoothed == b.smoothed and a.backward == b.backward and a.estimates == b.estimates
+    # the noise models are the frames' own: all at model 1 the smoother differs
+    for learner in learners:
+        assert learner.localizer.noise == nightloc.Localizer(day, odometry_noise=1).noise
+    steady = learning.NightLearner(day, nightloc.Localizer(day, odometry_noise=1))
+    for k, (image, motion) in enumerate(zip(images, motions, strict=True)):
+        if k == 6:
+            steady.localizer.set_pose(3.0, 0.0, 0.0)
+        if k == 13:
+            steady.localizer.reset()
+        steady.step(image, motion, prepared=True)
+    assert steady.night().backward != a.backward
+
+
 def test_a_learner_refuses_a_negative_belief_budget():
     with pytest.raises(ValueError, match="belief_budget"):
         nightloc.experience.learning.NightLearner(_day_map(), belief_budget=-1)

@@ -189,3 +189,37 @@ def test_params_overrides_and_toml(tmp_path):
         loc.update_match(_result(np.zeros(3), np.zeros(3)))
     with pytest.raises(ValueError, match="dx, dy"):
         loc.update(ref_map.images[0], (1.0, 2.0, 3.0))
+
+
+@pytest.mark.parametrize("method", ["filter", "paper"])
+def test_the_revision_changes_with_the_state_and_only_with_it(method):
+    rng = np.random.default_rng(5)
+    ref_map = _lattice_map(rng)
+    loc = Localizer(ref_map, method=method)
+    frame = ref_map.images[3]
+    seen = [loc.revision]
+
+    def changed() -> bool:
+        seen.append(loc.revision)
+        return seen[-1] != seen[-2]
+
+    loc.update(frame, prepared=True)
+    assert changed()
+    _ = (loc.heading, loc.grid)
+    if method == "filter":
+        loc.score_table(frame, prepared=True)
+    assert not changed()  # reading is not changing
+    loc.update(frame, (0.1, 0.0), prepared=True)
+    assert changed()
+    loc.reset()
+    assert changed()
+    if method == "filter":
+        loc.noise = 3  # a setting, not the state
+        _ = loc.belief
+        assert not changed()
+        loc.predict((0.2, 0.0))
+        assert changed()
+        loc.set_pose(2.0, 1.0)
+        assert changed()
+        loc.estimate_belief(loc.belief)
+        assert changed()

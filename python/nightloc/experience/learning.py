@@ -65,7 +65,7 @@ from ..io.appearances import Appearances, LearnedNight
 from ..localization.localizer import Estimate, Localizer
 from ..mapping.reference_map import ReferenceMap
 from ..matching.sad import match
-from ..motion.odometry import as_motion, reverse_motion, wrap_angle
+from ..motion.odometry import NoiseModel, as_motion, reverse_motion, wrap_angle
 from ..preparation.params import PreparationParams
 from ..schema import ABOVE_0, AT_LEAST_0, Range, own_field
 
@@ -247,9 +247,13 @@ class NightLearner:
             (as :func:`localize_night`).
         belief_budget: bytes of forward beliefs (``(Ny, Nx)`` float64 per frame) kept; a night
             whose beliefs would need more keeps only the filter's state every few hundred frames
-            (at most :data:`MAX_CHECKPOINTS`) and :meth:`night` recomputes the beliefs from them
+            (at most :data:`MAX_CHECKPOINTS`, plus one wherever the localizer was moved between
+            two frames: a reset, a set pose) and :meth:`night` recomputes the beliefs from them
             (one more forward pass, the same result). Either way the learner holds each prepared
             frame and a few numbers per frame besides.
+
+    The localizer's noise model may change between frames (each frame's is kept); the backward
+    run moves each step with the noise model of the frame it leads to.
     """
 
     def __init__(
@@ -278,9 +282,12 @@ class NightLearner:
             raise ValueError(f"belief_budget must be >= 0 bytes, got {belief_budget}")
         self._belief_budget = int(belief_budget)
         self._beliefs: list[np.ndarray] | None = []
-        self._checkpoints: list[Localizer] = []
+        #: (frame, the localizer before it, pinned: the localizer was moved from outside there)
+        self._checkpoints: list[tuple[int, Localizer, bool]] = []
         self._checkpoint_spacing = CHECKPOINT_FRAMES
+        self._revision: int | None = None
         self._motions: list[object] = []
+        self._noises: list[NoiseModel] = []
         night = None if ref_map.appearances is None else np.asarray(ref_map.appearances.night) > 0
         self._looks = night if night is not None and night.any() else None
         self._look_index = np.zeros(0, np.int64) if self._looks is None else np.flatnonzero(self._looks)
@@ -292,8 +299,11 @@ class NightLearner:
         """Localizes one raw camera frame (or a prepared one, ``prepared=True``) with ``motion``
         since the previous frame (see :meth:`Localizer.update`), and keeps it."""
         image = frame if prepared else self.ref_map.preparer.prepare(frame)
-        if self.backward and len(self._estimates) % self._checkpoint_spacing == 0:
-            self._checkpoints.append(copy.copy(self.localizer))  # the state before this frame
+        if self.backward:
+            k = len(self._estimates)
+            moved = self._revision is not None and self.localizer.revision != self._revision
+            if moved or k % self._checkpoint_spacing == 0:
+                self._checkpoints.append((k, copy.copy(self.localizer), moved))  # the state before frame k
         table = self.localizer.score_table(image, prepared=True)
         estimate = self.localizer.update_table(table, motion)
         self._estimates.append(estimate)
@@ -304,7 +314,9 @@ class NightLearner:
             self._look_medians.append(float(np.median(mins[self._looks])))
             self._best_looks.append(int(self._look_index[np.argmin(mins[self._looks])]))
         if self.backward:
+            self._revision = self.localizer.revision
             self._motions.append(motion)
+            self._noises.append(self.localizer.noise)
             self._keep_belief()
         return estimate
 
@@ -315,9 +327,10 @@ class NightLearner:
                 self._beliefs = None  # from now on recomputed from the checkpoints
             else:
                 self._beliefs.append(belief)
-        if len(self._checkpoints) > MAX_CHECKPOINTS:
-            self._checkpoints = self._checkpoints[::2]
+        if sum(not pinned for _, _, pinned in self._checkpoints) > MAX_CHECKPOINTS:
             self._checkpoint_spacing *= 2
+            spacing = self._checkpoint_spacing
+            self._checkpoints = [c for c in self._checkpoints if c[2] or c[0] % spacing == 0]
 
     def _forward_beliefs_reversed(self, images: np.ndarray) -> Iterable[np.ndarray]:
         """The forward run's position beliefs from the last frame to the first: kept, or
@@ -325,11 +338,13 @@ class NightLearner:
         if self._beliefs is not None:
             yield from reversed(self._beliefs)
             return
-        spacing, m = self._checkpoint_spacing, len(self._estimates)
-        for i in range(len(self._checkpoints) - 1, -1, -1):
-            replay = copy.copy(self._checkpoints[i])
+        ends = [start for start, _, _ in self._checkpoints[1:]] + [len(self._estimates)]
+        for (start, state, _), end in reversed(list(zip(self._checkpoints, ends, strict=True))):
+            replay = copy.copy(state)
             block = []
-            for k in range(i * spacing, min(m, (i + 1) * spacing)):
+            for k in range(start, end):
+                if replay.noise != self._noises[k]:
+                    replay.noise = self._noises[k]
                 replay.update_table(replay.score_table(images[k], prepared=True), self._motions[k])
                 block.append(replay.belief)
             yield from reversed(block)
@@ -356,14 +371,17 @@ class NightLearner:
         images = np.stack(self._images) if self._images else np.zeros(shape, np.uint8)
         back, smoothed = None, None
         if self.backward and m > 1:
+            noise = self.localizer.noise  # the backward run takes each frame's; the forward run's goes on
             smoother = copy.copy(self.localizer)
             smoother.reset()  # its estimates carry no heading (trust_night takes a run's)
             backward, smoothing = [], []
-            runs = zip(_backward_run(self.localizer, images, self._motions), self._forward_beliefs_reversed(images))
+            backward_run = _backward_run(self.localizer, images, self._motions, self._noises)
+            runs = zip(backward_run, self._forward_beliefs_reversed(images))
             for (estimate, ahead), belief in runs:
                 backward.append(estimate)
                 smoothing.append(_smoothed(smoother, belief, ahead))
             back, smoothed = tuple(backward[::-1]), tuple(smoothing[::-1])
+            self.localizer.noise = noise
         return LocalizedNight(
             images,
             tuple(self._estimates),
@@ -427,14 +445,20 @@ def backward_estimates(
 
 
 def _backward_run(
-    localizer: Localizer, images: np.ndarray, odometry: Sequence[object]
+    localizer: Localizer,
+    images: np.ndarray,
+    odometry: Sequence[object],
+    noises: Sequence[NoiseModel] | None = None,
 ) -> Iterable[tuple[Estimate, np.ndarray | None]]:
     """:func:`backward_estimates`' run, one frame at a time from the last: its estimate and the
-    belief predicted to it."""
+    belief predicted to it (each step moved with ``noises[k + 1]``, the noise model of the
+    forward step it reverses, when given)."""
     localizer.reset()
     for k in range(len(images) - 1, -1, -1):
         table = localizer.score_table(images[k], prepared=True)
         motion = None if k + 1 == len(images) else reverse_motion(as_motion(odometry[k + 1]))
+        if noises is not None and motion is not None and localizer.noise != noises[k + 1]:
+            localizer.noise = noises[k + 1]
         ahead = None
         if motion is not None:
             prediction = copy.copy(localizer)

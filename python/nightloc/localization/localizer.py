@@ -286,6 +286,7 @@ class Localizer:
             self._filter = None
             self._sequence = self.mapper.sequence(params.seq_len)
         self._guard = StreamGuard("Localizer")  # one thread at a time (see the class docstring)
+        self._revision = 0
         self.reset()
 
     def __copy__(self) -> Localizer:
@@ -361,6 +362,13 @@ class Localizer:
         return self._heading
 
     @property
+    def revision(self) -> int:
+        """A count that changes whenever the state changes (a frame, a prediction, a reset, a set
+        pose or belief; not a new noise model): a caller that drives this localizer can tell
+        whether someone else moved it between two of its calls."""
+        return self._revision
+
+    @property
     def noise(self) -> NoiseModel:
         """The filter's odometry noise model (the paper's method does not use one)."""
         return self._require_filter("noise").noise
@@ -405,6 +413,7 @@ class Localizer:
             self._reset()
 
     def _reset(self) -> None:
+        self._revision += 1
         self._heading = math.nan
         self._frames = 0
         if self._filter is not None:
@@ -449,6 +458,7 @@ class Localizer:
         else:
             belief, pose = position[None], False
         with self._guard("set_pose"):
+            self._revision += 1
             flt.core.set_belief(np.ascontiguousarray(belief / belief.sum(), dtype=np.float32), pose, 0.0)
             self._heading = float(wrap_angle(heading)) if math.isfinite(heading) else math.nan
 
@@ -561,6 +571,7 @@ class Localizer:
 
     def _filter_estimate(self, state: FilterState, return_heatmap: bool, frame: bool = True) -> Estimate:
         self._frames += int(frame)
+        self._revision += 1
         headings = self.ref_map.headings
         scores = state.scores
         cell = self.mapper._cell_of(state.x, state.y)
@@ -646,6 +657,7 @@ class Localizer:
         else:
             offsets = _NO_OFFSETS
         # the update is valid: change the state
+        self._revision += 1
         if motion is None:
             if stored:  # restart
                 sequence.clear()
