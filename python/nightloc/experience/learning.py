@@ -253,7 +253,7 @@ class NightLearner:
             frame and a few numbers per frame besides.
 
     The localizer's noise model may change between frames (each frame's is kept); the backward
-    run moves each step with the noise model of the frame it leads to.
+    run moves each step with the noise model of the forward step it reverses.
     """
 
     def __init__(
