@@ -453,3 +453,31 @@ def test_without_cyclonedds_one_line_names_the_extra(tmp_path, capsys, monkeypat
     assert main(["node", str(tmp_path / "any.map")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and 'pip install "nightloc[ros2]"' in err[0]
+
+
+def test_shutdown_waits_for_acknowledgements_and_a_dds_error_does_not_stop_it():
+    from cyclonedds.core import DDSException
+
+    from nightloc.node.participant import Node, NodeSettings
+
+    class Writer:
+        def __init__(self, answer):
+            self.answer, self.timeouts = answer, []
+
+        def wait_for_acks(self, timeout: int) -> bool:
+            self.timeouts.append(timeout)
+            if isinstance(self.answer, Exception):
+                raise self.answer
+            return self.answer
+
+    lines: list[str] = []
+    node = object.__new__(Node)  # the shutdown step alone, over stand-in writers
+    node.settings, node.log = NodeSettings(), lines.append
+    node.writers = {"pose": Writer(True), "status": Writer(True)}
+    assert node.flush(1.0) and all(0 < w.timeouts[0] <= 1e9 for w in node.writers.values())
+    node.writers = {"pose": Writer(False), "status": Writer(True)}
+    assert not node.flush(1.0) and node.writers["status"].timeouts == []  # a wait times out only when the time is up
+    node.writers = {"pose": Writer(DDSException(DDSException.DDS_RETCODE_ERROR, "gone"))}
+    assert not node.flush(1.0)
+    assert len(lines) == 1 and lines[0].startswith("shutdown: cannot wait for the subscribers of /nightloc/pose")
+    assert "gone" in lines[0]

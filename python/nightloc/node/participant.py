@@ -239,11 +239,19 @@ class Node:
 
     def flush(self, timeout: float = FLUSH_TIMEOUT_S) -> bool:
         """Waits until every matched reliable subscriber has acknowledged what the node wrote, at
-        most ``timeout`` seconds in all; False if some had not by then."""
+        most ``timeout`` seconds in all; False if some had not by then, or DDS could not tell
+        (shutdown goes on either way, and an error of the worker is not hidden by it)."""
+        from cyclonedds.core import DDSException
+
         end = time.monotonic() + timeout
-        for writer in self.writers.values():
+        for role, writer in self.writers.items():
             left = end - time.monotonic()
-            if left <= 0 or not writer.wait_for_acks(int(left * 1e9)):
+            try:
+                acknowledged = left > 0 and writer.wait_for_acks(int(left * 1e9))
+            except DDSException as error:
+                self.log(f"shutdown: cannot wait for the subscribers of {self.settings.topic(role)} ({error})")
+                return False
+            if not acknowledged:
                 return False
         return True
 
