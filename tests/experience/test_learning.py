@@ -284,24 +284,31 @@ def test_the_backward_run_is_the_filter_over_the_reversed_drive():
         assert (a.x, a.y, a.confidence) == pytest.approx((b.x, b.y, b.confidence), abs=1e-6)
 
 
+def _loop_drive(day: nightloc.ReferenceMap, frames: int) -> tuple[np.ndarray, list]:
+    """``frames`` frames once round a loop through ``_day_map``'s places: the nearest place's
+    image per frame and the drive's true robot-frame motions (the first unknown)."""
+    from nightloc.motion.odometry import true_robot_motions
+
+    t = np.linspace(0.0, 2 * np.pi, frames)
+    path = np.column_stack([1.5 + 1.3 * np.cos(t), 1.0 + 0.9 * np.sin(t)])
+    headings = np.arctan2(*np.diff(path, axis=0, prepend=path[-2:-1]).T[::-1])
+    nearest = [int(np.argmin(np.hypot(*(day.positions - p).T))) for p in path]
+    return day.images[nearest], [None, *true_robot_motions(path, headings)[1:]]
+
+
 def test_a_long_night_recomputes_its_beliefs_from_bounded_checkpoints(monkeypatch):
     """A learner over its belief budget keeps the filter's state every few frames (fewer as the
     night grows) and smooths exactly as one that kept every belief (the oracle: the forward
     beliefs by hand, then backward_estimates and smoothed_estimates)."""
     from nightloc.experience import learning
-    from nightloc.motion.odometry import true_robot_motions
 
     monkeypatch.setattr(learning, "CHECKPOINT_FRAMES", 2)
     monkeypatch.setattr(learning, "MAX_CHECKPOINTS", 3)
     day = _day_map()
     rng = np.random.default_rng(3)
-    t = np.linspace(0.0, 2 * np.pi, 23)
-    path = np.column_stack([1.5 + 1.3 * np.cos(t), 1.0 + 0.9 * np.sin(t)])
-    headings = np.arctan2(*np.diff(path, axis=0, prepend=path[-2:-1]).T[::-1])
-    nearest = [int(np.argmin(np.hypot(*(day.positions - p).T))) for p in path]
-    noise = rng.integers(-20, 21, (len(path), *SHAPE))
-    images = np.clip(day.images[nearest].astype(int) + noise, 0, 255).astype(np.uint8)
-    motions = [None, *true_robot_motions(path, headings)[1:]]
+    clean, motions = _loop_drive(day, 23)
+    noise = rng.integers(-20, 21, clean.shape)
+    images = np.clip(clean.astype(int) + noise, 0, 255).astype(np.uint8)
 
     forward = nightloc.Localizer(day, odometry_noise=1)
     beliefs = []
@@ -323,33 +330,35 @@ def test_a_long_night_recomputes_its_beliefs_from_bounded_checkpoints(monkeypatc
     assert len({(e.x, e.y) for e in smoothed}) > 5  # the night goes round: the smoother moves
 
 
+def _moved_night(learner, images, motions, noise_changes: bool) -> None:
+    """Steps ``learner`` through the frames, moving its localizer between frames as a node does:
+    a wrong initial pose before frame 6, a relocalization before frame 13 and, with
+    ``noise_changes``, noise model 3 for frames 9..19."""
+    for k, (image, motion) in enumerate(zip(images, motions, strict=True)):
+        if k == 6:
+            learner.localizer.set_pose(3.0, 0.0, 0.0)  # a wrong initial pose: the night recovers
+        if k == 13:
+            learner.localizer.reset()
+        if noise_changes:
+            learner.localizer.noise = 3 if 9 <= k < 20 else 1
+        learner.step(image, motion, prepared=True)
+
+
 def test_a_bounded_learner_replays_what_moved_its_localizer_between_frames(monkeypatch):
     """A set pose, a reset and a new noise model between frames (the node's initial pose,
     relocalization and per-frame covariance) are in the recomputed beliefs as in the kept ones."""
     from nightloc.experience import learning
-    from nightloc.motion.odometry import true_robot_motions
 
     monkeypatch.setattr(learning, "CHECKPOINT_FRAMES", 4)
     monkeypatch.setattr(learning, "MAX_CHECKPOINTS", 2)
     day = _day_map(1)
-    t = np.linspace(0.0, 2 * np.pi, 30)
-    path = np.column_stack([1.5 + 1.3 * np.cos(t), 1.0 + 0.9 * np.sin(t)])
-    headings = np.arctan2(*np.diff(path, axis=0, prepend=path[-2:-1]).T[::-1])
-    nearest = [int(np.argmin(np.hypot(*(day.positions - p).T))) for p in path]
-    images = day.images[nearest]
-    motions = [None, *true_robot_motions(path, headings)[1:]]
+    images, motions = _loop_drive(day, 30)
     learners = [
         learning.NightLearner(day, nightloc.Localizer(day, odometry_noise=1)),
         learning.NightLearner(day, nightloc.Localizer(day, odometry_noise=1), belief_budget=0),
     ]
     for learner in learners:
-        for k, (image, motion) in enumerate(zip(images, motions, strict=True)):
-            if k == 6:
-                learner.localizer.set_pose(3.0, 0.0, 0.0)  # a wrong initial pose: the night recovers
-            if k == 13:
-                learner.localizer.reset()
-            learner.localizer.noise = 3 if 9 <= k < 20 else 1
-            learner.step(image, motion, prepared=True)
+        _moved_night(learner, images, motions, noise_changes=True)
     kept, bounded = learners
     pinned = [frame for frame, _, pin in bounded._checkpoints if pin]
     assert pinned == [6, 13] and bounded._checkpoint_spacing == 16
@@ -359,12 +368,7 @@ def test_a_bounded_learner_replays_what_moved_its_localizer_between_frames(monke
     for learner in learners:
         assert learner.localizer.noise == nightloc.Localizer(day, odometry_noise=1).noise
     steady = learning.NightLearner(day, nightloc.Localizer(day, odometry_noise=1))
-    for k, (image, motion) in enumerate(zip(images, motions, strict=True)):
-        if k == 6:
-            steady.localizer.set_pose(3.0, 0.0, 0.0)
-        if k == 13:
-            steady.localizer.reset()
-        steady.step(image, motion, prepared=True)
+    _moved_night(steady, images, motions, noise_changes=False)
     assert steady.night().backward != a.backward
 
 
