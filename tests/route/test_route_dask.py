@@ -23,10 +23,10 @@ from nightloc.route.preview import matrix_preview  # noqa: E402
 
 @pytest.fixture(scope="module")
 def client():
-    cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None)
-    with distributed.Client(cluster) as dask_client:
+    # local_client's cluster binds its HTTP server to a free port: a fixed port (the dashboard's
+    # 8787) may be taken on the machine that runs the tests.
+    with local_client(1, threads_per_worker=2, processes=False) as dask_client:
         yield dask_client
-    cluster.close()
 
 
 @pytest.mark.parametrize(

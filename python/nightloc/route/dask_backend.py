@@ -651,7 +651,10 @@ def dask_stream_match(
     in_flight = _checked_in_flight(client, in_flight)
     start_time = time.perf_counter()
     shifts = shift_list(p.shifts, r.shape[2])
-    refs_future = client.scatter(r, broadcast=True)  # type: ignore[attr-defined]
+    # A fresh key per call (hash=False): a content-hashed key would be the one a previous call on
+    # the same references scattered, whose release may still be on its way to the scheduler and
+    # would then take this call's references with it.
+    refs_future = client.scatter(r, broadcast=True, hash=False)  # type: ignore[attr-defined]
     odometry = carried_odometry
     if advances is not None and reference_distances is not None:
         odometry = (advances, reference_distances)
