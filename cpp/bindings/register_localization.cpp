@@ -276,6 +276,26 @@ public:
         return result(e);
     }
 
+    // step_table, and the prior it measured: the prediction's marginal over heading (height,
+    // width) float64 summing to 1, before the frame.
+    py::tuple step_table_with_prior(const py::array& table_in, int kind, double a, double b, double c) {
+        const auto table = checked_table(table_in, filter_.n_refs(), filter_.n_shifts());
+        check_motion(kind, a, b, c);
+        const float* t = table.data();
+        py::array_t<double> prior(
+            {static_cast<py::ssize_t>(filter_.height()), static_cast<py::ssize_t>(filter_.width())});
+        double* p = prior.mutable_data();
+        nightloc::GridEstimate e;
+        {
+            py::gil_scoped_release release;
+            predict_locked(kind, a, b, c);
+            copy_marginal(p);  // makes the pending prediction; the update then measures it in place
+            filter_.update(t);
+            e = filter_.estimate();
+        }
+        return py::make_tuple(result(e), std::move(prior));
+    }
+
     py::tuple estimate() const {
         nightloc::GridEstimate e;
         {
@@ -289,16 +309,20 @@ public:
     py::array marginal() const {
         py::array_t<double> out(
             {static_cast<py::ssize_t>(filter_.height()), static_cast<py::ssize_t>(filter_.width())});
-        const float* m = nullptr;
-        double scale = 1;
-        {
-            py::gil_scoped_release release;  // a pending prediction is made here
-            m = filter_.marginal();
-            scale = filter_.scale();
-        }
         double* o = out.mutable_data();
-        for (std::size_t c = 0; c < filter_.height() * filter_.width(); ++c) o[c] = m[c] * scale;
+        {
+            py::gil_scoped_release release;
+            copy_marginal(o);
+        }
         return std::move(out);
+    }
+
+    // The marginal over heading into out (height x width doubles), summing to 1; a pending
+    // prediction is made here. Called without the GIL.
+    void copy_marginal(double* out) const {
+        const float* m = filter_.marginal();
+        const double scale = filter_.scale();
+        for (std::size_t c = 0; c < filter_.height() * filter_.width(); ++c) out[c] = m[c] * scale;
     }
 
     // The belief (active bins, height, width) float64, summing to 1.
@@ -434,6 +458,8 @@ void register_localization(py::module_& m) {
              py::arg("b"), py::arg("c"), py::arg("threads"))
         .def("step_table", &GridFilterPy::step_table, py::arg("table"), py::arg("kind"), py::arg("a"), py::arg("b"),
              py::arg("c"))
+        .def("step_table_with_prior", &GridFilterPy::step_table_with_prior, py::arg("table"), py::arg("kind"),
+             py::arg("a"), py::arg("b"), py::arg("c"))
         .def("estimate", &GridFilterPy::estimate)
         .def("marginal", &GridFilterPy::marginal)
         .def("belief", &GridFilterPy::belief)

@@ -457,6 +457,37 @@ def test_update_from_a_frame_equals_update_from_its_table():
         assert ea.best_ref == eb.best_ref and ea.score == eb.score
 
 
+@pytest.mark.sanitize
+@pytest.mark.parametrize("headings", [True, False])
+def test_an_update_with_its_prior_is_the_prediction_then_the_update(headings):
+    """The prior an update measured is the oracle's prediction, and the same, bit for bit, as a
+    copy's predict() and belief; the belief after it the same as update_table's."""
+    rng = np.random.default_rng(11)
+    ref_map = _random_map(rng, n=10, headings=headings)
+    a, b = Localizer(ref_map, odometry_noise=1), Localizer(ref_map, odometry_noise=1)
+    oracle = _oracle(a)
+    motions = [m for m in MOTIONS if headings or not isinstance(m, RobotMotion)]
+    for k, motion in enumerate([None, *motions]):
+        table = rng.uniform(15, 25, (len(ref_map), 16)).astype(np.float32)
+        if k:
+            ahead = copy.copy(b)
+            ahead.predict(motion)
+            expected_prior = ahead.belief
+            _apply(oracle, motion)
+        else:
+            expected_prior = b.belief  # the first frame moves nothing
+        estimate, prior = a.update_table_with_prior(table, motion)
+        np.testing.assert_array_equal(prior, expected_prior)
+        want = oracle.marginal()
+        assert np.abs(prior - want).max() <= BELIEF_RTOL * want.max()
+        expected = b.update_table(table, motion)
+        oracle.update(table)
+        assert estimate == expected
+        np.testing.assert_array_equal(a.pose_belief, b.pose_belief)
+    with pytest.raises(ValueError, match="table must be"):
+        a.update_table_with_prior(np.zeros((3, 16), dtype=np.float32), None)
+
+
 # ----------------------------------------------------------------------------------------------
 # behaviour
 

@@ -459,12 +459,10 @@ def _backward_run(
         motion = None if k + 1 == len(images) else reverse_motion(as_motion(odometry[k + 1]))
         if noises is not None and motion is not None and localizer.noise != noises[k + 1]:
             localizer.noise = noises[k + 1]
-        ahead = None
-        if motion is not None:
-            prediction = copy.copy(localizer)
-            prediction.predict(motion)
-            ahead = prediction.belief
-        yield localizer.update_table(table, motion), ahead
+        if motion is None:
+            yield localizer.update_table(table), None
+        else:
+            yield localizer.update_table_with_prior(table, motion)
 
 
 def smoothed_estimates(

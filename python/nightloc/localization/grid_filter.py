@@ -315,6 +315,13 @@ class GridFilter:
         estimate, scores, shifts = self.core.step_table(table, *motion)
         return _state(estimate, scores, shifts)
 
+    def step_table_with_prior(self, table: np.ndarray, motion: MotionCode) -> tuple[FilterState, np.ndarray]:
+        """:meth:`step_table`, and the prior it measured: the belief over position predicted to
+        the frame, ``(grid_height, grid_width)`` float64 summing to 1 (what :meth:`predict` then
+        :meth:`marginal` give, without moving the belief twice)."""
+        (estimate, scores, shifts), prior = self.core.step_table_with_prior(table, *motion)
+        return _state(estimate, scores, shifts), prior
+
     def predict(self, motion: MotionCode) -> FilterState:
         """Only the prediction (no frame): the belief moves and spreads."""
         self.core.predict(*motion)

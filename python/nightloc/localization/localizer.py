@@ -517,6 +517,27 @@ class Localizer:
         the map, with the map's shifts, or with the filter's translation window): the measurement
         the filter uses. NaN or infinity: ValueError, the belief unchanged."""
         flt = self._require_filter("update_table")
+        t = self._checked_table(flt, table)
+        with self._guard("update"):
+            motion = self._motion(odometry)
+            state = flt.step_table(t, motion)
+            return self._filter_estimate(state, return_heatmap)
+
+    def update_table_with_prior(self, table: np.ndarray, odometry: object = None) -> tuple[Estimate, np.ndarray]:
+        """:meth:`update_table`, and the prior it measured: the belief over position predicted to
+        this frame before its table, ``(grid_height, grid_width)`` float64 summing to 1 (the belief
+        as it was on the first frame since a reset). The same as :meth:`predict` on a copy, its
+        :attr:`belief`, then :meth:`update_table` here, bit for bit, with the belief moved once:
+        e.g. a backward run's predictions for a two-filter smoother."""
+        flt = self._require_filter("update_table_with_prior")
+        t = self._checked_table(flt, table)
+        with self._guard("update"):
+            motion = self._motion(odometry)
+            state, prior = flt.step_table_with_prior(t, motion)
+            return self._filter_estimate(state, False), prior
+
+    def _checked_table(self, flt: GridFilter, table: np.ndarray) -> np.ndarray:
+        """``table`` as the core takes it, checked: float32 ``(N, columns)`` of this map."""
         t = np.asarray(table)
         if t.dtype != np.float32:
             raise TypeError(f"table must have dtype float32 (as rotational_sad returns), got {t.dtype}")
@@ -524,10 +545,7 @@ class Localizer:
         if t.shape != shape:
             what = "column offsets" if flt.window[0] else "shifts"
             raise ValueError(f"table must be {shape} (references, {what}), got shape {t.shape}")
-        with self._guard("update"):
-            motion = self._motion(odometry)
-            state = flt.step_table(np.ascontiguousarray(t), motion)
-            return self._filter_estimate(state, return_heatmap)
+        return np.ascontiguousarray(t)
 
     def predict(self, odometry: object = None, *, return_heatmap: bool = False) -> Estimate:
         """The filter's prediction alone: the robot moved by ``odometry`` (None: unknown) but there
