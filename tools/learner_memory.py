@@ -17,10 +17,12 @@ import argparse
 import resource
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 import nightloc
+from nightloc.commands.options import load_reference
 from nightloc.experience.learning import BELIEF_BUDGET, NightLearner
 from nightloc.io.traverse import load_traverse
 from nightloc.motion.odometry import traverse_odometry
@@ -33,7 +35,7 @@ def peak_mb() -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("map", help="the day map: a map file or a traverse folder to build it from")
+    parser.add_argument("map", help="the day map: a map file, or a traverse folder or bag to build it from")
     parser.add_argument("night", help="a night's traverse folder with odometry.csv")
     parser.add_argument("--repeats", type=int, default=3, help="times the night is played in a row (default 3)")
     parser.add_argument("--noise", type=int, default=1, help="the localizer's odometry noise model (default 1)")
@@ -41,8 +43,7 @@ def main() -> None:
         "--belief-budget", type=int, default=BELIEF_BUDGET, help=f"bytes of kept beliefs (default {BELIEF_BUDGET})"
     )
     args = parser.parse_args()
-    load = nightloc.ReferenceMap.load if args.map.endswith(".map") else nightloc.ReferenceMap.build
-    ref_map = load(args.map)
+    ref_map = load_reference(Path(args.map), None)
     log = load_traverse(args.night)
     frames = [ref_map.preparer.prepare(frame) for _, frame in log.frames()]
     motions = traverse_odometry(log)
