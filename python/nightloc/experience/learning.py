@@ -372,8 +372,7 @@ class NightLearner:
         back, smoothed = None, None
         if self.backward and m > 1:
             noise = self.localizer.noise  # the backward run takes each frame's; the forward run's goes on
-            smoother = copy.copy(self.localizer)
-            smoother.reset()  # its estimates carry no heading (trust_night takes a run's)
+            smoother = self.localizer.fresh()  # its estimates carry no heading (trust_night takes a run's)
             backward, smoothing = [], []
             backward_run = _backward_run(self.localizer, images, self._motions, self._noises)
             runs = zip(backward_run, self._forward_beliefs_reversed(images))
